@@ -1,0 +1,13 @@
+/* timer.h — monotonic wall clock in milliseconds. */
+#ifndef KF_TIMER_H
+#define KF_TIMER_H
+
+#include <time.h>
+
+static inline double kf_now_ms(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
+#endif

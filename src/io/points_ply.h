@@ -1,0 +1,11 @@
+/* points_ply.h — particles as a binary PLY point cloud (Houdini, Blender and
+ * MeshLab read it): position, velocity, material index, stable id. */
+#ifndef KF_POINTS_PLY_H
+#define KF_POINTS_PLY_H
+
+#include "../kerf.h"
+
+/* Written atomically. Returns 0, or -1 with a message in err. */
+int kf_write_points_ply(const char *path, kf_state *s, char *err, size_t errlen);
+
+#endif

@@ -1,0 +1,213 @@
+/* kerf.h — the public API of the kerf MLS-MPM simulator.
+ *
+ * Three layers, as in MuJoCo: definitions the caller fills (zero or the
+ * kf_default_*() value means default), a compiled read-only kf_model, and a
+ * mutable kf_state that every step writes. The step never changes the model.
+ *
+ *     kf_sim_def sd = kf_default_sim_def();      sd.dx = 0.01;
+ *     kf_model *m = kf_model_create(&sd, err, sizeof err);
+ *     int jelly = kf_model_add_material(m, &mat, err, sizeof err);
+ *     kf_state *s = kf_state_create(m);
+ *     kf_state_fill_box(s, m, lo, hi, jelly, v0, 2, jitter_seed);
+ *     kf_advance(m, s, 1.0 / 24, &report);
+ */
+#ifndef KERF_H
+#define KERF_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/real.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define KERF_VERSION "0.1.0"
+
+/* ---- materials (SI units) ---------------------------------------------- */
+
+typedef enum kf_material_model {
+    KF_MAT_COROTATED = 0, /* fixed corotated elastic (jello, rubber) */
+    KF_MAT_WATER,         /* weakly compressible fluid, p = κ(J^-γ - 1) */
+    KF_MAT_VON_MISES,     /* StVK on Hencky strain + von Mises plasticity (goo, cheese, metal) */
+    KF_MAT_SAND,          /* StVK on Hencky strain + Drucker-Prager (Klár 2016) */
+    KF_MAT_SNOW,          /* fixed corotated + Stomakhin 2013 clamping and hardening */
+    KF_MAT_MODEL_COUNT
+} kf_material_model;
+
+typedef struct kf_material {
+    char name[32];
+    kf_material_model model;
+    double density;        /* ρ₀, kg/m³ */
+    double E;              /* Young's modulus, Pa */
+    double nu;             /* Poisson ratio, [0, 0.5) */
+    double yield_stress;   /* von Mises uniaxial yield σ_Y, Pa */
+    double friction_angle; /* sand: internal friction angle φ, degrees (used when hardening is off) */
+    double cohesion;       /* sand: tensile cohesion as a Hencky strain offset, >= 0 */
+    int hardening;         /* sand: 1 = φ_F = h0 + (h1 q - h3) e^{-h2 q}, q accumulated plastic strain */
+    double h0, h1, h2, h3; /* sand hardening, degrees (h0, h1, h3) and 1 (h2) */
+    int volume_correction; /* sand: 1 = Klár's volume correction of the tensile state */
+    double bulk_modulus;   /* water: κ, Pa (rest bulk modulus is κγ) */
+    double gamma;          /* water: γ, typically 7 */
+    double viscosity;      /* water: dynamic viscosity μ, Pa·s (0 = inviscid) */
+    double theta_c;        /* snow: critical compression */
+    double theta_s;        /* snow: critical stretch */
+    double xi;             /* snow: hardening coefficient */
+} kf_material;
+
+/* Fill *out from a named preset (jello, rubber, goo, cheese, metal, sand,
+ * wet_sand, snow, water). Returns 0, or -1 for an unknown name. */
+int kf_material_preset(const char *name, kf_material *out);
+/* Names of all presets, NULL terminated. */
+const char *const *kf_material_preset_names(void);
+/* "" when the parameters are usable, else a message naming the bad one. */
+const char *kf_material_check(const kf_material *m);
+
+/* ---- boundaries and colliders ------------------------------------------ */
+
+typedef enum kf_boundary { KF_BOUNDARY_STICKY = 0, KF_BOUNDARY_SLIP, KF_BOUNDARY_SEPARATE } kf_boundary;
+
+typedef enum kf_shape { KF_SHAPE_PLANE = 0, KF_SHAPE_BOX, KF_SHAPE_SPHERE } kf_shape;
+
+#define KF_MAX_KEYS 64
+typedef struct kf_key {
+    double time;         /* seconds */
+    double position[3];  /* metres */
+} kf_key;
+
+typedef struct kf_collider {
+    kf_shape shape;
+    kf_boundary boundary;
+    double friction;     /* Coulomb μ (separate boundaries) */
+    double center[3];    /* plane: a point on it; box and sphere: centre at t = 0 */
+    double normal[3];    /* plane: the side material stays on */
+    double half[3];      /* box half extents */
+    double radius;       /* sphere */
+    double velocity[3];  /* constant velocity when nkeys == 0 */
+    int nkeys;           /* > 1: centre follows the keys (linear, held outside) */
+    kf_key keys[KF_MAX_KEYS];
+    int inside;          /* box and sphere: 1 = material is kept inside (a container) */
+} kf_collider;
+
+/* ---- simulation settings ----------------------------------------------- */
+
+typedef enum kf_kernel { KF_KERNEL_QUADRATIC = 0, KF_KERNEL_CUBIC } kf_kernel;
+typedef enum kf_force { KF_FORCE_MLS = 0, KF_FORCE_CLASSIC } kf_force;
+typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC } kf_transfer;
+
+typedef struct kf_sim_def {
+    double dx;            /* grid spacing, m */
+    double cfl;           /* CFL number C in Δt = C Δx / (c + |v|max) */
+    double dt_max;        /* upper bound on a substep, s (0 = none) */
+    double dt_fixed;      /* > 0: every substep is exactly this (tests, benchmarks) */
+    double gravity[3];    /* m/s² */
+    kf_kernel kernel;
+    kf_force force;
+    kf_transfer transfer;
+    int walls;            /* 1 = the domain box is closed by walls */
+    double domain_min[3], domain_max[3];
+    kf_boundary wall_boundary;
+    double wall_friction;
+    int max_retries;      /* frame retries at half the CFL number on numerical trouble */
+    double j_min, j_max;  /* sane range of det F; outside it is numerical trouble */
+    double max_cells_per_step; /* CFL violation: |v| Δt / Δx above this is trouble */
+    int threads;          /* 0 = OpenMP default */
+} kf_sim_def;
+
+kf_sim_def kf_default_sim_def(void);
+
+/* ---- model, state, step -------------------------------------------------- */
+
+typedef struct kf_model kf_model;
+typedef struct kf_state kf_state;
+
+/* err receives a message on failure (NULL returned / -1). */
+kf_model *kf_model_create(const kf_sim_def *def, char *err, size_t errlen);
+void kf_model_destroy(kf_model *m);
+int kf_model_add_material(kf_model *m, const kf_material *mat, char *err, size_t errlen);
+int kf_model_add_collider(kf_model *m, const kf_collider *c, char *err, size_t errlen);
+const kf_sim_def *kf_model_sim(const kf_model *m);
+
+kf_state *kf_state_create(const kf_model *m);
+void kf_state_destroy(kf_state *s);
+kf_state *kf_state_clone(const kf_state *s);
+void kf_state_copy(kf_state *dst, const kf_state *src);
+
+/* Append particles (arrays of n; v, F may be NULL for zero / identity).
+ * Returns the index of the first, or -1 on allocation failure. */
+long kf_state_add_particles(kf_state *s, const kf_model *m, size_t n, const double *x3, const double *v3,
+                            const double *F9, int material, double volume);
+/* Fill the box [lo, hi] with ppc_axis³ particles per cell (regular lattice, or
+ * jittered when seed != 0) of the given material and velocity. */
+long kf_state_fill_box(kf_state *s, const kf_model *m, const double lo[3], const double hi[3], int material,
+                       const double v[3], int ppc_axis, uint32_t seed);
+long kf_state_fill_sphere(kf_state *s, const kf_model *m, const double c[3], double r, int material,
+                          const double v[3], int ppc_axis, uint32_t seed);
+
+size_t kf_state_count(const kf_state *s);
+double kf_state_time(const kf_state *s);
+
+/* Read access to the particle arrays (SoA, length kf_state_count()).
+ * Order changes when particles are re-sorted; id[] is the stable index. */
+typedef struct kf_particles_view {
+    size_t n;
+    kf_real *x[3], *v[3], *C[9], *F[9]; /* C and F row-major: C[3*i+j][p] */
+    kf_real *mass, *vol0;
+    kf_real *ps[2];       /* plastic state: Jp / J (water) / log-volume correction, q */
+    uint16_t *mat;
+    uint32_t *id;
+} kf_particles_view;
+kf_particles_view kf_state_particles(kf_state *s);
+
+/* Per-stage timing of everything the step did since the last reset. */
+typedef enum kf_stage {
+    KF_STAGE_SORT = 0, KF_STAGE_P2G, KF_STAGE_GRID, KF_STAGE_G2P, KF_STAGE_PLASTICITY, KF_STAGE_CHECK,
+    KF_STAGE_COUNT
+} kf_stage;
+const char *kf_stage_name(kf_stage s);
+
+typedef struct kf_step_stats {
+    double ms[KF_STAGE_COUNT]; /* wall milliseconds per stage */
+    long substeps;
+    long particle_steps;
+    long active_blocks;        /* grid blocks (4³ nodes) at the last substep */
+    double max_cfl;            /* largest (c + |v|) Δt / Δx seen */
+    double dt_min, dt_max;
+    int retries;               /* frames retried at a smaller CFL number */
+    long warnings;             /* counted warnings (see message) */
+} kf_step_stats;
+
+typedef struct kf_trouble {
+    int found;
+    char what[64];      /* "NaN velocity", "J out of range", "CFL violated", ... */
+    uint32_t particle;  /* stable particle id */
+    int material;
+    long substep;
+    double value;
+} kf_trouble;
+
+/* One substep of length dt. Returns 0, or 1 on numerical trouble (filled). */
+int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *stats, kf_trouble *trouble);
+
+/* Advance by `duration` seconds in CFL-adaptive substeps. On trouble the
+ * interval is restarted from its beginning at half the CFL number, up to
+ * max_retries times. Returns 0, or 1 if it still fails (message in msg). */
+int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *stats, char *msg, size_t msglen);
+
+/* The substep the CFL rule would choose now. */
+double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl);
+
+/* Diagnostics. */
+typedef struct kf_energy {
+    double kinetic, elastic, gravity_potential;
+    double momentum[3], angular_momentum[3], mass;
+} kf_energy;
+kf_energy kf_state_energy(const kf_model *m, const kf_state *s);
+/* FNV-1a hash of every particle field, in stable id order. */
+uint64_t kf_state_hash(const kf_state *s);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

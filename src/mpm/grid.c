@@ -1,0 +1,299 @@
+/* grid.c — sparse block grid: hashing, binning particles into owner blocks,
+ * colouring for race-free P2G. See grid.h for the scheme. */
+#include "grid.h"
+
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+void kf_grid_free(kf_grid *g) {
+    free(g->bcoord);
+    free(g->node);
+    free(g->hkey);
+    free(g->hval);
+    free(g->owner);
+    free(g->nb);
+    free(g->pstart);
+    free(g->dest);
+    free(g->moved);
+    free(g->scratch);
+    free(g->count);
+    memset(g, 0, sizeof *g);
+}
+
+static int grow(void **ptr, size_t elem, size_t *cap, size_t want) {
+    if (want <= *cap && *ptr) return 0;
+    size_t c = *cap ? *cap : 256;
+    while (c < want) c *= 2;
+    void *q = realloc(*ptr, elem * c);
+    if (!q) return -1;
+    *ptr = q;
+    *cap = c;
+    return 0;
+}
+
+/* ---- hash ------------------------------------------------------------------ */
+
+static inline size_t hash_slot(uint64_t key, size_t mask) {
+    key ^= key >> 33;
+    key *= 0xff51afd7ed558ccdULL;
+    key ^= key >> 33;
+    return (size_t)key & mask;
+}
+
+static int hash_reset(kf_grid *g, size_t expect) {
+    size_t cap = 1024;
+    while (cap < 2 * expect) cap *= 2;
+    if (cap != g->hcap) {
+        free(g->hkey);
+        free(g->hval);
+        g->hkey = malloc(cap * sizeof *g->hkey);
+        g->hval = malloc(cap * sizeof *g->hval);
+        if (!g->hkey || !g->hval) return -1;
+        g->hcap = cap;
+    }
+    memset(g->hkey, 0xff, cap * sizeof *g->hkey);
+    g->nblocks = 0;
+    return 0;
+}
+
+static size_t bcoord_cap_of(const kf_grid *g) { return g->bcap; }
+
+/* index of the block with this coordinate, created if missing; -1 on OOM */
+static int32_t block_get_or_insert(kf_grid *g, int bx, int by, int bz) {
+    uint64_t key = kf_block_key(bx, by, bz);
+    size_t mask = g->hcap - 1, s = hash_slot(key, mask);
+    while (g->hkey[s] != UINT64_MAX) {
+        if (g->hkey[s] == key) return g->hval[s];
+        s = (s + 1) & mask;
+    }
+    if (2 * (g->nblocks + 1) > g->hcap) {
+        /* keep the load factor under 1/2: rehash into a table twice the size */
+        size_t old_cap = g->hcap;
+        uint64_t *ok = g->hkey;
+        int32_t *ov = g->hval;
+        g->hcap = 0;
+        g->hkey = 0;
+        g->hval = 0;
+        size_t keep = g->nblocks;
+        if (hash_reset(g, old_cap)) return -1;
+        g->nblocks = keep;
+        size_t m2 = g->hcap - 1;
+        for (size_t i = 0; i < old_cap; i++) {
+            if (ok[i] == UINT64_MAX) continue;
+            size_t t = hash_slot(ok[i], m2);
+            while (g->hkey[t] != UINT64_MAX) t = (t + 1) & m2;
+            g->hkey[t] = ok[i];
+            g->hval[t] = ov[i];
+        }
+        free(ok);
+        free(ov);
+        mask = g->hcap - 1;
+        s = hash_slot(key, mask);
+        while (g->hkey[s] != UINT64_MAX) s = (s + 1) & mask;
+    }
+    size_t cap = bcoord_cap_of(g);
+    if (grow((void **)&g->bcoord, 3 * sizeof(int32_t), &cap, g->nblocks + 1)) return -1;
+    g->bcap = cap;
+    int32_t id = (int32_t)g->nblocks++;
+    g->bcoord[3 * id] = bx;
+    g->bcoord[3 * id + 1] = by;
+    g->bcoord[3 * id + 2] = bz;
+    g->hkey[s] = key;
+    g->hval[s] = id;
+    return id;
+}
+
+/* ---- binning ------------------------------------------------------------------ */
+
+typedef struct owner_rec {
+    uint64_t key;
+    int32_t old_id;
+    int32_t count;
+} owner_rec;
+
+static int cmp_owner(const void *a, const void *b) {
+    uint64_t ka = ((const owner_rec *)a)->key, kb = ((const owner_rec *)b)->key;
+    return ka < kb ? -1 : ka > kb;
+}
+
+static int ensure_particle_scratch(kf_grid *g, size_t n) {
+    if (n <= g->scratch_n && g->dest) return 0;
+    size_t nt = (size_t)omp_get_max_threads();
+    free(g->dest);
+    free(g->moved);
+    free(g->scratch);
+    g->dest = malloc(n * sizeof *g->dest + 1);
+    g->moved = malloc(n + 1);
+    g->scratch = malloc(n * 8 * nt + 8);
+    g->scratch_n = n;
+    return g->dest && g->moved && g->scratch ? 0 : -1;
+}
+
+int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *bad_particle) {
+    size_t n = p->n;
+    if (ensure_particle_scratch(g, n)) return -1;
+
+    /* 1. each particle's base block; flag those that left their block */
+    long nmoved = 0, nbad = 0;
+    const int limit = KF_KEY_OFFSET - 2;
+    uint8_t *moved = g->moved;
+    int full = !g->valid;
+#pragma omp parallel for reduction(+ : nmoved, nbad) schedule(static)
+    for (size_t i = 0; i < n; i++) {
+        int b[3];
+        int ok = 1;
+        for (int a = 0; a < 3; a++) {
+            kf_real xg = p->x[a][i] * inv_dx;
+            /* NaN and far-away particles fail this test */
+            if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) ok = 0;
+            b[a] = ok ? kf_block_of(kf_base_node(xg, cubic)) : 0;
+        }
+        if (!ok) {
+            moved[i] = 2;
+            nbad++;
+            continue;
+        }
+        uint64_t key = kf_block_key(b[0], b[1], b[2]);
+        if (full || key != p->key[i]) {
+            p->key[i] = key;
+            moved[i] = 1;
+            nmoved++;
+        } else {
+            moved[i] = 0;
+        }
+    }
+    if (nbad) {
+        for (size_t i = 0; i < n; i++)
+            if (moved[i] == 2) {
+                *bad_particle = i;
+                break;
+            }
+        g->valid = 0;
+        return -2;
+    }
+    if (nmoved == 0 && g->valid) return 0;
+    g->rebins++;
+
+    /* 2. blocks for the particles that moved (the others keep theirs) */
+    if (full && hash_reset(g, n / 64 + 64)) return -1;
+    for (size_t i = 0; i < n; i++) {
+        if (!moved[i]) continue;
+        uint64_t k = p->key[i];
+        int bx = (int)((k >> (2 * KF_KEY_BITS)) & ((1u << KF_KEY_BITS) - 1)) - KF_KEY_OFFSET;
+        int by = (int)((k >> KF_KEY_BITS) & ((1u << KF_KEY_BITS) - 1)) - KF_KEY_OFFSET;
+        int bz = (int)(k & ((1u << KF_KEY_BITS) - 1)) - KF_KEY_OFFSET;
+        int32_t id = block_get_or_insert(g, bx, by, bz);
+        if (id < 0) return -1;
+        p->block[i] = id;
+    }
+
+    /* 3. particles per block; blocks with particles become owners, sorted by key
+     * so particle memory follows space */
+    size_t nb_old = g->nblocks;
+    int32_t *count = calloc(nb_old + 1, sizeof *count);
+    if (!count) return -1;
+    for (size_t i = 0; i < n; i++) count[p->block[i]]++;
+    size_t nowner = 0;
+    for (size_t b = 0; b < nb_old; b++) nowner += count[b] > 0;
+    owner_rec *rec = malloc((nowner + 1) * sizeof *rec);
+    int32_t *remap = malloc((nb_old + 1) * sizeof *remap);
+    int32_t *old_coord = malloc((nb_old * 3 + 1) * sizeof *old_coord);
+    if (!rec || !remap || !old_coord) {
+        free(count), free(rec), free(remap), free(old_coord);
+        return -1;
+    }
+    memcpy(old_coord, g->bcoord, nb_old * 3 * sizeof *old_coord);
+    size_t k = 0;
+    for (size_t b = 0; b < nb_old; b++)
+        if (count[b] > 0) {
+            const int32_t *c = &old_coord[3 * b];
+            rec[k++] = (owner_rec){kf_block_key(c[0], c[1], c[2]), (int32_t)b, count[b]};
+        }
+    qsort(rec, nowner, sizeof *rec, cmp_owner);
+
+    /* 4. a fresh block set: owners take ids 0..nowner-1 in key order, then the
+     * upper neighbours their stencils reach */
+    if (hash_reset(g, nowner * 4 + 64)) goto oom;
+    for (size_t r = 0; r < nowner; r++) {
+        const int32_t *c = &old_coord[3 * rec[r].old_id];
+        if (block_get_or_insert(g, c[0], c[1], c[2]) != (int32_t)r) goto oom;
+        remap[rec[r].old_id] = (int32_t)r;
+    }
+    if (grow((void **)&g->owner, sizeof *g->owner, &g->owner_cap, nowner + 1)) goto oom;
+    {
+        size_t cap = g->owner_cap;
+        void *q1 = realloc(g->nb, cap * sizeof *g->nb), *q2;
+        if (!q1) goto oom;
+        g->nb = q1;
+        q2 = realloc(g->pstart, (cap + 1) * sizeof *g->pstart);
+        if (!q2) goto oom;
+        g->pstart = q2;
+    }
+    for (size_t r = 0; r < nowner; r++) {
+        const int32_t *c = &old_coord[3 * rec[r].old_id];
+        for (int d = 0; d < 8; d++) {
+            int32_t id = block_get_or_insert(g, c[0] + (d >> 2), c[1] + ((d >> 1) & 1), c[2] + (d & 1));
+            if (id < 0) goto oom;
+            g->nb[r][d] = id;
+        }
+    }
+    g->nowner = nowner;
+
+    /* 5. particle ranges per owner and a stable counting sort */
+    g->pstart[0] = 0;
+    for (size_t r = 0; r < nowner; r++) g->pstart[r + 1] = g->pstart[r] + (size_t)rec[r].count;
+    {
+        size_t *fill = malloc((nowner + 1) * sizeof *fill);
+        if (!fill) goto oom;
+        memcpy(fill, g->pstart, nowner * sizeof *fill);
+        int identity = 1;
+        for (size_t i = 0; i < n; i++) {
+            int32_t r = remap[p->block[i]];
+            p->block[i] = r;
+            size_t d = fill[r]++;
+            g->dest[i] = (uint32_t)d;
+            identity &= d == i;
+        }
+        free(fill);
+        if (!identity) {
+            kf_particles_permute(p, g->dest, g->scratch);
+            g->permutes++;
+        }
+    }
+
+    /* 6. colour lists: owners grouped by the parity of their coordinate */
+    {
+        size_t cstart[9] = {0};
+        for (size_t r = 0; r < nowner; r++) {
+            const int32_t *c = &g->bcoord[3 * r];
+            cstart[1 + ((c[0] & 1) << 2 | (c[1] & 1) << 1 | (c[2] & 1))]++;
+        }
+        for (int c = 0; c < 8; c++) cstart[c + 1] += cstart[c];
+        memcpy(g->colour_start, cstart, sizeof cstart);
+        for (size_t r = 0; r < nowner; r++) {
+            const int32_t *c = &g->bcoord[3 * r];
+            g->owner[cstart[(c[0] & 1) << 2 | (c[1] & 1) << 1 | (c[2] & 1)]++] = (int32_t)r;
+        }
+    }
+
+    /* 7. node storage for every block */
+    {
+        void *q = realloc(g->node, (g->nblocks * KF_BLOCK_NODES + 1) * sizeof(kf_v4));
+        if (!q) goto oom;
+        g->node = q;
+    }
+    free(count), free(rec), free(remap), free(old_coord);
+    g->valid = 1;
+    return 0;
+oom:
+    free(count), free(rec), free(remap), free(old_coord);
+    g->valid = 0;
+    return -1;
+}
+
+void kf_grid_clear(kf_grid *g) {
+    size_t nb = g->nblocks;
+#pragma omp parallel for schedule(static)
+    for (size_t b = 0; b < nb; b++) memset(&g->node[b * KF_BLOCK_NODES], 0, KF_BLOCK_NODES * sizeof(kf_v4));
+}

@@ -1,0 +1,86 @@
+/* grid.h — the sparse background grid.
+ *
+ * Nodes live in blocks of 4x4x4 that exist only where particles are: memory
+ * and clearing cost follow the particles, not the domain, and a scene without
+ * walls is not confined to a box. A block is found by its integer block
+ * coordinate through an open-addressing hash, used only when particles are
+ * re-binned (a particle that stays in its block never touches the hash).
+ *
+ * Ownership: a particle belongs to the block holding its kernel's base node.
+ * Its stencil (3 or 4 nodes per axis) then lies in that block and the +1
+ * neighbours along each axis, 8 blocks in all (the "owner" and its upper
+ * neighbours), which binning guarantees to exist.
+ *
+ * Race-free parallel P2G: owner blocks are coloured by the parity of their
+ * coordinates (8 colours). Two owners of one colour differ by an even,
+ * non-zero offset along some axis, so their 2x2x2 block neighbourhoods are
+ * disjoint; each colour is one parallel loop with no atomics, and since every
+ * node receives its contributions in colour order the sums are bitwise
+ * identical for any thread count. */
+#ifndef KF_GRID_H
+#define KF_GRID_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../core/simd.h"
+#include "particles.h"
+
+#define KF_BLOCK 4                 /* nodes per block edge */
+#define KF_BLOCK_NODES 64
+#define KF_KEY_BITS 21
+#define KF_KEY_OFFSET (1 << 20)    /* block coordinates in [-2^20, 2^20) */
+
+typedef struct kf_grid {
+    /* block storage */
+    size_t nblocks, bcap;
+    int32_t *bcoord;    /* (nblocks x 3) block coordinate */
+    kf_v4 *node;        /* (nblocks x 64) momentum+mass, then velocity+mass */
+    /* hash: block key -> block index */
+    size_t hcap;        /* power of two */
+    uint64_t *hkey;     /* UINT64_MAX = empty */
+    int32_t *hval;
+    /* owner blocks (holding particles), in colour then spatial order */
+    size_t nowner;
+    int32_t *owner;       /* (nowner) block index */
+    int32_t (*nb)[8];     /* (nowner) the 2x2x2 neighbourhood, index (dx<<2)|(dy<<1)|dz */
+    size_t *pstart;       /* (nowner + 1) particle range of each owner */
+    size_t colour_start[9];
+    size_t owner_cap;
+    /* binning scratch */
+    uint32_t *dest;       /* (n) */
+    uint8_t *moved;       /* (n) */
+    void *scratch;        /* permutation scratch, n * 8 * threads bytes */
+    size_t scratch_n;
+    int32_t *count;       /* (nblocks) */
+    int valid;            /* 0 until the first bin, and after particles are added */
+    /* what the last bin did, for the frame log */
+    long rebins, permutes;
+} kf_grid;
+
+void kf_grid_free(kf_grid *g);
+
+/* Bin the particles: compute each particle's base block, create the blocks
+ * its stencil needs, and sort particles by owner block. Cheap when nobody
+ * changed block. cubic selects the 4-node stencil. Returns 0, -1 out of
+ * memory, or -2 when a particle is outside the representable range
+ * (*bad_particle is set to its index). */
+int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *bad_particle);
+
+/* Zero every node of every block. */
+void kf_grid_clear(kf_grid *g);
+
+static inline uint64_t kf_block_key(int bx, int by, int bz) {
+    return ((uint64_t)(uint32_t)(bx + KF_KEY_OFFSET) << (2 * KF_KEY_BITS)) |
+           ((uint64_t)(uint32_t)(by + KF_KEY_OFFSET) << KF_KEY_BITS) | (uint64_t)(uint32_t)(bz + KF_KEY_OFFSET);
+}
+
+/* floor division by the block size for negative node indices too */
+static inline int kf_block_of(int node) { return node >= 0 ? node / KF_BLOCK : -((-node + KF_BLOCK - 1) / KF_BLOCK); }
+
+/* Base node of a particle's stencil along one axis (x in grid units). */
+static inline int kf_base_node(kf_real xg, int cubic) {
+    return cubic ? (int)kf_floor(xg) - 1 : (int)kf_floor(xg - KF_R(0.5));
+}
+
+#endif

@@ -1,0 +1,86 @@
+/* model.c — settings, defaults, and compiling materials and colliders. */
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "model.h"
+
+kf_sim_def kf_default_sim_def(void) {
+    kf_sim_def d;
+    memset(&d, 0, sizeof d);
+    d.dx = 0.02;
+    d.cfl = 0.4;
+    d.gravity[1] = -9.81;
+    d.kernel = KF_KERNEL_QUADRATIC;
+    d.force = KF_FORCE_MLS;
+    d.transfer = KF_TRANSFER_APIC;
+    d.walls = 0;
+    for (int a = 0; a < 3; a++) d.domain_min[a] = 0, d.domain_max[a] = 1;
+    d.wall_boundary = KF_BOUNDARY_SEPARATE;
+    d.wall_friction = 0;
+    d.max_retries = 4;
+    d.j_min = 1e-3;
+    d.j_max = 1e3;
+    d.max_cells_per_step = 1.0;
+    return d;
+}
+
+static int fail(char *err, size_t n, const char *msg) {
+    if (err && n) snprintf(err, n, "%s", msg);
+    return -1;
+}
+
+kf_model *kf_model_create(const kf_sim_def *def, char *err, size_t errlen) {
+    const char *bad = NULL;
+    if (!(def->dx > 0 && isfinite(def->dx))) bad = "dx must be a positive length";
+    else if (!(def->cfl > 0 && def->cfl <= 2)) bad = "cfl must be in (0, 2]";
+    else if (def->walls) {
+        for (int a = 0; a < 3; a++)
+            if (!(def->domain_max[a] > def->domain_min[a])) bad = "domain max must exceed min on every axis";
+    }
+    if (!bad && !(def->j_min > 0 && def->j_max > def->j_min)) bad = "j_min must be positive and below j_max";
+    if (bad) {
+        fail(err, errlen, bad);
+        return NULL;
+    }
+    kf_model *m = calloc(1, sizeof *m);
+    if (!m) {
+        fail(err, errlen, "out of memory");
+        return NULL;
+    }
+    m->sim = *def;
+    m->nthreads = def->threads > 0 ? def->threads : omp_get_max_threads();
+    return m;
+}
+
+void kf_model_destroy(kf_model *m) { free(m); }
+
+const kf_sim_def *kf_model_sim(const kf_model *m) { return &m->sim; }
+
+int kf_model_add_material(kf_model *m, const kf_material *mat, char *err, size_t errlen) {
+    if (m->nmat >= KF_MAX_MATERIALS) return fail(err, errlen, "too many materials (at most 64)");
+    const char *bad = kf_material_check(mat);
+    if (bad && bad[0]) return fail(err, errlen, bad);
+    int id = m->nmat++;
+    m->mat_def[id] = *mat;
+    kf_mat_compile(&m->mat[id], mat);
+    if (m->mat[id].plastic) m->any_plastic = 1;
+    return id;
+}
+
+int kf_model_add_collider(kf_model *m, const kf_collider *c, char *err, size_t errlen) {
+    if (m->ncol >= KF_MAX_COLLIDERS) return fail(err, errlen, "too many colliders (at most 64)");
+    if (c->shape == KF_SHAPE_SPHERE && !(c->radius > 0)) return fail(err, errlen, "sphere collider needs radius > 0");
+    if (c->shape == KF_SHAPE_BOX && !(c->half[0] > 0 && c->half[1] > 0 && c->half[2] > 0))
+        return fail(err, errlen, "box collider needs positive half extents");
+    if (c->shape == KF_SHAPE_PLANE && !(fabs(c->normal[0]) + fabs(c->normal[1]) + fabs(c->normal[2]) > 0))
+        return fail(err, errlen, "plane collider needs a non-zero normal");
+    if (c->nkeys < 0 || c->nkeys > KF_MAX_KEYS) return fail(err, errlen, "collider has too many keys (at most 64)");
+    for (int k = 1; k < c->nkeys; k++)
+        if (!(c->keys[k].time > c->keys[k - 1].time)) return fail(err, errlen, "collider keys must have increasing times");
+    if (!(c->friction >= 0)) return fail(err, errlen, "collider friction must be >= 0");
+    m->col[m->ncol++] = *c;
+    return m->ncol - 1;
+}

@@ -1,0 +1,225 @@
+/* state.c — particles in, diagnostics out: creation, seeding, energy, hash. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../core/mat3.h"
+#include "model.h"
+
+kf_state *kf_state_create(const kf_model *m) {
+    (void)m;
+    return calloc(1, sizeof(kf_state));
+}
+
+void kf_state_destroy(kf_state *s) {
+    if (!s) return;
+    kf_particles_free(&s->p);
+    kf_particles_free(&s->snapshot);
+    kf_grid_free(&s->g);
+    free(s);
+}
+
+void kf_state_copy(kf_state *dst, const kf_state *src) {
+    kf_particles_copy(&dst->p, &src->p);
+    dst->time = src->time;
+    dst->substep = src->substep;
+    dst->next_id = src->next_id;
+    dst->g.valid = 0;
+}
+
+kf_state *kf_state_clone(const kf_state *s) {
+    kf_state *c = calloc(1, sizeof *c);
+    if (c) kf_state_copy(c, s);
+    return c;
+}
+
+size_t kf_state_count(const kf_state *s) { return s->p.n; }
+double kf_state_time(const kf_state *s) { return s->time; }
+
+kf_particles_view kf_state_particles(kf_state *s) {
+    kf_particles_view v;
+    kf_particles *p = &s->p;
+    v.n = p->n;
+    for (int k = 0; k < 3; k++) v.x[k] = p->x[k], v.v[k] = p->v[k];
+    for (int k = 0; k < 9; k++) v.C[k] = p->C[k], v.F[k] = p->F[k];
+    v.mass = p->mass;
+    v.vol0 = p->vol0;
+    v.ps[0] = p->ps[0];
+    v.ps[1] = p->ps[1];
+    v.mat = p->mat;
+    v.id = p->id;
+    return v;
+}
+
+long kf_state_add_particles(kf_state *s, const kf_model *m, size_t n, const double *x3, const double *v3,
+                            const double *F9, int material, double volume) {
+    if (material < 0 || material >= m->nmat) return -1;
+    kf_particles *p = &s->p;
+    if (kf_particles_reserve(p, p->n + n)) return -1;
+    const kf_mat *mat = &m->mat[material];
+    size_t first = p->n;
+    for (size_t k = 0; k < n; k++) {
+        size_t i = first + k;
+        for (int a = 0; a < 3; a++) {
+            p->x[a][i] = (kf_real)x3[3 * k + a];
+            p->v[a][i] = v3 ? (kf_real)v3[3 * k + a] : 0;
+        }
+        for (int e = 0; e < 9; e++) {
+            p->C[e][i] = 0;
+            p->F[e][i] = F9 ? (kf_real)F9[9 * k + e] : (kf_real)(e % 4 == 0);
+        }
+        p->vol0[i] = (kf_real)volume;
+        p->mass[i] = (kf_real)(volume * mat->rho);
+        /* plastic state starts at rest: water J (from F if given), snow Jp = 1 */
+        kf_real ps0 = 0;
+        if (mat->model == KF_MAT_WATER) {
+            kf_real F[9];
+            for (int e = 0; e < 9; e++) F[e] = p->F[e][i];
+            ps0 = kf_m3_det(F);
+            for (int e = 0; e < 9; e++) p->F[e][i] = (kf_real)(e % 4 == 0);
+        } else if (mat->model == KF_MAT_SNOW) {
+            ps0 = 1;
+        }
+        p->ps[0][i] = ps0;
+        p->ps[1][i] = 0;
+        p->mat[i] = (uint16_t)material;
+        p->id[i] = s->next_id++;
+        p->key[i] = 0;
+        p->block[i] = 0;
+    }
+    p->n += n;
+    s->g.valid = 0;
+    return (long)first;
+}
+
+/* small deterministic generator for jittered seeding */
+static double jitter(uint32_t *st) {
+    *st ^= *st << 13;
+    *st ^= *st >> 17;
+    *st ^= *st << 5;
+    return (*st >> 8) * (1.0 / 16777216.0);
+}
+
+typedef int (*inside_fn)(const double x[3], const void *ctx);
+
+/* seed ppc³ particles per grid cell over [lo, hi], keeping those inside */
+static long fill(kf_state *s, const kf_model *m, const double lo[3], const double hi[3], inside_fn inside,
+                 const void *ctx, int material, const double v[3], int ppc, uint32_t seed) {
+    double dx = m->sim.dx, h = dx / ppc;
+    long i0[3], i1[3];
+    for (int a = 0; a < 3; a++) {
+        i0[a] = (long)floor(lo[a] / h);
+        i1[a] = (long)ceil(hi[a] / h);
+    }
+    size_t cap = 1024, n = 0;
+    double *x = malloc(cap * 3 * sizeof *x);
+    if (!x) return -1;
+    uint32_t st = seed ? seed : 1;
+    for (long i = i0[0]; i < i1[0]; i++)
+        for (long j = i0[1]; j < i1[1]; j++)
+            for (long k = i0[2]; k < i1[2]; k++) {
+                double o[3] = {0.5, 0.5, 0.5};
+                if (seed)
+                    for (int a = 0; a < 3; a++) o[a] = jitter(&st);
+                double q[3] = {(i + o[0]) * h, (j + o[1]) * h, (k + o[2]) * h};
+                if (q[0] < lo[0] || q[1] < lo[1] || q[2] < lo[2] || q[0] >= hi[0] || q[1] >= hi[1] || q[2] >= hi[2])
+                    continue;
+                if (inside && !inside(q, ctx)) continue;
+                if (n == cap) {
+                    cap *= 2;
+                    double *nx = realloc(x, cap * 3 * sizeof *x);
+                    if (!nx) return free(x), -1;
+                    x = nx;
+                }
+                memcpy(&x[3 * n++], q, sizeof q);
+            }
+    double *vel = NULL;
+    if (v) {
+        vel = malloc((n + 1) * 3 * sizeof *vel);
+        if (!vel) return free(x), -1;
+        for (size_t k = 0; k < n; k++) memcpy(&vel[3 * k], v, 3 * sizeof *v);
+    }
+    long first = kf_state_add_particles(s, m, n, x, vel, NULL, material, h * h * h);
+    free(x);
+    free(vel);
+    return first;
+}
+
+long kf_state_fill_box(kf_state *s, const kf_model *m, const double lo[3], const double hi[3], int material,
+                       const double v[3], int ppc_axis, uint32_t seed) {
+    return fill(s, m, lo, hi, NULL, NULL, material, v, ppc_axis, seed);
+}
+
+static int inside_sphere(const double x[3], const void *ctx) {
+    const double *c = ctx;
+    double r2 = 0;
+    for (int a = 0; a < 3; a++) r2 += (x[a] - c[a]) * (x[a] - c[a]);
+    return r2 < c[3] * c[3];
+}
+
+long kf_state_fill_sphere(kf_state *s, const kf_model *m, const double c[3], double r, int material,
+                          const double v[3], int ppc_axis, uint32_t seed) {
+    double ctx[4] = {c[0], c[1], c[2], r}, lo[3], hi[3];
+    for (int a = 0; a < 3; a++) lo[a] = c[a] - r, hi[a] = c[a] + r;
+    return fill(s, m, lo, hi, inside_sphere, ctx, material, v, ppc_axis, seed);
+}
+
+kf_energy kf_state_energy(const kf_model *m, const kf_state *s) {
+    const kf_particles *p = &s->p;
+    const double d = kf_model_dfactor(m);
+    const int apic = m->sim.transfer == KF_TRANSFER_APIC;
+    double ke = 0, el = 0, gp = 0, mom[3] = {0}, L[3] = {0}, mass = 0;
+    for (size_t i = 0; i < p->n; i++) {
+        double mp = p->mass[i], x[3], v[3];
+        for (int a = 0; a < 3; a++) x[a] = p->x[a][i], v[a] = p->v[a][i];
+        kf_real F[9], ps[2] = {p->ps[0][i], p->ps[1][i]};
+        for (int k = 0; k < 9; k++) F[k] = p->F[k][i];
+        mass += mp;
+        ke += 0.5 * mp * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        el += p->vol0[i] * kf_mat_energy_density(&m->mat[p->mat[i]], F, ps);
+        for (int a = 0; a < 3; a++) {
+            mom[a] += mp * v[a];
+            gp -= mp * m->sim.gravity[a] * x[a];
+        }
+        L[0] += mp * (x[1] * v[2] - x[2] * v[1]);
+        L[1] += mp * (x[2] * v[0] - x[0] * v[2]);
+        L[2] += mp * (x[0] * v[1] - x[1] * v[0]);
+        if (apic) {
+            /* APIC's affine part carries m d (C - Cᵀ) of angular momentum */
+            L[0] += mp * d * (p->C[7][i] - p->C[5][i]);
+            L[1] += mp * d * (p->C[2][i] - p->C[6][i]);
+            L[2] += mp * d * (p->C[3][i] - p->C[1][i]);
+        }
+    }
+    kf_energy e = {ke, el, gp, {mom[0], mom[1], mom[2]}, {L[0], L[1], L[2]}, mass};
+    return e;
+}
+
+/* FNV-1a over every particle field, visited in stable id order so the hash
+ * does not depend on how the grid sorted the particles */
+uint64_t kf_state_hash(const kf_state *s) {
+    const kf_particles *p = &s->p;
+    size_t n = p->n;
+    uint32_t maxid = 0;
+    for (size_t i = 0; i < n; i++)
+        if (p->id[i] > maxid) maxid = p->id[i];
+    int64_t *where = malloc(((size_t)maxid + 1) * sizeof *where);
+    if (!where) return 0;
+    for (size_t k = 0; k <= maxid; k++) where[k] = -1;
+    for (size_t i = 0; i < n; i++) where[p->id[i]] = (int64_t)i;
+    uint64_t h = 1469598103934665603ULL;
+#define FNV(ptr, len)                                                        \
+    do {                                                                     \
+        const unsigned char *b_ = (const unsigned char *)(ptr);              \
+        for (size_t q_ = 0; q_ < (len); q_++) h = (h ^ b_[q_]) * 1099511628211ULL; \
+    } while (0)
+    for (size_t k = 0; k <= maxid; k++) {
+        if (where[k] < 0) continue;
+        size_t i = (size_t)where[k];
+        for (int f = 0; f < KF_PARTICLE_REAL_PLANES; f++) FNV(&p->plane[f][i], sizeof(kf_real));
+        FNV(&p->mat[i], sizeof p->mat[i]);
+    }
+#undef FNV
+    free(where);
+    return h;
+}

@@ -1,0 +1,172 @@
+/* step.c — one substep, CFL-adaptive advancing, and recovery from trouble.
+ *
+ * A substep: bin (sort) → P2G → grid update → G2P (with F update and
+ * advection) → plasticity. Each stage is timed into kf_step_stats. The G2P
+ * pass checks every particle for numerical trouble; kf_advance answers
+ * trouble by restarting the interval at half the CFL number. */
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "../core/timer.h"
+#include "model.h"
+
+const char *kf_stage_name(kf_stage s) {
+    static const char *names[KF_STAGE_COUNT] = {"sort", "p2g", "grid", "g2p", "plasticity", "check"};
+    return s < KF_STAGE_COUNT ? names[s] : "?";
+}
+
+static void set_trouble(kf_trouble *t, const kf_state *s, size_t i, const char *what, double value) {
+    memset(t, 0, sizeof *t);
+    t->found = 1;
+    snprintf(t->what, sizeof t->what, "%s", what);
+    t->particle = s->p.n ? s->p.id[i] : 0;
+    t->material = s->p.n ? s->p.mat[i] : -1;
+    t->substep = s->substep;
+    t->value = value;
+}
+
+int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_trouble *trouble) {
+    kf_trouble none;
+    if (!trouble) trouble = &none;
+    memset(trouble, 0, sizeof *trouble);
+    const kf_real rdt = (kf_real)dt;
+    double t0 = kf_now_ms(), t1;
+
+    /* sort: particles into owner blocks (cheap when nobody changed block) */
+    size_t bad = 0;
+    int rc = kf_grid_bin(&s->g, &s->p, (kf_real)(1.0 / m->sim.dx), m->sim.kernel == KF_KERNEL_CUBIC, &bad);
+    if (rc == -2) {
+        set_trouble(trouble, s, bad, "position NaN or out of range", s->p.x[0][bad]);
+        return 1;
+    }
+    if (rc == -1) {
+        set_trouble(trouble, s, 0, "out of memory binning particles", 0);
+        return 1;
+    }
+    t1 = kf_now_ms();
+    if (st) st->ms[KF_STAGE_SORT] += t1 - t0;
+
+    kf_p2g(m, s, rdt);
+    t0 = kf_now_ms();
+    if (st) st->ms[KF_STAGE_P2G] += t0 - t1;
+
+    kf_grid_update(m, s, rdt);
+    t1 = kf_now_ms();
+    if (st) st->ms[KF_STAGE_GRID] += t1 - t0;
+
+    kf_g2p_result res;
+    kf_g2p(m, s, rdt, &res);
+    t0 = kf_now_ms();
+    if (st) st->ms[KF_STAGE_G2P] += t0 - t1;
+
+    if (m->any_plastic) kf_plasticity(m, s);
+    t1 = kf_now_ms();
+    if (st) st->ms[KF_STAGE_PLASTICITY] += t1 - t0;
+
+    s->time += dt;
+    s->substep++;
+    if (st) {
+        st->substeps++;
+        st->particle_steps += (long)s->p.n;
+        st->active_blocks = (long)s->g.nblocks;
+        if (st->dt_min == 0 || dt < st->dt_min) st->dt_min = dt;
+        if (dt > st->dt_max) st->dt_max = dt;
+    }
+    if (res.trouble.found) {
+        *trouble = res.trouble;
+        return 1;
+    }
+    if (res.max_cells > m->sim.max_cells_per_step) {
+        /* moving more than the kernel tolerates: report the fastest particle */
+        size_t fast = 0;
+        kf_real best = -1;
+        for (size_t i = 0; i < s->p.n; i++) {
+            kf_real v2 = s->p.v[0][i] * s->p.v[0][i] + s->p.v[1][i] * s->p.v[1][i] + s->p.v[2][i] * s->p.v[2][i];
+            if (v2 > best) best = v2, fast = i;
+        }
+        set_trouble(trouble, s, fast, "CFL violated (cells moved per substep)", res.max_cells);
+        return 1;
+    }
+    return 0;
+}
+
+/* Δx / (c + |v|max): the substep at CFL number 1. c is the fastest wave
+ * speed among the materials (water's at the most compressed particle). */
+static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
+    const kf_particles *p = &s->p;
+    double vmax2 = 0, cmax = 0;
+    kf_real jmin_water = 1;
+    size_t n = p->n;
+#pragma omp parallel for reduction(max : vmax2) reduction(min : jmin_water) num_threads(m->nthreads)
+    for (size_t i = 0; i < n; i++) {
+        double v2 = (double)p->v[0][i] * p->v[0][i] + (double)p->v[1][i] * p->v[1][i] + (double)p->v[2][i] * p->v[2][i];
+        if (v2 > vmax2) vmax2 = v2;
+        if (m->mat[p->mat[i]].model == KF_MAT_WATER && p->ps[0][i] < jmin_water) jmin_water = p->ps[0][i];
+    }
+    for (int k = 0; k < m->nmat; k++) {
+        double J = m->mat[k].model == KF_MAT_WATER ? (double)jmin_water : 1.0;
+        double c = kf_mat_wave_speed(&m->mat[k], J > 1e-3 ? J : 1e-3);
+        if (c > cmax) cmax = c;
+    }
+    return m->sim.dx / (cmax + sqrt(vmax2) + 1e-30);
+}
+
+static double clamp_dt(const kf_model *m, double dt) {
+    return m->sim.dt_max > 0 && dt > m->sim.dt_max ? m->sim.dt_max : dt;
+}
+
+double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl) { return clamp_dt(m, cfl * unit_cfl_dt(m, s)); }
+
+static int save_snapshot(kf_state *s) { return kf_particles_copy(&s->snapshot, &s->p); }
+
+static void restore_snapshot(kf_state *s, double time0, long substep0) {
+    kf_particles_copy(&s->p, &s->snapshot);
+    s->time = time0;
+    s->substep = substep0;
+    s->g.valid = 0;
+}
+
+int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *st, char *msg, size_t msglen) {
+    if (msg && msglen) msg[0] = 0;
+    if (save_snapshot(s)) {
+        if (msg) snprintf(msg, msglen, "out of memory saving the interval start");
+        return 1;
+    }
+    const double time0 = s->time;
+    const long substep0 = s->substep;
+    double cfl = m->sim.cfl, fixed = m->sim.dt_fixed;
+    kf_trouble tr = {0};
+    for (int attempt = 0; attempt <= m->sim.max_retries; attempt++) {
+        double t = 0;
+        int ok = 1;
+        while (duration - t > 1e-9 * duration) {
+            double unit = unit_cfl_dt(m, s), left = duration - t;
+            double dt = fixed > 0 ? fixed : clamp_dt(m, cfl * unit);
+            /* land exactly on the interval end without a sliver of a step */
+            if (dt >= left) dt = left;
+            else if (dt > 0.5 * left) dt = 0.5 * left;
+            if (kf_step(m, s, dt, st, &tr)) {
+                ok = 0;
+                break;
+            }
+            t += dt;
+            if (st && dt / unit > st->max_cfl) st->max_cfl = dt / unit; /* CFL number used */
+        }
+        if (ok) return 0;
+        /* trouble: back to the interval start, half the step, try again */
+        restore_snapshot(s, time0, substep0);
+        if (st) st->retries++, st->warnings++;
+        cfl *= 0.5;
+        fixed *= 0.5;
+    }
+    if (msg) {
+        const char *name = tr.material >= 0 && tr.material < m->nmat ? m->mat_def[tr.material].name : "?";
+        snprintf(msg, msglen,
+                 "numerical trouble: %s (value %g) at substep %ld, particle %u, material %d '%s'; "
+                 "still failing after %d retries at half the CFL number (last cfl %g)",
+                 tr.what, tr.value, tr.substep, tr.particle, tr.material, name, m->sim.max_retries, cfl * 2);
+    }
+    return 1;
+}

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# setup.sh — install the Debian packages kerf needs (only the missing ones)
+# and build it (Release, warnings on). Idempotent: fast when all is in place.
+#   usage: tools/setup.sh [build-dir]   (default: build)
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-"$here/build"}
+
+packages=(build-essential cmake pkg-config
+          libopenvdb-dev libboost-iostreams-dev libtbb-dev libembree-dev libassimp-dev
+          libosmesa6-dev libfyaml-dev libpng-dev libmujoco-dev libqhull-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}" >&2
+  sudo_cmd=""
+  [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+fi
+
+cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$build" -j "$(nproc)" >&2
