@@ -46,7 +46,8 @@ typedef struct kf_g2p_result {
     double max_cells;   /* max |v| Δt / Δx after the step */
 } kf_g2p_result;
 
-void kf_p2g(const kf_model *m, kf_state *s, kf_real dt);
+/* P2G; trouble (may be NULL) receives the first particle with non-finite stress */
+void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble);
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt);
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 void kf_plasticity(const kf_model *m, kf_state *s);

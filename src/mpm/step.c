@@ -48,9 +48,14 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     t1 = kf_now_ms();
     if (st) st->ms[KF_STAGE_SORT] += t1 - t0;
 
-    kf_p2g(m, s, rdt);
+    kf_trouble p2g_trouble;
+    kf_p2g(m, s, rdt, &p2g_trouble);
     t0 = kf_now_ms();
     if (st) st->ms[KF_STAGE_P2G] += t0 - t1;
+    if (p2g_trouble.found) {
+        *trouble = p2g_trouble;
+        return 1;
+    }
 
     kf_grid_update(m, s, rdt);
     t1 = kf_now_ms();

@@ -70,9 +70,27 @@ KF_INLINE void stencil_make(int KW, stencil *st, const kf_real xp[3], const int3
 
 static inline kf_v4 col4(const kf_real M[9], int k) { return (kf_v4){M[k], M[3 + k], M[6 + k], 0}; }
 
+/* ---- trouble: the first (lowest id) particle in trouble, per thread ---- */
+
+typedef struct step_acc {
+    kf_trouble trouble;
+    double max_cells;
+} step_acc;
+
+static void note_trouble(step_acc *acc, const kf_particles *p, size_t i, const char *what, double value, long substep) {
+    if (acc->trouble.found && acc->trouble.particle <= p->id[i]) return;
+    acc->trouble.found = 1;
+    snprintf(acc->trouble.what, sizeof acc->trouble.what, "%s", what);
+    acc->trouble.particle = p->id[i];
+    acc->trouble.material = p->mat[i];
+    acc->trouble.value = value;
+    acc->trouble.substep = substep;
+}
+
 /* ---- P2G ---------------------------------------------------------------------- */
 
-KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache) {
+KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
+                         step_acc *acc) {
     const int CD = 3 + KW;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
@@ -92,6 +110,9 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         kf_real F[9], tau[9], ps[2] = {p->ps[0][i], p->ps[1][i]};
         for (int k = 0; k < 9; k++) F[k] = p->F[k][i];
         kf_mat_kirchhoff(&m->mat[p->mat[i]], F, ps, tau);
+        /* catch non-finite state where it starts, before P2G spreads it */
+        kf_real tsum = tau[0] + tau[4] + tau[8] + tau[1] + tau[2] + tau[5];
+        if (!(kf_fabs(tsum) < (kf_real)1e30)) note_trouble(acc, p, i, "NaN or Inf stress", (double)tsum, s->substep);
 
         /* affine momentum m C (zero for PIC) and the stress term */
         kf_real Q[9], T[9];
@@ -146,51 +167,43 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
 }
 
 #define P2G_VARIANT(name, KW, CLASSIC)                                                                    \
-    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache) {               \
-        p2g_block(KW, CLASSIC, m, s, r, dt, cache);                                                     \
+    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, step_acc *acc) { \
+        p2g_block(KW, CLASSIC, m, s, r, dt, cache, acc);                                                \
     }
 P2G_VARIANT(p2g_q_mls, 3, 0)
 P2G_VARIANT(p2g_q_classic, 3, 1)
 P2G_VARIANT(p2g_c_mls, 4, 0)
 P2G_VARIANT(p2g_c_classic, 4, 1)
 
-void kf_p2g(const kf_model *m, kf_state *s, kf_real dt) {
-    typedef void (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *);
+void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
+    typedef void (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, step_acc *);
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     p2g_fn fn = cubic ? (classic ? p2g_c_classic : p2g_c_mls) : (classic ? p2g_q_classic : p2g_q_mls);
     kf_grid *g = &s->g;
     kf_grid_clear(g);
+    step_acc total = {0};
 #pragma omp parallel num_threads(m->nthreads)
     {
         kf_ftz();
         kf_v4 cache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));
+        step_acc acc = {0};
         /* one colour at a time: same-colour owners write disjoint nodes */
         for (int c = 0; c < 8; c++) {
 #pragma omp for schedule(dynamic, 4)
-            for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) fn(m, s, (size_t)g->owner[k], dt, cache);
+            for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++)
+                fn(m, s, (size_t)g->owner[k], dt, cache, &acc);
         }
+#pragma omp critical
+        if (acc.trouble.found && (!total.trouble.found || acc.trouble.particle < total.trouble.particle))
+            total.trouble = acc.trouble;
     }
+    if (trouble) *trouble = total.trouble;
 }
 
 /* ---- G2P ---------------------------------------------------------------------- */
 
-typedef struct g2p_acc {
-    kf_trouble trouble;
-    double max_cells;
-} g2p_acc;
-
-static void note_trouble(g2p_acc *acc, const kf_particles *p, size_t i, const char *what, double value, long substep) {
-    if (acc->trouble.found && acc->trouble.particle <= p->id[i]) return;
-    acc->trouble.found = 1;
-    snprintf(acc->trouble.what, sizeof acc->trouble.what, "%s", what);
-    acc->trouble.particle = p->id[i];
-    acc->trouble.material = p->mat[i];
-    acc->trouble.value = value;
-    acc->trouble.substep = substep;
-}
-
 KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
-                         g2p_acc *acc) {
+                         step_acc *acc) {
     const int CD = 3 + KW;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
@@ -287,7 +300,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
 }
 
 #define G2P_VARIANT(name, KW, CLASSIC)                                                                     \
-    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, g2p_acc *acc) {  \
+    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, step_acc *acc) {  \
         g2p_block(KW, CLASSIC, m, s, r, dt, cache, acc);                                                 \
     }
 G2P_VARIANT(g2p_q_mls, 3, 0)
@@ -296,16 +309,16 @@ G2P_VARIANT(g2p_c_mls, 4, 0)
 G2P_VARIANT(g2p_c_classic, 4, 1)
 
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
-    typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, g2p_acc *);
+    typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, step_acc *);
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     g2p_fn fn = cubic ? (classic ? g2p_c_classic : g2p_c_mls) : (classic ? g2p_q_classic : g2p_q_mls);
     kf_grid *g = &s->g;
-    g2p_acc total = {0};
+    step_acc total = {0};
 #pragma omp parallel num_threads(m->nthreads)
     {
         kf_ftz();
         kf_v4 cache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));
-        g2p_acc acc = {0};
+        step_acc acc = {0};
 #pragma omp for schedule(dynamic, 4)
         for (size_t k = 0; k < g->nowner; k++) fn(m, s, k, dt, cache, &acc);
 #pragma omp critical
