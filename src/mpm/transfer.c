@@ -3,12 +3,18 @@
  * One code path serves MLS-MPM and classic MPM (kf_sim_def.force), quadratic
  * and cubic B-splines, APIC and PIC, so the variants are compared on equal
  * footing. The kernel width and the force are compile-time constants of each
- * specialisation (always-inlined bodies instantiated by the dispatchers at
- * the bottom), so the stencil loops unroll.
+ * specialisation (always-inlined bodies instantiated by the dispatchers), so
+ * the stencil loops unroll.
  *
  * Both transfers work owner block by owner block (grid.h): the block's
  * particles scatter into, or gather from, a small dense cache of the block's
- * 2x2x2 neighbourhood, and only the cache touches the sparse grid. */
+ * 2x2x2 neighbourhood, and only the cache touches the sparse grid.
+ *
+ * Inside a block, particles go in chunks of KF_CHUNK, in phases: the
+ * per-particle algebra (kernel weights, stress, Q, C, the F update, checks)
+ * runs as loops across the chunk's particles that the compiler turns into
+ * SIMD over particles; only the stencil scatter and gather run particle by
+ * particle, with one node row (a kf_v4) per vector operation. */
 #include <omp.h>
 #include <stdio.h>
 #include <string.h>
@@ -17,58 +23,64 @@
 #include "model.h"
 
 #define KF_INLINE static inline __attribute__((always_inline))
-#define CD_MAX 7 /* cache edge: 4 base offsets + cubic stencil (4) - 1 */
+#define CD_MAX 7    /* cache edge: 4 base offsets + cubic stencil (4) - 1 */
+#define KF_CHUNK 16 /* particles per phase: one AVX-512 register of floats */
+
+/* per-thread scratch of one chunk, structure of arrays across particles */
+typedef struct chunk {
+    int n;
+    int l[3][KF_CHUNK];                /* base node offset inside the owner block */
+    kf_real w[3][4][KF_CHUNK];         /* kernel weights per axis */
+    kf_real dw[3][4][KF_CHUNK];        /* their derivatives (grid units) */
+    kf_real d[3][4][KF_CHUNK];         /* node minus particle, m */
+    kf_real tau[9][KF_CHUNK];          /* Kirchhoff stress */
+    kf_real q[9][KF_CHUNK];            /* P2G: MLS Q, or APIC m C for classic */
+    kf_real t[9][KF_CHUNK];            /* P2G classic: -Δt V⁰ τ / Δx */
+    kf_real mv[4][KF_CHUNK];           /* P2G: m v, m */
+    kf_real v[3][KF_CHUNK];            /* G2P: Σ w v_i */
+    kf_real b[9][KF_CHUNK];            /* G2P: Σ w v_i dᵀ */
+    kf_real g[9][KF_CHUNK];            /* G2P classic: Σ v_i ∇wᵀ (grid units) */
+} chunk;
 
 /* ---- kernels ----------------------------------------------------------------
  * fx is the particle position in grid units minus its base node. w[i] is the
  * weight of node base+i, dw[i] its derivative with respect to the particle
  * position, in grid units (divide by Δx for world units). */
-KF_INLINE void kernel_weights(int KW, kf_real fx, kf_real w[4], kf_real dw[4]) {
-    if (KW == 3) {
-        /* quadratic: fx in [0.5, 1.5) */
-        kf_real a = KF_R(1.5) - fx, b = fx - 1, c = fx - KF_R(0.5);
-        w[0] = KF_R(0.5) * a * a;
-        w[1] = KF_R(0.75) - b * b;
-        w[2] = KF_R(0.5) * c * c;
-        w[3] = 0;
-        dw[0] = -a;
-        dw[1] = -2 * b;
-        dw[2] = c;
-        dw[3] = 0;
-    } else {
-        /* cubic: fx in [1, 2) */
-        kf_real r1 = fx - 1, s2 = 2 - fx, a = 2 - fx, d = fx - 1;
-        w[0] = a * a * a / 6;
-        w[1] = KF_R(0.5) * r1 * r1 * r1 - r1 * r1 + KF_R(2.0 / 3.0);
-        w[2] = KF_R(0.5) * s2 * s2 * s2 - s2 * s2 + KF_R(2.0 / 3.0);
-        w[3] = d * d * d / 6;
-        dw[0] = -KF_R(0.5) * a * a;
-        dw[1] = KF_R(1.5) * r1 * r1 - 2 * r1;
-        dw[2] = -(KF_R(1.5) * s2 * s2 - 2 * s2);
-        dw[3] = KF_R(0.5) * d * d;
-    }
-}
-
-/* a particle's stencil: base-node offset inside its owner block, weights,
- * and node-minus-particle distances d (world units) per axis */
-typedef struct stencil {
-    int l[3];
-    kf_real w[3][4], dw[3][4], d[3][4];
-} stencil;
-
-KF_INLINE void stencil_make(int KW, stencil *st, const kf_real xp[3], const int32_t *bc, kf_real inv_dx,
-                            kf_real dx) {
+KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, const int32_t *bc, kf_real inv_dx,
+                             kf_real dx) {
     for (int a = 0; a < 3; a++) {
-        kf_real xg = xp[a] * inv_dx;
-        int base = kf_base_node(xg, KW == 4);
-        kf_real fx = xg - (kf_real)base;
-        st->l[a] = base - KF_BLOCK * bc[a];
-        kernel_weights(KW, fx, st->w[a], st->dw[a]);
-        for (int i = 0; i < 4; i++) st->d[a][i] = ((kf_real)i - fx) * dx;
+        const kf_real *restrict xa = x[a] + i0;
+        const int origin = KF_BLOCK * bc[a];
+        for (int j = 0; j < ck->n; j++) {
+            kf_real xg = xa[j] * inv_dx;
+            int base = kf_base_node(xg, KW == 4);
+            kf_real fx = xg - (kf_real)base;
+            ck->l[a][j] = base - origin;
+            if (KW == 3) {
+                /* quadratic: fx in [0.5, 1.5) */
+                kf_real p = KF_R(1.5) - fx, q = fx - 1, r = fx - KF_R(0.5);
+                ck->w[a][0][j] = KF_R(0.5) * p * p;
+                ck->w[a][1][j] = KF_R(0.75) - q * q;
+                ck->w[a][2][j] = KF_R(0.5) * r * r;
+                ck->dw[a][0][j] = -p;
+                ck->dw[a][1][j] = -2 * q;
+                ck->dw[a][2][j] = r;
+            } else {
+                /* cubic: fx in [1, 2) */
+                kf_real r1 = fx - 1, s2 = 2 - fx;
+                ck->w[a][0][j] = s2 * s2 * s2 / 6;
+                ck->w[a][1][j] = KF_R(0.5) * r1 * r1 * r1 - r1 * r1 + KF_R(2.0 / 3.0);
+                ck->w[a][2][j] = KF_R(0.5) * s2 * s2 * s2 - s2 * s2 + KF_R(2.0 / 3.0);
+                ck->w[a][3][j] = r1 * r1 * r1 / 6;
+                ck->dw[a][0][j] = -KF_R(0.5) * s2 * s2;
+                ck->dw[a][1][j] = KF_R(1.5) * r1 * r1 - 2 * r1;
+                ck->dw[a][2][j] = -(KF_R(1.5) * s2 * s2 - 2 * s2);
+                ck->dw[a][3][j] = KF_R(0.5) * r1 * r1;
+            }
+            for (int i = 0; i < KW; i++) ck->d[a][i][j] = ((kf_real)i - fx) * dx;
+        }
     }
 }
-
-static inline kf_v4 col4(const kf_real M[9], int k) { return (kf_v4){M[k], M[3 + k], M[6 + k], 0}; }
 
 /* ---- trouble: the first (lowest id) particle in trouble, per thread ---- */
 
@@ -87,10 +99,27 @@ static void note_trouble(step_acc *acc, const kf_particles *p, size_t i, const c
     acc->trouble.substep = substep;
 }
 
+/* ---- stress ------------------------------------------------------------------
+ * Kirchhoff τ = P Fᵀ for the chunk, a run of equal materials at a time so a
+ * material can process its run as a batch. */
+static void stress_phase(const kf_model *m, const kf_particles *p, size_t i0, chunk *ck) {
+    int j = 0;
+    while (j < ck->n) {
+        uint16_t mat = p->mat[i0 + j];
+        int e = j + 1;
+        while (e < ck->n && p->mat[i0 + e] == mat) e++;
+        kf_real *out[9];
+        for (int k = 0; k < 9; k++) out[k] = ck->tau[k] + j;
+        kf_mat_kirchhoff_batch(&m->mat[mat], e - j, (const kf_real *const *)p->F, (const kf_real *const *)p->ps,
+                               i0 + (size_t)j, out);
+        j = e;
+    }
+}
+
 /* ---- P2G ---------------------------------------------------------------------- */
 
 KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
-                         step_acc *acc) {
+                         chunk *ck, step_acc *acc) {
     const int CD = 3 + KW;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
@@ -100,54 +129,76 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const int32_t *bc = &g->bcoord[3 * r];
     memset(cache, 0, sizeof(kf_v4) * CD * CD * CD);
 
-    for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
-        const kf_real xp[3] = {p->x[0][i], p->x[1][i], p->x[2][i]};
-        stencil st;
-        stencil_make(KW, &st, xp, bc, inv_dx, dx);
-        const kf_real mp = p->mass[i];
+    for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
+        size_t left = g->pstart[r + 1] - i0;
+        ck->n = left < KF_CHUNK ? (int)left : KF_CHUNK;
+        const int n = ck->n;
+        stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
+        stress_phase(m, p, i0, ck);
 
-        /* stress: Kirchhoff τ = P Fᵀ */
-        kf_real F[9], tau[9], ps[2] = {p->ps[0][i], p->ps[1][i]};
-        for (int k = 0; k < 9; k++) F[k] = p->F[k][i];
-        kf_mat_kirchhoff(&m->mat[p->mat[i]], F, ps, tau);
-        /* catch non-finite state where it starts, before P2G spreads it */
-        kf_real tsum = tau[0] + tau[4] + tau[8] + tau[1] + tau[2] + tau[5];
-        if (!(kf_fabs(tsum) < (kf_real)1e30)) note_trouble(acc, p, i, "NaN or Inf stress", (double)tsum, s->substep);
-
-        /* affine momentum m C (zero for PIC) and the stress term */
-        kf_real Q[9], T[9];
-        const kf_real cm = apic ? mp : 0;
-        const kf_real sv = -dt * p->vol0[i];
+        /* Q = m C − Δt V⁰ D⁻¹ τ (MLS), or m C and the separate force term
+         * −Δt V⁰ τ ∇w (classic); PIC drops m C */
+        const kf_real *restrict mass = p->mass + i0, *restrict vol = p->vol0 + i0;
+        int bad = 0;
         for (int k = 0; k < 9; k++) {
-            kf_real mc = cm * p->C[k][i];
-            if (CLASSIC) {
-                Q[k] = mc;
-                T[k] = sv * tau[k] * inv_dx; /* times ∇w in grid units */
-            } else {
-                Q[k] = mc + sv * minv * tau[k]; /* fused MLS: one mat-vec per node */
+            const kf_real *restrict C = p->C[k] + i0;
+            for (int j = 0; j < n; j++) {
+                kf_real mc = apic ? mass[j] * C[j] : 0;
+                kf_real st = -dt * vol[j] * ck->tau[k][j];
+                if (CLASSIC) {
+                    ck->q[k][j] = mc;
+                    ck->t[k][j] = st * inv_dx;
+                } else {
+                    ck->q[k][j] = mc + minv * st;
+                }
+                bad |= !(kf_fabs(ck->tau[k][j]) < (kf_real)1e30);
             }
         }
-        const kf_v4 base = {mp * p->v[0][i], mp * p->v[1][i], mp * p->v[2][i], mp};
-        const kf_v4 q0 = col4(Q, 0), q1 = col4(Q, 1), q2 = col4(Q, 2);
-        kf_v4 t0 = {0}, t1 = {0}, t2 = {0};
-        if (CLASSIC) t0 = col4(T, 0), t1 = col4(T, 1), t2 = col4(T, 2);
+        for (int a = 0; a < 3; a++) {
+            const kf_real *restrict v = p->v[a] + i0;
+            for (int j = 0; j < n; j++) ck->mv[a][j] = mass[j] * v[j];
+        }
+        for (int j = 0; j < n; j++) ck->mv[3][j] = mass[j];
+        if (bad) {
+            /* catch non-finite state where it starts, before P2G spreads it */
+            for (int j = 0; j < n; j++)
+                for (int k = 0; k < 9; k++)
+                    if (!(kf_fabs(ck->tau[k][j]) < (kf_real)1e30))
+                        note_trouble(acc, p, i0 + (size_t)j, "NaN or Inf stress", (double)ck->tau[k][j], s->substep);
+        }
 
-        for (int a = 0; a < KW; a++) {
-            const kf_v4 ha = base + st.d[0][a] * q0;
-            for (int b = 0; b < KW; b++) {
-                const kf_real wab = st.w[0][a] * st.w[1][b];
-                const kf_v4 hab = ha + st.d[1][b] * q1;
-                kf_v4 *row = &cache[((st.l[0] + a) * CD + (st.l[1] + b)) * CD + st.l[2]];
-                for (int c = 0; c < KW; c++) {
-                    kf_v4 add = (wab * st.w[2][c]) * (hab + st.d[2][c] * q2);
+        /* scatter: one node row per vector op, Q d as three column FMAs */
+        for (int j = 0; j < n; j++) {
+            const kf_v4 base = {ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
+            const kf_v4 q0 = {ck->q[0][j], ck->q[3][j], ck->q[6][j], 0};
+            const kf_v4 q1 = {ck->q[1][j], ck->q[4][j], ck->q[7][j], 0};
+            const kf_v4 q2 = {ck->q[2][j], ck->q[5][j], ck->q[8][j], 0};
+            kf_v4 t0 = {0}, t1 = {0}, t2 = {0};
+            if (CLASSIC) {
+                t0 = (kf_v4){ck->t[0][j], ck->t[3][j], ck->t[6][j], 0};
+                t1 = (kf_v4){ck->t[1][j], ck->t[4][j], ck->t[7][j], 0};
+                t2 = (kf_v4){ck->t[2][j], ck->t[5][j], ck->t[8][j], 0};
+            }
+            kf_real w2[4], d2[4], dw2[4];
+            for (int c = 0; c < KW; c++) w2[c] = ck->w[2][c][j], d2[c] = ck->d[2][c][j], dw2[c] = ck->dw[2][c][j];
+            kf_v4 *origin = &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
+            for (int a = 0; a < KW; a++) {
+                const kf_v4 ha = base + ck->d[0][a][j] * q0;
+                for (int b = 0; b < KW; b++) {
+                    const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
+                    const kf_v4 hab = ha + ck->d[1][b][j] * q1;
+                    kf_v4 *row = origin + (a * CD + b) * CD;
+                    kf_v4 fa = {0}, fb = {0};
                     if (CLASSIC) {
-                        /* classic force f = -V⁰ τ ∇w */
-                        kf_real g0 = st.dw[0][a] * st.w[1][b] * st.w[2][c];
-                        kf_real g1 = st.w[0][a] * st.dw[1][b] * st.w[2][c];
-                        kf_real g2 = wab * st.dw[2][c];
-                        add += g0 * t0 + g1 * t1 + g2 * t2;
+                        /* classic force f = −V⁰ τ ∇w, ∇w split by axis */
+                        fa = (ck->dw[0][a][j] * ck->w[1][b][j]) * t0 + (ck->w[0][a][j] * ck->dw[1][b][j]) * t1;
+                        fb = wab * t2;
                     }
-                    row[c] += add;
+                    for (int c = 0; c < KW; c++) {
+                        kf_v4 add = (wab * w2[c]) * (hab + d2[c] * q2);
+                        if (CLASSIC) add += w2[c] * fa + dw2[c] * fb;
+                        row[c] += add;
+                    }
                 }
             }
         }
@@ -166,9 +217,9 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         }
 }
 
-#define P2G_VARIANT(name, KW, CLASSIC)                                                                    \
-    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, step_acc *acc) { \
-        p2g_block(KW, CLASSIC, m, s, r, dt, cache, acc);                                                \
+#define P2G_VARIANT(name, KW, CLASSIC)                                                                                 \
+    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, chunk *ck, step_acc *acc) { \
+        p2g_block(KW, CLASSIC, m, s, r, dt, cache, ck, acc);                                                         \
     }
 P2G_VARIANT(p2g_q_mls, 3, 0)
 P2G_VARIANT(p2g_q_classic, 3, 1)
@@ -176,7 +227,7 @@ P2G_VARIANT(p2g_c_mls, 4, 0)
 P2G_VARIANT(p2g_c_classic, 4, 1)
 
 void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
-    typedef void (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, step_acc *);
+    typedef void (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, chunk *, step_acc *);
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     p2g_fn fn = cubic ? (classic ? p2g_c_classic : p2g_c_mls) : (classic ? p2g_q_classic : p2g_q_mls);
     kf_grid *g = &s->g;
@@ -186,12 +237,13 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
     {
         kf_ftz();
         kf_v4 cache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));
+        chunk ck __attribute__((aligned(64)));
         step_acc acc = {0};
         /* one colour at a time: same-colour owners write disjoint nodes */
         for (int c = 0; c < 8; c++) {
 #pragma omp for schedule(dynamic, 4)
             for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++)
-                fn(m, s, (size_t)g->owner[k], dt, cache, &acc);
+                fn(m, s, (size_t)g->owner[k], dt, cache, &ck, &acc);
         }
 #pragma omp critical
         if (acc.trouble.found && (!total.trouble.found || acc.trouble.particle < total.trouble.particle))
@@ -203,7 +255,7 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
 /* ---- G2P ---------------------------------------------------------------------- */
 
 KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
-                         step_acc *acc) {
+                         chunk *ck, step_acc *acc) {
     const int CD = 3 + KW;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
@@ -211,7 +263,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const kf_real minv = (kf_real)(1.0 / kf_model_dfactor(m));
     const int32_t *bc = &g->bcoord[3 * r];
     const kf_real jmin = (kf_real)m->sim.j_min, jmax = (kf_real)m->sim.j_max;
-    double max_v2 = 0;
+    kf_real max_v2 = 0;
 
     /* gather the neighbourhood's velocities */
     const int32_t *nb = g->nb[r];
@@ -224,84 +276,135 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
             }
         }
 
-    for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
-        const kf_real xp[3] = {p->x[0][i], p->x[1][i], p->x[2][i]};
-        stencil st;
-        stencil_make(KW, &st, xp, bc, inv_dx, dx);
+    for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
+        size_t left = g->pstart[r + 1] - i0;
+        ck->n = left < KF_CHUNK ? (int)left : KF_CHUNK;
+        const int n = ck->n;
+        stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
 
-        /* v = Σ w v_i, B_k = Σ w d_k v_i, and for classic G_k = Σ ∂_k w v_i */
-        kf_v4 v = {0}, b0 = {0}, b1 = {0}, b2 = {0}, g0 = {0}, g1 = {0}, g2 = {0};
-        for (int a = 0; a < KW; a++)
-            for (int b = 0; b < KW; b++) {
-                const kf_real wab = st.w[0][a] * st.w[1][b];
-                const kf_v4 *row = &cache[((st.l[0] + a) * CD + (st.l[1] + b)) * CD + st.l[2]];
-                kf_v4 ra = {0}, rd = {0}, rg = {0};
-                for (int c = 0; c < KW; c++) {
-                    ra += st.w[2][c] * row[c];
-                    rd += (st.w[2][c] * st.d[2][c]) * row[c];
-                    if (CLASSIC) rg += st.dw[2][c] * row[c];
+        /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i */
+        for (int j = 0; j < n; j++) {
+            kf_real w2[4], wd2[4], dw2[4];
+            for (int c = 0; c < KW; c++) {
+                w2[c] = ck->w[2][c][j];
+                wd2[c] = ck->w[2][c][j] * ck->d[2][c][j];
+                dw2[c] = ck->dw[2][c][j];
+            }
+            const kf_v4 *origin = &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
+            kf_v4 v = {0}, b0 = {0}, b1 = {0}, b2 = {0}, g0 = {0}, g1 = {0}, g2 = {0};
+            for (int a = 0; a < KW; a++)
+                for (int b = 0; b < KW; b++) {
+                    const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
+                    const kf_v4 *row = origin + (a * CD + b) * CD;
+                    kf_v4 ra = {0}, rd = {0}, rg = {0};
+                    for (int c = 0; c < KW; c++) {
+                        ra += w2[c] * row[c];
+                        rd += wd2[c] * row[c];
+                        if (CLASSIC) rg += dw2[c] * row[c];
+                    }
+                    v += wab * ra;
+                    b0 += (wab * ck->d[0][a][j]) * ra;
+                    b1 += (wab * ck->d[1][b][j]) * ra;
+                    b2 += wab * rd;
+                    if (CLASSIC) {
+                        g0 += (ck->dw[0][a][j] * ck->w[1][b][j]) * ra;
+                        g1 += (ck->w[0][a][j] * ck->dw[1][b][j]) * ra;
+                        g2 += wab * rg;
+                    }
                 }
-                v += wab * ra;
-                b0 += (wab * st.d[0][a]) * ra;
-                b1 += (wab * st.d[1][b]) * ra;
-                b2 += wab * rd;
+            for (int k = 0; k < 3; k++) {
+                ck->v[k][j] = v[k];
+                ck->b[3 * k][j] = b0[k];
+                ck->b[3 * k + 1][j] = b1[k];
+                ck->b[3 * k + 2][j] = b2[k];
                 if (CLASSIC) {
-                    g0 += (st.dw[0][a] * st.w[1][b]) * ra;
-                    g1 += (st.w[0][a] * st.dw[1][b]) * ra;
-                    g2 += wab * rg;
+                    ck->g[3 * k][j] = g0[k];
+                    ck->g[3 * k + 1][j] = g1[k];
+                    ck->g[3 * k + 2][j] = g2[k];
                 }
             }
-
-        /* C = D⁻¹ B; the F update uses C (MLS) or the spline gradient (classic) */
-        kf_real C[9], L[9];
-        for (int k = 0; k < 3; k++) {
-            C[3 * k] = minv * b0[k];
-            C[3 * k + 1] = minv * b1[k];
-            C[3 * k + 2] = minv * b2[k];
-            if (CLASSIC) {
-                L[3 * k] = inv_dx * g0[k];
-                L[3 * k + 1] = inv_dx * g1[k];
-                L[3 * k + 2] = inv_dx * g2[k];
-            }
-        }
-        const kf_real *Lu = CLASSIC ? L : C;
-        for (int k = 0; k < 9; k++) p->C[k][i] = C[k];
-        for (int k = 0; k < 3; k++) {
-            p->v[k][i] = v[k];
-            p->x[k][i] = xp[k] + dt * v[k];
         }
 
-        /* F ← (I + Δt ∇v) F; water tracks only J ← (1 + Δt tr ∇v) J */
-        const kf_mat *mat = &m->mat[p->mat[i]];
-        kf_real J;
-        if (mat->model == KF_MAT_WATER) {
-            J = p->ps[0][i] * (1 + dt * (Lu[0] + Lu[4] + Lu[8]));
-            p->ps[0][i] = J;
-        } else {
-            kf_real F[9], A[9], Fn[9];
-            for (int k = 0; k < 9; k++) {
-                F[k] = p->F[k][i];
-                A[k] = dt * Lu[k];
+        /* C = D⁻¹ B; velocity gradient L = C (MLS) or Σ v_i ∇wᵀ (classic) */
+        for (int k = 0; k < 9; k++) {
+            kf_real *restrict C = p->C[k] + i0;
+            for (int j = 0; j < n; j++) {
+                C[j] = minv * ck->b[k][j];
+                if (CLASSIC) ck->g[k][j] *= inv_dx;
             }
-            A[0] += 1, A[4] += 1, A[8] += 1;
-            kf_m3_mul(Fn, A, F);
-            for (int k = 0; k < 9; k++) p->F[k][i] = Fn[k];
-            J = kf_m3_det(Fn);
+        }
+        kf_real(*L)[KF_CHUNK] = CLASSIC ? ck->g : ck->b;
+        if (!CLASSIC)
+            for (int k = 0; k < 9; k++)
+                for (int j = 0; j < n; j++) L[k][j] *= minv;
+
+        /* velocity and advection */
+        for (int a = 0; a < 3; a++) {
+            kf_real *restrict v = p->v[a] + i0, *restrict x = p->x[a] + i0;
+            for (int j = 0; j < n; j++) {
+                v[j] = ck->v[a][j];
+                x[j] += dt * ck->v[a][j];
+            }
+        }
+
+        /* F ← (I + Δt L) F and its determinant, across the chunk */
+        kf_real Fn[9][KF_CHUNK], J[KF_CHUNK];
+        {
+            kf_real *const *F = p->F;
+            for (int rr = 0; rr < 3; rr++)
+                for (int cc = 0; cc < 3; cc++) {
+                    const kf_real *restrict f0 = F[cc] + i0, *restrict f1 = F[3 + cc] + i0, *restrict f2 = F[6 + cc] + i0;
+                    for (int j = 0; j < n; j++) {
+                        kf_real fr = (rr == 0 ? f0 : rr == 1 ? f1 : f2)[j];
+                        Fn[3 * rr + cc][j] = fr + dt * (L[3 * rr][j] * f0[j] + L[3 * rr + 1][j] * f1[j] + L[3 * rr + 2][j] * f2[j]);
+                    }
+                }
+            for (int j = 0; j < n; j++)
+                J[j] = Fn[0][j] * (Fn[4][j] * Fn[8][j] - Fn[5][j] * Fn[7][j]) -
+                       Fn[1][j] * (Fn[3][j] * Fn[8][j] - Fn[5][j] * Fn[6][j]) +
+                       Fn[2][j] * (Fn[3][j] * Fn[7][j] - Fn[4][j] * Fn[6][j]);
+        }
+
+        /* water keeps F = I and tracks J ← (1 + Δt tr L) J instead */
+        int any_water = 0;
+        for (int j = 0; j < n; j++) any_water |= m->mat[p->mat[i0 + (size_t)j]].model == KF_MAT_WATER;
+        for (int k = 0; k < 9; k++) {
+            kf_real *restrict F = p->F[k] + i0;
+            for (int j = 0; j < n; j++) F[j] = Fn[k][j];
+        }
+        if (any_water) {
+            for (int j = 0; j < n; j++) {
+                size_t i = i0 + (size_t)j;
+                if (m->mat[p->mat[i]].model != KF_MAT_WATER) continue;
+                J[j] = p->ps[0][i] * (1 + dt * (L[0][j] + L[4][j] + L[8][j]));
+                p->ps[0][i] = J[j];
+                for (int k = 0; k < 9; k++) p->F[k][i] = (kf_real)(k % 4 == 0);
+            }
         }
 
         /* numerical trouble: non-finite, volume out of range, too fast */
-        kf_real v2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-        if (!(v2 < (kf_real)1e30) || !(J == J)) note_trouble(acc, p, i, "NaN or Inf velocity", (double)v2, s->substep);
-        else if (!(J > jmin && J < jmax)) note_trouble(acc, p, i, "J = det F out of range", (double)J, s->substep);
-        if (v2 > max_v2) max_v2 = v2;
+        int bad = 0;
+        for (int j = 0; j < n; j++) {
+            kf_real v2 = ck->v[0][j] * ck->v[0][j] + ck->v[1][j] * ck->v[1][j] + ck->v[2][j] * ck->v[2][j];
+            bad |= !(v2 < (kf_real)1e30) | !(J[j] > jmin && J[j] < jmax);
+            max_v2 = v2 > max_v2 ? v2 : max_v2;
+        }
+        if (bad) {
+            for (int j = 0; j < n; j++) {
+                size_t i = i0 + (size_t)j;
+                kf_real v2 = ck->v[0][j] * ck->v[0][j] + ck->v[1][j] * ck->v[1][j] + ck->v[2][j] * ck->v[2][j];
+                if (!(v2 < (kf_real)1e30) || J[j] != J[j]) note_trouble(acc, p, i, "NaN or Inf velocity", (double)v2, s->substep);
+                else if (!(J[j] > jmin && J[j] < jmax)) note_trouble(acc, p, i, "J = det F out of range", (double)J[j], s->substep);
+            }
+        }
     }
-    double cells = sqrt(max_v2) * dt * inv_dx;
+    double cells = sqrt((double)max_v2) * dt * inv_dx;
     if (cells > acc->max_cells) acc->max_cells = cells;
 }
 
-#define G2P_VARIANT(name, KW, CLASSIC)                                                                     \
-    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, step_acc *acc) {  \
-        g2p_block(KW, CLASSIC, m, s, r, dt, cache, acc);                                                 \
+#define G2P_VARIANT(name, KW, CLASSIC)                                                                                 \
+    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, chunk *ck, step_acc *acc) { \
+        g2p_block(KW, CLASSIC, m, s, r, dt, cache, ck, acc);                                                         \
     }
 G2P_VARIANT(g2p_q_mls, 3, 0)
 G2P_VARIANT(g2p_q_classic, 3, 1)
@@ -309,7 +412,7 @@ G2P_VARIANT(g2p_c_mls, 4, 0)
 G2P_VARIANT(g2p_c_classic, 4, 1)
 
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
-    typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, step_acc *);
+    typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, chunk *, step_acc *);
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     g2p_fn fn = cubic ? (classic ? g2p_c_classic : g2p_c_mls) : (classic ? g2p_q_classic : g2p_q_mls);
     kf_grid *g = &s->g;
@@ -318,9 +421,10 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
     {
         kf_ftz();
         kf_v4 cache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));
+        chunk ck __attribute__((aligned(64)));
         step_acc acc = {0};
 #pragma omp for schedule(dynamic, 4)
-        for (size_t k = 0; k < g->nowner; k++) fn(m, s, k, dt, cache, &acc);
+        for (size_t k = 0; k < g->nowner; k++) fn(m, s, k, dt, cache, &ck, &acc);
 #pragma omp critical
         {
             if (acc.trouble.found && (!total.trouble.found || acc.trouble.particle < total.trouble.particle))

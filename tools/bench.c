@@ -1,0 +1,183 @@
+/* bench.c — kerf's speed figures, printed, never asserted.
+ *
+ *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block]
+ *
+ * cube:  the paper's Table 2 setup (grid 125³, a 100³-cell cube, 2x2x2
+ *        particles per cell = 8M particles, E = 100, ν = 0.3, Δt = 1e-2, no
+ *        gravity), and the same at 1M particles (grid 63³). P2G and G2P alone
+ *        (ns per particle) and the whole step, MLS vs classic, 1 and 2 threads,
+ *        median of N runs.
+ * block: a fixed-corotated block of ~1M particles falling onto the floor
+ *        (sorting and grid allocation exercised), CFL-adaptive frames:
+ *        particle-steps per second, ms per stage, peak memory.
+ * --quick shrinks both (8³ → 40-cell cube, 100k-particle block) for a smoke run. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+
+#include "../src/core/timer.h"
+#include "../src/kerf.h"
+#include "../src/scene/builtin.h"
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, int n) {
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static double peak_rss_mb(void) {
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_maxrss / 1024.0;
+}
+
+typedef struct cube_result {
+    int cells, threads;
+    const char *force;
+    size_t particles;
+    double p2g_ns, g2p_ns, grid_ms, step_ms, mpsteps;
+} cube_result;
+
+static int bench_cube(int cells, kf_force force, int threads, int runs, cube_result *out) {
+    char err[256];
+    kf_scene sc;
+    if (kf_scene_bench_cube(&sc, cells, force, threads, err, sizeof err)) {
+        fprintf(stderr, "bench: %s\n", err);
+        return -1;
+    }
+    size_t n = kf_state_count(sc.state);
+    /* warm-up: the first step bins the particles and allocates the grid */
+    kf_step(sc.model, sc.state, 1e-2, NULL, NULL);
+    double p2g[64], g2p[64], grid[64], step[64];
+    if (runs > 64) runs = 64;
+    for (int r = 0; r < runs; r++) {
+        kf_step_stats st = {0};
+        double t0 = kf_now_ms();
+        kf_step(sc.model, sc.state, 1e-2, &st, NULL);
+        step[r] = kf_now_ms() - t0;
+        p2g[r] = st.ms[KF_STAGE_P2G];
+        g2p[r] = st.ms[KF_STAGE_G2P];
+        grid[r] = st.ms[KF_STAGE_GRID];
+    }
+    out->cells = cells;
+    out->threads = threads;
+    out->force = force == KF_FORCE_MLS ? "mls" : "classic";
+    out->particles = n;
+    out->p2g_ns = median(p2g, runs) * 1e6 / (double)n;
+    out->g2p_ns = median(g2p, runs) * 1e6 / (double)n;
+    out->grid_ms = median(grid, runs);
+    out->step_ms = median(step, runs);
+    out->mpsteps = (double)n / (out->step_ms * 1e3);
+    kf_scene_free(&sc);
+    return 0;
+}
+
+typedef struct block_result {
+    size_t particles;
+    int frames;
+    long substeps;
+    double seconds, mpsteps, ms[KF_STAGE_COUNT], peak_mb;
+} block_result;
+
+static int bench_block(long n, int frames, block_result *out) {
+    char err[256], msg[512];
+    kf_scene sc;
+    if (kf_scene_falling_block(&sc, n, 0, err, sizeof err)) {
+        fprintf(stderr, "bench: %s\n", err);
+        return -1;
+    }
+    kf_step_stats st = {0};
+    double t0 = kf_now_ms();
+    for (int f = 0; f < frames; f++)
+        if (kf_advance(sc.model, sc.state, 1.0 / sc.fps, &st, msg, sizeof msg)) {
+            fprintf(stderr, "bench: falling block: %s\n", msg);
+            break;
+        }
+    out->seconds = (kf_now_ms() - t0) / 1e3;
+    out->particles = kf_state_count(sc.state);
+    out->frames = frames;
+    out->substeps = st.substeps;
+    out->mpsteps = st.particle_steps / out->seconds / 1e6;
+    for (int k = 0; k < KF_STAGE_COUNT; k++) out->ms[k] = st.ms[k] / (st.substeps ? st.substeps : 1);
+    out->peak_mb = peak_rss_mb();
+    kf_scene_free(&sc);
+    return 0;
+}
+
+int main(int argc, char **argv) {
+    int json = 0, runs = 5, quick = 0;
+    const char *only = NULL;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--json")) json = 1;
+        else if (!strcmp(argv[i], "--quick")) quick = 1;
+        else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
+        else {
+            fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block]\n");
+            return 2;
+        }
+    }
+    if (runs < 1) runs = 1;
+
+    /* the falling block first, so its peak memory is its own */
+    block_result blk = {0};
+    int have_block = !only || !strcmp(only, "block");
+    if (have_block && bench_block(quick ? 100000 : 1000000, quick ? 1 : 2, &blk)) return 1;
+
+    cube_result cubes[16];
+    int nc = 0;
+    if (!only || !strcmp(only, "cube")) {
+        int sizes[2] = {quick ? 24 : 100, quick ? 16 : 50};
+        for (int s = 0; s < 2; s++)
+            for (int f = 0; f < 2; f++)
+                for (int t = 1; t <= 2; t++) {
+                    if (bench_cube(sizes[s], (kf_force)f, t, runs, &cubes[nc])) return 1;
+                    if (!json)
+                        fprintf(stderr, "cube %d³ %s %dT: %.1f ns P2G + %.1f ns G2P, step %.1f ms, %.1f M p-steps/s\n",
+                                cubes[nc].cells, cubes[nc].force, t, cubes[nc].p2g_ns, cubes[nc].g2p_ns,
+                                cubes[nc].step_ms, cubes[nc].mpsteps);
+                    nc++;
+                }
+    }
+
+    if (json) {
+        printf("{\"kerf\":\"%s\",\"precision\":\"%s\",\"runs\":%d,", KERF_VERSION,
+               sizeof(kf_real) == 4 ? "float" : "double", runs);
+        printf("\"cube\":[");
+        for (int i = 0; i < nc; i++)
+            printf("%s{\"cells\":%d,\"particles\":%zu,\"force\":\"%s\",\"threads\":%d,\"p2g_ns\":%.2f,"
+                   "\"g2p_ns\":%.2f,\"transfer_ns\":%.2f,\"grid_ms\":%.2f,\"step_ms\":%.2f,\"mpsteps_per_s\":%.2f}",
+                   i ? "," : "", cubes[i].cells, cubes[i].particles, cubes[i].force, cubes[i].threads, cubes[i].p2g_ns,
+                   cubes[i].g2p_ns, cubes[i].p2g_ns + cubes[i].g2p_ns, cubes[i].grid_ms, cubes[i].step_ms,
+                   cubes[i].mpsteps);
+        printf("]");
+        if (have_block) {
+            printf(",\"falling_block\":{\"particles\":%zu,\"frames\":%d,\"substeps\":%ld,\"seconds\":%.3f,"
+                   "\"mpsteps_per_s\":%.2f,\"peak_mb\":%.0f,\"ms_per_substep\":{",
+                   blk.particles, blk.frames, blk.substeps, blk.seconds, blk.mpsteps, blk.peak_mb);
+            for (int k = 0; k < KF_STAGE_COUNT; k++) printf("%s\"%s\":%.3f", k ? "," : "", kf_stage_name((kf_stage)k), blk.ms[k]);
+            printf("}}");
+        }
+        printf("}\n");
+    } else {
+        if (have_block) {
+            printf("falling block: %zu particles, %d frames, %ld substeps, %.2f s, %.2f M particle-steps/s, peak %.0f MB\n",
+                   blk.particles, blk.frames, blk.substeps, blk.seconds, blk.mpsteps, blk.peak_mb);
+            printf("  ms per substep:");
+            for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %s %.2f", kf_stage_name((kf_stage)k), blk.ms[k]);
+            printf("\n");
+        }
+        printf("%-8s %-10s %-8s %-3s %9s %9s %9s %9s %10s\n", "cells", "particles", "force", "T", "P2G ns", "G2P ns",
+               "P2G+G2P", "step ms", "Mp-step/s");
+        for (int i = 0; i < nc; i++)
+            printf("%-8d %-10zu %-8s %-3d %9.1f %9.1f %9.1f %9.1f %10.2f\n", cubes[i].cells, cubes[i].particles,
+                   cubes[i].force, cubes[i].threads, cubes[i].p2g_ns, cubes[i].g2p_ns, cubes[i].p2g_ns + cubes[i].g2p_ns,
+                   cubes[i].step_ms, cubes[i].mpsteps);
+    }
+    return 0;
+}
