@@ -571,6 +571,11 @@ static void wave_speeds(void) {
         double c = sqrt(w.bulk_modulus * w.gamma * pow(J, 1 - w.gamma) / w.density);
         KT_NEAR(kf_mat_wave_speed(&mw, J), c, 10 * U_ * c, "water c² = κγJ^{1−γ}/ρ");
     }
+    /* snow's moduli scale by e^{ξ(1 − Jp)}, so c by its square root */
+    kf_material sn = base(KF_MAT_SNOW);
+    kf_mat ms = compiled(&sn);
+    double c0 = kf_mat_wave_speed(&ms, 1), c9 = kf_mat_wave_speed(&ms, 0.9);
+    KT_NEAR(c9 / c0, sqrt(exp(sn.xi * 0.1)), 10 * U_, "compacted snow is stiffer: c ∝ √e^{ξ(1−Jp)}");
 }
 
 int main(int argc, char **argv) {

@@ -375,14 +375,15 @@ double kf_mat_energy_density(const kf_mat *m, const kf_real F[9], const kf_real 
     }
 }
 
-double kf_mat_wave_speed(const kf_mat *m, double J) {
+double kf_mat_wave_speed(const kf_mat *m, double state) {
     if (m->model == KF_MAT_WATER) {
-        double Jc = floor_nan(J, WATER_J_MIN), g = m->gamma;
+        double Jc = floor_nan(state, WATER_J_MIN), g = m->gamma;
         return sqrt((double)m->kappa * g * pow(Jc, 1 - g) / (double)m->rho);
     }
-    /* solids: the rest P-wave speed; snow's hardening (which depends on Jp,
-     * not J) is not included */
-    return sqrt(((double)m->lambda + 2 * (double)m->mu) / (double)m->rho);
+    double c = sqrt(((double)m->lambda + 2 * (double)m->mu) / (double)m->rho);
+    /* snow stiffens by e^{ξ(1 − Jp)} as it compacts: c grows by its root */
+    if (m->model == KF_MAT_SNOW) c *= sqrt(exp((double)m->xi * (1.0 - state)));
+    return c;
 }
 
 /* ---- public presets and validation ----------------------------------------- */

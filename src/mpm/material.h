@@ -50,7 +50,9 @@ void kf_mat_project(const kf_mat *m, kf_real F[9], kf_real ps[2]);
 /* Strain energy density ψ(F) per unit reference volume (J/m³). */
 double kf_mat_energy_density(const kf_mat *m, const kf_real F[9], const kf_real ps[2]);
 
-/* P-wave speed at the given volume ratio J (water's stiffens under compression). */
-double kf_mat_wave_speed(const kf_mat *m, double J);
+/* P-wave speed in the stiffest state: state is ps[0], the smallest among the
+ * material's particles, for water (J: stiffens under compression) and snow
+ * (Jp: hardens as it compacts); 1 (ignored) for the other models. */
+double kf_mat_wave_speed(const kf_mat *m, double state);
 
 #endif

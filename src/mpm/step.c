@@ -102,17 +102,34 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
 static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
     const kf_particles *p = &s->p;
     double vmax2 = 0, cmax = 0;
-    kf_real jmin_water = 1;
+    /* the smallest plastic state ps[0] per material: water's J, snow's Jp */
+    kf_real state_min[KF_MAX_MATERIALS];
+    for (int k = 0; k < m->nmat; k++) state_min[k] = 1;
     size_t n = p->n;
-#pragma omp parallel for reduction(max : vmax2) reduction(min : jmin_water) num_threads(m->nthreads)
-    for (size_t i = 0; i < n; i++) {
-        double v2 = (double)p->v[0][i] * p->v[0][i] + (double)p->v[1][i] * p->v[1][i] + (double)p->v[2][i] * p->v[2][i];
-        if (v2 > vmax2) vmax2 = v2;
-        if (m->mat[p->mat[i]].model == KF_MAT_WATER && p->ps[0][i] < jmin_water) jmin_water = p->ps[0][i];
+    const int nmat = m->nmat;
+#pragma omp parallel num_threads(m->nthreads)
+    {
+        kf_real local[KF_MAX_MATERIALS];
+        double v2max = 0;
+        for (int k = 0; k < nmat; k++) local[k] = 1;
+#pragma omp for schedule(static) nowait
+        for (size_t i = 0; i < n; i++) {
+            double v2 = (double)p->v[0][i] * p->v[0][i] + (double)p->v[1][i] * p->v[1][i] +
+                        (double)p->v[2][i] * p->v[2][i];
+            if (v2 > v2max) v2max = v2;
+            uint16_t k = p->mat[i];
+            if (p->ps[0][i] < local[k] && m->mat[k].model != KF_MAT_SAND) local[k] = p->ps[0][i];
+        }
+#pragma omp critical
+        {
+            if (v2max > vmax2) vmax2 = v2max;
+            for (int k = 0; k < nmat; k++)
+                if (local[k] < state_min[k]) state_min[k] = local[k];
+        }
     }
-    for (int k = 0; k < m->nmat; k++) {
-        double J = m->mat[k].model == KF_MAT_WATER ? (double)jmin_water : 1.0;
-        double c = kf_mat_wave_speed(&m->mat[k], J > 1e-3 ? J : 1e-3);
+    for (int k = 0; k < nmat; k++) {
+        int stateful = m->mat[k].model == KF_MAT_WATER || m->mat[k].model == KF_MAT_SNOW;
+        double c = kf_mat_wave_speed(&m->mat[k], stateful ? (double)state_min[k] : 1.0);
         if (c > cmax) cmax = c;
     }
     return m->sim.dx / (cmax + sqrt(vmax2) + 1e-30);
