@@ -33,7 +33,7 @@ static int kt_checks = 0;
         kt_checks++;                                                               \
         if (!(fabs(kt_a_ - kt_b_) <= kt_t_)) {                                     \
             kt_failures++;                                                         \
-            fprintf(stderr, "%s:%d: FAIL: %s = %.9g, expected %s = %.9g within %.3g (%s)\n", \
+            fprintf(stderr, "%s:%d: FAIL: %s = %.17g, expected %s = %.17g within %.3g (%s)\n", \
                     __FILE__, __LINE__, #a, kt_a_, #b, kt_b_, kt_t_, why);         \
         }                                                                          \
     } while (0)

@@ -18,6 +18,7 @@ typedef double kf_real;
 #define kf_exp exp
 #define kf_pow pow
 #define kf_floor floor
+#define kf_fma fma
 #else
 typedef float kf_real;
 #define KF_EPS 1e-7f
@@ -28,6 +29,7 @@ typedef float kf_real;
 #define kf_exp expf
 #define kf_pow powf
 #define kf_floor floorf
+#define kf_fma fmaf
 #endif
 
 #endif

@@ -147,7 +147,7 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *
             kf_real xg = p->x[a][i] * inv_dx;
             /* NaN and far-away particles fail this test */
             if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) ok = 0;
-            b[a] = ok ? kf_block_of(kf_base_node(xg, cubic)) : 0;
+            b[a] = ok ? kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic)) : 0;
         }
         if (!ok) {
             moved[i] = 2;
@@ -277,11 +277,15 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *
         }
     }
 
-    /* 7. node storage for every block */
-    {
-        void *q = realloc(g->node, (g->nblocks * KF_BLOCK_NODES + 1) * sizeof(kf_v4));
-        if (!q) goto oom;
-        g->node = q;
+    /* 7. node storage for every block; nodes hold nothing between substeps,
+     * so growing is free + alloc. 64-byte aligned: a double kf_v4 is an AVX
+     * register that aligned loads require at 32 bytes. */
+    if (g->nblocks > g->node_cap) {
+        free(g->node);
+        size_t cap = g->nblocks + g->nblocks / 4 + 64;
+        g->node = aligned_alloc(64, cap * KF_BLOCK_NODES * sizeof(kf_v4));
+        if (!g->node) goto oom;
+        g->node_cap = cap;
     }
     free(count), free(rec), free(remap), free(old_coord);
     g->valid = 1;

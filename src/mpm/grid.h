@@ -36,6 +36,7 @@ typedef struct kf_grid {
     size_t nblocks, bcap;
     int32_t *bcoord;    /* (nblocks x 3) block coordinate */
     kf_v4 *node;        /* (nblocks x 64) momentum+mass, then velocity+mass */
+    size_t node_cap;    /* blocks the node array has room for */
     /* hash: block key -> block index */
     size_t hcap;        /* power of two */
     uint64_t *hkey;     /* UINT64_MAX = empty */
@@ -78,9 +79,12 @@ static inline uint64_t kf_block_key(int bx, int by, int bz) {
 /* floor division by the block size for negative node indices too */
 static inline int kf_block_of(int node) { return node >= 0 ? node / KF_BLOCK : -((-node + KF_BLOCK - 1) / KF_BLOCK); }
 
-/* Base node of a particle's stencil along one axis (x in grid units). */
-static inline int kf_base_node(kf_real xg, int cubic) {
-    return cubic ? (int)kf_floor(xg) - 1 : (int)kf_floor(xg - KF_R(0.5));
+/* Base node of a particle's stencil along one axis. Binning and the
+ * transfers must agree on it to the bit, so the quadratic x/Δx − ½ is an
+ * explicit fused multiply-add: the compiler may not contract it differently
+ * in scalar and vectorised code. */
+static inline int kf_base_node(kf_real x, kf_real inv_dx, int cubic) {
+    return cubic ? (int)kf_floor(x * inv_dx) - 1 : (int)kf_floor(kf_fma(x, inv_dx, KF_R(-0.5)));
 }
 
 #endif

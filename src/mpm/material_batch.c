@@ -11,7 +11,7 @@
 #include "material.h"
 
 #define BATCH 16
-#define SWEEPS 5
+#define SWEEPS 8
 
 /* the robust path for particle j */
 static void scalar_one(const kf_mat *m, const kf_real *const F[9], const kf_real *const ps[2], size_t i,
@@ -25,14 +25,18 @@ static void scalar_one(const kf_mat *m, const kf_real *const F[9], const kf_real
 /* τ = 2μ sym((F − R)Fᵀ) + λ(J − 1)J I for n <= BATCH particles */
 static void corotated_batch(const kf_mat *m, int n, const kf_real *const Fp[9], const kf_real *const ps[2], size_t first,
                             kf_real *const tau[9]) {
-    kf_real F[9][BATCH], X[9][BATCH], K[9][BATCH], J[BATCH];
+    kf_real F[9][BATCH], X[9][BATCH], K[9][BATCH];
     int ok[BATCH];
     const kf_real mu = m->mu, la = m->lambda;
     for (int k = 0; k < 9; k++)
         for (int j = 0; j < n; j++) X[k][j] = F[k][j] = Fp[k][first + (size_t)j];
 
     /* X⁻ᵀ = cof(X)/det X; ζ = (‖X⁻¹‖/‖X‖)^½ speeds up the first sweeps */
+    /* stop when no lane moved more than ~√tol: quadratic convergence then
+     * leaves an error far below round-off */
+    const kf_real stop2 = sizeof(kf_real) == 4 ? KF_R(1e-11) : KF_R(1e-26);
     for (int sweep = 0; sweep < SWEEPS; sweep++) {
+        kf_real step[BATCH];
         for (int j = 0; j < n; j++) {
             K[0][j] = X[4][j] * X[8][j] - X[5][j] * X[7][j];
             K[1][j] = X[5][j] * X[6][j] - X[3][j] * X[8][j];
@@ -50,38 +54,56 @@ static void corotated_batch(const kf_mat *m, int n, const kf_real *const Fp[9], 
             kf_real id = det > 0 ? 1 / det : 0;
             kf_real z = kf_sqrt(kf_sqrt(k2 * id * id / (x2 > 0 ? x2 : 1)));
             z = z > 0 ? z : 1;
-            kf_real a = KF_R(0.5) * z, b = KF_R(0.5) * id / z;
-            for (int k = 0; k < 9; k++) X[k][j] = a * X[k][j] + b * K[k][j];
+            kf_real a = KF_R(0.5) * z, b = KF_R(0.5) * id / z, st = 0;
+            for (int k = 0; k < 9; k++) {
+                kf_real xn = a * X[k][j] + b * K[k][j];
+                st += (xn - X[k][j]) * (xn - X[k][j]);
+                X[k][j] = xn;
+            }
+            step[j] = st;
         }
+        /* a separate pass: float max-reductions would block vectorisation */
+        int done = 1;
+        for (int j = 0; j < n; j++) done &= step[j] < stop2;
+        if (done) break;
     }
 
-    /* converged means XᵀX = I to a few ulps; otherwise the scalar path */
-    const kf_real tol = sizeof(kf_real) == 4 ? KF_R(1e-5) : KF_R(1e-12);
+    /* converged means XᵀX = I to a few ulps; otherwise the scalar path.
+     * Straight-line code per particle so the loop vectorises. */
+    const kf_real tol2 = sizeof(kf_real) == 4 ? KF_R(1e-10) : KF_R(1e-24);
+    kf_real T[6][BATCH];
     for (int j = 0; j < n; j++) {
-        kf_real e = 0;
-        for (int r = 0; r < 3; r++)
-            for (int c = r; c < 3; c++) {
-                kf_real d = X[r][j] * X[c][j] + X[3 + r][j] * X[3 + c][j] + X[6 + r][j] * X[6 + c][j] - (r == c);
-                e += d * d;
-            }
-        J[j] = F[0][j] * (F[4][j] * F[8][j] - F[5][j] * F[7][j]) - F[1][j] * (F[3][j] * F[8][j] - F[5][j] * F[6][j]) +
-               F[2][j] * (F[3][j] * F[7][j] - F[4][j] * F[6][j]);
-        ok[j] = e < tol * tol && J[j] > KF_R(1e-2);
+        kf_real x0 = X[0][j], x1 = X[1][j], x2 = X[2][j], x3 = X[3][j], x4 = X[4][j], x5 = X[5][j], x6 = X[6][j],
+                x7 = X[7][j], x8 = X[8][j];
+        kf_real f0 = F[0][j], f1 = F[1][j], f2 = F[2][j], f3 = F[3][j], f4 = F[4][j], f5 = F[5][j], f6 = F[6][j],
+                f7 = F[7][j], f8 = F[8][j];
+        kf_real e00 = x0 * x0 + x3 * x3 + x6 * x6 - 1, e11 = x1 * x1 + x4 * x4 + x7 * x7 - 1,
+                e22 = x2 * x2 + x5 * x5 + x8 * x8 - 1, e01 = x0 * x1 + x3 * x4 + x6 * x7,
+                e02 = x0 * x2 + x3 * x5 + x6 * x8, e12 = x1 * x2 + x4 * x5 + x7 * x8;
+        kf_real e = e00 * e00 + e11 * e11 + e22 * e22 + 2 * (e01 * e01 + e02 * e02 + e12 * e12);
+        kf_real Jj = f0 * (f4 * f8 - f5 * f7) - f1 * (f3 * f8 - f5 * f6) + f2 * (f3 * f7 - f4 * f6);
+        ok[j] = (e < tol2) & (Jj > KF_R(1e-2));
+        /* τ = μ (A + Aᵀ) + λ(J − 1)J I with A = (F − R)Fᵀ = FFᵀ − RFᵀ */
+        kf_real vol = la * (Jj - 1) * Jj;
+        kf_real ff00 = f0 * f0 + f1 * f1 + f2 * f2, ff11 = f3 * f3 + f4 * f4 + f5 * f5, ff22 = f6 * f6 + f7 * f7 + f8 * f8;
+        kf_real ff01 = f0 * f3 + f1 * f4 + f2 * f5, ff02 = f0 * f6 + f1 * f7 + f2 * f8, ff12 = f3 * f6 + f4 * f7 + f5 * f8;
+        kf_real rf00 = x0 * f0 + x1 * f1 + x2 * f2, rf11 = x3 * f3 + x4 * f4 + x5 * f5, rf22 = x6 * f6 + x7 * f7 + x8 * f8;
+        kf_real rf01 = x0 * f3 + x1 * f4 + x2 * f5, rf10 = x3 * f0 + x4 * f1 + x5 * f2;
+        kf_real rf02 = x0 * f6 + x1 * f7 + x2 * f8, rf20 = x6 * f0 + x7 * f1 + x8 * f2;
+        kf_real rf12 = x3 * f6 + x4 * f7 + x5 * f8, rf21 = x6 * f3 + x7 * f4 + x8 * f5;
+        T[0][j] = 2 * mu * (ff00 - rf00) + vol;
+        T[1][j] = 2 * mu * (ff11 - rf11) + vol;
+        T[2][j] = 2 * mu * (ff22 - rf22) + vol;
+        T[3][j] = mu * (2 * ff01 - rf01 - rf10);
+        T[4][j] = mu * (2 * ff02 - rf02 - rf20);
+        T[5][j] = mu * (2 * ff12 - rf12 - rf21);
     }
-
-    /* τ = μ (A + Aᵀ) + λ(J − 1)J I with A = (F − R)Fᵀ */
-    for (int r = 0; r < 3; r++)
-        for (int c = r; c < 3; c++)
-            for (int j = 0; j < n; j++) {
-                kf_real a = 0, at = 0;
-                for (int k = 0; k < 3; k++) {
-                    a += (F[3 * r + k][j] - X[3 * r + k][j]) * F[3 * c + k][j];
-                    at += (F[3 * c + k][j] - X[3 * c + k][j]) * F[3 * r + k][j];
-                }
-                kf_real t = mu * (a + at) + (r == c ? la * (J[j] - 1) * J[j] : 0);
-                tau[3 * r + c][j] = t;
-                tau[3 * c + r][j] = t;
-            }
+    for (int j = 0; j < n; j++) {
+        tau[0][j] = T[0][j], tau[4][j] = T[1][j], tau[8][j] = T[2][j];
+        tau[1][j] = tau[3][j] = T[3][j];
+        tau[2][j] = tau[6][j] = T[4][j];
+        tau[5][j] = tau[7][j] = T[5][j];
+    }
     for (int j = 0; j < n; j++)
         if (!ok[j]) scalar_one(m, Fp, ps, first + (size_t)j, tau, j);
 }

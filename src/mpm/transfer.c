@@ -46,40 +46,42 @@ typedef struct chunk {
  * fx is the particle position in grid units minus its base node. w[i] is the
  * weight of node base+i, dw[i] its derivative with respect to the particle
  * position, in grid units (divide by Δx for world units). */
+KF_INLINE void stencil_axis(int KW, int n, const kf_real *restrict x, int origin, kf_real inv_dx, kf_real dx,
+                            int *restrict l, kf_real (*restrict w)[KF_CHUNK], kf_real (*restrict dw)[KF_CHUNK],
+                            kf_real (*restrict d)[KF_CHUNK]) {
+    for (int j = 0; j < n; j++) {
+        int base = kf_base_node(x[j], inv_dx, KW == 4);
+        kf_real fx = x[j] * inv_dx - (kf_real)base;
+        l[j] = base - origin;
+        if (KW == 3) {
+            /* quadratic: fx in [0.5, 1.5) */
+            kf_real p = KF_R(1.5) - fx, q = fx - 1, r = fx - KF_R(0.5);
+            w[0][j] = KF_R(0.5) * p * p;
+            w[1][j] = KF_R(0.75) - q * q;
+            w[2][j] = KF_R(0.5) * r * r;
+            dw[0][j] = -p;
+            dw[1][j] = -2 * q;
+            dw[2][j] = r;
+        } else {
+            /* cubic: fx in [1, 2) */
+            kf_real r1 = fx - 1, s2 = 2 - fx;
+            w[0][j] = s2 * s2 * s2 / 6;
+            w[1][j] = KF_R(0.5) * r1 * r1 * r1 - r1 * r1 + KF_R(2.0 / 3.0);
+            w[2][j] = KF_R(0.5) * s2 * s2 * s2 - s2 * s2 + KF_R(2.0 / 3.0);
+            w[3][j] = r1 * r1 * r1 / 6;
+            dw[0][j] = -KF_R(0.5) * s2 * s2;
+            dw[1][j] = KF_R(1.5) * r1 * r1 - 2 * r1;
+            dw[2][j] = -(KF_R(1.5) * s2 * s2 - 2 * s2);
+            dw[3][j] = KF_R(0.5) * r1 * r1;
+        }
+        for (int i = 0; i < KW; i++) d[i][j] = ((kf_real)i - fx) * dx;
+    }
+}
+
 KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, const int32_t *bc, kf_real inv_dx,
                              kf_real dx) {
-    for (int a = 0; a < 3; a++) {
-        const kf_real *restrict xa = x[a] + i0;
-        const int origin = KF_BLOCK * bc[a];
-        for (int j = 0; j < ck->n; j++) {
-            kf_real xg = xa[j] * inv_dx;
-            int base = kf_base_node(xg, KW == 4);
-            kf_real fx = xg - (kf_real)base;
-            ck->l[a][j] = base - origin;
-            if (KW == 3) {
-                /* quadratic: fx in [0.5, 1.5) */
-                kf_real p = KF_R(1.5) - fx, q = fx - 1, r = fx - KF_R(0.5);
-                ck->w[a][0][j] = KF_R(0.5) * p * p;
-                ck->w[a][1][j] = KF_R(0.75) - q * q;
-                ck->w[a][2][j] = KF_R(0.5) * r * r;
-                ck->dw[a][0][j] = -p;
-                ck->dw[a][1][j] = -2 * q;
-                ck->dw[a][2][j] = r;
-            } else {
-                /* cubic: fx in [1, 2) */
-                kf_real r1 = fx - 1, s2 = 2 - fx;
-                ck->w[a][0][j] = s2 * s2 * s2 / 6;
-                ck->w[a][1][j] = KF_R(0.5) * r1 * r1 * r1 - r1 * r1 + KF_R(2.0 / 3.0);
-                ck->w[a][2][j] = KF_R(0.5) * s2 * s2 * s2 - s2 * s2 + KF_R(2.0 / 3.0);
-                ck->w[a][3][j] = r1 * r1 * r1 / 6;
-                ck->dw[a][0][j] = -KF_R(0.5) * s2 * s2;
-                ck->dw[a][1][j] = KF_R(1.5) * r1 * r1 - 2 * r1;
-                ck->dw[a][2][j] = -(KF_R(1.5) * s2 * s2 - 2 * s2);
-                ck->dw[a][3][j] = KF_R(0.5) * r1 * r1;
-            }
-            for (int i = 0; i < KW; i++) ck->d[a][i][j] = ((kf_real)i - fx) * dx;
-        }
-    }
+    for (int a = 0; a < 3; a++)
+        stencil_axis(KW, ck->n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a]);
 }
 
 /* ---- trouble: the first (lowest id) particle in trouble, per thread ---- */
