@@ -193,14 +193,32 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *
     size_t nb_old = g->nblocks;
     int32_t *count = calloc(nb_old + 1, sizeof *count);
     if (!count) return -1;
-    for (size_t i = 0; i < n; i++) count[p->block[i]]++;
+    /* per-thread histograms over static particle ranges: thread t's range
+     * precedes thread t+1's, which step 5 relies on for a stable sort */
+    const int nt = omp_get_max_threads();
+    int32_t *hist = calloc((size_t)nt * (nb_old + 1), sizeof *hist);
+    if (!hist) return free(count), -1;
+#pragma omp parallel num_threads(nt)
+    {
+        int t = omp_get_thread_num(), T = omp_get_num_threads();
+        size_t lo = n * (size_t)t / (size_t)T, hi = n * (size_t)(t + 1) / (size_t)T;
+        int32_t *h = hist + (size_t)t * (nb_old + 1);
+        for (size_t i = lo; i < hi; i++) h[p->block[i]]++;
+#pragma omp barrier
+#pragma omp for schedule(static)
+        for (size_t b = 0; b < nb_old; b++) {
+            int32_t c = 0;
+            for (int u = 0; u < T; u++) c += hist[(size_t)u * (nb_old + 1) + b];
+            count[b] = c;
+        }
+    }
     size_t nowner = 0;
     for (size_t b = 0; b < nb_old; b++) nowner += count[b] > 0;
     owner_rec *rec = malloc((nowner + 1) * sizeof *rec);
     int32_t *remap = malloc((nb_old + 1) * sizeof *remap);
     int32_t *old_coord = malloc((nb_old * 3 + 1) * sizeof *old_coord);
     if (!rec || !remap || !old_coord) {
-        free(count), free(rec), free(remap), free(old_coord);
+        free(count), free(rec), free(remap), free(old_coord), free(hist);
         return -1;
     }
     memcpy(old_coord, g->bcoord, nb_old * 3 * sizeof *old_coord);
@@ -244,18 +262,33 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *
     g->pstart[0] = 0;
     for (size_t r = 0; r < nowner; r++) g->pstart[r + 1] = g->pstart[r] + (size_t)rec[r].count;
     {
-        size_t *fill = malloc((nowner + 1) * sizeof *fill);
-        if (!fill) goto oom;
-        memcpy(fill, g->pstart, nowner * sizeof *fill);
+        /* each thread starts its range where the threads before it left off
+         * in every owner: the same order a serial stable sort would give */
         int identity = 1;
-        for (size_t i = 0; i < n; i++) {
-            int32_t r = remap[p->block[i]];
-            p->block[i] = r;
-            size_t d = fill[r]++;
-            g->dest[i] = (uint32_t)d;
-            identity &= d == i;
+        size_t *first_slot = malloc((size_t)nt * (nb_old + 1) * sizeof *first_slot);
+        if (!first_slot) goto oom;
+#pragma omp parallel num_threads(nt) reduction(& : identity)
+        {
+            int t = omp_get_thread_num(), T = omp_get_num_threads();
+            size_t lo = n * (size_t)t / (size_t)T, hi = n * (size_t)(t + 1) / (size_t)T;
+            /* this thread's first slot per owner: the owner's start plus what
+             * the threads before it hold there */
+            for (size_t b = 0; b < nb_old; b++) {
+                if (!count[b]) continue;
+                size_t before = 0;
+                for (int u = 0; u < t; u++) before += (size_t)hist[(size_t)u * (nb_old + 1) + b];
+                first_slot[(size_t)t * (nb_old + 1) + b] = g->pstart[remap[b]] + before;
+            }
+            size_t *slot = first_slot + (size_t)t * (nb_old + 1);
+            for (size_t i = lo; i < hi; i++) {
+                int32_t b = p->block[i];
+                size_t d = slot[b]++;
+                p->block[i] = remap[b];
+                g->dest[i] = (uint32_t)d;
+                identity &= d == i;
+            }
         }
-        free(fill);
+        free(first_slot);
         if (!identity) {
             kf_particles_permute(p, g->dest, g->scratch);
             g->permutes++;
@@ -287,11 +320,11 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *
         if (!g->node) goto oom;
         g->node_cap = cap;
     }
-    free(count), free(rec), free(remap), free(old_coord);
+    free(count), free(rec), free(remap), free(old_coord), free(hist);
     g->valid = 1;
     return 0;
 oom:
-    free(count), free(rec), free(remap), free(old_coord);
+    free(count), free(rec), free(remap), free(old_coord), free(hist);
     g->valid = 0;
     return -1;
 }
