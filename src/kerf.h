@@ -162,7 +162,8 @@ kf_particles_view kf_state_particles(kf_state *s);
 
 /* Per-stage timing of everything the step did since the last reset. */
 typedef enum kf_stage {
-    KF_STAGE_SORT = 0, KF_STAGE_P2G, KF_STAGE_GRID, KF_STAGE_G2P, KF_STAGE_PLASTICITY, KF_STAGE_CHECK,
+    KF_STAGE_SORT = 0, KF_STAGE_P2G, KF_STAGE_GRID, KF_STAGE_G2P,
+    KF_STAGE_STRESS, /* return mapping (plasticity) and the stress of the new F */
     KF_STAGE_COUNT
 } kf_stage;
 const char *kf_stage_name(kf_stage s);

@@ -123,11 +123,11 @@ static int cmd_run(int argc, char **argv) {
             /* one plain line per frame for farm logs */
             fprintf(stderr,
                     "frame %d/%d: %zu particles, %ld blocks, %ld substeps, max cfl %.2f, %.0f ms "
-                    "(sort %.0f p2g %.0f grid %.0f g2p %.0f plast %.0f), %.1f M p-steps/s, %d retries, "
+                    "(sort %.0f p2g %.0f grid %.0f g2p %.0f stress %.0f), %.1f M p-steps/s, %d retries, "
                     "%ld warnings, ETA %s\n",
                     f, frames, kf_state_count(sc.state), st.active_blocks, st.substeps, st.max_cfl, frame_ms,
                     st.ms[KF_STAGE_SORT], st.ms[KF_STAGE_P2G], st.ms[KF_STAGE_GRID], st.ms[KF_STAGE_G2P],
-                    st.ms[KF_STAGE_PLASTICITY], mps, st.retries, st.warnings, eta);
+                    st.ms[KF_STAGE_STRESS], mps, st.retries, st.warnings, eta);
         }
     }
     if (!quiet && tty) fputc('\n', stderr);

@@ -171,6 +171,7 @@ int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_chec
     s->time = h.time;
     s->substep = (long)h.substep;
     s->next_id = (uint32_t)h.next_id;
+    s->tau_valid = 1; /* the stress planes are in the file, bit for bit */
     s->g.valid = 0;
     fill_info(info, &h);
     return 0;

@@ -242,10 +242,8 @@ void kf_mat_kirchhoff(const kf_mat *m, const kf_real F[9], const kf_real ps[2], 
 
 /* von Mises on Hencky strain: scale the deviatoric strain back to the yield
  * radius τ_Y/(2μ); the trace, hence det F, is kept */
-static void project_von_mises(const kf_mat *m, kf_real F[9]) {
-    kf_real U[9], V[9], s[3];
-    double e[3];
-    hencky_strain(F, U, V, s, e);
+/* von Mises return in principal Hencky strain: e ← H, returns 1 if it yielded */
+static int return_von_mises(const kf_mat *m, double e[3]) {
     double tr3 = (e[0] + e[1] + e[2]) / 3, eh[3], nh = 0;
     for (int i = 0; i < 3; i++) {
         eh[i] = e[i] - tr3;
@@ -253,20 +251,17 @@ static void project_von_mises(const kf_mat *m, kf_real F[9]) {
     }
     nh = sqrt(nh);
     double dg = nh - (double)m->tau_y / (2 * (double)m->mu);
-    if (!(dg > 0)) return;
-    double d[3];
-    for (int i = 0; i < 3; i++) d[i] = exp(e[i] - dg * eh[i] / nh);
-    set_usvt(F, U, d, V);
+    if (!(dg > 0)) return 0;
+    for (int i = 0; i < 3; i++) e[i] -= dg * eh[i] / nh;
+    return 1;
 }
 
 /* Drucker–Prager sand (Klár et al. 2016). Cohesion c shifts the cone tip to
  * ε = c·1 (the state tolerates a little tension); volume correction adds the
  * log-volume v_c (ps[0]) lost in earlier tension projections to the strain
  * before projecting, and keeps v_c = log det F_trial − log det F_E summed. */
-static void project_sand(const kf_mat *m, kf_real F[9], kf_real ps[2]) {
-    kf_real U[9], V[9], s[3];
-    double e[3];
-    hencky_strain(F, U, V, s, e);
+/* e ← H in principal space; updates ps; returns 1 if F must change */
+static int return_sand(const kf_mat *m, double e[3], kf_real ps[2]) {
     double mu = m->mu, la = m->lambda, c = m->cohesion;
     double vc = m->volume_correction ? (double)ps[0] : 0.0;
     double tr_trial = e[0] + e[1] + e[2];
@@ -312,39 +307,67 @@ static void project_sand(const kf_mat *m, kf_real F[9], kf_real ps[2]) {
     }
     if (m->hardening) ps[1] = (kf_real)((double)ps[1] + dq);
     /* an elastic state with nothing to correct keeps F bit for bit */
-    if (elastic && vc == 0) return;
-    double d[3] = {exp(H[0]), exp(H[1]), exp(H[2])};
-    set_usvt(F, U, d, V);
+    if (elastic && vc == 0) return 0;
     if (m->volume_correction) ps[0] = (kf_real)(vc + tr_trial - (H[0] + H[1] + H[2]));
+    for (int i = 0; i < 3; i++) e[i] = H[i];
+    return 1;
 }
 
 /* snow (Stomakhin 2013): clamp the singular values and move the discarded
  * volume into Jp. An inverted direction counts by its magnitude (floored),
  * so Jp stays positive. */
-static void project_snow(const kf_mat *m, kf_real F[9], kf_real ps[2]) {
-    kf_real U[9], V[9], s[3];
-    kf_svd3(F, U, s, V);
-    double lo = 1 - (double)m->theta_c, hi = 1 + (double)m->theta_s, d[3], ratio = 1;
+static int return_snow(const kf_mat *m, const kf_real s[3], double d[3], kf_real ps[2]) {
+    double lo = 1 - (double)m->theta_c, hi = 1 + (double)m->theta_s, ratio = 1;
     int changed = 0;
-    if (isnan(s[0])) return; /* leave a broken F for the step's checks */
+    for (int i = 0; i < 3; i++) d[i] = s[i];
+    if (isnan(s[0])) return 0; /* leave a broken F for the step's checks */
     for (int i = 0; i < 3; i++) {
         double si = s[i];
         d[i] = fmin(fmax(si, lo), hi);
         if (d[i] != si) changed = 1;
         ratio *= fmax(fabs(si), HENCKY_SIGMA_MIN) / d[i];
     }
-    if (!changed) return;
-    set_usvt(F, U, d, V);
-    ps[0] = (kf_real)((double)ps[0] * ratio);
+    if (changed) ps[0] = (kf_real)((double)ps[0] * ratio);
+    return changed;
+}
+
+/* One SVD serves the return map and the stress of the result: the step's
+ * stress pass calls this once per particle per substep. */
+void kf_mat_update(const kf_mat *m, kf_real F[9], kf_real ps[2], int project, kf_real tau[9]) {
+    if (m->model == KF_MAT_COROTATED || m->model == KF_MAT_WATER || !(m->model < KF_MAT_MODEL_COUNT)) {
+        kf_mat_kirchhoff(m, F, ps, tau);
+        return;
+    }
+    kf_real U[9], V[9], s[3];
+    double e[3], d[3];
+    if (m->model == KF_MAT_SNOW) {
+        /* clamp σ, move the discarded volume into Jp, then corotated with the
+         * hardened moduli: τ = U diag(2μ(σ − 1)σ + λ(J − 1)J) Uᵀ */
+        kf_svd3(F, U, s, V);
+        if (project && return_snow(m, s, d, ps)) set_usvt(F, U, d, V);
+        else
+            for (int i = 0; i < 3; i++) d[i] = s[i];
+        double h = snow_hardening(m, ps), mu = h * m->mu, la = h * m->lambda, J = d[0] * d[1] * d[2], t[3];
+        for (int i = 0; i < 3; i++) t[i] = 2 * mu * (d[i] - 1) * d[i] + la * (J - 1) * J;
+        sym_udut(tau, U, t);
+        return;
+    }
+    /* StVK on Hencky strain under von Mises or Drucker–Prager */
+    hencky_strain(F, U, V, s, e);
+    int changed = 0;
+    if (project) changed = m->model == KF_MAT_VON_MISES ? return_von_mises(m, e) : return_sand(m, e, ps);
+    if (changed) {
+        double x[3] = {exp(e[0]), exp(e[1]), exp(e[2])};
+        set_usvt(F, U, x, V);
+    }
+    double tr = e[0] + e[1] + e[2];
+    for (int i = 0; i < 3; i++) d[i] = 2 * (double)m->mu * e[i] + (double)m->lambda * tr;
+    sym_udut(tau, U, d);
 }
 
 void kf_mat_project(const kf_mat *m, kf_real F[9], kf_real ps[2]) {
-    switch (m->model) {
-    case KF_MAT_VON_MISES: project_von_mises(m, F); return;
-    case KF_MAT_SAND: project_sand(m, F, ps); return;
-    case KF_MAT_SNOW: project_snow(m, F, ps); return;
-    default: return;
-    }
+    kf_real tau[9];
+    if (m->plastic) kf_mat_update(m, F, ps, 1, tau);
 }
 
 /* ---- energy and wave speed ------------------------------------------------- */

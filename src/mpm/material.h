@@ -36,12 +36,17 @@ void kf_mat_compile(kf_mat *out, const kf_material *in);
 /* Kirchhoff stress τ = P(F) Fᵀ (= J σ) for the particle's F and plastic state. */
 void kf_mat_kirchhoff(const kf_mat *m, const kf_real F[9], const kf_real ps[2], kf_real tau[9]);
 
-/* τ for n consecutive particles first..first+n-1 of one material, reading the
- * particle planes F[9][.] and ps[2][.] and writing tau[k][j] for j < n. The
- * fixed-corotated model runs SIMD across particles (material_batch.c); the
- * others call kf_mat_kirchhoff per particle. */
-void kf_mat_kirchhoff_batch(const kf_mat *m, int n, const kf_real *const F[9], const kf_real *const ps[2], size_t first,
-                            kf_real *const tau[9]);
+/* Plasticity and stress from one decomposition: when project is set, the
+ * return mapping replaces F by its elastic part and updates ps (as
+ * kf_mat_project); then τ of the resulting F is written. */
+void kf_mat_update(const kf_mat *m, kf_real F[9], kf_real ps[2], int project, kf_real tau[9]);
+
+/* kf_mat_update for n consecutive particles first..first+n-1 of one material,
+ * on the particle planes; τ goes to the symmetric planes tau6 (xx, yy, zz,
+ * xy, xz, yz). The fixed-corotated model runs SIMD across particles
+ * (material_batch.c). */
+void kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
+                         kf_real *const tau6[6]);
 
 /* Return mapping after F ← (I + Δt C) F: replaces F by its elastic part and
  * updates ps. Does nothing for elastic models and water. */

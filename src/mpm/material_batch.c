@@ -7,24 +7,31 @@
  * particles, so the compiler vectorises it (16 floats per AVX-512 register).
  * A particle whose iteration has not converged after the fixed number of
  * sweeps, or whose F is near-singular or inverted, is recomputed by the
- * robust scalar path (kf_mat_kirchhoff: sign-fixed SVD). */
+ * robust scalar path (kf_mat_update: sign-fixed SVD). Other models take the
+ * scalar path for every particle, one SVD each for plasticity and stress. */
 #include "material.h"
 
 #define BATCH 16
 #define SWEEPS 8
 
-/* the robust path for particle j */
-static void scalar_one(const kf_mat *m, const kf_real *const F[9], const kf_real *const ps[2], size_t i,
-                       kf_real *const tau[9], int j) {
+/* the robust path for particle i: update F and ps in place, τ to slot j */
+static void scalar_one(const kf_mat *m, kf_real *const F[9], kf_real *const ps[2], int project, size_t i,
+                       kf_real *const tau6[6], int j) {
     kf_real Fi[9], psi[2] = {ps[0][i], ps[1][i]}, t[9];
     for (int k = 0; k < 9; k++) Fi[k] = F[k][i];
-    kf_mat_kirchhoff(m, Fi, psi, t);
-    for (int k = 0; k < 9; k++) tau[k][j] = t[k];
+    kf_mat_update(m, Fi, psi, project, t);
+    if (project) {
+        for (int k = 0; k < 9; k++) F[k][i] = Fi[k];
+        ps[0][i] = psi[0];
+        ps[1][i] = psi[1];
+    }
+    tau6[0][j] = t[0], tau6[1][j] = t[4], tau6[2][j] = t[8];
+    tau6[3][j] = t[1], tau6[4][j] = t[2], tau6[5][j] = t[5];
 }
 
 /* τ = 2μ sym((F − R)Fᵀ) + λ(J − 1)J I for n <= BATCH particles */
-static void corotated_batch(const kf_mat *m, int n, const kf_real *const Fp[9], const kf_real *const ps[2], size_t first,
-                            kf_real *const tau[9]) {
+static void corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], size_t first,
+                            kf_real *const tau[6]) {
     kf_real F[9][BATCH], X[9][BATCH], K[9][BATCH];
     int ok[BATCH];
     const kf_real mu = m->mu, la = m->lambda;
@@ -98,26 +105,22 @@ static void corotated_batch(const kf_mat *m, int n, const kf_real *const Fp[9], 
         T[4][j] = mu * (2 * ff02 - rf02 - rf20);
         T[5][j] = mu * (2 * ff12 - rf12 - rf21);
     }
-    for (int j = 0; j < n; j++) {
-        tau[0][j] = T[0][j], tau[4][j] = T[1][j], tau[8][j] = T[2][j];
-        tau[1][j] = tau[3][j] = T[3][j];
-        tau[2][j] = tau[6][j] = T[4][j];
-        tau[5][j] = tau[7][j] = T[5][j];
-    }
+    for (int k = 0; k < 6; k++)
+        for (int j = 0; j < n; j++) tau[k][j] = T[k][j];
     for (int j = 0; j < n; j++)
-        if (!ok[j]) scalar_one(m, Fp, ps, first + (size_t)j, tau, j);
+        if (!ok[j]) scalar_one(m, Fp, ps, 0, first + (size_t)j, tau, j);
 }
 
-void kf_mat_kirchhoff_batch(const kf_mat *m, int n, const kf_real *const F[9], const kf_real *const ps[2], size_t first,
-                            kf_real *const tau[9]) {
+void kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
+                         kf_real *const tau6[6]) {
     if (m->model == KF_MAT_COROTATED) {
         for (int j0 = 0; j0 < n; j0 += BATCH) {
             int c = n - j0 < BATCH ? n - j0 : BATCH;
-            kf_real *out[9];
-            for (int k = 0; k < 9; k++) out[k] = tau[k] + j0;
+            kf_real *out[6];
+            for (int k = 0; k < 6; k++) out[k] = tau6[k] + j0;
             corotated_batch(m, c, F, ps, first + (size_t)j0, out);
         }
         return;
     }
-    for (int j = 0; j < n; j++) scalar_one(m, F, ps, first + (size_t)j, tau, j);
+    for (int j = 0; j < n; j++) scalar_one(m, F, ps, project && m->plastic, first + (size_t)j, tau6, j);
 }

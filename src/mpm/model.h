@@ -32,6 +32,8 @@ struct kf_state {
     long substep;      /* substeps taken since creation */
     uint32_t next_id;  /* id of the next particle added */
     kf_particles snapshot; /* particles at the start of the interval being advanced */
+    int tau_valid;     /* particle stress planes match F (set by kf_stress) */
+    int snapshot_tau_valid;
 };
 
 /* MLS inertia-like tensor D_p = d I: d = Δx²/4 (quadratic), Δx²/3 (cubic) */
@@ -50,7 +52,8 @@ typedef struct kf_g2p_result {
 void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble);
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt);
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
-void kf_plasticity(const kf_model *m, kf_state *s);
+/* return mapping (when project) and the stress of every particle's F */
+void kf_stress(const kf_model *m, kf_state *s, int project);
 
 /* collider geometry (grid_update.c) */
 void kf_collider_at(const kf_collider *c, double t, double center[3], double velocity[3]);

@@ -6,7 +6,7 @@
 #include <string.h>
 
 /* the union in kf_particles must cover every named plane exactly */
-_Static_assert(sizeof(((kf_particles *)0)->plane) == 28 * sizeof(kf_real *), "plane count");
+_Static_assert(sizeof(((kf_particles *)0)->plane) == 34 * sizeof(kf_real *), "plane count");
 
 void kf_particles_free(kf_particles *p) {
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) free(p->plane[k]);

@@ -13,7 +13,7 @@
 #include "../core/real.h"
 
 /* the kf_real planes, in the order permute/copy/hash walk them */
-#define KF_PARTICLE_REAL_PLANES 28 /* x3 v3 C9 F9 mass vol0 ps2 */
+#define KF_PARTICLE_REAL_PLANES 34 /* x3 v3 C9 F9 mass vol0 ps2 tau6 */
 
 typedef struct kf_particles {
     size_t n, cap;
@@ -26,6 +26,7 @@ typedef struct kf_particles {
             kf_real *mass;   /* (n) kg */
             kf_real *vol0;   /* (n) reference volume, m³ */
             kf_real *ps[2];  /* (n) plastic state, see material.h */
+            kf_real *tau[6]; /* (n) Kirchhoff stress of F (xx yy zz xy xz yz), Pa */
         };
         kf_real *plane[KF_PARTICLE_REAL_PLANES];
     };

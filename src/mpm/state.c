@@ -24,6 +24,7 @@ void kf_state_copy(kf_state *dst, const kf_state *src) {
     dst->time = src->time;
     dst->substep = src->substep;
     dst->next_id = src->next_id;
+    dst->tau_valid = src->tau_valid;
     dst->g.valid = 0;
 }
 
@@ -38,6 +39,8 @@ double kf_state_time(const kf_state *s) { return s->time; }
 
 kf_particles_view kf_state_particles(kf_state *s) {
     kf_particles_view v;
+    /* the caller may write F or ps: the cached stress must be recomputed */
+    s->tau_valid = 0;
     kf_particles *p = &s->p;
     v.n = p->n;
     for (int k = 0; k < 3; k++) v.x[k] = p->x[k], v.v[k] = p->v[k];
@@ -89,6 +92,7 @@ long kf_state_add_particles(kf_state *s, const kf_model *m, size_t n, const doub
     }
     p->n += n;
     s->g.valid = 0;
+    s->tau_valid = 0;
     return (long)first;
 }
 

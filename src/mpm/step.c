@@ -13,7 +13,7 @@
 #include "model.h"
 
 const char *kf_stage_name(kf_stage s) {
-    static const char *names[KF_STAGE_COUNT] = {"sort", "p2g", "grid", "g2p", "plasticity", "check"};
+    static const char *names[KF_STAGE_COUNT] = {"sort", "p2g", "grid", "g2p", "stress"};
     return s < KF_STAGE_COUNT ? names[s] : "?";
 }
 
@@ -66,9 +66,10 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     t0 = kf_now_ms();
     if (st) st->ms[KF_STAGE_G2P] += t0 - t1;
 
-    if (m->any_plastic) kf_plasticity(m, s);
+    /* plasticity, and the stress the next P2G scatters */
+    kf_stress(m, s, 1);
     t1 = kf_now_ms();
-    if (st) st->ms[KF_STAGE_PLASTICITY] += t1 - t0;
+    if (st) st->ms[KF_STAGE_STRESS] += t1 - t0;
 
     s->time += dt;
     s->substep++;
@@ -141,12 +142,16 @@ static double clamp_dt(const kf_model *m, double dt) {
 
 double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl) { return clamp_dt(m, cfl * unit_cfl_dt(m, s)); }
 
-static int save_snapshot(kf_state *s) { return kf_particles_copy(&s->snapshot, &s->p); }
+static int save_snapshot(kf_state *s) {
+    s->snapshot_tau_valid = s->tau_valid;
+    return kf_particles_copy(&s->snapshot, &s->p);
+}
 
 static void restore_snapshot(kf_state *s, double time0, long substep0) {
     kf_particles_copy(&s->p, &s->snapshot);
     s->time = time0;
     s->substep = substep0;
+    s->tau_valid = s->snapshot_tau_valid;
     s->g.valid = 0;
 }
 

@@ -10,8 +10,11 @@
  * particles scatter into, or gather from, a small dense cache of the block's
  * 2x2x2 neighbourhood, and only the cache touches the sparse grid.
  *
+ * The Kirchhoff stress each particle scatters was computed at the end of the
+ * previous substep (kf_stress, with the return mapping that produced F).
+ *
  * Inside a block, particles go in chunks of KF_CHUNK, in phases: the
- * per-particle algebra (kernel weights, stress, Q, C, the F update, checks)
+ * per-particle algebra (kernel weights, Q, C, the F update, checks)
  * runs as loops across the chunk's particles that the compiler turns into
  * SIMD over particles; only the stencil scatter and gather run particle by
  * particle, with one node row (a kf_v4) per vector operation. */
@@ -33,7 +36,6 @@ typedef struct chunk {
     kf_real w[3][4][KF_CHUNK];         /* kernel weights per axis */
     kf_real dw[3][4][KF_CHUNK];        /* their derivatives (grid units) */
     kf_real d[3][4][KF_CHUNK];         /* node minus particle, m */
-    kf_real tau[9][KF_CHUNK];          /* Kirchhoff stress */
     kf_real q[9][KF_CHUNK];            /* P2G: MLS Q, or APIC m C for classic */
     kf_real t[9][KF_CHUNK];            /* P2G classic: -Δt V⁰ τ / Δx */
     kf_real mv[4][KF_CHUNK];           /* P2G: m v, m */
@@ -101,23 +103,6 @@ static void note_trouble(step_acc *acc, const kf_particles *p, size_t i, const c
     acc->trouble.substep = substep;
 }
 
-/* ---- stress ------------------------------------------------------------------
- * Kirchhoff τ = P Fᵀ for the chunk, a run of equal materials at a time so a
- * material can process its run as a batch. */
-static void stress_phase(const kf_model *m, const kf_particles *p, size_t i0, chunk *ck) {
-    int j = 0;
-    while (j < ck->n) {
-        uint16_t mat = p->mat[i0 + j];
-        int e = j + 1;
-        while (e < ck->n && p->mat[i0 + e] == mat) e++;
-        kf_real *out[9];
-        for (int k = 0; k < 9; k++) out[k] = ck->tau[k] + j;
-        kf_mat_kirchhoff_batch(&m->mat[mat], e - j, (const kf_real *const *)p->F, (const kf_real *const *)p->ps,
-                               i0 + (size_t)j, out);
-        j = e;
-    }
-}
-
 /* ---- P2G ---------------------------------------------------------------------- */
 
 KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
@@ -136,24 +121,24 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         ck->n = left < KF_CHUNK ? (int)left : KF_CHUNK;
         const int n = ck->n;
         stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
-        stress_phase(m, p, i0, ck);
 
         /* Q = m C − Δt V⁰ D⁻¹ τ (MLS), or m C and the separate force term
          * −Δt V⁰ τ ∇w (classic); PIC drops m C */
         const kf_real *restrict mass = p->mass + i0, *restrict vol = p->vol0 + i0;
         int bad = 0;
+        static const int sym[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ij in the xx yy zz xy xz yz planes */
         for (int k = 0; k < 9; k++) {
-            const kf_real *restrict C = p->C[k] + i0;
+            const kf_real *restrict C = p->C[k] + i0, *restrict tau = p->tau[sym[k]] + i0;
             for (int j = 0; j < n; j++) {
                 kf_real mc = apic ? mass[j] * C[j] : 0;
-                kf_real st = -dt * vol[j] * ck->tau[k][j];
+                kf_real st = -dt * vol[j] * tau[j];
                 if (CLASSIC) {
                     ck->q[k][j] = mc;
                     ck->t[k][j] = st * inv_dx;
                 } else {
                     ck->q[k][j] = mc + minv * st;
                 }
-                bad |= !(kf_fabs(ck->tau[k][j]) < (kf_real)1e30);
+                bad |= !(kf_fabs(tau[j]) < (kf_real)1e30);
             }
         }
         for (int a = 0; a < 3; a++) {
@@ -164,9 +149,10 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         if (bad) {
             /* catch non-finite state where it starts, before P2G spreads it */
             for (int j = 0; j < n; j++)
-                for (int k = 0; k < 9; k++)
-                    if (!(kf_fabs(ck->tau[k][j]) < (kf_real)1e30))
-                        note_trouble(acc, p, i0 + (size_t)j, "NaN or Inf stress", (double)ck->tau[k][j], s->substep);
+                for (int k = 0; k < 6; k++)
+                    if (!(kf_fabs(p->tau[k][i0 + (size_t)j]) < (kf_real)1e30))
+                        note_trouble(acc, p, i0 + (size_t)j, "NaN or Inf stress", (double)p->tau[k][i0 + (size_t)j],
+                                     s->substep);
         }
 
         /* scatter: one node row per vector op, Q d as three column FMAs */
@@ -233,6 +219,8 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     p2g_fn fn = cubic ? (classic ? p2g_c_classic : p2g_c_mls) : (classic ? p2g_q_classic : p2g_q_mls);
     kf_grid *g = &s->g;
+    /* particles added or edited since the last substep: their stress first */
+    if (!s->tau_valid) kf_stress(m, s, 0);
     kf_grid_clear(g);
     step_acc total = {0};
 #pragma omp parallel num_threads(m->nthreads)
@@ -438,20 +426,28 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
     out->max_cells = total.max_cells;
 }
 
-/* ---- plasticity ------------------------------------------------------------------ */
+/* ---- stress --------------------------------------------------------------------
+ * After G2P: the return mapping of plastic materials and the Kirchhoff stress
+ * of every particle's (new) F, stored for the next P2G. One decomposition
+ * serves both (kf_mat_update); runs of one material go through the batch
+ * path, SIMD across particles for the corotated model. */
 
-void kf_plasticity(const kf_model *m, kf_state *s) {
+void kf_stress(const kf_model *m, kf_state *s, int project) {
     kf_particles *p = &s->p;
-    size_t n = p->n;
+    size_t n = p->n, nchunks = (n + 63) / 64;
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
-    for (size_t i = 0; i < n; i++) {
-        const kf_mat *mat = &m->mat[p->mat[i]];
-        if (!mat->plastic) continue;
-        kf_real F[9], ps[2] = {p->ps[0][i], p->ps[1][i]};
-        for (int k = 0; k < 9; k++) F[k] = p->F[k][i];
-        kf_mat_project(mat, F, ps);
-        for (int k = 0; k < 9; k++) p->F[k][i] = F[k];
-        p->ps[0][i] = ps[0];
-        p->ps[1][i] = ps[1];
+    for (size_t c = 0; c < nchunks; c++) {
+        kf_ftz();
+        size_t lo = c * 64, hi = lo + 64 < n ? lo + 64 : n;
+        while (lo < hi) {
+            uint16_t mat = p->mat[lo];
+            size_t e = lo + 1;
+            while (e < hi && p->mat[e] == mat) e++;
+            kf_real *tau[6];
+            for (int k = 0; k < 6; k++) tau[k] = p->tau[k] + lo;
+            kf_mat_update_batch(&m->mat[mat], (int)(e - lo), p->F, p->ps, project, lo, tau);
+            lo = e;
+        }
     }
+    s->tau_valid = 1;
 }
