@@ -4,4 +4,5 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 "$here/tools/setup.sh"
 cd "$here/build"
-ctest --output-on-failure -j 2 --timeout 900
+# one test at a time: each test already runs two OpenMP threads
+ctest --output-on-failure --timeout 900

@@ -157,21 +157,37 @@ static const char *line_text(const kf_src *s, int line, char *buf, size_t n) {
     return buf;
 }
 
-void kf_report(kf_diag *d, const kf_srcs *srcs, int src, int line, int col, kf_severity sev, const char *fmt, ...) {
+/* where a node of an input prints: a file's own line and column, or a
+ * command-line string's ordinal and its column in the whole string */
+const char *kf_locate(const kf_srcs *srcs, int src, int line, int col, const char **file, int *pline, int *pcol,
+                      char *buf, size_t n) {
     const kf_src *s = src >= 0 && src < srcs->n ? &srcs->v[src] : NULL;
-    char buf[1024];
-    const char *text = NULL;
-    int pline = line, pcol = col;
+    *file = s ? s->file : NULL;
+    *pline = line;
+    *pcol = col;
     if (s && s->line > 0) {
-        pline = s->line;
-        pcol = col > 0 ? s->col0 + col : 0;
-        text = s->echo;
-    } else if (s && line > 0) {
-        text = line_text(s, line, buf, sizeof buf);
+        *pline = s->line;
+        *pcol = col > 0 ? s->col0 + col : 0;
+        return s->echo;
     }
+    return s && line > 0 ? line_text(s, line, buf, n) : NULL;
+}
+
+void kf_report(kf_diag *d, const kf_srcs *srcs, int src, int line, int col, kf_severity sev, const char *fmt, ...) {
+    char buf[1024];
+    const char *file;
+    int pline, pcol;
+    const char *text = kf_locate(srcs, src, line, col, &file, &pline, &pcol, buf, sizeof buf);
     va_list ap;
     va_start(ap, fmt);
-    diag_vadd(d, sev, s ? s->order : 0, s ? s->file : NULL, pline, pcol, text, fmt, ap);
+    diag_vadd(d, sev, src >= 0 && src < srcs->n ? srcs->v[src].order : 0, file, pline, pcol, text, fmt, ap);
+    va_end(ap);
+}
+
+void kf_shot_report(kf_diag *d, const kf_loc *at, kf_severity sev, const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    diag_vadd(d, sev, 0, at ? at->file : NULL, at ? at->line : 0, at ? at->col : 0, at ? at->source : NULL, fmt, ap);
     va_end(ap);
 }
 

@@ -65,6 +65,10 @@ void ky_free(ky_doc *doc);
 
 void kf_report(kf_diag *d, const kf_srcs *srcs, int src, int line, int col, kf_severity sev, const char *fmt, ...)
     __attribute__((format(printf, 7, 8)));
+/* The printed file, line, column and echoed text of a position in an input
+ * (the text is in buf, or the input's own echo). */
+const char *kf_locate(const kf_srcs *srcs, int src, int line, int col, const char **file, int *pline, int *pcol,
+                      char *buf, size_t n);
 #define kf_report_at(d, srcs, node, sev, ...) \
     kf_report((d), (srcs), (node)->src, (node)->line, (node)->col, (sev), __VA_ARGS__)
 

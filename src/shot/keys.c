@@ -69,7 +69,7 @@ const kf_keydef kf_keys[] = {
      "Times a frame is retried at half the CFL number after numerical trouble."},
     {"sim.jitter", KT_BOOL, TOP(s.jitter), ANY, NULL, "true", NULL, NULL, 0,
      "Jitter the seeding lattice so no grid pattern shows."},
-    {"sim.seed", KT_INT, TOP(s.seed), CC(0, 2147483647), NULL, "1", NULL, NULL, 0, "Random seed of the jitter."},
+    {"sim.seed", KT_INT, TOP(s.seed), CC(1, 2147483647), NULL, "1", NULL, NULL, 0, "Random seed of the jitter."},
     {"sim.threads", KT_INT, TOP(s.sim.threads), CC(0, 1024), NULL, "0", NULL, NULL, 0,
      "Worker threads (0 = OMP_NUM_THREADS or every core)."},
 
@@ -123,8 +123,8 @@ const kf_keydef kf_keys[] = {
      "Snow: hardening coefficient."},
 
     {"objects", KT_LIST, KS_OBJECT, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
-     "Particle sources, filled at the first frame. Placement: built at center (a mesh: fitted), scaled and "
-     "rotated about it, then translated."},
+     "Particle sources, filled at the first frame: each shape is scaled and rotated about its centre, then "
+     "placed at center + translate (a fitted mesh: at fit.center + translate)."},
     {"objects[].name", KT_STR, OBJ(name), ANY, NULL, "(shape and position, e.g. box0)", NULL, NULL, KF_IDENT,
      "Name, for messages and --set objects.NAME.key=value."},
     {"objects[].shape", KT_ENUM, OBJ(shape), ANY, "box|sphere|cylinder|mesh", NULL, NULL, NULL, KF_REQ,
@@ -140,20 +140,21 @@ const kf_keydef kf_keys[] = {
     {"objects[].axis", KT_ENUM, OBJ(axis), ANY, "x|y|z", "y", NULL, "shape=cylinder", 0, "Cylinder axis."},
     {"objects[].mesh", KT_STR, OBJ(mesh), ANY, NULL, NULL, NULL, "shape=mesh", KF_REQ,
      "Closed triangle mesh, relative to the shot file's directory."},
+    {"objects[].rotate", KT_VEC3, OBJ(rotate), ANY, NULL, "[0, 0, 0]", "deg", NULL, 0,
+     "Rotation about x, then y, then z (fixed axes), about the centre (an unfitted mesh: its origin)."},
+    {"objects[].scale", KT_VEC3, OBJ(scale), GT(0), NULL, "1", NULL, NULL, KF_BROADCAST,
+     "Scale about the centre (one number: uniform)."},
+    {"objects[].translate", KT_VEC3, OBJ(translate), ANY, NULL, "[0, 0, 0]", "m", NULL, 0, "Offset added to center (a fitted mesh: to fit.center)."},
+    {"objects[].velocity", KT_VEC3, OBJ(velocity), ANY, NULL, "[0, 0, 0]", "m/s", NULL, 0, "Initial velocity."},
+    {"objects[].angular_velocity", KT_VEC3, OBJ(angular_velocity), ANY, NULL, "[0, 0, 0]", "rad/s", NULL, 0,
+     "Initial spin about the centroid of the object's particles."},
+
     {"objects[].fit", KT_SECTION, KS_OBJECT, NOFIELD, ANY, NULL, NULL, NULL, "shape=mesh", 0,
-     "Fit the mesh's bounding box before the transform (else it is used as modelled)."},
+     "After rotate and scale, fit the mesh's bounding box (else the mesh keeps its file's coordinates)."},
     {"objects[].fit.center", KT_VEC3, OBJ(fit_center), ANY, NULL, NULL, "m", NULL, KF_REQ,
      "Where the bounding box centre goes."},
     {"objects[].fit.size", KT_NUM, OBJ(fit_size), GT(0), NULL, NULL, "m", NULL, KF_REQ,
      "The bounding box's largest extent becomes this."},
-    {"objects[].rotate", KT_VEC3, OBJ(rotate), ANY, NULL, "[0, 0, 0]", "deg", NULL, 0,
-     "Rotation about x, then y, then z, about the centre."},
-    {"objects[].scale", KT_VEC3, OBJ(scale), GT(0), NULL, "1", NULL, NULL, KF_BROADCAST,
-     "Scale about the centre (one number: uniform)."},
-    {"objects[].translate", KT_VEC3, OBJ(translate), ANY, NULL, "[0, 0, 0]", "m", NULL, 0, "Move, last."},
-    {"objects[].velocity", KT_VEC3, OBJ(velocity), ANY, NULL, "[0, 0, 0]", "m/s", NULL, 0, "Initial velocity."},
-    {"objects[].angular_velocity", KT_VEC3, OBJ(angular_velocity), ANY, NULL, "[0, 0, 0]", "rad/s", NULL, 0,
-     "Initial spin about the centre."},
 
     {"colliders", KT_LIST, KS_COLLIDER, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
      "Analytic colliders: static, at constant velocity, or keyframed."},
@@ -251,12 +252,22 @@ static void choices_text(const kf_keydef *k, char *out, size_t n) {
     }
 }
 
+/* whole numbers in full (9999999, not 1e+07), others as %g */
+static const char *num_text(double v, char *buf, size_t n) {
+    if (v == floor(v) && fabs(v) < 1e15) snprintf(buf, n, "%.0f", v);
+    else snprintf(buf, n, "%g", v);
+    return buf;
+}
+
 void kf_key_bounds_text(const kf_keydef *k, char *out, size_t n) {
     unsigned b = k->bounds;
+    char lo[32], hi[32];
+    num_text(k->lo, lo, sizeof lo);
+    num_text(k->hi, hi, sizeof hi);
     if ((b & KB_LO) && (b & KB_HI))
-        snprintf(out, n, "in %c%g, %g%c", b & KB_LO_OPEN ? '(' : '[', k->lo, k->hi, b & KB_HI_OPEN ? ')' : ']');
-    else if (b & KB_LO) snprintf(out, n, "%s %g", b & KB_LO_OPEN ? ">" : ">=", k->lo);
-    else if (b & KB_HI) snprintf(out, n, "%s %g", b & KB_HI_OPEN ? "<" : "<=", k->hi);
+        snprintf(out, n, "in %c%s, %s%c", b & KB_LO_OPEN ? '(' : '[', lo, hi, b & KB_HI_OPEN ? ')' : ']');
+    else if (b & KB_LO) snprintf(out, n, "%s %s", b & KB_LO_OPEN ? ">" : ">=", lo);
+    else if (b & KB_HI) snprintf(out, n, "%s %s", b & KB_HI_OPEN ? "<" : "<=", hi);
     else snprintf(out, n, "%s", "");
 }
 
@@ -563,7 +574,7 @@ void kf_shot_help(FILE *f) {
         if (k->flags & KF_REQ) snprintf(def, sizeof def, "required");
         else if (k->def) snprintf(def, sizeof def, "default %s", k->def);
         else def[0] = '\0';
-        fprintf(f, "  %-30s %s%s%s%s%s\n      %s\n", path, ty, *def ? "; " : "", def, *only ? "; " : "", only, k->doc);
+        fprintf(f, "  %-32s %s%s%s%s%s\n      %s\n", path, ty, *def ? "; " : "", def, *only ? "; " : "", only, k->doc);
     }
     fprintf(f, "\nmaterial presets (materials.NAME.preset):\n");
     const char *const *names = kf_material_preset_names();

@@ -8,10 +8,13 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 
 #include "../mpm/model.h" /* KF_MAX_MATERIALS, KF_MAX_COLLIDERS */
 #include "internal.h"
+
+#define KF_PI 3.14159265358979323846
 
 /* ---- instances: one per struct the walk fills ------------------------------------ */
 
@@ -98,7 +101,7 @@ static void unknown_key(loader *L, const ky_node *key, const char *prefix, const
         if (strcmp(parent, prefix) == 0) cand[nc++] = kf_key_leaf(&kf_keys[e]);
     }
     const char *near = kf_suggest(key->text, cand, nc);
-    char ctx[128];
+    char ctx[200];
     if (where[0]) snprintf(ctx, sizeof ctx, "in %s", where);
     else snprintf(ctx, sizeof ctx, "at the top level");
     if (near) {
@@ -138,7 +141,7 @@ static void walk_dict(loader *L, int ii, const kf_keydef *k, const ky_node *v) {
             kf_report_at(L->d, &L->srcs, name, KF_DIAG_ERROR, "%s: an entry's name must be plain text", what);
             continue;
         }
-        snprintf(label, sizeof label, "%s.%s", what, name->text);
+        snprintf(label, sizeof label, "%.40s.%.40s", what, name->text);
         int bad = strlen(name->text) >= sizeof(((kf_material *)0)->name) || !name->text[0];
         for (const char *p = name->text; *p; p++) bad |= !isalnum((unsigned char)*p) && *p != '_' && *p != '-';
         if (bad) {
@@ -174,7 +177,7 @@ static void walk_list(loader *L, int ii, const kf_keydef *k, const ky_node *v) {
     if (ky_is_null(v)) return;
     if (expect_kind(L, v, KY_SEQ, what, "a list [{...}, ...]")) return;
     for (int i = 0; i < v->n; i++) {
-        snprintf(label, sizeof label, "%s[%d]", what, i);
+        snprintf(label, sizeof label, "%.80s[%d]", what, i);
         if (expect_kind(L, v->item[i], KY_MAP, label, "a mapping {...}")) continue;
         int c = inst_new(L, k->scope, prefix, label, v->item[i], ii);
         if (c < 0) return;
@@ -207,8 +210,9 @@ static void walk_map(loader *L, int ii, const ky_node *map, const char *prefix) 
         what_of(I, k, what, sizeof what);
         if (I->keyat[e]) {
             const ky_node *first = I->keyat[e];
-            kf_report_at(L->d, &L->srcs, key, KF_DIAG_ERROR, "%s is given twice (first at %s:%d)", what,
-                         L->srcs.v[first->src].file, L->srcs.v[first->src].line > 0 ? L->srcs.v[first->src].line : first->line);
+            const kf_src *fs = &L->srcs.v[first->src];
+            kf_report_at(L->d, &L->srcs, key, KF_DIAG_ERROR, "%s is given twice (first at %s:%d:%d)", what, fs->file,
+                         fs->line > 0 ? fs->line : first->line, fs->line > 0 ? fs->col0 + first->col : first->col);
             I->errors++;
             continue;
         }
@@ -290,3 +294,441 @@ static void check_presence(loader *L, inst *I) {
                       KF_DIAG_ERROR, "%s is missing (required)", what);
     }
 }
+
+/* ---- resolving: what the table cannot see on its own --------------------------------- */
+
+static int K(const char *path) { return kf_key_find(path); }
+
+/* the node to point at for a key of an instance: its value, else the instance */
+static const ky_node *node_for(const inst *I, const char *path) {
+    int e = K(path);
+    if (e >= 0 && I->at[e]) return I->at[e];
+    return I->name ? I->name : I->map;
+}
+
+static void report_inst(loader *L, const inst *I, const char *path, kf_severity sev, const char *msg) {
+    const ky_node *n = node_for(I, path);
+    if (n) kf_report_at(L->d, &L->srcs, n, sev, "%s", msg);
+    else kf_report(L->d, &L->srcs, 0, 1, 1, sev, "%s", msg);
+}
+
+/* a copy the shot owns, so kf_loc outlives the loader */
+static const char *keep(kf_shot *s, const char *str) {
+    if (!str) return NULL;
+    char **v = realloc(s->strings, (size_t)(s->nstrings + 1) * sizeof *v);
+    if (!v) return NULL;
+    s->strings = v;
+    return s->strings[s->nstrings++] = strdup(str);
+}
+
+static kf_loc loc_of(loader *L, kf_shot *s, const ky_node *n) {
+    kf_loc at = {0};
+    if (!n) return at;
+    char buf[1024];
+    const char *file, *text = kf_locate(&L->srcs, n->src, n->line, n->col, &file, &at.line, &at.col, buf, sizeof buf);
+    at.file = keep(s, file);
+    at.source = keep(s, text);
+    return at;
+}
+
+/* preset, then every key given over it; then the model's own check */
+static void resolve_material(loader *L, inst *I, kf_shot *s, kf_shot_material *out) {
+    const kf_shot_material *raw = I->base;
+    int pk = K("materials.*.preset"), mk = K("materials.*.model");
+    char msg[512];
+    memset(out, 0, sizeof *out);
+    int based = 0;
+    if (I->at[pk]) {
+        based = I->ok[pk] && kf_material_preset(raw->preset, &out->mat) == 0;
+        if (based) snprintf(out->preset, sizeof out->preset, "%s", raw->preset);
+    } else if (I->at[mk]) {
+        based = I->ok[mk];
+    } else {
+        snprintf(msg, sizeof msg, "%s needs a preset (or a model and its parameters)", I->label);
+        report_inst(L, I, "materials.*.preset", KF_DIAG_ERROR, msg);
+        I->errors++;
+    }
+    for (int e = 0; e < kf_nkeys; e++) {
+        const kf_keydef *k = &kf_keys[e];
+        if (k->scope == KS_MATERIAL && is_leaf(k) && e != pk && I->at[e] && I->ok[e])
+            memcpy((char *)out + k->off, (const char *)raw + k->off, k->size);
+    }
+    /* an explicit friction angle means "this angle", not the hardening curve */
+    if (I->at[K("materials.*.friction_angle")] && !I->at[K("materials.*.hardening")]) out->mat.hardening = 0;
+    snprintf(out->mat.name, sizeof out->mat.name, "%s", I->name->text);
+    out->at = loc_of(L, s, I->name);
+    if (!based) return;
+    ((kf_shot_material *)I->base)->mat.model = out->mat.model; /* what `only: model=...` reads */
+    check_presence(L, I);
+    if (I->errors) return;
+    const char *bad = kf_material_check(&out->mat);
+    if (*bad) {
+        /* the message starts with the parameter's name: point at it when given */
+        char key[64], path[96];
+        size_t n = strspn(bad, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_");
+        snprintf(key, sizeof key, "%.*s", (int)(n < sizeof key ? n : sizeof key - 1), bad);
+        snprintf(path, sizeof path, "materials.*.%s", key);
+        snprintf(msg, sizeof msg, "%s: %s", I->label, bad);
+        report_inst(L, I, path, KF_DIAG_ERROR, msg);
+    }
+}
+
+static void default_name(char *name, size_t n, const inst *I, const char *shape_path, int index) {
+    char shape[32];
+    const kf_keydef *k = &kf_keys[K(shape_path)];
+    kf_key_choice(k, *(const int *)((const char *)I->base + k->off), shape, sizeof shape);
+    snprintf(name, n, "%s%d", shape, index);
+}
+
+/* R = Rz Ry Rx from degrees, as the sampler builds it */
+static void euler_matrix(const double deg[3], double R[9]) {
+    const double r = KF_PI / 180.0;
+    double ca = cos(deg[0] * r), sa = sin(deg[0] * r), cb = cos(deg[1] * r), sb = sin(deg[1] * r);
+    double cg = cos(deg[2] * r), sg = sin(deg[2] * r);
+    double M[9] = {cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa,
+                   sg * cb, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa,
+                   -sb,     cb * sa,                cb * ca};
+    memcpy(R, M, sizeof M);
+}
+
+/* the inverse: degrees about x, y, z of a rotation matrix (any at gimbal lock) */
+static void euler_angles(const double R[9], double deg[3]) {
+    const double d = 180.0 / KF_PI;
+    double sb = -R[6];
+    if (sb > 1) sb = 1;
+    if (sb < -1) sb = -1;
+    double b = asin(sb);
+    if (fabs(cos(b)) > 1e-9) {
+        deg[0] = atan2(R[7], R[8]) * d;
+        deg[2] = atan2(R[3], R[0]) * d;
+    } else { /* x and z turn about the same axis: put it all in x */
+        deg[0] = atan2(sb * R[1], R[4]) * d;
+        deg[2] = 0;
+    }
+    deg[1] = b * d;
+}
+
+/* The sampler's cylinder runs along local y, so another axis is one more
+ * rotation applied first (and the scale permuted to stay in object axes);
+ * the centre and translate become one translation; a fit ignores
+ * translate, so it moves the fit centre instead. */
+static void placement(kf_shot_object *o) {
+    kf_placement *p = &o->place;
+    memset(p, 0, sizeof *p);
+    memcpy(p->rotate, o->rotate, sizeof p->rotate);
+    memcpy(p->scale, o->scale, sizeof p->scale);
+    if (o->shape == KF_SOURCE_CYLINDER && o->axis != 1) {
+        static const double to_x[9] = {0, 1, 0, -1, 0, 0, 0, 0, 1}; /* Rz(-90): y → x */
+        static const double to_z[9] = {1, 0, 0, 0, 0, -1, 0, 1, 0}; /* Rx(90): y → z */
+        const double *A = o->axis == 0 ? to_x : to_z;
+        double U[9], R[9];
+        euler_matrix(o->rotate, U);
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) R[3 * i + j] = U[3 * i] * A[j] + U[3 * i + 1] * A[3 + j] + U[3 * i + 2] * A[6 + j];
+        euler_angles(R, p->rotate);
+        double sx = o->scale[0], sy = o->scale[1], sz = o->scale[2];
+        if (o->axis == 0) p->scale[0] = sy, p->scale[1] = sx, p->scale[2] = sz;
+        else p->scale[0] = sx, p->scale[1] = sz, p->scale[2] = sy;
+    }
+    for (int a = 0; a < 3; a++) {
+        if (o->shape == KF_SOURCE_MESH) p->translate[a] = o->translate[a];
+        else p->translate[a] = o->center[a] + o->translate[a];
+        p->fit_center[a] = o->fit_center[a] + o->translate[a];
+    }
+    p->fit = o->fit;
+    p->fit_size = o->fit_size;
+    if (!p->fit) memset(p->fit_center, 0, sizeof p->fit_center);
+}
+
+static void resolve_object(loader *L, inst *I, int index, kf_shot *s, kf_shot_object *o) {
+    char msg[1600];
+    *o = *(const kf_shot_object *)I->base;
+    check_presence(L, I);
+    if (!I->at[K("objects[].name")]) default_name(o->name, sizeof o->name, I, "objects[].shape", index);
+    /* the material, by name */
+    int mk = K("objects[].material");
+    if (I->ok[mk]) {
+        const char *names[KF_MAX_MATERIALS * 4];
+        int nm = 0;
+        o->material = -1;
+        for (int j = 0; j < L->n; j++)
+            if (L->v[j].scope == KS_MATERIAL && nm < (int)(sizeof names / sizeof *names)) {
+                if (strcmp(L->v[j].name->text, o->material_name) == 0) o->material = nm;
+                names[nm++] = L->v[j].name->text;
+            }
+        if (o->material < 0) {
+            const char *near = kf_suggest(o->material_name, names, nm);
+            char list[512] = "";
+            for (int j = 0; j < nm; j++) {
+                size_t l = strlen(list);
+                snprintf(list + l, sizeof list - l, "%s%s", j ? ", " : "", names[j]);
+            }
+            if (near) snprintf(msg, sizeof msg, "%s: material '%s' is not defined (did you mean '%s'?)", I->label,
+                               o->material_name, near);
+            else if (nm) snprintf(msg, sizeof msg, "%s: material '%s' is not defined; materials: %s", I->label,
+                                  o->material_name, list);
+            else snprintf(msg, sizeof msg, "%s: material '%s' is not defined (the shot has no materials:)", I->label,
+                          o->material_name);
+            report_inst(L, I, "objects[].material", KF_DIAG_ERROR, msg);
+        }
+    }
+    /* a mesh must exist now, not after an hour of simulation */
+    int meshk = K("objects[].mesh");
+    if (o->shape == KF_SOURCE_MESH && I->ok[meshk]) {
+        if (o->mesh[0] == '/' || strcmp(s->dir, ".") == 0) snprintf(o->mesh_path, sizeof o->mesh_path, "%s", o->mesh);
+        else snprintf(o->mesh_path, sizeof o->mesh_path, "%.700s/%s", s->dir, o->mesh);
+        struct stat st;
+        if (stat(o->mesh_path, &st) != 0 || !S_ISREG(st.st_mode)) {
+            snprintf(msg, sizeof msg, "%s: mesh file '%s' not found (looked for %s)", I->label, o->mesh, o->mesh_path);
+            report_inst(L, I, "objects[].mesh", KF_DIAG_ERROR, msg);
+        }
+    }
+    o->fit = I->at[K("objects[].fit")] != NULL && o->shape == KF_SOURCE_MESH;
+    placement(o);
+    if (o->fit) memcpy(o->center, o->place.fit_center, sizeof o->center);
+    o->at = loc_of(L, s, I->map);
+    if (I->at[meshk]) o->mesh_at = loc_of(L, s, I->at[meshk]);
+}
+
+static void resolve_collider(loader *L, int ii, int index, kf_shot *s, int times_ok, kf_shot_collider *c) {
+    inst *I = &L->v[ii];
+    char msg[512];
+    *c = *(const kf_shot_collider *)I->base;
+    c->at = loc_of(L, s, I->map);
+    check_presence(L, I);
+    if (!I->at[K("colliders[].name")]) default_name(c->name, sizeof c->name, I, "colliders[].shape", index);
+    if (c->col.shape == KF_SHAPE_PLANE) {
+        double len = sqrt(c->col.normal[0] * c->col.normal[0] + c->col.normal[1] * c->col.normal[1] +
+                          c->col.normal[2] * c->col.normal[2]);
+        if (len > 0)
+            for (int a = 0; a < 3; a++) c->col.normal[a] /= len;
+    }
+    for (int a = 0; a < 3; a++) c->col.half[a] = 0.5 * c->size[a];
+    /* keys: frames → seconds, offsets → absolute centre positions */
+    int nk = 0;
+    double prev = 0;
+    for (int j = 0; j < L->n; j++) {
+        inst *KI = &L->v[j];
+        if (KI->scope != KS_KEY || KI->parent != ii) continue;
+        check_presence(L, KI);
+        const kf_rawkey *rk = KI->base;
+        int fk = K("colliders[].keys[].frame");
+        if (nk == KF_MAX_KEYS) {
+            snprintf(msg, sizeof msg, "%s: too many keys (at most %d)", I->label, KF_MAX_KEYS);
+            report_inst(L, KI, "colliders[].keys[].frame", KF_DIAG_ERROR, msg);
+            break;
+        }
+        if (KI->ok[fk] && nk > 0 && !(rk->frame > prev)) {
+            snprintf(msg, sizeof msg, "%s.frame must come after the previous key's frame %g, got %g", KI->label, prev,
+                     rk->frame);
+            report_inst(L, KI, "colliders[].keys[].frame", KF_DIAG_ERROR, msg);
+        }
+        if (KI->ok[fk]) prev = rk->frame;
+        if (times_ok) c->col.keys[nk].time = (rk->frame - s->frame_start) / s->fps;
+        for (int a = 0; a < 3; a++) c->col.keys[nk].position[a] = c->col.center[a] + rk->translate[a];
+        nk++;
+    }
+    if (nk > 0 && I->at[K("colliders[].velocity")]) {
+        snprintf(msg, sizeof msg, "%s: give velocity or keys, not both (keys define the motion)", I->label);
+        report_inst(L, I, "colliders[].velocity", KF_DIAG_ERROR, msg);
+    }
+    if (nk == 1) { /* one key: a constant offset */
+        memcpy(c->col.center, c->col.keys[0].position, sizeof c->col.center);
+        nk = 0;
+    }
+    c->col.nkeys = nk;
+}
+
+/* two objects (or colliders) must not share a name: --set addresses by it */
+static void check_unique(loader *L, kf_scope scope, const char *path, const char *names, size_t stride, int n) {
+    for (int i = 0, ii = 0; ii < L->n; ii++) {
+        if (L->v[ii].scope != scope) continue;
+        const char *a = names + (size_t)i * stride;
+        for (int j = 0; j < i; j++)
+            if (strcmp(a, names + (size_t)j * stride) == 0) {
+                char msg[256];
+                snprintf(msg, sizeof msg, "%s: the name '%s' is taken by an earlier item", L->v[ii].label, a);
+                report_inst(L, &L->v[ii], path, KF_DIAG_ERROR, msg);
+                break;
+            }
+        if (++i == n) break;
+    }
+}
+
+static void resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
+    const kf_top *t = T->base;
+    char msg[256];
+    *s = t->s;
+    check_presence(L, T);
+    /* where the shot lives, and its name */
+    snprintf(s->path, sizeof s->path, "%s", path);
+    const char *slash = strrchr(path, '/');
+    if (slash) snprintf(s->dir, sizeof s->dir, "%.*s", (int)(slash - path + (slash == path)), path);
+    else snprintf(s->dir, sizeof s->dir, ".");
+    if (!T->at[K("shot")]) {
+        const char *base = slash ? slash + 1 : path, *dot = strrchr(base, '.');
+        snprintf(s->name, sizeof s->name, "%.*s", (int)(dot && dot != base ? dot - base : (long)strlen(base)), base);
+    }
+    int sk = K("frames.start"), ek = K("frames.end");
+    if (T->at[ek] && T->ok[ek] && (!T->at[sk] || T->ok[sk]) && s->frame_end < s->frame_start) {
+        snprintf(msg, sizeof msg, "frames.end must not be before frames.start (%d), got %d", s->frame_start, s->frame_end);
+        report_inst(L, T, "frames.end", KF_DIAG_ERROR, msg);
+    }
+    int mk = K("domain.min"), xk = K("domain.max");
+    if ((!T->at[mk] || T->ok[mk]) && (!T->at[xk] || T->ok[xk]))
+        for (int a = 0; a < 3; a++)
+            if (!(s->sim.domain_max[a] > s->sim.domain_min[a])) {
+                snprintf(msg, sizeof msg, "domain.max must be above domain.min on every axis (%c: %g <= %g)", "xyz"[a],
+                         s->sim.domain_max[a], s->sim.domain_min[a]);
+                report_inst(L, T, T->at[xk] ? "domain.max" : "domain.min", KF_DIAG_ERROR, msg);
+                break;
+            }
+    s->sim.walls = t->walls != 0;
+    s->sim.wall_boundary = t->walls ? (kf_boundary)(t->walls - 1) : KF_BOUNDARY_SEPARATE;
+    s->ppc_axis = (int)lround(cbrt((double)s->ppc));
+    if (!strstr(s->output_name, "{frame")) {
+        snprintf(msg, sizeof msg, "output.name must contain {frame} (or {frame:04d}) so frames do not overwrite each other");
+        report_inst(L, T, "output.name", KF_DIAG_ERROR, msg);
+    }
+    s->resolution_scale = 1;
+}
+
+/* ---- the entry point -------------------------------------------------------------------- */
+
+static char *read_file(const char *path, size_t *len) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap + 1);
+    while (buf) {
+        n += fread(buf + n, 1, cap - n, f);
+        if (n < cap) break;
+        char *b = realloc(buf, 2 * cap + 1);
+        if (!b) free(buf);
+        buf = b;
+        cap *= 2;
+    }
+    int err = ferror(f);
+    fclose(f);
+    if (!buf || err) {
+        free(buf);
+        return NULL;
+    }
+    buf[n] = '\0';
+    *len = n;
+    return buf;
+}
+
+static int ends_with(const char *s, const char *suffix) {
+    size_t a = strlen(s), b = strlen(suffix);
+    return a >= b && strcasecmp(s + a - b, suffix) == 0;
+}
+
+kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_overrides, const char *quality,
+                      const char *frames, kf_diag *d) {
+    const int errors0 = d->errors;
+    loader L = {0};
+    L.d = d;
+    kf_shot *s = calloc(1, sizeof *s);
+    size_t len = 0;
+    char *text = read_file(path, &len);
+    if (!s || !text) {
+        kf_diag_add(d, KF_DIAG_ERROR, path, 0, 0, NULL, "cannot read the shot file: %s", strerror(errno ? errno : ENOMEM));
+        free(text);
+        goto done;
+    }
+    int src = kf_srcs_add(&L.srcs, path, text, len, 0, 0, NULL), empty = 0;
+    ky_node *root = ky_parse(&L.doc, &L.srcs, src, ends_with(path, ".json"), d, &empty);
+    if (!root) {
+        if (empty) kf_report(d, &L.srcs, src, 0, 0, KF_DIAG_ERROR, "the shot file is empty");
+        goto done;
+    }
+    if (root->kind != KY_MAP) {
+        kf_report_at(d, &L.srcs, root, KF_DIAG_ERROR, "a shot file is a mapping of keys (shot:, frames:, sim:, ...)");
+        goto done;
+    }
+    for (int i = 0; i < n_overrides; i++) kf_override_apply(&L.doc, root, &L.srcs, overrides[i], i + 1, d);
+
+    /* the walk: every key checked against the table */
+    int top = inst_new(&L, KS_TOP, "", "", root, -1);
+    if (top < 0) goto done;
+    walk_map(&L, top, root, "");
+    resolve_top(&L, &L.v[top], path, s);
+    inst *T = &L.v[top];
+    int times_ok = T->ok[K("frames")] && (!T->at[K("frames.start")] || T->ok[K("frames.start")]) &&
+                   (!T->at[K("frames.fps")] || T->ok[K("frames.fps")]);
+
+    /* count, allocate, resolve each kind in file order */
+    int nm = 0, no = 0, nc = 0;
+    for (int i = 0; i < L.n; i++) {
+        nm += L.v[i].scope == KS_MATERIAL;
+        no += L.v[i].scope == KS_OBJECT;
+        nc += L.v[i].scope == KS_COLLIDER;
+    }
+    s->materials = calloc((size_t)nm + 1, sizeof *s->materials);
+    s->objects = calloc((size_t)no + 1, sizeof *s->objects);
+    s->colliders = calloc((size_t)nc + 1, sizeof *s->colliders);
+    if (!s->materials || !s->objects || !s->colliders) goto done;
+    for (int i = 0; i < L.n; i++) {
+        if (L.v[i].scope == KS_MATERIAL) resolve_material(&L, &L.v[i], s, &s->materials[s->nmaterials++]);
+        else if (L.v[i].scope == KS_OBJECT) {
+            resolve_object(&L, &L.v[i], s->nobjects, s, &s->objects[s->nobjects]);
+            s->nobjects++;
+        } else if (L.v[i].scope == KS_COLLIDER) {
+            resolve_collider(&L, i, s->ncolliders, s, times_ok, &s->colliders[s->ncolliders]);
+            s->ncolliders++;
+        }
+    }
+    check_unique(&L, KS_OBJECT, "objects[].name", s->objects[0].name, sizeof *s->objects, no);
+    check_unique(&L, KS_COLLIDER, "colliders[].name", s->colliders[0].name, sizeof *s->colliders, nc);
+    if (no == 0)
+        report_inst(&L, T, "objects", KF_DIAG_ERROR, "the shot has no objects: nothing would be simulated");
+    if (nm > KF_MAX_MATERIALS) report_inst(&L, T, "materials", KF_DIAG_ERROR, "too many materials (at most 64)");
+    if (nc > KF_MAX_COLLIDERS) report_inst(&L, T, "colliders", KF_DIAG_ERROR, "too many colliders (at most 64)");
+    for (int i = 0, m = 0; i < L.n; i++) { /* unused materials are probably a typo elsewhere */
+        if (L.v[i].scope != KS_MATERIAL) continue;
+        int used = 0;
+        for (int j = 0; j < s->nobjects; j++) used |= s->objects[j].material == m;
+        if (!used) {
+            char msg[160];
+            snprintf(msg, sizeof msg, "%s is not used by any object", L.v[i].label);
+            kf_report_at(d, &L.srcs, L.v[i].name, KF_DIAG_WARNING, "%s", msg);
+        }
+        m++;
+    }
+
+    /* the command line's own options */
+    if (kf_quality_parse(quality, &L.srcs, &s->quality, d) == 0 && s->quality == KF_QUALITY_PREVIEW) {
+        s->sim.dx *= 2;
+        s->resolution_scale = 0.5;
+    }
+    s->first = s->frame_start;
+    s->last = s->frame_end;
+    int range_ok = (!T->at[K("frames.start")] || T->ok[K("frames.start")]) && T->at[K("frames.end")] &&
+                   T->ok[K("frames.end")] && s->frame_end >= s->frame_start;
+    if (frames && range_ok) kf_frames_parse(frames, &L.srcs, s->frame_start, s->frame_end, &s->first, &s->last, d);
+
+done:
+    kf_diag_sort(d);
+    for (int i = 0; i < L.n; i++) inst_free(&L.v[i]);
+    free(L.v);
+    ky_free(&L.doc);
+    kf_srcs_free(&L.srcs);
+    if (d->errors > errors0) {
+        kf_shot_free(s);
+        return NULL;
+    }
+    return s;
+}
+
+void kf_shot_free(kf_shot *s) {
+    if (!s) return;
+    free(s->materials);
+    free(s->objects);
+    free(s->colliders);
+    for (int i = 0; i < s->nstrings; i++) free(s->strings[i]);
+    free(s->strings);
+    free(s);
+}
+
+double kf_shot_frame_time(const kf_shot *s, int frame) { return (frame - s->frame_start) / s->fps; }

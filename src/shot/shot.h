@@ -26,6 +26,7 @@
 #include <stdio.h>
 
 #include "../kerf.h"
+#include "../scene/sample.h" /* kf_source_kind, kf_placement: what the sampler takes */
 #include "diag.h"
 
 #ifdef __cplusplus
@@ -37,40 +38,49 @@ typedef enum kf_quality {
     KF_QUALITY_PREVIEW    /* Δx doubled (≈ 1/8 the particles), images at half resolution */
 } kf_quality;
 
-/* particle sources (objects:) */
-typedef enum kf_source_shape { KF_SOURCE_BOX = 0, KF_SOURCE_SPHERE, KF_SOURCE_CYLINDER, KF_SOURCE_MESH } kf_source_shape;
+/* Where a value was written, so a later stage (the builder loading a mesh)
+ * can report at it with kf_shot_report. Strings are owned by the kf_shot. */
+typedef struct kf_loc {
+    const char *file;   /* NULL: unknown */
+    int line, col;
+    const char *source; /* the line's text, or NULL */
+} kf_loc;
 
 typedef struct kf_shot_material {
     kf_material mat;  /* ready for kf_model_add_material; mat.name is the shot's name for it */
     char preset[32];  /* the preset it started from, "" when none */
+    kf_loc at;        /* its name under materials: */
 } kf_shot_material;
 
-/* An object is filled with particles at t = 0. Placement: the shape is built
- * around `center` (a mesh: fitted to fit_center/fit_size when fit is set,
- * else as modelled, with `center` the fitted centre or the mesh's bounding
- * box centre), then scaled by scale[] and rotated by rotate[] (degrees, about
- * x then y then z, i.e. R = Rz Ry Rx) about that centre, then moved by
- * translate[]. */
+/* An object is filled with particles at t = 0. `place` is ready for the
+ * sampler (scene/sample.h, x_world = T + R S x_local): the centre and
+ * translate are in place.translate, a cylinder's axis is folded into
+ * place.rotate (scale stays in the object's axes), and a fitted mesh's
+ * translate is folded into place.fit_center (the sampler ignores translate
+ * when fitting). The fields above it are the values as written. */
 typedef struct kf_shot_object {
     char name[64];
-    kf_source_shape shape;
+    kf_source_kind shape;
     char material_name[32];
     int material;              /* index into kf_shot.materials */
-    double center[3];          /* m; box, sphere, cylinder (mesh: fit_center when fitted) */
+    double center[3];          /* m; box, sphere, cylinder (a fitted mesh: place.fit_center) */
     double size[3];            /* box: full edge lengths, m */
     double radius;             /* sphere, cylinder, m */
     double height;             /* cylinder, m */
     int axis;                  /* cylinder: 0 x, 1 y, 2 z */
     char mesh[256];            /* mesh: the path as written */
     char mesh_path[1024];      /* mesh: resolved against the shot file's directory (exists) */
-    int fit;                   /* mesh: 1 = fit its bounding box first */
-    double fit_center[3];      /* m: where the bounding box centre goes */
+    int fit;                   /* mesh: 1 = fit its bounding box */
+    double fit_center[3];      /* m, as written */
     double fit_size;           /* m: the largest bounding box extent becomes this */
-    double rotate[3];          /* degrees about x, y, z */
+    double rotate[3];          /* degrees about x, then y, then z (R = Rz Ry Rx) */
     double scale[3];           /* factors */
     double translate[3];       /* m */
     double velocity[3];        /* m/s, initial */
-    double angular_velocity[3];/* rad/s about the object's centre, initial */
+    double angular_velocity[3];/* rad/s, initial, about the centroid of its particles */
+    kf_placement place;        /* all of the above as the sampler wants it */
+    kf_loc at;                 /* the object's entry */
+    kf_loc mesh_at;            /* its mesh: value (mesh objects) */
 } kf_shot_object;
 
 typedef struct kf_shot_collider {
@@ -78,6 +88,7 @@ typedef struct kf_shot_collider {
     kf_collider col;  /* ready for kf_model_add_collider: box half = size/2, plane normal unit,
                          keys in seconds since frames.start (absolute centre positions) */
     double size[3];   /* box: full edge lengths as written, m */
+    kf_loc at;        /* the collider's entry */
 } kf_shot_collider;
 
 typedef struct kf_shot {
@@ -97,7 +108,7 @@ typedef struct kf_shot {
     int ppc;                     /* particles per cell: 1, 8, 27 or 64 */
     int ppc_axis;                /* its cube root, for kf_state_fill_*() */
     int jitter;                  /* 1 = jittered lattice */
-    uint32_t seed;               /* jitter seed; give object i seed + i */
+    uint32_t seed;               /* jitter seed (>= 1); sampler seed for object i: jitter ? seed + i : 0 */
 
     kf_shot_material *materials; /* (nmaterials), in file order */
     int nmaterials;
@@ -110,6 +121,9 @@ typedef struct kf_shot {
     char output_name[256];       /* template of a frame's file stem (no extension) */
     int output_particles;        /* write particles each frame */
     int output_checkpoints;      /* write checkpoints each frame */
+
+    char **strings;              /* (nstrings) owned by the shot: the text kf_loc points to */
+    int nstrings;
 } kf_shot;
 
 /* Load, validate and resolve a shot file.
@@ -123,6 +137,11 @@ typedef struct kf_shot {
 kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_overrides, const char *quality,
                       const char *frames, kf_diag *diag);
 void kf_shot_free(kf_shot *shot);
+
+/* Add a diagnostic at a place in the shot (e.g. a mesh that will not load:
+ * kf_shot_report(d, &obj->mesh_at, KF_DIAG_ERROR, "%s", err)). */
+void kf_shot_report(kf_diag *d, const kf_loc *at, kf_severity sev, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
 
 /* Seconds since frames.start at the start of `frame`. */
 double kf_shot_frame_time(const kf_shot *shot, int frame);

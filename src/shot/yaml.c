@@ -87,7 +87,7 @@ static void merge_keys(ky_node *map) {
     for (int i = 0; i + 1 < map->n; i += 2)
         if (map->item[i]->kind == KY_SCALAR && !map->item[i]->quoted && strcmp(map->item[i]->text, "<<") == 0) has = 1;
     if (!has) return;
-    ky_node tmp = {0};
+    ky_node tmp = {.kind = KY_MAP};
     ky_node *bases[32];
     int nb = 0;
     for (int i = 0; i + 1 < map->n; i += 2) {
