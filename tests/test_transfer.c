@@ -35,7 +35,7 @@ static kf_state *random_state(kf_model *m, int mat, int n, unsigned seed, double
 
 static void bin(kf_model *m, kf_state *s) {
     size_t bad;
-    int rc = kf_grid_bin(&s->g, &s->p, (kf_real)(1 / m->sim.dx), m->sim.kernel == KF_KERNEL_CUBIC, &bad);
+    int rc = kf_grid_bin(&s->g, &s->p, (kf_real)(1 / m->sim.dx), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad);
     KT_CHECK(rc == 0, "binning failed: %d", rc);
 }
 

@@ -117,9 +117,10 @@ static int cmp_owner(const void *a, const void *b) {
     return ka < kb ? -1 : ka > kb;
 }
 
-static int ensure_particle_scratch(kf_grid *g, size_t n) {
-    if (n <= g->scratch_n && g->dest) return 0;
-    size_t nt = (size_t)omp_get_max_threads();
+static int ensure_particle_scratch(kf_grid *g, size_t n, int threads) {
+    if (n <= g->scratch_n && threads <= g->scratch_threads && g->dest) return 0;
+    size_t nt = (size_t)threads;
+    g->scratch_threads = threads;
     free(g->dest);
     free(g->moved);
     free(g->scratch);
@@ -130,16 +131,17 @@ static int ensure_particle_scratch(kf_grid *g, size_t n) {
     return g->dest && g->moved && g->scratch ? 0 : -1;
 }
 
-int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *bad_particle) {
+int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle) {
     size_t n = p->n;
-    if (ensure_particle_scratch(g, n)) return -1;
+    if (threads < 1) threads = 1;
+    if (ensure_particle_scratch(g, n, threads)) return -1;
 
     /* 1. each particle's base block; flag those that left their block */
     long nmoved = 0, nbad = 0;
     const int limit = KF_KEY_OFFSET - 2;
     uint8_t *moved = g->moved;
     int full = !g->valid;
-#pragma omp parallel for reduction(+ : nmoved, nbad) schedule(static)
+#pragma omp parallel for reduction(+ : nmoved, nbad) schedule(static) num_threads(threads)
     for (size_t i = 0; i < n; i++) {
         int b[3];
         int ok = 1;
@@ -195,7 +197,7 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *
     if (!count) return -1;
     /* per-thread histograms over static particle ranges: thread t's range
      * precedes thread t+1's, which step 5 relies on for a stable sort */
-    const int nt = omp_get_max_threads();
+    const int nt = threads;
     int32_t *hist = calloc((size_t)nt * (nb_old + 1), sizeof *hist);
     if (!hist) return free(count), -1;
 #pragma omp parallel num_threads(nt)
@@ -290,7 +292,7 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *
         }
         free(first_slot);
         if (!identity) {
-            kf_particles_permute(p, g->dest, g->scratch);
+            kf_particles_permute(p, g->dest, g->scratch, threads);
             g->permutes++;
         }
     }
@@ -329,8 +331,8 @@ oom:
     return -1;
 }
 
-void kf_grid_clear(kf_grid *g) {
+void kf_grid_clear(kf_grid *g, int threads) {
     size_t nb = g->nblocks;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads)
     for (size_t b = 0; b < nb; b++) memset(&g->node[b * KF_BLOCK_NODES], 0, KF_BLOCK_NODES * sizeof(kf_v4));
 }

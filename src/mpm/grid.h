@@ -53,6 +53,7 @@ typedef struct kf_grid {
     uint8_t *moved;       /* (n) */
     void *scratch;        /* permutation scratch, n * 8 * threads bytes */
     size_t scratch_n;
+    int scratch_threads;  /* threads the scratch has room for */
     int32_t *count;       /* (nblocks) */
     int valid;            /* 0 until the first bin, and after particles are added */
     /* what the last bin did, for the frame log */
@@ -66,10 +67,10 @@ void kf_grid_free(kf_grid *g);
  * changed block. cubic selects the 4-node stencil. Returns 0, -1 out of
  * memory, or -2 when a particle is outside the representable range
  * (*bad_particle is set to its index). */
-int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, size_t *bad_particle);
+int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle);
 
 /* Zero every node of every block. */
-void kf_grid_clear(kf_grid *g);
+void kf_grid_clear(kf_grid *g, int threads);
 
 static inline uint64_t kf_block_key(int bx, int by, int bz) {
     return ((uint64_t)(uint32_t)(bx + KF_KEY_OFFSET) << (2 * KF_KEY_BITS)) |

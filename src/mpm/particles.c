@@ -58,11 +58,11 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
         memcpy((arr), tmp_, n * sizeof(T));                                    \
     } while (0)
 
-void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch) {
+void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, int threads) {
     size_t n = p->n;
     int nplanes = KF_PARTICLE_REAL_PLANES + 4;
-    /* scratch holds one plane per thread: n * 8 bytes * nthreads */
-#pragma omp parallel
+    /* scratch holds one plane per thread: n * 8 bytes * threads */
+#pragma omp parallel num_threads(threads)
     {
         void *scratch_t = 0;
 #pragma omp for schedule(dynamic, 1)

@@ -42,6 +42,6 @@ int kf_particles_reserve(kf_particles *p, size_t cap);
 /* dst becomes an exact copy of src (capacity grows as needed). */
 int kf_particles_copy(kf_particles *dst, const kf_particles *src);
 /* Reorder: new[dest[p]] = old[p]. scratch holds n * 8 bytes. */
-void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch);
+void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, int threads);
 
 #endif

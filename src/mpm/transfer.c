@@ -221,7 +221,7 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
     kf_grid *g = &s->g;
     /* particles added or edited since the last substep: their stress first */
     if (!s->tau_valid) kf_stress(m, s, 0);
-    kf_grid_clear(g);
+    kf_grid_clear(g, m->nthreads);
     step_acc total = {0};
 #pragma omp parallel num_threads(m->nthreads)
     {

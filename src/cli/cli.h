@@ -1,0 +1,39 @@
+/* cli.h — the `kerf` command's shared pieces: options, loading a shot into
+ * a scene, and the commands. Only cli/ prints progress or decides exit codes:
+ * 0 success, 1 the run failed (numerical trouble, I/O), 2 bad usage or input. */
+#ifndef KF_CLI_H
+#define KF_CLI_H
+
+#include "../scene/build.h"
+#include "../shot/shot.h"
+
+#define KF_EXIT_OK 0
+#define KF_EXIT_FAIL 1
+#define KF_EXIT_USAGE 2
+
+typedef struct kf_cli_opts {
+    const char *shot;      /* the shot file */
+    const char *sets[128]; /* --set a.b=v, in order */
+    int nsets;
+    const char *quality;   /* --quality preview|final */
+    const char *frames;    /* --frames A-B */
+    const char *out;       /* --out DIR: replaces output.dir */
+    int resume;            /* --resume */
+    int threads;           /* --threads N (0: the shot's) */
+    int quiet;             /* --quiet */
+    int help;              /* --help */
+} kf_cli_opts;
+
+/* Parse argv (after the command word). Returns 0, or 2 with a message. */
+int kf_cli_parse(const char *cmd, int argc, char **argv, kf_cli_opts *o);
+
+/* Load and validate the shot, then seed the scene: every problem is printed
+ * as file:line:col with the line echoed. Returns 0, or 2 (nothing touched). */
+int kf_cli_load(const kf_cli_opts *o, kf_shot **shot, kf_scene *sc, kf_build_stats *stats);
+
+int kf_cmd_run(int argc, char **argv);
+int kf_cmd_check(int argc, char **argv);
+int kf_cmd_info(int argc, char **argv);
+void kf_cli_usage(FILE *f, const char *cmd);
+
+#endif

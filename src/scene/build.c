@@ -1,0 +1,132 @@
+/* build.c — shot → model + state (see build.h). */
+#include "build.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "../core/timer.h"
+#include "sample.h"
+
+int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_stats *stats, kf_diag *diag) {
+    char err[1024];
+    double t0 = kf_now_ms();
+    memset(sc, 0, sizeof *sc);
+    if (stats) memset(stats, 0, sizeof *stats);
+    kf_sim_def sd = shot->sim;
+    if (threads > 0) sd.threads = threads;
+    sc->name = shot->name;
+    sc->fps = shot->fps;
+    sc->frames = shot->frame_end - shot->frame_start + 1;
+    sc->model = kf_model_create(&sd, err, sizeof err);
+    if (!sc->model) {
+        kf_shot_report(diag, NULL, KF_DIAG_ERROR, "sim: %s", err);
+        return -1;
+    }
+    int bad = 0;
+    for (int i = 0; i < shot->nmaterials; i++)
+        if (kf_model_add_material(sc->model, &shot->materials[i].mat, err, sizeof err) != i) {
+            kf_shot_report(diag, &shot->materials[i].at, KF_DIAG_ERROR, "%s", err);
+            bad = 1;
+        }
+    for (int i = 0; i < shot->ncolliders; i++)
+        if (kf_model_add_collider(sc->model, &shot->colliders[i].col, err, sizeof err) < 0) {
+            kf_shot_report(diag, &shot->colliders[i].at, KF_DIAG_ERROR, "%s", err);
+            bad = 1;
+        }
+    sc->state = kf_state_create(sc->model);
+    if (bad || !sc->state) goto fail;
+
+    /* seed every object; keep going after a bad one so all are reported */
+    for (int i = 0; i < shot->nobjects; i++) {
+        const kf_shot_object *o = &shot->objects[i];
+        kf_sample_def d = kf_default_sample_def();
+        d.kind = o->shape;
+        memcpy(d.size, o->size, sizeof d.size);
+        d.radius = o->radius;
+        d.height = o->height;
+        d.mesh_path = o->shape == KF_SOURCE_MESH ? o->mesh_path : NULL;
+        d.place = o->place;
+        d.dx = sd.dx;
+        d.ppc = shot->ppc;
+        d.seed = shot->jitter ? shot->seed + (uint32_t)i : 0;
+        memcpy(d.velocity, o->velocity, sizeof d.velocity);
+        memcpy(d.angular_velocity, o->angular_velocity, sizeof d.angular_velocity);
+        d.threads = sd.threads;
+        kf_points pts;
+        if (kf_sample_shape(&d, &pts, err, sizeof err)) {
+            kf_shot_report(diag, o->shape == KF_SOURCE_MESH ? &o->mesh_at : &o->at, KF_DIAG_ERROR, "object '%s': %s",
+                           o->name, err);
+            bad = 1;
+            continue;
+        }
+        if (pts.n == 0)
+            kf_shot_report(diag, &o->at, KF_DIAG_WARNING, "object '%s' holds no particles at dx %g (thinner than the lattice)",
+                           o->name, sd.dx);
+        else if (kf_state_add_particles(sc->state, sc->model, pts.n, pts.x, pts.v, NULL, o->material, pts.volume) < 0) {
+            kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name, pts.n);
+            bad = 1;
+        }
+        if (stats && i < 256) stats->particles_per_object[i] = pts.n;
+        kf_points_free(&pts);
+    }
+    if (bad) goto fail;
+    if (stats) stats->seconds = (kf_now_ms() - t0) / 1e3;
+    return 0;
+fail:
+    kf_scene_free(sc);
+    return -1;
+}
+
+/* FNV-1a over a printed form of the values, so struct padding and field
+ * order never matter */
+static void hash_str(uint64_t *h, const char *s) {
+    for (; *s; s++) *h = (*h ^ (unsigned char)*s) * 1099511628211ULL;
+}
+
+static void hash_fmt(uint64_t *h, const char *fmt, double v) {
+    char buf[64];
+    snprintf(buf, sizeof buf, fmt, v);
+    hash_str(h, buf);
+}
+
+static void hash_vals(uint64_t *h, const double *v, int n) {
+    for (int i = 0; i < n; i++) hash_fmt(h, "%.17g,", v[i]);
+}
+
+uint64_t kf_shot_sim_hash(const kf_shot *shot) {
+    uint64_t h = 1469598103934665603ULL;
+    const kf_sim_def *s = &shot->sim;
+    double sim[] = {s->dx, s->cfl, s->dt_max, s->dt_fixed, s->gravity[0], s->gravity[1], s->gravity[2],
+                    s->kernel, s->force, s->transfer, s->walls, s->domain_min[0], s->domain_min[1],
+                    s->domain_min[2], s->domain_max[0], s->domain_max[1], s->domain_max[2], s->wall_boundary,
+                    s->wall_friction, s->max_retries, s->j_min, s->j_max, s->max_cells_per_step,
+                    shot->ppc, shot->jitter, shot->seed, shot->fps, shot->frame_start, sizeof(kf_real)};
+    hash_vals(&h, sim, (int)(sizeof sim / sizeof *sim));
+    for (int i = 0; i < shot->nmaterials; i++) {
+        const kf_material *m = &shot->materials[i].mat;
+        double v[] = {m->model, m->density, m->E, m->nu, m->yield_stress, m->friction_angle, m->cohesion,
+                      m->hardening, m->h0, m->h1, m->h2, m->h3, m->volume_correction, m->bulk_modulus, m->gamma,
+                      m->viscosity, m->theta_c, m->theta_s, m->xi};
+        hash_vals(&h, v, (int)(sizeof v / sizeof *v));
+    }
+    for (int i = 0; i < shot->nobjects; i++) {
+        const kf_shot_object *o = &shot->objects[i];
+        const kf_placement *p = &o->place;
+        double v[] = {o->shape, o->material, o->size[0], o->size[1], o->size[2], o->radius, o->height,
+                      p->translate[0], p->translate[1], p->translate[2], p->rotate[0], p->rotate[1], p->rotate[2],
+                      p->scale[0], p->scale[1], p->scale[2], p->fit, p->fit_center[0], p->fit_center[1],
+                      p->fit_center[2], p->fit_size, o->velocity[0], o->velocity[1], o->velocity[2],
+                      o->angular_velocity[0], o->angular_velocity[1], o->angular_velocity[2]};
+        hash_vals(&h, v, (int)(sizeof v / sizeof *v));
+        hash_str(&h, o->mesh_path);
+    }
+    for (int i = 0; i < shot->ncolliders; i++) {
+        const kf_collider *c = &shot->colliders[i].col;
+        double v[] = {c->shape, c->boundary, c->friction, c->center[0], c->center[1], c->center[2], c->normal[0],
+                      c->normal[1], c->normal[2], c->half[0], c->half[1], c->half[2], c->radius, c->velocity[0],
+                      c->velocity[1], c->velocity[2], c->nkeys, c->inside};
+        hash_vals(&h, v, (int)(sizeof v / sizeof *v));
+        for (int k = 0; k < c->nkeys; k++) hash_vals(&h, &c->keys[k].time, 1), hash_vals(&h, c->keys[k].position, 3);
+    }
+    return h;
+}
