@@ -148,7 +148,8 @@ long kf_state_fill_sphere(kf_state *s, const kf_model *m, const double c[3], dou
 size_t kf_state_count(const kf_state *s);
 double kf_state_time(const kf_state *s);
 
-/* Read access to the particle arrays (SoA, length kf_state_count()).
+/* The particle arrays (SoA, length kf_state_count()), for reading and
+ * writing: the state recomputes its cached stress before the next substep.
  * Order changes when particles are re-sorted; id[] is the stable index. */
 typedef struct kf_particles_view {
     size_t n;
@@ -159,6 +160,9 @@ typedef struct kf_particles_view {
     uint32_t *id;
 } kf_particles_view;
 kf_particles_view kf_state_particles(kf_state *s);
+/* The same arrays for reading only: the state's cached per-particle stress
+ * stays valid (writing through this view is a bug). */
+kf_particles_view kf_state_particles_read(const kf_state *s);
 
 /* Per-stage timing of everything the step did since the last reset. */
 typedef enum kf_stage {

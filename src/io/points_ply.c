@@ -7,8 +7,8 @@
 
 #include "atomic_file.h"
 
-int kf_write_points_ply(const char *path, kf_state *s, char *err, size_t errlen) {
-    kf_particles_view pv = kf_state_particles(s);
+int kf_write_points_ply(const char *path, const kf_state *s, char *err, size_t errlen) {
+    kf_particles_view pv = kf_state_particles_read(s);
     kf_atomic_file af;
     if (kf_atomic_open(&af, path)) {
         snprintf(err, errlen, "%s: cannot write: %s", path, strerror(errno));

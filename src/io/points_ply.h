@@ -6,6 +6,6 @@
 #include "../kerf.h"
 
 /* Written atomically. Returns 0, or -1 with a message in err. */
-int kf_write_points_ply(const char *path, kf_state *s, char *err, size_t errlen);
+int kf_write_points_ply(const char *path, const kf_state *s, char *err, size_t errlen);
 
 #endif

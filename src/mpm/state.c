@@ -38,10 +38,14 @@ size_t kf_state_count(const kf_state *s) { return s->p.n; }
 double kf_state_time(const kf_state *s) { return s->time; }
 
 kf_particles_view kf_state_particles(kf_state *s) {
-    kf_particles_view v;
     /* the caller may write F or ps: the cached stress must be recomputed */
     s->tau_valid = 0;
-    kf_particles *p = &s->p;
+    return kf_state_particles_read(s);
+}
+
+kf_particles_view kf_state_particles_read(const kf_state *s) {
+    kf_particles_view v;
+    const kf_particles *p = &s->p;
     v.n = p->n;
     for (int k = 0; k < 3; k++) v.x[k] = p->x[k], v.v[k] = p->v[k];
     for (int k = 0; k < 9; k++) v.C[k] = p->C[k], v.F[k] = p->F[k];
