@@ -42,25 +42,31 @@ typedef struct ray_ctx {
     uint32_t prim[MAX_HITS];
 } ray_ctx;
 
-/* Record every hit and reject it, so traversal goes on to the next one. */
+/* Record every hit and reject it, so traversal goes on to the next one.
+ * rtcIntersect1 passes one ray (N == 1); the loop keeps to the API's contract
+ * of N lanes, SoA layout: u at 3N, v at 4N, primID at 5N. */
 static void count_hit(const struct RTCFilterFunctionNArguments *a) {
     ray_ctx *r = (ray_ctx *)a->context;
-    /* N == 1 from rtcIntersect1; the RTCHitN layout is SoA: u at 3N, v at 4N, primID at 5N */
     const float *hit = (const float *)a->hit;
+    const uint32_t *hitu = (const uint32_t *)a->hit;
     const unsigned N = a->N;
-    a->valid[0] = 0;
-    float u = hit[3 * N], v = hit[4 * N], w = 1.0f - u - v;
-    uint32_t prim = ((const uint32_t *)a->hit)[5 * N];
-    for (int i = 0; i < r->nhits; i++)
-        if (r->prim[i] == prim) return; /* the same triangle reported again (spatial splits) */
-    if (r->nhits == MAX_HITS) {
-        r->unreliable = 1;
-        return;
+    for (unsigned i = 0; i < N; i++) {
+        if (!a->valid[i]) continue;
+        a->valid[i] = 0;
+        float u = hit[3 * N + i], v = hit[4 * N + i], w = 1.0f - u - v;
+        uint32_t prim = hitu[5 * N + i];
+        int seen = 0;
+        for (int k = 0; k < r->nhits && !seen; k++) seen = r->prim[k] == prim; /* reported again (spatial splits) */
+        if (seen) continue;
+        if (r->nhits == MAX_HITS) {
+            r->unreliable = 1;
+            continue;
+        }
+        r->prim[r->nhits++] = prim;
+        const float *n = &r->nrm[3 * (size_t)prim];
+        float cosang = n[0] * r->d[0] + n[1] * r->d[1] + n[2] * r->d[2];
+        if (u < EDGE_EPS || v < EDGE_EPS || w < EDGE_EPS || fabsf(cosang) < GRAZE_EPS) r->unreliable = 1;
     }
-    r->prim[r->nhits++] = prim;
-    const float *n = &r->nrm[3 * (size_t)prim];
-    float cosang = n[0] * r->d[0] + n[1] * r->d[1] + n[2] * r->d[2];
-    if (u < EDGE_EPS || v < EDGE_EPS || w < EDGE_EPS || fabsf(cosang) < GRAZE_EPS) r->unreliable = 1;
 }
 
 static void on_error(void *user, enum RTCError code, const char *str) {

@@ -11,6 +11,10 @@
  * majority of the first three reliable rays (two agreeing suffice). Each
  * triangle is counted once per ray, however often Embree reports it.
  *
+ * Parity means a mesh of several closed pieces that overlap counts the
+ * overlap as outside (nested pieces make cavities, as intended); union such
+ * pieces before seeding, or seed them as separate sources.
+ *
  * The query object is read-only after creation: any number of threads may
  * query it at once (each call uses its own intersect context on the stack).
  *

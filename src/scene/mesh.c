@@ -92,7 +92,10 @@ static int check_ply(FILE *f, long fsize, char *why, size_t whylen) {
     char cur_name[64] = "";
     if (!fgets(line, sizeof line, f) || strncmp(line, "ply", 3)) return 0;
     for (;;) {
-        if (!fgets(line, sizeof line, f)) return 0; /* no end_header: let assimp say */
+        if (!fgets(line, sizeof line, f)) { /* assimp 5.2 loops forever on this */
+            snprintf(why, whylen, "truncated file: the PLY header has no end_header");
+            return -1;
+        }
         char a[64] = "", b[64] = "", c[64] = "", d[64] = "";
         int n = sscanf(line, "%63s %63s %63s %63s", a, b, c, d);
         if (n <= 0) continue;
@@ -187,6 +190,21 @@ static int check_off(FILE *f, char *why, size_t whylen) {
     return 0;
 }
 
+/* binary STL: 80-byte header, triangle count, 50 bytes per triangle. A file
+ * that starts with "solid" is taken as ASCII (left to assimp). */
+static int check_stl(FILE *f, long fsize, char *why, size_t whylen) {
+    unsigned char head[84];
+    if (fsize < 84 || fread(head, 1, 84, f) != 84 || !strncmp((const char *)head, "solid", 5)) return 0;
+    uint32_t n = (uint32_t)head[80] | (uint32_t)head[81] << 8 | (uint32_t)head[82] << 16 | (uint32_t)head[83] << 24;
+    long need = 84 + 50 * (long)n;
+    if (fsize < need) {
+        snprintf(why, whylen, "truncated file: header declares %u triangles (%ld bytes), the file has %ld", n, need,
+                 fsize);
+        return -1;
+    }
+    return 0;
+}
+
 /* ---- welding, edges, orientation ------------------------------------------ */
 
 typedef struct wv {
@@ -275,7 +293,8 @@ static int analyse_edges(kf_mesh *m) {
             e[3 * t + k] = (edge_ref){((uint64_t)lo << 32) | hi, (uint32_t)t, (uint8_t)(a < b)};
             nbr[3 * t + k] = UINT32_MAX;
         }
-    /* which slot of its triangle an edge ref is: recover after sorting */
+    /* sort so the uses of each edge are adjacent; the slot of each use in its
+     * triangle is found again below */
     qsort(e, ne, sizeof *e, cmp_edge);
     m->boundary_edges = m->nonmanifold_edges = 0;
     for (size_t i = 0; i < ne;) {
@@ -401,7 +420,8 @@ static size_t drop_duplicates(uint32_t *tri, size_t nt, size_t *ndup) {
 /* Weld by exact position, drop degenerate triangles and unused vertices,
  * then measure and orient. Takes ownership of vert and tri. */
 static int finish(kf_mesh *m, double *vert, size_t nvert, uint32_t *tri, size_t ntri, char *err, size_t errlen) {
-    const char *path = m->path;
+    char path[sizeof m->path];
+    memcpy(path, m->path, sizeof path); /* m is cleared on failure */
     for (size_t i = 0; i < 3 * nvert; i++)
         if (!isfinite(vert[i])) {
             free(vert), free(tri);
@@ -409,8 +429,9 @@ static int finish(kf_mesh *m, double *vert, size_t nvert, uint32_t *tri, size_t 
         }
     for (size_t i = 0; i < 3 * ntri; i++)
         if (tri[i] >= nvert) {
+            uint32_t bad = tri[i];
             free(vert), free(tri);
-            return fail(err, errlen, path, "face %zu uses vertex %u of %zu (corrupt file?)", i / 3, tri[i], nvert);
+            return fail(err, errlen, path, "face %zu uses vertex %u of %zu (corrupt file?)", i / 3, bad, nvert);
         }
     wv *w = malloc((nvert ? nvert : 1) * sizeof *w);
     uint32_t *rep = malloc((nvert ? nvert : 1) * sizeof *rep);
@@ -521,13 +542,20 @@ int kf_mesh_load(const char *path, kf_mesh *out, char *err, size_t errlen) {
         bad = check_ply(f, fsize, why, sizeof why);
     else if (has_ext(path, ".off"))
         bad = check_off(f, why, sizeof why);
+    else if (has_ext(path, ".stl"))
+        bad = check_stl(f, fsize, why, sizeof why);
     fclose(f);
     if (bad) return fail(err, errlen, path, "%s", why);
 
     /* node transforms baked in; no triangulation (we fan polygons, below,
      * so face counts stay those of the file) and no joining (we weld) */
     const struct aiScene *sc = aiImportFile(path, aiProcess_PreTransformVertices);
-    if (!sc) return fail(err, errlen, path, "cannot load: %s", aiGetErrorString());
+    if (!sc) {
+        const char *msg = aiGetErrorString();
+        /* what assimp says of an OBJ with vertices and no faces */
+        if (msg && strstr(msg, "No output meshes")) return fail(err, errlen, path, "no faces (truncated file?)");
+        return fail(err, errlen, path, "cannot load: %s", msg ? msg : "unknown assimp error");
+    }
     size_t nv = 0, nt = 0, empty_faces = 0, prims = 0;
     for (unsigned i = 0; i < sc->mNumMeshes; i++) {
         const struct aiMesh *me = sc->mMeshes[i];
@@ -594,11 +622,12 @@ int kf_mesh_load(const char *path, kf_mesh *out, char *err, size_t errlen) {
 int kf_mesh_check_closed(const kf_mesh *m, char *err, size_t errlen) {
     if (m->closed) return 0;
     if (m->ntri == 0) return fail(err, errlen, m->path, "no faces");
-    if (m->boundary_edges && m->nonmanifold_edges)
-        return fail(err, errlen, m->path, "not closed: %zu boundary edges, %zu edges shared by more than two triangles",
-                    m->boundary_edges, m->nonmanifold_edges);
-    if (m->boundary_edges) return fail(err, errlen, m->path, "not closed: %zu boundary edges", m->boundary_edges);
-    return fail(err, errlen, m->path, "not closed: %zu edges shared by more than two triangles", m->nonmanifold_edges);
+    size_t b = m->boundary_edges, n = m->nonmanifold_edges;
+    char nm[96];
+    snprintf(nm, sizeof nm, "%zu %s shared by more than two triangles", n, n == 1 ? "edge" : "edges");
+    if (b && n) return fail(err, errlen, m->path, "not closed: %zu boundary %s, %s", b, b == 1 ? "edge" : "edges", nm);
+    if (b) return fail(err, errlen, m->path, "not closed: %zu boundary %s", b, b == 1 ? "edge" : "edges");
+    return fail(err, errlen, m->path, "not closed: %s", nm);
 }
 
 void kf_mesh_transform(kf_mesh *m, const double M[12]) {

@@ -29,7 +29,8 @@ typedef struct kf_mesh {
     double volume;            /* enclosed volume by the divergence theorem (meaningful when closed) */
     double area;              /* surface area */
     /* what loading found and did */
-    size_t welded;            /* input vertices merged into another at the same position */
+    size_t welded;            /* input vertices merged into another at the same position (assimp's
+                                 OBJ and STL readers give each face corner its own vertex) */
     size_t dropped_tris;      /* triangles dropped as degenerate (a repeated vertex after welding) */
     size_t duplicate_tris;    /* triangles dropped as repeats of an earlier one (same three vertices) */
     size_t ignored_prims;     /* points and lines in the file (not part of a surface) */
@@ -48,7 +49,8 @@ typedef struct kf_mesh {
  * (closed = 0; see kf_mesh_check_closed). Returns 0, or -1 with "path: reason"
  * in err for: a file that cannot be opened, an empty file, a PLY/OFF file
  * shorter than its header declares, a file assimp rejects, faces without
- * vertices, indices out of range, non-finite coordinates, or no faces. */
+ * vertices, indices out of range, non-finite coordinates, or no faces.
+ * Not thread-safe: assimp's C API keeps its error string in a global. */
 int kf_mesh_load(const char *path, kf_mesh *out, char *err, size_t errlen);
 
 /* The same processing for a mesh given as arrays (copied). name is used in

@@ -1,8 +1,8 @@
 /* sample.c — seed particles in placed shapes (see sample.h).
  *
  * The candidate lattice covers the shape's world bounding box and is visited
- * in blocks of 4³ points, one x-layer of blocks at a time (so memory is one
- * layer of flags, not the whole box). For a mesh, blocks that no triangle's
+ * in blocks of 4³ points, a few x-layers of blocks at a time (so memory is
+ * about 2 MB of flags, not one byte per candidate of the whole box). For a mesh, blocks that no triangle's
  * bounding box touches lie wholly inside or wholly outside, so one inside
  * test decides the whole block; only blocks near the surface test each point.
  * The output order is block order, fixed for a given def whatever the thread
@@ -295,18 +295,28 @@ static int push(growing *g, const double q[3]) {
 static int seed_lattice(const lattice *L, const shape_ctx *S, const uint8_t *mark, int threads, growing *out,
                         kf_sample_stats *st) {
     const size_t layer = (size_t)(L->nb[1] * L->nb[2]);
-    uint8_t *flags = malloc(layer * BLOCK3);
+    /* several x-layers of blocks per parallel region (about 2 MB of flags),
+     * so threads meet at few barriers: on a shared machine each barrier can
+     * cost a scheduler time slice */
+    int64_t group = (int64_t)((2u << 20) / (layer * BLOCK3));
+    if (group < 1) group = 1;
+    if (group > L->nb[0]) group = L->nb[0];
+    uint8_t *flags = malloc((size_t)group * layer * BLOCK3);
     if (!flags) return -1;
     int nt = threads > 0 ? threads : omp_get_max_threads();
     long tested = 0, rays = 0, unrel = 0, undec = 0;
-    for (int64_t bx = 0; bx < L->nb[0]; bx++) {
+    for (int64_t bx0 = 0; bx0 < L->nb[0]; bx0 += group) {
+        const int64_t nlayers = bx0 + group <= L->nb[0] ? group : L->nb[0] - bx0;
+        const size_t nblk = (size_t)nlayers * layer;
 #pragma omp parallel num_threads(nt) reduction(+ : tested, rays, unrel, undec)
         {
             kf_inside_stats ist = {0};
-#pragma omp for schedule(dynamic, 4)
-            for (size_t bl = 0; bl < layer; bl++) {
+#pragma omp for schedule(dynamic, 8)
+            for (size_t bi = 0; bi < nblk; bi++) {
+                int64_t bx = bx0 + (int64_t)(bi / layer);
+                size_t bl = bi % layer;
                 int64_t by = (int64_t)bl / L->nb[2], bz = (int64_t)bl % L->nb[2];
-                uint8_t *f = &flags[bl * BLOCK3];
+                uint8_t *f = &flags[bi * BLOCK3];
                 int64_t base[3] = {L->i0[0] + bx * BLOCK, L->i0[1] + by * BLOCK, L->i0[2] + bz * BLOCK};
                 int whole = -1; /* mesh block away from the surface: one answer for all */
                 if (S->mesh && !mark[(size_t)bx * layer + bl]) {
@@ -339,9 +349,11 @@ static int seed_lattice(const lattice *L, const shape_ctx *S, const uint8_t *mar
             rays += ist.rays, unrel += ist.unreliable, undec += ist.undecided;
         }
         /* compact in block order */
-        for (size_t bl = 0; bl < layer; bl++) {
+        for (size_t bi = 0; bi < nblk; bi++) {
+            int64_t bx = bx0 + (int64_t)(bi / layer);
+            size_t bl = bi % layer;
             int64_t by = (int64_t)bl / L->nb[2], bz = (int64_t)bl % L->nb[2];
-            const uint8_t *f = &flags[bl * BLOCK3];
+            const uint8_t *f = &flags[bi * BLOCK3];
             for (int l = 0; l < BLOCK3; l++) {
                 if (!f[l]) continue;
                 int lx = l / (BLOCK * BLOCK), ly = (l / BLOCK) % BLOCK, lz = l % BLOCK;
