@@ -31,6 +31,24 @@ check "kerf check exits 2 on the same shot" test $? -eq 2
 check "a bad --set exits 2 and names the override" bash -c "grep -q -- '--set' err.txt && ! test -e tiny"
 "$kerf" run > /dev/null 2>&1
 check "no shot is a usage error (2)" test $? -eq 2
+
+# one file per mistake (tests/cli/bad/EXPECT): exit 2, the error at its exact
+# line:col with the line echoed under it, and no output directory
+# (the same tree shape as tests/, so the shots' relative mesh paths hold)
+mkdir -p t/cli/bad t/meshes && cp "$tests"/cli/bad/*.yaml t/cli/bad/
+cp "$tests"/meshes/cube_open.obj "$tests"/meshes/empty.obj t/meshes/
+ln -s t/cli/bad bad
+while IFS='|' read -r file loc fragment; do
+    case "$file" in ''|'#'*) continue ;; esac
+    (cd bad && "$kerf" run "$file" --out "out_$file" > /dev/null 2> "$file.err")
+    rc=$?
+    first=$(grep -m1 ': error: ' "bad/$file.err")
+    check "$file: exit 2 (got $rc)" test $rc -eq 2
+    check "$file: error at $loc" test "${first%%: error: *}" = "$file:$loc"
+    check "$file: says '$fragment'" grep -qF -- "$fragment" "bad/$file.err"
+    check "$file: echoes the line" grep -qE '^ +[0-9]+ \| ' "bad/$file.err"
+    check "$file: writes nothing" test ! -e "bad/out_$file"
+done < "$tests/cli/bad/EXPECT"
 "$kerf" frobnicate > /dev/null 2>&1
 check "unknown command is a usage error (2)" test $? -eq 2
 "$kerf" help shot | grep -q "sim.dx"
@@ -45,6 +63,26 @@ check "twelve particle frames" test "$(ls full/particles/*.ply 2>/dev/null | wc 
 check "twelve checkpoints" test "$(ls full/checkpoints/*.kfc 2>/dev/null | wc -l)" -eq 12
 check "frame log line per frame (not a terminal)" test "$(grep -c '^frame 10' run.log)" -eq 11
 check "no temporaries left" test -z "$(find full -name '*.tmp-*')"
+
+# --- the cache: same inputs are not simulated again ----------------------------
+cp full/checkpoints/tiny.1012.kfc last.kfc
+"$kerf" run tiny.yaml --out full > again.log 2>&1
+check "a current cache exits 0" test $? -eq 0
+check "a current cache is reused and says so" grep -q "nothing to simulate" again.log
+check "a current cache is not rewritten" cmp -s last.kfc full/checkpoints/tiny.1012.kfc
+rm full/particles/tiny.1007.ply
+"$kerf" run tiny.yaml --out full > again.log 2>&1
+check "a missing particle frame comes back from its checkpoint" test -e full/particles/tiny.1007.ply
+"$kerf" run tiny.yaml --out full --set sim.cfl=0.3 > changed.log 2>&1
+check "a changed sim value simulates again" grep -q "^frame 1012" changed.log
+# a mesh's bytes are an input: the same geometry with an edited file re-simulates
+mkdir -p m && cp "$tests"/meshes/cube.obj m/ && cp "$tests"/cli/mesh.yaml m/
+(cd m && "$kerf" run mesh.yaml --out o --quiet && "$kerf" run mesh.yaml --out o > same.log 2>&1 &&
+    echo "# edited" >> cube.obj && "$kerf" run mesh.yaml --out o > edited.log 2>&1)
+check "an unchanged mesh reuses the cache" grep -q "nothing to simulate" m/same.log
+check "an edited mesh file simulates again" bash -c "! grep -q 'nothing to simulate' m/edited.log && grep -q 'frame 1003' m/edited.log"
+"$kerf" run tiny.yaml --out full --set sim.cfl=0.4 --force > forced.log 2>&1
+check "--force simulates a current cache" grep -q "^frame 1012" forced.log
 
 # --- killed and resumed -------------------------------------------------------
 "$kerf" run tiny.yaml --out killed > kill.log 2>&1 &

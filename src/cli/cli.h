@@ -19,6 +19,7 @@ typedef struct kf_cli_opts {
     const char *frames;    /* --frames A-B */
     const char *out;       /* --out DIR: replaces output.dir */
     int resume;            /* --resume */
+    int force;             /* --force: simulate even when the cache is current */
     int threads;           /* --threads N (0: the shot's) */
     int quiet;             /* --quiet */
     int help;              /* --help */

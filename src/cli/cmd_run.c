@@ -67,6 +67,37 @@ static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint6
     return -1;
 }
 
+/* Every requested frame has a checkpoint from the same inputs: the cache is
+ * current. Missing particle files are rewritten from their checkpoints. Only
+ * headers are read, except the last frame's, which is checked whole. */
+static int cache_current(const kf_shot *shot, const char *out, kf_scene *sc, uint64_t hash, int *matched) {
+    char err[4200];
+    *matched = 0;
+    for (int f = shot->frame_start; f <= shot->last; f++) {
+        run_paths rp;
+        kf_checkpoint_info info;
+        if (frame_paths(shot, out, f, &rp) || kf_checkpoint_peek(rp.checkpoint, &info, err, sizeof err) ||
+            info.inputs_hash != hash || info.frame != f)
+            return 0;
+        (*matched)++;
+    }
+    for (int f = shot->first; f <= shot->last; f++) {
+        run_paths rp;
+        frame_paths(shot, out, f, &rp);
+        int need_ply = shot->output_particles && access(rp.particles, R_OK) != 0;
+        if (f != shot->last && !need_ply) continue;
+        if (kf_checkpoint_read(rp.checkpoint, sc->model, sc->state, NULL, err, sizeof err)) {
+            fprintf(stderr, "kerf: cache: %s\n", err);
+            return 0;
+        }
+        if (need_ply && (ensure_parent(rp.particles) || kf_write_points_ply(rp.particles, sc->state, err, sizeof err))) {
+            fprintf(stderr, "kerf: %s\n", err);
+            return -1;
+        }
+    }
+    return 1;
+}
+
 static void fmt_eta(char *buf, size_t n, double seconds) {
     int s = (int)(seconds + 0.5);
     if (s >= 3600) snprintf(buf, n, "%dh%02dm", s / 3600, s / 60 % 60);
@@ -120,6 +151,20 @@ int kf_cmd_run(int argc, char **argv) {
 
     uint64_t hash = kf_shot_sim_hash(shot);
     int frame = shot->frame_start; /* the frame the state is at */
+    if (!o.force && !o.resume) {
+        int matched, c = cache_current(shot, o.out, &sc, hash, &matched);
+        if (c != 0) {
+            if (c > 0 && !o.quiet)
+                fprintf(stderr, "kerf: %s: frames %d-%d are cached from the same inputs; nothing to simulate "
+                                "(--force to simulate anyway)\n", shot->name, shot->first, shot->last);
+            kf_scene_free(&sc);
+            kf_shot_free(shot);
+            return c > 0 ? KF_EXIT_OK : KF_EXIT_FAIL;
+        }
+        if (matched > 1 && !o.quiet)
+            fprintf(stderr, "kerf: frames %d-%d are cached from the same inputs; --resume continues after them\n",
+                    shot->frame_start, shot->frame_start + matched - 1);
+    }
     if (o.resume) {
         if (find_resume(shot, o.out, &sc, hash, &frame) == 0) {
             if (!o.quiet) fprintf(stderr, "kerf: resuming after frame %d\n", frame);

@@ -31,10 +31,13 @@ void kf_cli_usage(FILE *f, const char *cmd) {
     if (!strcmp(cmd, "run"))
         fprintf(f, "  --out DIR           output directory template instead of output.dir ({shot} {version:03d})\n"
                    "  --resume            continue after the last good checkpoint of an interrupted run\n"
+                   "  --force             simulate even when the cached frames came from the same inputs\n"
                    "  --quiet             no progress output\n"
                    "\nA terminal gets a live progress bar with ETA; a log gets one line per frame with\n"
                    "particles, grid blocks, substeps, max CFL, ms per stage and warnings.\n"
-                   "Outputs: <dir>/particles/<name>.ply and <dir>/checkpoints/<name>.kfc per frame.\n");
+                   "Outputs: <dir>/particles/<name>.ply and <dir>/checkpoints/<name>.kfc per frame.\n"
+                   "When every requested frame is already cached from the same inputs (shot values that\n"
+                   "affect the simulation, mesh file contents, kerf version), nothing is simulated.\n");
     fprintf(f, "  --help              this text\n");
 }
 

@@ -52,6 +52,7 @@ int kf_cli_parse(const char *cmd, int argc, char **argv, kf_cli_opts *o) {
                 return KF_EXIT_USAGE;
             }
         } else if (!strcmp(a, "--resume")) o->resume = 1;
+        else if (!strcmp(a, "--force")) o->force = 1;
         else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) o->quiet = 1;
         else if (a[0] == '-' && a[1]) {
             fprintf(stderr, "kerf %s: unknown option '%s' (see kerf %s --help)\n", cmd, a, cmd);

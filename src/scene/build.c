@@ -93,8 +93,23 @@ static void hash_vals(uint64_t *h, const double *v, int n) {
     for (int i = 0; i < n; i++) hash_fmt(h, "%.17g,", v[i]);
 }
 
+/* an asset's bytes: an edited mesh under the same name is a different input */
+static void hash_file(uint64_t *h, const char *path) {
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        hash_str(h, "<missing>");
+        return;
+    }
+    unsigned char buf[65536];
+    size_t got;
+    while ((got = fread(buf, 1, sizeof buf, f)) > 0)
+        for (size_t i = 0; i < got; i++) *h = (*h ^ buf[i]) * 1099511628211ULL;
+    fclose(f);
+}
+
 uint64_t kf_shot_sim_hash(const kf_shot *shot) {
     uint64_t h = 1469598103934665603ULL;
+    hash_str(&h, "kerf " KERF_VERSION);
     const kf_sim_def *s = &shot->sim;
     double sim[] = {s->dx, s->cfl, s->dt_max, s->dt_fixed, s->gravity[0], s->gravity[1], s->gravity[2],
                     s->kernel, s->force, s->transfer, s->walls, s->domain_min[0], s->domain_min[1],
@@ -118,7 +133,7 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
                       p->fit_center[2], p->fit_size, o->velocity[0], o->velocity[1], o->velocity[2],
                       o->angular_velocity[0], o->angular_velocity[1], o->angular_velocity[2]};
         hash_vals(&h, v, (int)(sizeof v / sizeof *v));
-        hash_str(&h, o->mesh_path);
+        if (o->shape == KF_SOURCE_MESH) hash_file(&h, o->mesh_path);
     }
     for (int i = 0; i < shot->ncolliders; i++) {
         const kf_collider *c = &shot->colliders[i].col;

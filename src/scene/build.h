@@ -21,8 +21,10 @@ typedef struct kf_build_stats {
  * problem in diag. threads: 0 = the shot's setting. */
 int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_stats *stats, kf_diag *diag);
 
-/* A hash of every input that changes the simulation (not outputs, not the
- * frame sub-range): a checkpoint made under another hash is not resumed. */
+/* A hash of every input that changes the simulation: the shot's sim-relevant
+ * values, the bytes of its mesh files and the kerf version (not outputs, not
+ * render settings, not the frame sub-range). A checkpoint made under another
+ * hash is neither resumed nor reused as a cache. */
 uint64_t kf_shot_sim_hash(const kf_shot *shot);
 
 #endif
