@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# run.sh — the main job: set up, build, simulate the default shot.
-#   usage: tools/run.sh [kerf run options]   e.g. --frames 48 --res 96
+# run.sh — the main job: set up (packages, build), then simulate the default
+# shot. Extra arguments go to `kerf run`, e.g. --quality preview, --frames 1001-1010.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 "$here/tools/setup.sh"
 cd "$here"
-./build/kerf run --out out/demo "$@"
-echo "frames (PLY point clouds): $here/out/demo/"
+./build/kerf run shots/demo.yaml "$@"
+echo "frames: $here/out/demo/v001/particles/ (PLY point clouds), checkpoints beside them"
