@@ -7,9 +7,13 @@
  * particles, so the compiler vectorises it (16 floats per AVX-512 register).
  * A particle whose iteration has not converged after the fixed number of
  * sweeps, or whose F is near-singular or inverted, is recomputed by the
- * robust scalar path (kf_mat_update: sign-fixed SVD). Other models take the
- * scalar path for every particle, one SVD each for plasticity and stress. */
+ * robust scalar path (kf_mat_update: sign-fixed SVD). The Hencky models
+ * (von Mises, Drucker–Prager sand) run a float SVD, return map and stress in
+ * lock step the same way (hencky_batch, float build only). Snow and the
+ * double build take the scalar path for every particle. */
 #include "material.h"
+
+#include <math.h>
 
 #define BATCH 16
 #define SWEEPS 8
@@ -111,6 +115,263 @@ static void corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_rea
         if (!ok[j]) scalar_one(m, Fp, ps, 0, first + (size_t)j, tau, j);
 }
 
+#ifndef KF_DOUBLE
+/* ---- Hencky models (von Mises, Drucker–Prager sand), float only ---------------
+ *
+ * StVK on Hencky strain needs the full SVD F = U Σ Vᵀ. For a run of up to
+ * BATCH particles it is computed in lock step, in float:
+ *   A = FᵀF, cyclic Jacobi with branch-free rotations (fixed sweeps, early
+ *   exit once every lane is diagonal), σ² sorted descending with the columns
+ *   of V (each swap negates one column: det V = +1), B = F V, U by
+ *   Gram–Schmidt on B and u2 = u0 × u1, σ2 = u2·b2 signed (as kf_svd3).
+ * Forming FᵀF squares the condition number: σ_i comes out with an error of
+ * about ε σ_max²/σ_min, so a lane is accepted only when every σ lies in
+ * [HB_LO, HB_HI] (ratio² ≤ 5), which also bounds the ranges of the log and
+ * exp polynomials below, and when the columns of B are orthogonal to
+ * HB_RES (the dropped Gram–Schmidt terms, i.e. the reconstruction error of
+ * F = U Σ Vᵀ). Every other lane — inverted, strongly stretched or
+ * compressed, NaN, or a return map leaving |H| > HB_HMAX — is recomputed
+ * by the scalar path (kf_mat_update, double SVD), from its untouched
+ * inputs: nothing is written for such a lane before that. */
+#define HB_LO KF_R(0.67)
+#define HB_HI KF_R(1.5)
+#define HB_HMAX KF_R(0.75)
+#define HB_RES2 KF_R(1e-12) /* (1e-6)²: a few ε, where round-off lands */
+#define HB_SWEEPS 5
+
+/* log x = 2 atanh(t), t = (x − 1)/(x + 1); |t| ≤ 0.2 on [0.67, 1.5], so the
+ * series to t¹¹ leaves a relative truncation of 0.04⁶/13 ≈ 3e-10 */
+static inline kf_real hb_log(kf_real x) {
+    kf_real t = (x - 1) / (x + 1), t2 = t * t;
+    kf_real p = KF_R(1.0 / 11);
+    p = p * t2 + KF_R(1.0 / 9);
+    p = p * t2 + KF_R(1.0 / 7);
+    p = p * t2 + KF_R(1.0 / 5);
+    p = p * t2 + KF_R(1.0 / 3);
+    p = p * t2 + 1;
+    return 2 * t * p;
+}
+
+/* exp x by Taylor to x¹¹ for |x| ≤ 0.75: truncation 0.75¹²/12! ≈ 7e-11 */
+static inline kf_real hb_exp(kf_real x) {
+    kf_real p = KF_R(1.0 / 39916800);
+    p = p * x + KF_R(1.0 / 3628800);
+    p = p * x + KF_R(1.0 / 362880);
+    p = p * x + KF_R(1.0 / 40320);
+    p = p * x + KF_R(1.0 / 5040);
+    p = p * x + KF_R(1.0 / 720);
+    p = p * x + KF_R(1.0 / 120);
+    p = p * x + KF_R(1.0 / 24);
+    p = p * x + KF_R(1.0 / 6);
+    p = p * x + KF_R(0.5);
+    p = p * x + 1;
+    return p * x + 1;
+}
+
+/* one Jacobi rotation in the (p, q) plane of the symmetric A (six planes
+ * a00 a11 a22 a01 a02 a12), accumulated into the columns of V; r is the
+ * third index. Angle as kf_svd3: t = 2g sgn(d)/(|d| + √(d² + 4g²)). */
+#define HB_ROT(app, aqq, apq, arp, arq, P, Q)                                                          \
+    for (int j = 0; j < n; j++) {                                                                      \
+        kf_real a = app[j], b = aqq[j], g = apq[j];                                                    \
+        kf_real d = b - a, r = kf_sqrt(d * d + 4 * g * g), w = kf_fabs(d) + r, rw = 2 * r * w;         \
+        int live = rw > KF_R(1e-30);                                                                   \
+        kf_real inv = 1 / kf_sqrt(live ? rw : 1);                                                      \
+        kf_real c = live ? w * inv : 1, s = live ? (d >= 0 ? 2 * g : -2 * g) * inv : 0;                \
+        kf_real cs = c * s;                                                                            \
+        app[j] = c * c * a - 2 * cs * g + s * s * b;                                                   \
+        aqq[j] = s * s * a + 2 * cs * g + c * c * b;                                                   \
+        apq[j] = 0;                                                                                    \
+        kf_real xp = arp[j], xq = arq[j];                                                              \
+        arp[j] = c * xp - s * xq;                                                                      \
+        arq[j] = s * xp + c * xq;                                                                      \
+        for (int i = 0; i < 3; i++) {                                                                  \
+            kf_real vp = V[3 * i + P][j], vq = V[3 * i + Q][j];                                        \
+            V[3 * i + P][j] = c * vp - s * vq;                                                         \
+            V[3 * i + Q][j] = s * vp + c * vq;                                                         \
+        }                                                                                              \
+    }
+
+/* sort step on the σ² of columns p < q: swap when q is larger, negating the
+ * new column q so det V stays +1 */
+#define HB_SORT(P, Q)                                                                                  \
+    for (int j = 0; j < n; j++) {                                                                      \
+        kf_real sp = S2[P][j], sq = S2[Q][j];                                                          \
+        int sw = sq > sp;                                                                              \
+        S2[P][j] = sw ? sq : sp;                                                                       \
+        S2[Q][j] = sw ? sp : sq;                                                                       \
+        for (int i = 0; i < 3; i++) {                                                                  \
+            kf_real vp = V[3 * i + P][j], vq = V[3 * i + Q][j];                                        \
+            V[3 * i + P][j] = sw ? vq : vp;                                                            \
+            V[3 * i + Q][j] = sw ? -vp : vq;                                                           \
+        }                                                                                              \
+    }
+
+static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project,
+                         size_t first, kf_real *const tau[6]) {
+    kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], S2[3][BATCH], E[3][BATCH];
+    kf_real a00[BATCH], a11[BATCH], a22[BATCH], a01[BATCH], a02[BATCH], a12[BATCH];
+    int ok[BATCH];
+    for (int k = 0; k < 9; k++)
+        for (int j = 0; j < n; j++) F[k][j] = Fp[k][first + (size_t)j];
+
+    /* A = FᵀF, V = I */
+    for (int j = 0; j < n; j++) {
+        kf_real f0 = F[0][j], f1 = F[1][j], f2 = F[2][j], f3 = F[3][j], f4 = F[4][j], f5 = F[5][j], f6 = F[6][j],
+                f7 = F[7][j], f8 = F[8][j];
+        a00[j] = f0 * f0 + f3 * f3 + f6 * f6;
+        a11[j] = f1 * f1 + f4 * f4 + f7 * f7;
+        a22[j] = f2 * f2 + f5 * f5 + f8 * f8;
+        a01[j] = f0 * f1 + f3 * f4 + f6 * f7;
+        a02[j] = f0 * f2 + f3 * f5 + f6 * f8;
+        a12[j] = f1 * f2 + f4 * f5 + f7 * f8;
+        for (int k = 0; k < 9; k++) V[k][j] = (k % 4 == 0) ? 1 : 0;
+    }
+    for (int sweep = 0; sweep < HB_SWEEPS; sweep++) {
+        /* every lane diagonal to round-off: stop (a separate pass, so the
+         * rotation loops have no early exit) */
+        kf_real off[BATCH];
+        for (int j = 0; j < n; j++) {
+            kf_real dg = a00[j] * a00[j] + a11[j] * a11[j] + a22[j] * a22[j];
+            kf_real o = a01[j] * a01[j] + a02[j] * a02[j] + a12[j] * a12[j];
+            off[j] = o <= KF_R(1e-16) * dg ? 0 : 1;
+        }
+        int done = 1;
+        for (int j = 0; j < n; j++) done &= off[j] == 0;
+        if (done) break;
+        HB_ROT(a00, a11, a01, a02, a12, 0, 1)
+        HB_ROT(a00, a22, a02, a01, a12, 0, 2)
+        HB_ROT(a11, a22, a12, a01, a02, 1, 2)
+    }
+    for (int j = 0; j < n; j++) S2[0][j] = a00[j], S2[1][j] = a11[j], S2[2][j] = a22[j];
+    HB_SORT(0, 1)
+    HB_SORT(1, 2)
+    HB_SORT(0, 1)
+
+    /* B = F V; U by Gram–Schmidt; σ; validity; log σ */
+    for (int j = 0; j < n; j++) {
+        kf_real b[3][3]; /* b[c][i]: column c */
+        for (int c = 0; c < 3; c++)
+            for (int i = 0; i < 3; i++)
+                b[c][i] = F[3 * i][j] * V[c][j] + F[3 * i + 1][j] * V[3 + c][j] + F[3 * i + 2][j] * V[6 + c][j];
+        kf_real s0 = kf_sqrt(b[0][0] * b[0][0] + b[0][1] * b[0][1] + b[0][2] * b[0][2]);
+        kf_real i0 = 1 / (s0 > 0 ? s0 : 1);
+        kf_real u0[3] = {b[0][0] * i0, b[0][1] * i0, b[0][2] * i0};
+        kf_real r01 = u0[0] * b[1][0] + u0[1] * b[1][1] + u0[2] * b[1][2];
+        kf_real w1[3] = {b[1][0] - r01 * u0[0], b[1][1] - r01 * u0[1], b[1][2] - r01 * u0[2]};
+        kf_real s1 = kf_sqrt(w1[0] * w1[0] + w1[1] * w1[1] + w1[2] * w1[2]);
+        kf_real i1 = 1 / (s1 > 0 ? s1 : 1);
+        kf_real u1[3] = {w1[0] * i1, w1[1] * i1, w1[2] * i1};
+        kf_real u2[3] = {u0[1] * u1[2] - u0[2] * u1[1], u0[2] * u1[0] - u0[0] * u1[2], u0[0] * u1[1] - u0[1] * u1[0]};
+        kf_real s2 = u2[0] * b[2][0] + u2[1] * b[2][1] + u2[2] * b[2][2];
+        kf_real r02 = u0[0] * b[2][0] + u0[1] * b[2][1] + u0[2] * b[2][2];
+        kf_real r12 = u1[0] * b[2][0] + u1[1] * b[2][1] + u1[2] * b[2][2];
+        for (int i = 0; i < 3; i++) U[3 * i][j] = u0[i], U[3 * i + 1][j] = u1[i], U[3 * i + 2][j] = u2[i];
+        /* NaN fails every comparison, so a broken F is never accepted */
+        ok[j] = (s0 >= HB_LO) & (s0 <= HB_HI) & (s1 >= HB_LO) & (s1 <= HB_HI) & (s2 >= HB_LO) & (s2 <= HB_HI) &
+                (r01 * r01 + r02 * r02 + r12 * r12 <= HB_RES2);
+        /* keep the polynomials in range on rejected lanes */
+        s0 = ok[j] ? s0 : 1, s1 = ok[j] ? s1 : 1, s2 = ok[j] ? s2 : 1;
+        E[0][j] = hb_log(s0), E[1][j] = hb_log(s1), E[2][j] = hb_log(s2);
+    }
+
+    /* the return map in principal space: E ← H; chg = F must change */
+    int chg[BATCH];
+    kf_real ps0[BATCH], ps1[BATCH];
+    for (int j = 0; j < n; j++) chg[j] = 0;
+    if (project && m->model == KF_MAT_VON_MISES) {
+        const kf_real ry = m->tau_y / (2 * m->mu);
+        for (int j = 0; j < n; j++) {
+            kf_real e0 = E[0][j], e1 = E[1][j], e2 = E[2][j], tr3 = (e0 + e1 + e2) * KF_R(1.0 / 3);
+            kf_real h0 = e0 - tr3, h1 = e1 - tr3, h2 = e2 - tr3;
+            kf_real nh = kf_sqrt(h0 * h0 + h1 * h1 + h2 * h2);
+            kf_real dg = nh - ry;
+            int y = dg > 0;
+            kf_real f = y ? dg / (nh > 0 ? nh : 1) : 0;
+            E[0][j] = e0 - f * h0, E[1][j] = e1 - f * h1, E[2][j] = e2 - f * h2;
+            chg[j] = y;
+        }
+    } else if (project && m->model == KF_MAT_SAND) {
+        const kf_real mu = m->mu, la = m->lambda, c = m->cohesion, kk = (3 * la + 2 * mu) / (2 * mu);
+        const int vcorr = m->volume_correction, hard = m->hardening;
+        kf_real cf[BATCH], VC[BATCH], P1[BATCH];
+        for (int j = 0; j < n; j++) VC[j] = vcorr ? ps[0][first + (size_t)j] : 0, P1[j] = ps[1][first + (size_t)j];
+        if (hard) {
+            /* the hardened friction coefficient needs exp and sin of an
+             * unbounded q: a scalar loop in double, as kf_mat_update */
+            for (int j = 0; j < n; j++) {
+                double q = P1[j];
+                double phi = m->h0 + (m->h1 * q - m->h3) * exp(-(double)m->h2 * q);
+                phi = fmin(fmax(phi, 0.0), 0.5 * 3.14159265358979323846 - 1e-6);
+                double sp = sin(phi);
+                cf[j] = (kf_real)(sqrt(2.0 / 3.0) * 2 * sp / (3 - sp));
+            }
+        } else {
+            for (int j = 0; j < n; j++) cf[j] = m->c_f;
+        }
+        for (int j = 0; j < n; j++) {
+            kf_real vc = VC[j];
+            kf_real e0 = E[0][j], e1 = E[1][j], e2 = E[2][j], trt = e0 + e1 + e2;
+            kf_real sh = vc * KF_R(1.0 / 3) - c;
+            kf_real s0 = e0 + sh, s1 = e1 + sh, s2 = e2 + sh, tr = s0 + s1 + s2, tr3 = tr * KF_R(1.0 / 3);
+            kf_real h0 = s0 - tr3, h1 = s1 - tr3, h2 = s2 - tr3;
+            kf_real nh = kf_sqrt(h0 * h0 + h1 * h1 + h2 * h2);
+            kf_real dg = nh + kk * tr * cf[j];
+            int tension = tr >= 0, elastic = !tension & (dg <= 0);
+            kf_real f = dg / (nh > 0 ? nh : 1);
+            kf_real H0 = tension ? c : elastic ? s0 + c : s0 - f * h0 + c;
+            kf_real H1 = tension ? c : elastic ? s1 + c : s1 - f * h1 + c;
+            kf_real H2 = tension ? c : elastic ? s2 + c : s2 - f * h2 + c;
+            kf_real dq = tension ? kf_sqrt(s0 * s0 + s1 * s1 + s2 * s2) : elastic ? 0 : dg;
+            ps1[j] = P1[j] + dq; /* stored only with hardening */
+            /* an elastic state with nothing to correct keeps F bit for bit */
+            int ch = !(elastic & (vc == 0));
+            ps0[j] = ch ? vc + trt - (H0 + H1 + H2) : vc; /* stored only with volume correction */
+            E[0][j] = ch ? H0 : e0, E[1][j] = ch ? H1 : e1, E[2][j] = ch ? H2 : e2;
+            chg[j] = ch;
+        }
+    }
+
+    /* F_E = U diag(exp H) Vᵀ where it changed; τ = U diag(2μH + λ tr H) Uᵀ */
+    const kf_real mu2 = 2 * m->mu, la = m->lambda;
+    kf_real T[6][BATCH], G[9][BATCH];
+    for (int j = 0; j < n; j++) {
+        kf_real e0 = E[0][j], e1 = E[1][j], e2 = E[2][j];
+        /* |H| beyond the exp polynomial's range: the scalar path */
+        int in = (kf_fabs(e0) <= HB_HMAX) & (kf_fabs(e1) <= HB_HMAX) & (kf_fabs(e2) <= HB_HMAX);
+        ok[j] &= in;
+        e0 = in ? e0 : 0, e1 = in ? e1 : 0, e2 = in ? e2 : 0;
+        kf_real x0 = hb_exp(e0), x1 = hb_exp(e1), x2 = hb_exp(e2);
+        for (int i = 0; i < 3; i++)
+            for (int k = 0; k < 3; k++) {
+                kf_real g = U[3 * i][j] * x0 * V[3 * k][j] + U[3 * i + 1][j] * x1 * V[3 * k + 1][j] +
+                            U[3 * i + 2][j] * x2 * V[3 * k + 2][j];
+                G[3 * i + k][j] = chg[j] ? g : F[3 * i + k][j];
+            }
+        kf_real tr = la * (e0 + e1 + e2), d0 = mu2 * e0 + tr, d1 = mu2 * e1 + tr, d2 = mu2 * e2 + tr;
+#define HB_T(a, b) (U[3 * a][j] * d0 * U[3 * b][j] + U[3 * a + 1][j] * d1 * U[3 * b + 1][j] + U[3 * a + 2][j] * d2 * U[3 * b + 2][j])
+        T[0][j] = HB_T(0, 0), T[1][j] = HB_T(1, 1), T[2][j] = HB_T(2, 2);
+        T[3][j] = HB_T(0, 1), T[4][j] = HB_T(0, 2), T[5][j] = HB_T(1, 2);
+#undef HB_T
+    }
+    for (int k = 0; k < 6; k++)
+        for (int j = 0; j < n; j++) tau[k][j] = T[k][j];
+    if (project) {
+        for (int k = 0; k < 9; k++)
+            for (int j = 0; j < n; j++)
+                if (ok[j] & chg[j]) Fp[k][first + (size_t)j] = G[k][j];
+        if (m->model == KF_MAT_SAND && m->volume_correction)
+            for (int j = 0; j < n; j++)
+                if (ok[j]) ps[0][first + (size_t)j] = ps0[j];
+        if (m->model == KF_MAT_SAND && m->hardening)
+            for (int j = 0; j < n; j++)
+                if (ok[j]) ps[1][first + (size_t)j] = ps1[j];
+    }
+    for (int j = 0; j < n; j++)
+        if (!ok[j]) scalar_one(m, Fp, ps, project, first + (size_t)j, tau, j);
+}
+#endif
+
 void kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
                          kf_real *const tau6[6]) {
     if (m->model == KF_MAT_COROTATED) {
@@ -122,5 +383,16 @@ void kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *c
         }
         return;
     }
+#ifndef KF_DOUBLE
+    if (m->model == KF_MAT_VON_MISES || m->model == KF_MAT_SAND) {
+        for (int j0 = 0; j0 < n; j0 += BATCH) {
+            int c = n - j0 < BATCH ? n - j0 : BATCH;
+            kf_real *out[6];
+            for (int k = 0; k < 6; k++) out[k] = tau6[k] + j0;
+            hencky_batch(m, c, F, ps, project && m->plastic, first + (size_t)j0, out);
+        }
+        return;
+    }
+#endif
     for (int j = 0; j < n; j++) scalar_one(m, F, ps, project && m->plastic, first + (size_t)j, tau6, j);
 }

@@ -86,6 +86,13 @@ KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, 
         stencil_axis(KW, ck->n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a]);
 }
 
+/* node (a, b, c) of an owner's cache, counted from the owner's first node,
+ * in the 2x2x2 block neighbourhood nb */
+static inline kf_v4 *nb_node(const kf_grid *g, const int32_t *nb, int a, int b, int c) {
+    int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (c >> 2)];
+    return &g->node[(size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3))];
+}
+
 /* ---- trouble: the first (lowest id) particle in trouble, per thread ---- */
 
 typedef struct step_acc {
@@ -197,11 +204,7 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     for (int a = 0; a < CD; a++)
         for (int b = 0; b < CD; b++) {
             const kf_v4 *row = &cache[(a * CD + b) * CD];
-            for (int c = 0; c < CD; c++) {
-                int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (c >> 2)];
-                kf_v4 *node = &g->node[(size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3))];
-                *node += row[c];
-            }
+            for (int c = 0; c < CD; c++) *nb_node(g, nb, a, b, c) += row[c];
         }
 }
 
@@ -260,10 +263,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     for (int a = 0; a < CD; a++)
         for (int b = 0; b < CD; b++) {
             kf_v4 *row = &cache[(a * CD + b) * CD];
-            for (int c = 0; c < CD; c++) {
-                int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (c >> 2)];
-                row[c] = g->node[(size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3))];
-            }
+            for (int c = 0; c < CD; c++) row[c] = *nb_node(g, nb, a, b, c);
         }
 
     for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
