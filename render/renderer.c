@@ -1,0 +1,655 @@
+/* renderer.c — shaders, buffers and the frame: shadow pass, gradient, meshes, resolve.
+ *
+ * A frame is: (1) upload the meshes; (2) depth-only pass from the key light into
+ * a shadow map (orthographic, fitted to the meshes' bounding sphere); (3) a
+ * screen-space gradient; (4) the meshes and the ground, Blinn-Phong key + fill
+ * + hemispheric ambient, 3x3 PCF shadows, the ground dissolving into the
+ * gradient with distance; (5) MSAA resolve by blit and a read-back, rows
+ * flipped to top-down.
+ *
+ * Anti-aliasing is MSAA (llvmpipe supports 4x): it costs far less than
+ * rendering 2x larger, and the resolve is a plain blit. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "camera.h"
+#include "context.h"
+#include "gl_api.h"
+#include "render.h"
+
+struct kf_render_ctx {
+    kf_gl_context *glc;
+    kf_gl gl;
+    int w, h, samples, shadow_size;
+    char renderer_name[128];
+    GLuint prog_main, prog_depth, prog_bg;
+    GLuint vao;
+    GLuint fbo_draw, rb_color, rb_depth; /* multisampled when samples > 1 */
+    GLuint fbo_resolve, rb_resolve;      /* single-sample; only when samples > 1 */
+    GLuint fbo_shadow, tex_shadow;
+    GLuint ground_vbo[2], ground_ebo;
+    /* per-mesh buffers, grown as needed: positions, normals, indices */
+    GLuint *vbo_pos, *vbo_nrm, *ebo;
+    int nbuf;
+    uint8_t *readback; /* (h x w x 4) bottom-up */
+};
+
+/* ---- shaders ------------------------------------------------------------- */
+
+static const char *vs_main =
+    "#version 330 core\n"
+    "layout(location=0) in vec3 a_pos;\n"
+    "layout(location=1) in vec3 a_nrm;\n"
+    "uniform mat4 u_viewproj, u_light;\n"
+    "out vec3 v_wpos, v_nrm; out vec4 v_lpos;\n"
+    "void main() {\n"
+    "  v_wpos = a_pos; v_nrm = a_nrm; v_lpos = u_light * vec4(a_pos, 1.0);\n"
+    "  gl_Position = u_viewproj * vec4(a_pos, 1.0);\n"
+    "}\n";
+
+static const char *fs_main =
+    "#version 330 core\n"
+    "in vec3 v_wpos, v_nrm; in vec4 v_lpos;\n"
+    "uniform vec3 u_eye, u_key_dir, u_key_col, u_fill_dir, u_fill_col;\n"
+    "uniform float u_ambient;\n"
+    "uniform vec3 u_diffuse; uniform float u_spec, u_rough;\n"
+    "uniform int u_flat, u_shadows, u_ground;\n"
+    "uniform sampler2DShadow u_shadow; uniform float u_texel;\n"
+    "uniform vec3 u_bg_top, u_bg_bottom; uniform float u_height;\n"
+    "uniform vec3 u_center; uniform float u_fade0, u_fade1;\n"
+    "out vec4 o_col;\n"
+    "vec3 lin(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }\n"
+    "float shadow_at(float ndl) {\n"
+    "  if (u_shadows == 0) return 1.0;\n"
+    "  vec3 p = v_lpos.xyz / v_lpos.w * 0.5 + 0.5;\n"
+    "  if (p.x <= 0.0 || p.x >= 1.0 || p.y <= 0.0 || p.y >= 1.0 || p.z >= 1.0) return 1.0;\n"
+    "  float bias = u_texel * (1.0 + 2.0 * sqrt(1.0 - ndl * ndl) / max(ndl, 0.2));\n"
+    "  float s = 0.0;\n"
+    "  for (int i = -1; i <= 1; i++) for (int j = -1; j <= 1; j++)\n"
+    "    s += texture(u_shadow, vec3(p.xy + vec2(i, j) * u_texel, p.z - bias));\n"
+    "  return s / 9.0;\n"
+    "}\n"
+    "float blinn(vec3 n, vec3 l, vec3 v, float shin) {\n"
+    "  vec3 h = normalize(l + v);\n"
+    "  return (shin + 8.0) / 25.13 * pow(max(dot(n, h), 0.0), shin);\n"
+    "}\n"
+    "void main() {\n"
+    "  vec3 n;\n"
+    "  if (u_flat != 0) n = normalize(cross(dFdx(v_wpos), dFdy(v_wpos)));\n"
+    "  else { n = normalize(v_nrm); if (!gl_FrontFacing) n = -n; }\n"
+    "  vec3 v = normalize(u_eye - v_wpos);\n"
+    "  vec3 albedo = lin(u_diffuse);\n"
+    "  float r = clamp(u_rough, 0.03, 1.0);\n"
+    "  float shin = clamp(2.0 / (r * r * r * r) - 2.0, 1.0, 4096.0);\n"
+    "  float ndk = max(dot(n, u_key_dir), 0.0), ndf = max(dot(n, u_fill_dir), 0.0);\n"
+    "  float sh = ndk > 0.0 ? shadow_at(ndk) : 0.0;\n"
+    "  vec3 amb = u_ambient * mix(vec3(0.35, 0.33, 0.3), vec3(1.0), 0.5 + 0.5 * n.y);\n"
+    "  vec3 c = albedo * (amb + u_key_col * ndk * sh + u_fill_col * ndf);\n"
+    "  c += u_spec * (u_key_col * ndk * sh * blinn(n, u_key_dir, v, shin)\n"
+    "               + u_fill_col * ndf * blinn(n, u_fill_dir, v, shin));\n"
+    "  c = c / (1.0 + 0.15 * c);\n" /* a gentle shoulder so highlights do not clip hard */
+    "  c = pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2));\n"
+    "  if (u_ground != 0) {\n"
+    "    vec3 bg = mix(u_bg_bottom, u_bg_top, gl_FragCoord.y / u_height);\n"
+    "    float f = smoothstep(u_fade0, u_fade1, distance(v_wpos.xz, u_center.xz));\n"
+    "    c = mix(c, bg, f);\n"
+    "  }\n"
+    "  o_col = vec4(c, 1.0);\n"
+    "}\n";
+
+static const char *vs_depth =
+    "#version 330 core\n"
+    "layout(location=0) in vec3 a_pos;\n"
+    "uniform mat4 u_light;\n"
+    "void main() { gl_Position = u_light * vec4(a_pos, 1.0); }\n";
+
+static const char *fs_depth =
+    "#version 330 core\n"
+    "void main() {}\n";
+
+static const char *vs_bg =
+    "#version 330 core\n"
+    "out float v_t;\n"
+    "void main() {\n"
+    "  vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2) * 2.0 - 1.0;\n"
+    "  v_t = p.y * 0.5 + 0.5;\n"
+    "  gl_Position = vec4(p, 1.0, 1.0);\n"
+    "}\n";
+
+static const char *fs_bg =
+    "#version 330 core\n"
+    "in float v_t; uniform vec3 u_bg_top, u_bg_bottom; out vec4 o_col;\n"
+    "void main() { o_col = vec4(mix(u_bg_bottom, u_bg_top, clamp(v_t, 0.0, 1.0)), 1.0); }\n";
+
+static GLuint compile(kf_gl *gl, GLenum type, const char *src, const char *what, char *err,
+                      size_t errlen) {
+    GLuint s = gl->CreateShader(type);
+    gl->ShaderSource(s, 1, &src, NULL);
+    gl->CompileShader(s);
+    GLint ok = 0;
+    gl->GetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[1024] = "";
+        gl->GetShaderInfoLog(s, sizeof log, NULL, log);
+        snprintf(err, errlen, "render: %s shader does not compile: %s", what, log);
+        gl->DeleteShader(s);
+        return 0;
+    }
+    return s;
+}
+
+static GLuint program(kf_gl *gl, const char *vs, const char *fs, const char *what, char *err,
+                      size_t errlen) {
+    GLuint v = compile(gl, GL_VERTEX_SHADER, vs, what, err, errlen);
+    if (!v) return 0;
+    GLuint f = compile(gl, GL_FRAGMENT_SHADER, fs, what, err, errlen);
+    if (!f) {
+        gl->DeleteShader(v);
+        return 0;
+    }
+    GLuint p = gl->CreateProgram();
+    gl->AttachShader(p, v);
+    gl->AttachShader(p, f);
+    gl->LinkProgram(p);
+    gl->DeleteShader(v);
+    gl->DeleteShader(f);
+    GLint ok = 0;
+    gl->GetProgramiv(p, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[1024] = "";
+        gl->GetProgramInfoLog(p, sizeof log, NULL, log);
+        snprintf(err, errlen, "render: %s program does not link: %s", what, log);
+        gl->DeleteProgram(p);
+        return 0;
+    }
+    return p;
+}
+
+/* ---- create / destroy ------------------------------------------------------ */
+
+static int fbo_complete(kf_gl *gl, const char *what, char *err, size_t errlen) {
+    GLenum st = gl->CheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (st != GL_FRAMEBUFFER_COMPLETE) {
+        snprintf(err, errlen, "render: %s framebuffer incomplete (status 0x%x)", what, st);
+        return -1;
+    }
+    return 0;
+}
+
+kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t errlen) {
+    if (w <= 0 || h <= 0 || w > 16384 || h > 16384) {
+        snprintf(err, errlen, "render: bad image size %dx%d (1..16384 each way)", w, h);
+        return NULL;
+    }
+    kf_render_ctx *r = calloc(1, sizeof *r);
+    if (!r) {
+        snprintf(err, errlen, "render: out of memory");
+        return NULL;
+    }
+    r->w = w;
+    r->h = h;
+    r->readback = malloc((size_t)w * h * 4);
+    if (!r->readback) {
+        snprintf(err, errlen, "render: out of memory for a %dx%d image", w, h);
+        free(r);
+        return NULL;
+    }
+    r->glc = kf_gl_context_create(w, h, err, errlen);
+    if (!r->glc || kf_gl_load(&r->gl, kf_gl_context_proc, err, errlen) != 0) {
+        kf_render_destroy(r);
+        return NULL;
+    }
+    kf_gl *gl = &r->gl;
+    const char *name = (const char *)gl->GetString(GL_RENDERER);
+    snprintf(r->renderer_name, sizeof r->renderer_name, "%s", name ? name : "?");
+
+    GLint max_samples = 1, max_rb = 0, max_tex = 0;
+    gl->GetIntegerv(GL_MAX_SAMPLES, &max_samples);
+    gl->GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    gl->GetIntegerv(GL_MAX_TEXTURE_SIZE, &max_tex);
+    if (w > max_rb || h > max_rb) {
+        snprintf(err, errlen, "render: %dx%d exceeds the GL's largest renderbuffer (%d)", w, h,
+                 max_rb);
+        kf_render_destroy(r);
+        return NULL;
+    }
+    r->samples = samples <= 1 ? 1 : (samples > max_samples ? max_samples : samples);
+    /* shadow map: about the image's long side, 512..2048 texels (PCF softens the rest;
+     * 4096 doubled the 1080p frame time on llvmpipe for no visible gain) */
+    int longest = w > h ? w : h;
+    r->shadow_size = longest < 512 ? 512 : (longest > 2048 ? 2048 : longest);
+    if (r->shadow_size > max_tex) r->shadow_size = max_tex;
+
+    if (!(r->prog_main = program(gl, vs_main, fs_main, "mesh", err, errlen)) ||
+        !(r->prog_depth = program(gl, vs_depth, fs_depth, "shadow", err, errlen)) ||
+        !(r->prog_bg = program(gl, vs_bg, fs_bg, "background", err, errlen))) {
+        kf_render_destroy(r);
+        return NULL;
+    }
+    gl->GenVertexArrays(1, &r->vao);
+    gl->BindVertexArray(r->vao);
+
+    /* the draw target: colour + depth, multisampled if asked */
+    gl->GenFramebuffers(1, &r->fbo_draw);
+    gl->GenRenderbuffers(1, &r->rb_color);
+    gl->GenRenderbuffers(1, &r->rb_depth);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_draw);
+    gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_color);
+    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, r->samples > 1 ? r->samples : 0,
+                                       GL_RGBA8, w, h);
+    gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                                r->rb_color);
+    gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_depth);
+    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, r->samples > 1 ? r->samples : 0,
+                                       GL_DEPTH_COMPONENT24, w, h);
+    gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
+                                r->rb_depth);
+    if (fbo_complete(gl, "image", err, errlen) != 0) {
+        kf_render_destroy(r);
+        return NULL;
+    }
+    if (r->samples > 1) {
+        gl->GenFramebuffers(1, &r->fbo_resolve);
+        gl->GenRenderbuffers(1, &r->rb_resolve);
+        gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_resolve);
+        gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_resolve);
+        gl->RenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+        gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                                    r->rb_resolve);
+        if (fbo_complete(gl, "resolve", err, errlen) != 0) {
+            kf_render_destroy(r);
+            return NULL;
+        }
+    }
+
+    /* the shadow map: a depth texture compared in the shader (sampler2DShadow) */
+    gl->GenTextures(1, &r->tex_shadow);
+    gl->BindTexture(GL_TEXTURE_2D, r->tex_shadow);
+    gl->TexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, r->shadow_size, r->shadow_size, 0,
+                   GL_DEPTH_COMPONENT, GL_FLOAT, NULL);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+    gl->GenFramebuffers(1, &r->fbo_shadow);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_shadow);
+    gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, r->tex_shadow,
+                             0);
+    gl->DrawBuffer(GL_NONE);
+    gl->ReadBuffer(GL_NONE);
+    if (fbo_complete(gl, "shadow", err, errlen) != 0) {
+        kf_render_destroy(r);
+        return NULL;
+    }
+    gl->GenBuffers(2, r->ground_vbo);
+    gl->GenBuffers(1, &r->ground_ebo);
+    GLenum e = gl->GetError();
+    if (e != GL_NO_ERROR) {
+        snprintf(err, errlen, "render: GL error 0x%x while setting up %dx%d x%d samples", e, w, h,
+                 r->samples);
+        kf_render_destroy(r);
+        return NULL;
+    }
+    return r;
+}
+
+void kf_render_destroy(kf_render_ctx *r) {
+    if (!r) return;
+    if (r->glc) {
+        char e[64];
+        if (kf_gl_context_make_current(r->glc, e, sizeof e) == 0 && r->gl.DeleteBuffers) {
+            kf_gl *gl = &r->gl;
+            if (r->nbuf) {
+                gl->DeleteBuffers(r->nbuf, r->vbo_pos);
+                gl->DeleteBuffers(r->nbuf, r->vbo_nrm);
+                gl->DeleteBuffers(r->nbuf, r->ebo);
+            }
+            gl->DeleteBuffers(2, r->ground_vbo);
+            gl->DeleteBuffers(1, &r->ground_ebo);
+            gl->DeleteFramebuffers(1, &r->fbo_draw);
+            gl->DeleteFramebuffers(1, &r->fbo_resolve);
+            gl->DeleteFramebuffers(1, &r->fbo_shadow);
+            gl->DeleteRenderbuffers(1, &r->rb_color);
+            gl->DeleteRenderbuffers(1, &r->rb_depth);
+            gl->DeleteRenderbuffers(1, &r->rb_resolve);
+            gl->DeleteTextures(1, &r->tex_shadow);
+            gl->DeleteVertexArrays(1, &r->vao);
+            if (r->prog_main) gl->DeleteProgram(r->prog_main);
+            if (r->prog_depth) gl->DeleteProgram(r->prog_depth);
+            if (r->prog_bg) gl->DeleteProgram(r->prog_bg);
+        }
+        kf_gl_context_destroy(r->glc);
+    }
+    free(r->vbo_pos);
+    free(r->vbo_nrm);
+    free(r->ebo);
+    free(r->readback);
+    free(r);
+}
+
+int kf_render_samples(const kf_render_ctx *r) { return r->samples; }
+const char *kf_render_gl_renderer(const kf_render_ctx *r) { return r->renderer_name; }
+
+/* ---- scene --------------------------------------------------------------- */
+
+kf_render_scene kf_render_scene_default(void) {
+    kf_render_scene s;
+    memset(&s, 0, sizeof s);
+    s.ground = 1;
+    s.ground_y = NAN;
+    s.ground_mat = (kf_render_material){{0.55f, 0.55f, 0.53f}, 0.05f, 0.8f};
+    /* studio grey, a little lighter at the top */
+    s.bg_top[0] = 0.36f, s.bg_top[1] = 0.38f, s.bg_top[2] = 0.42f;
+    s.bg_bottom[0] = 0.14f, s.bg_bottom[1] = 0.14f, s.bg_bottom[2] = 0.15f;
+    /* key from upper left-front of the camera, fill from the right, cooler */
+    s.key_dir[0] = -0.55f, s.key_dir[1] = 0.75f, s.key_dir[2] = 0.6f;
+    s.key_color[0] = 1.35f, s.key_color[1] = 1.3f, s.key_color[2] = 1.2f;
+    s.fill_dir[0] = 0.8f, s.fill_dir[1] = 0.2f, s.fill_dir[2] = 0.45f;
+    s.fill_color[0] = 0.22f, s.fill_color[1] = 0.25f, s.fill_color[2] = 0.3f;
+    s.ambient = 0.16f;
+    s.shadows = 1;
+    return s;
+}
+
+int kf_render_scene_bounds(const kf_render_scene *sc, float lo[3], float hi[3]) {
+    for (int i = 0; i < 3; i++) lo[i] = INFINITY, hi[i] = -INFINITY;
+    size_t n = 0;
+    for (int m = 0; m < sc->nmeshes; m++) {
+        const kf_render_mesh *me = &sc->meshes[m];
+        if (!me->positions) continue;
+        for (size_t v = 0; v < me->nverts; v++)
+            for (int i = 0; i < 3; i++) {
+                float x = me->positions[3 * v + i];
+                if (x < lo[i]) lo[i] = x;
+                if (x > hi[i]) hi[i] = x;
+            }
+        n += me->nverts;
+    }
+    if (n == 0) {
+        for (int i = 0; i < 3; i++) lo[i] = -0.5f, hi[i] = 0.5f;
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- frame --------------------------------------------------------------- */
+
+static int grow_buffers(kf_render_ctx *r, int n) {
+    if (n <= r->nbuf) return 0;
+    GLuint *p = realloc(r->vbo_pos, n * sizeof *p), *q, *e;
+    if (!p) return -1;
+    r->vbo_pos = p;
+    if (!(q = realloc(r->vbo_nrm, n * sizeof *q))) return -1;
+    r->vbo_nrm = q;
+    if (!(e = realloc(r->ebo, n * sizeof *e))) return -1;
+    r->ebo = e;
+    int add = n - r->nbuf;
+    r->gl.GenBuffers(add, r->vbo_pos + r->nbuf);
+    r->gl.GenBuffers(add, r->vbo_nrm + r->nbuf);
+    r->gl.GenBuffers(add, r->ebo + r->nbuf);
+    r->nbuf = n;
+    return 0;
+}
+
+static void bind_mesh(kf_gl *gl, GLuint pos, GLuint nrm, int has_nrm, GLuint ebo) {
+    gl->BindBuffer(GL_ARRAY_BUFFER, pos);
+    gl->VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, NULL);
+    gl->EnableVertexAttribArray(0);
+    if (has_nrm) {
+        gl->BindBuffer(GL_ARRAY_BUFFER, nrm);
+        gl->VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, NULL);
+        gl->EnableVertexAttribArray(1);
+    } else {
+        gl->DisableVertexAttribArray(1);
+        gl->VertexAttrib3f(1, 0, 1, 0);
+    }
+    gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo);
+}
+
+static void to_world(float out[3], const float d[3], const float m_view[16], int in_world) {
+    if (in_world) {
+        out[0] = d[0], out[1] = d[1], out[2] = d[2];
+    } else {
+        /* camera axes are the rows of the view rotation (columns of its transpose) */
+        for (int i = 0; i < 3; i++)
+            out[i] = m_view[i * 4 + 0] * d[0] + m_view[i * 4 + 1] * d[1] + m_view[i * 4 + 2] * d[2];
+    }
+    float l = sqrtf(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]);
+    if (l > 0) out[0] /= l, out[1] /= l, out[2] /= l;
+    else out[1] = 1;
+}
+
+int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera *cam,
+                    uint8_t *rgba_out, char *err, size_t errlen) {
+    if (!r || !sc || !cam || !rgba_out) {
+        snprintf(err, errlen, "render: frame needs a context, a scene, a camera and an image");
+        return -1;
+    }
+    if (sc->nmeshes < 0 || (sc->nmeshes > 0 && !sc->meshes)) {
+        snprintf(err, errlen, "render: scene has %d meshes but no mesh array", sc->nmeshes);
+        return -1;
+    }
+    /* validate every mesh before any GL work: a bad index would read out of bounds */
+    for (int m = 0; m < sc->nmeshes; m++) {
+        const kf_render_mesh *me = &sc->meshes[m];
+        if (me->ntris > 0 && (!me->positions || !me->tris)) {
+            snprintf(err, errlen, "render: mesh %d has %zu triangles but no %s", m, me->ntris,
+                     me->positions ? "index array" : "positions");
+            return -1;
+        }
+        if (me->ntris * 3 > (size_t)INT32_MAX) {
+            snprintf(err, errlen, "render: mesh %d has too many triangles (%zu)", m, me->ntris);
+            return -1;
+        }
+        for (size_t i = 0; i < me->ntris * 3; i++)
+            if (me->tris[i] >= me->nverts) {
+                snprintf(err, errlen,
+                         "render: mesh %d triangle %zu uses vertex %u but the mesh has %zu",
+                         m, i / 3, me->tris[i], me->nverts);
+                return -1;
+            }
+    }
+    if (kf_gl_context_make_current(r->glc, err, errlen) != 0) return -1;
+    kf_gl *gl = &r->gl;
+    gl->GetError(); /* clear stale errors */
+
+    /* the subject: bounding sphere of the meshes */
+    float lo[3], hi[3], center[3], rad = 0;
+    int empty = kf_render_scene_bounds(sc, lo, hi) != 0;
+    for (int i = 0; i < 3; i++) {
+        center[i] = 0.5f * (lo[i] + hi[i]);
+        rad += 0.25f * (hi[i] - lo[i]) * (hi[i] - lo[i]);
+    }
+    rad = sqrtf(rad);
+    if (!(rad > 1e-6f)) rad = 0.5f;
+    float ground_y = isnan(sc->ground_y) ? lo[1] : sc->ground_y;
+    int draw_ground = sc->ground != 0;
+    if (empty && isnan(sc->ground_y)) ground_y = 0;
+    float fade0 = 2.5f * rad, fade1 = 8.0f * rad;
+
+    /* camera */
+    float view[16], proj[16], viewproj[16];
+    if (kf_m4_look_at(view, cam->eye, cam->target, cam->up) != 0) {
+        snprintf(err, errlen,
+                 "render: degenerate camera (eye == target, or up parallel to the view)");
+        return -1;
+    }
+    if (!(cam->fov_deg > 0.5f && cam->fov_deg < 179.5f)) {
+        snprintf(err, errlen, "render: camera fov %g degrees is outside (0.5, 179.5)",
+                 (double)cam->fov_deg);
+        return -1;
+    }
+    float dx = cam->eye[0] - center[0], dy = cam->eye[1] - center[1], dz = cam->eye[2] - center[2];
+    float dist = sqrtf(dx * dx + dy * dy + dz * dz);
+    float zfar = cam->zfar > 0 ? cam->zfar : dist + rad + (draw_ground ? fade1 + rad : 0);
+    float znear = cam->znear > 0 ? cam->znear : fmaxf(0.5f * (dist - rad), zfar * 2e-4f);
+    if (!(zfar > znear)) {
+        snprintf(err, errlen, "render: camera near %g >= far %g", (double)znear, (double)zfar);
+        return -1;
+    }
+    kf_m4_perspective(proj, cam->fov_deg, (float)r->w / r->h, znear, zfar);
+    kf_m4_mul(viewproj, proj, view);
+
+    /* lights in world space */
+    float key[3], fill[3];
+    to_world(key, sc->key_dir, view, sc->lights_in_world);
+    to_world(fill, sc->fill_dir, view, sc->lights_in_world);
+
+    /* upload meshes (every frame: the caller's arrays may have changed) */
+    if (grow_buffers(r, sc->nmeshes) != 0) {
+        snprintf(err, errlen, "render: out of memory for %d meshes", sc->nmeshes);
+        return -1;
+    }
+    gl->BindVertexArray(r->vao);
+    for (int m = 0; m < sc->nmeshes; m++) {
+        const kf_render_mesh *me = &sc->meshes[m];
+        if (me->ntris == 0) continue;
+        gl->BindBuffer(GL_ARRAY_BUFFER, r->vbo_pos[m]);
+        gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(me->nverts * 12), me->positions,
+                       GL_STREAM_DRAW);
+        if (me->normals) {
+            gl->BindBuffer(GL_ARRAY_BUFFER, r->vbo_nrm[m]);
+            gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(me->nverts * 12), me->normals,
+                           GL_STREAM_DRAW);
+        }
+        gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ebo[m]);
+        gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(me->ntris * 12), me->tris,
+                       GL_STREAM_DRAW);
+    }
+    if (draw_ground) {
+        float g = fade1 * 1.5f, cx = center[0], cz = center[2];
+        float gp[12] = {cx - g, ground_y, cz - g, cx + g, ground_y, cz - g,
+                        cx + g, ground_y, cz + g, cx - g, ground_y, cz + g};
+        float gn[12] = {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0};
+        uint32_t gi[6] = {0, 2, 1, 0, 3, 2};
+        gl->BindBuffer(GL_ARRAY_BUFFER, r->ground_vbo[0]);
+        gl->BufferData(GL_ARRAY_BUFFER, sizeof gp, gp, GL_STREAM_DRAW);
+        gl->BindBuffer(GL_ARRAY_BUFFER, r->ground_vbo[1]);
+        gl->BufferData(GL_ARRAY_BUFFER, sizeof gn, gn, GL_STREAM_DRAW);
+        gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ground_ebo);
+        gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, sizeof gi, gi, GL_STREAM_DRAW);
+    }
+
+    /* 1. shadow map: orthographic from the key light, fitted to the subject's sphere */
+    float light_vp[16];
+    int shadows = sc->shadows && !empty;
+    {
+        float leye[3], lup[3] = {0, 1, 0};
+        for (int i = 0; i < 3; i++) leye[i] = center[i] + key[i] * 3.0f * rad;
+        if (fabsf(key[1]) > 0.99f) lup[1] = 0, lup[2] = 1;
+        float lview[16], lproj[16];
+        kf_m4_look_at(lview, leye, center, lup);
+        kf_m4_ortho(lproj, -1.05f * rad, 1.05f * rad, -1.05f * rad, 1.05f * rad, 0.5f * rad,
+                    3.0f * rad + fade1 + rad);
+        kf_m4_mul(light_vp, lproj, lview);
+    }
+    gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_shadow);
+    gl->Viewport(0, 0, r->shadow_size, r->shadow_size);
+    gl->Enable(GL_DEPTH_TEST);
+    gl->DepthFunc(GL_LESS);
+    gl->DepthMask(GL_TRUE);
+    gl->Clear(GL_DEPTH_BUFFER_BIT);
+    if (shadows) {
+        gl->UseProgram(r->prog_depth);
+        gl->UniformMatrix4fv(gl->GetUniformLocation(r->prog_depth, "u_light"), 1, GL_FALSE,
+                             light_vp);
+        gl->Enable(GL_POLYGON_OFFSET_FILL);
+        gl->PolygonOffset(1.5f, 2.0f);
+        for (int m = 0; m < sc->nmeshes; m++) {
+            const kf_render_mesh *me = &sc->meshes[m];
+            if (me->ntris == 0) continue;
+            bind_mesh(gl, r->vbo_pos[m], 0, 0, r->ebo[m]);
+            gl->DrawElements(GL_TRIANGLES, (GLsizei)(me->ntris * 3), GL_UNSIGNED_INT, NULL);
+        }
+        gl->Disable(GL_POLYGON_OFFSET_FILL);
+    }
+
+    /* 2. background gradient */
+    gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_draw);
+    gl->Viewport(0, 0, r->w, r->h);
+    if (r->samples > 1) gl->Enable(GL_MULTISAMPLE);
+    gl->ClearColor(0, 0, 0, 1);
+    gl->Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    gl->Disable(GL_DEPTH_TEST);
+    gl->DepthMask(GL_FALSE);
+    gl->UseProgram(r->prog_bg);
+    gl->Uniform3fv(gl->GetUniformLocation(r->prog_bg, "u_bg_top"), 1, sc->bg_top);
+    gl->Uniform3fv(gl->GetUniformLocation(r->prog_bg, "u_bg_bottom"), 1, sc->bg_bottom);
+    gl->DrawArrays(GL_TRIANGLES, 0, 3);
+    gl->Enable(GL_DEPTH_TEST);
+    gl->DepthMask(GL_TRUE);
+
+    /* 3. meshes and ground */
+    GLuint p = r->prog_main;
+    gl->UseProgram(p);
+#define U(name) gl->GetUniformLocation(p, name)
+    gl->UniformMatrix4fv(U("u_viewproj"), 1, GL_FALSE, viewproj);
+    gl->UniformMatrix4fv(U("u_light"), 1, GL_FALSE, light_vp);
+    gl->Uniform3fv(U("u_eye"), 1, cam->eye);
+    gl->Uniform3fv(U("u_key_dir"), 1, key);
+    gl->Uniform3fv(U("u_key_col"), 1, sc->key_color);
+    gl->Uniform3fv(U("u_fill_dir"), 1, fill);
+    gl->Uniform3fv(U("u_fill_col"), 1, sc->fill_color);
+    gl->Uniform1f(U("u_ambient"), sc->ambient);
+    gl->Uniform1i(U("u_shadows"), shadows);
+    gl->Uniform1f(U("u_texel"), 1.0f / r->shadow_size);
+    gl->Uniform3fv(U("u_bg_top"), 1, sc->bg_top);
+    gl->Uniform3fv(U("u_bg_bottom"), 1, sc->bg_bottom);
+    gl->Uniform1f(U("u_height"), (float)r->h);
+    gl->Uniform3fv(U("u_center"), 1, center);
+    gl->Uniform1f(U("u_fade0"), fade0);
+    gl->Uniform1f(U("u_fade1"), fade1);
+    gl->ActiveTexture(GL_TEXTURE0);
+    gl->BindTexture(GL_TEXTURE_2D, r->tex_shadow);
+    gl->Uniform1i(U("u_shadow"), 0);
+    GLint u_diffuse = U("u_diffuse"), u_spec = U("u_spec"), u_rough = U("u_rough"),
+          u_flat = U("u_flat"), u_ground = U("u_ground");
+#undef U
+    gl->Uniform1i(u_ground, 0);
+    for (int m = 0; m < sc->nmeshes; m++) {
+        const kf_render_mesh *me = &sc->meshes[m];
+        if (me->ntris == 0) continue;
+        gl->Uniform3fv(u_diffuse, 1, me->mat.diffuse);
+        gl->Uniform1f(u_spec, me->mat.specular);
+        gl->Uniform1f(u_rough, me->mat.roughness > 0 ? me->mat.roughness : 0.5f);
+        gl->Uniform1i(u_flat, me->normals == NULL);
+        bind_mesh(gl, r->vbo_pos[m], r->vbo_nrm[m], me->normals != NULL, r->ebo[m]);
+        gl->DrawElements(GL_TRIANGLES, (GLsizei)(me->ntris * 3), GL_UNSIGNED_INT, NULL);
+    }
+    if (draw_ground) {
+        gl->Uniform1i(u_ground, 1);
+        gl->Uniform3fv(u_diffuse, 1, sc->ground_mat.diffuse);
+        gl->Uniform1f(u_spec, sc->ground_mat.specular);
+        gl->Uniform1f(u_rough, sc->ground_mat.roughness > 0 ? sc->ground_mat.roughness : 0.8f);
+        gl->Uniform1i(u_flat, 0);
+        bind_mesh(gl, r->ground_vbo[0], r->ground_vbo[1], 1, r->ground_ebo);
+        gl->DrawElements(GL_TRIANGLES, 6, GL_UNSIGNED_INT, NULL);
+    }
+
+    /* 4. resolve and read back (GL rows are bottom-up) */
+    GLuint src = r->fbo_draw;
+    if (r->samples > 1) {
+        gl->BindFramebuffer(GL_READ_FRAMEBUFFER, r->fbo_draw);
+        gl->BindFramebuffer(GL_DRAW_FRAMEBUFFER, r->fbo_resolve);
+        gl->BlitFramebuffer(0, 0, r->w, r->h, 0, 0, r->w, r->h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+        src = r->fbo_resolve;
+    }
+    gl->BindFramebuffer(GL_FRAMEBUFFER, src);
+    gl->ReadBuffer(GL_COLOR_ATTACHMENT0);
+    gl->PixelStorei(GL_PACK_ALIGNMENT, 1);
+    gl->ReadPixels(0, 0, r->w, r->h, GL_RGBA, GL_UNSIGNED_BYTE, r->readback);
+    gl->Finish();
+    GLenum e = gl->GetError();
+    if (e != GL_NO_ERROR) {
+        snprintf(err, errlen, "render: GL error 0x%x while drawing the frame", e);
+        return -1;
+    }
+    size_t row = (size_t)r->w * 4;
+    for (int y = 0; y < r->h; y++)
+        memcpy(rgba_out + (size_t)y * row, r->readback + (size_t)(r->h - 1 - y) * row, row);
+    return 0;
+}
