@@ -61,7 +61,19 @@ check "kerf check accepts a good shot" grep -q "ok" check.txt
 check "full run exits 0" test $? -eq 0
 check "twelve particle frames" test "$(ls full/particles/*.ply 2>/dev/null | wc -l)" -eq 12
 check "twelve checkpoints" test "$(ls full/checkpoints/*.kfc 2>/dev/null | wc -l)" -eq 12
-check "frame log line per frame (not a terminal)" test "$(grep -c '^frame 10' run.log)" -eq 11
+check "frame log line per frame (not a terminal)" test "$(grep -cE '^frame 10[0-9]+: [0-9]+ particles' run.log)" -eq 11
+check "twelve surfaces (.vdb)" test "$(ls full/surface/*.vdb 2>/dev/null | wc -l)" -eq 12
+check "twelve images (.png)" test "$(ls full/images/*.png 2>/dev/null | wc -l)" -eq 12
+check "the images are 1280x720 PNGs" bash -c "file full/images/tiny.1012.png | grep -q 'PNG image data, 1280 x 720'"
+"$kerf" render tiny.yaml --out full > render.log 2>&1
+check "kerf render keeps current images" grep -q "0 images made, 12 current outputs kept" render.log
+touch full/surface/tiny.1005.vdb
+"$kerf" render tiny.yaml --out full > render.log 2>&1
+check "a newer surface is rendered again, alone" grep -q "1 images made, 11 current outputs kept" render.log
+"$kerf" turntable tiny.yaml --out full --frame 1006 --frames 4 --quality preview > tt.log 2>&1
+check "kerf turntable writes its views" test "$(ls full/turntable/*.png 2>/dev/null | wc -l)" -eq 4
+"$kerf" turntable tiny.yaml --out full --frame 999 --frames 4 > tt.log 2>&1
+check "a turntable frame outside the shot is a usage error" test $? -eq 2
 check "no temporaries left" test -z "$(find full -name '*.tmp-*')"
 
 # --- the cache: same inputs are not simulated again ----------------------------

@@ -33,6 +33,12 @@ int kf_cli_parse(const char *cmd, int argc, char **argv, kf_cli_opts *o);
 int kf_cli_load(const kf_cli_opts *o, kf_shot **shot, kf_scene *sc, kf_build_stats *stats);
 
 int kf_cmd_run(int argc, char **argv);
+int kf_cmd_surface(int argc, char **argv);
+int kf_cmd_render(int argc, char **argv);
+int kf_cmd_turntable(int argc, char **argv);
+/* surface and/or render the shot's frames after simulation, skipping
+ * outputs newer than their inputs (cmd_stages.c) */
+int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render);
 int kf_cmd_check(int argc, char **argv);
 int kf_cmd_info(int argc, char **argv);
 void kf_cli_usage(FILE *f, const char *cmd);

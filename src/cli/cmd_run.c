@@ -157,9 +157,11 @@ int kf_cmd_run(int argc, char **argv) {
             if (c > 0 && !o.quiet)
                 fprintf(stderr, "kerf: %s: frames %d-%d are cached from the same inputs; nothing to simulate "
                                 "(--force to simulate anyway)\n", shot->name, shot->first, shot->last);
+            /* the later stages still run: their own outputs may be missing or stale */
+            rc = c > 0 ? kf_cli_post(&o, shot, &sc, 1, 1) : KF_EXIT_FAIL;
             kf_scene_free(&sc);
             kf_shot_free(shot);
-            return c > 0 ? KF_EXIT_OK : KF_EXIT_FAIL;
+            return rc;
         }
         if (matched > 1 && !o.quiet)
             fprintf(stderr, "kerf: frames %d-%d are cached from the same inputs; --resume continues after them\n",
@@ -225,8 +227,10 @@ int kf_cmd_run(int argc, char **argv) {
     }
     if (!o.quiet && tty) fputc('\n', stderr);
     if (rc == KF_EXIT_OK && !o.quiet)
-        fprintf(stderr, "kerf: %s: frames %d-%d in %s/ (%.1f s)\n", shot->name, shot->first, shot->last, rp.dir,
-                (kf_now_ms() - start) / 1e3);
+        fprintf(stderr, "kerf: %s: simulated frames %d-%d in %s/ (%.1f s)\n", shot->name, shot->first, shot->last,
+                rp.dir, (kf_now_ms() - start) / 1e3);
+    /* simulate → surface → render */
+    if (rc == KF_EXIT_OK) rc = kf_cli_post(&o, shot, &sc, 1, 1);
     kf_scene_free(&sc);
     kf_shot_free(shot);
     return rc;

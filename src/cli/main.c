@@ -13,7 +13,11 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                 "usage: kerf <command> [options]\n"
                 "\n"
                 "commands:\n"
-                "  run <shot.yaml>     simulate the shot, writing particles and checkpoints per frame\n"
+                "  run <shot.yaml>     simulate, surface (OpenVDB) and render (PNG) the shot's frames\n"
+                "  surface <shot.yaml> level sets from the checkpoints: <dir>/surface/<name>.vdb\n"
+                "  render <shot.yaml>  PNG images from the .vdb surfaces: <dir>/images/<name>.png\n"
+                "  turntable <shot.yaml> --frame N --frames K\n"
+                "                      K views orbiting frame N (end exclusive: the sequence loops)\n"
                 "  check <shot.yaml>   validate the shot (all problems at once) and seed it; simulate nothing\n"
                 "  info <shot.yaml>    what the shot compiles to: particles, grid, materials, memory, substeps\n"
                 "  help [shot|run|check|info]\n"
@@ -22,22 +26,26 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                 "exit codes: 0 ok, 1 the run failed (numerical trouble, I/O), 2 bad usage or bad shot\n");
         return;
     }
-    fprintf(f, "usage: kerf %s <shot.yaml> [options]\n\noptions:\n", cmd);
+    fprintf(f, "usage: kerf %s <shot.yaml>%s [options]\n\noptions:\n", cmd,
+            !strcmp(cmd, "turntable") ? " --frame N --frames K" : "");
     fprintf(f, "  --set KEY=VALUE     override a shot value, checked like the file (repeatable):\n"
                "                      --set materials.jelly.E=2e3 --set objects.cube.velocity=[0,-2,0]\n"
                "  --quality Q         final (as written) or preview (dx doubled, images at half size)\n"
                "  --frames A-B        only these frames of the shot's range (or one frame: --frames 1010)\n"
                "  --threads N         worker threads (default: all cores)\n");
+    if (strcmp(cmd, "check") && strcmp(cmd, "info"))
+        fprintf(f, "  --out DIR           output directory template instead of output.dir\n"
+                   "  --force             redo outputs even when they are current\n");
     if (!strcmp(cmd, "run"))
-        fprintf(f, "  --out DIR           output directory template instead of output.dir ({shot} {version:03d})\n"
-                   "  --resume            continue after the last good checkpoint of an interrupted run\n"
-                   "  --force             simulate even when the cached frames came from the same inputs\n"
+        fprintf(f, "  --resume            continue after the last good checkpoint of an interrupted run\n"
                    "  --quiet             no progress output\n"
                    "\nA terminal gets a live progress bar with ETA; a log gets one line per frame with\n"
                    "particles, grid blocks, substeps, max CFL, ms per stage and warnings.\n"
-                   "Outputs: <dir>/particles/<name>.ply and <dir>/checkpoints/<name>.kfc per frame.\n"
-                   "When every requested frame is already cached from the same inputs (shot values that\n"
-                   "affect the simulation, mesh file contents, kerf version), nothing is simulated.\n");
+                   "Outputs per frame under <dir>: particles/<name>.ply, checkpoints/<name>.kfc,\n"
+                   "surface/<name>.vdb (level set `surface`, and `surface.<material>` per material),\n"
+                   "images/<name>.png. When every requested frame is cached from the same inputs (shot\n"
+                   "values that affect the simulation, mesh file contents, kerf version), nothing is\n"
+                   "simulated; surfaces and images newer than their inputs are kept.\n");
     fprintf(f, "  --help              this text\n");
 }
 
@@ -50,13 +58,17 @@ int main(int argc, char **argv) {
     if (!strcmp(cmd, "run")) return kf_cmd_run(argc - 2, argv + 2);
     if (!strcmp(cmd, "check")) return kf_cmd_check(argc - 2, argv + 2);
     if (!strcmp(cmd, "info")) return kf_cmd_info(argc - 2, argv + 2);
+    if (!strcmp(cmd, "surface")) return kf_cmd_surface(argc - 2, argv + 2);
+    if (!strcmp(cmd, "render")) return kf_cmd_render(argc - 2, argv + 2);
+    if (!strcmp(cmd, "turntable")) return kf_cmd_turntable(argc - 2, argv + 2);
     if (!strcmp(cmd, "help") || !strcmp(cmd, "--help") || !strcmp(cmd, "-h")) {
         const char *topic = argc > 2 ? argv[2] : NULL;
         if (topic && !strcmp(topic, "shot")) kf_shot_help(stdout);
-        else if (topic && (!strcmp(topic, "run") || !strcmp(topic, "check") || !strcmp(topic, "info")))
+        else if (topic && (!strcmp(topic, "run") || !strcmp(topic, "check") || !strcmp(topic, "info") ||
+                           !strcmp(topic, "surface") || !strcmp(topic, "render") || !strcmp(topic, "turntable")))
             kf_cli_usage(stdout, topic);
         else if (topic) {
-            fprintf(stderr, "kerf help: no topic '%s' (shot, run, check, info)\n", topic);
+            fprintf(stderr, "kerf help: no topic '%s' (shot, run, check, info, surface, render, turntable)\n", topic);
             return KF_EXIT_USAGE;
         } else
             kf_cli_usage(stdout, NULL);

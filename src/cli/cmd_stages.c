@@ -1,0 +1,150 @@
+/* cmd_stages.c — `kerf surface`, `kerf render`, `kerf turntable`, and the
+ * surface → render chain that `kerf run` calls after simulating. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "../core/timer.h"
+#include "cli.h"
+#include "stages.h"
+
+/* surface and render frames first..last, skipping current outputs */
+int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render) {
+    char err[4200];
+    kf_render_opts ro = kf_render_opts_for(shot);
+    int made_s = 0, made_r = 0, kept = 0;
+    double t_s = 0, t_r = 0;
+    for (int f = shot->first; f <= shot->last; f++) {
+        kf_frame_paths fp;
+        if (kf_frame_paths_make(shot, o->out, f, &fp)) {
+            fprintf(stderr, "kerf: output path for frame %d is too long\n", f);
+            return KF_EXIT_FAIL;
+        }
+        if (do_surface) {
+            if (access(fp.checkpoint, R_OK) != 0) {
+                fprintf(stderr, "kerf: frame %d has no checkpoint (%s): simulate it first (kerf run)\n", f,
+                        fp.checkpoint);
+                return KF_EXIT_FAIL;
+            }
+            if (o->force || !kf_output_current(fp.surface, fp.checkpoint)) {
+                double t0 = kf_now_ms();
+                if (kf_stage_surface(shot, sc, &fp, f, err, sizeof err)) {
+                    fprintf(stderr, "kerf: frame %d: surface: %s\n", f, err);
+                    return KF_EXIT_FAIL;
+                }
+                t_s += kf_now_ms() - t0;
+                made_s++;
+            } else kept++;
+        }
+        if (do_render) {
+            if (access(fp.surface, R_OK) != 0) {
+                fprintf(stderr, "kerf: frame %d has no surface (%s): run kerf surface first\n", f, fp.surface);
+                return KF_EXIT_FAIL;
+            }
+            if (o->force || !kf_output_current(fp.image, fp.surface)) {
+                double t0 = kf_now_ms();
+                if (kf_stage_render(shot, sc, fp.surface, fp.image, f, &ro, err, sizeof err)) {
+                    fprintf(stderr, "kerf: frame %d: render: %s\n", f, err);
+                    return KF_EXIT_FAIL;
+                }
+                t_r += kf_now_ms() - t0;
+                made_r++;
+            } else kept++;
+        }
+        if (!o->quiet && (made_s || made_r))
+            fprintf(stderr, "frame %d: surface %.0f ms, render %.0f ms (averages so far)\n", f,
+                    made_s ? t_s / made_s : 0, made_r ? t_r / made_r : 0);
+    }
+    if (!o->quiet) {
+        kf_frame_paths fp;
+        kf_frame_paths_make(shot, o->out, shot->first, &fp);
+        fprintf(stderr, "kerf: %s: %d surfaces, %d images made, %d current outputs kept; images in %s/images/\n",
+                shot->name, made_s, made_r, kept, fp.dir);
+    }
+    return KF_EXIT_OK;
+}
+
+static int stage_command(const char *cmd, int argc, char **argv, int do_surface, int do_render) {
+    kf_cli_opts o;
+    int rc = kf_cli_parse(cmd, argc, argv, &o);
+    if (rc) return rc;
+    if (o.help) {
+        kf_cli_usage(stdout, cmd);
+        return KF_EXIT_OK;
+    }
+    kf_shot *shot;
+    kf_scene sc;
+    rc = kf_cli_load(&o, &shot, &sc, NULL);
+    if (rc) return rc;
+    rc = kf_cli_post(&o, shot, &sc, do_surface, do_render);
+    kf_scene_free(&sc);
+    kf_shot_free(shot);
+    return rc;
+}
+
+int kf_cmd_surface(int argc, char **argv) { return stage_command("surface", argc, argv, 1, 0); }
+int kf_cmd_render(int argc, char **argv) { return stage_command("render", argc, argv, 0, 1); }
+
+/* kerf turntable shot.yaml --frame N --frames K: K views orbiting 360° around
+ * frame N's surface, end exclusive, so the sequence loops */
+int kf_cmd_turntable(int argc, char **argv) {
+    int frame = 0, count = 120;
+    char **rest = malloc(sizeof(char *) * (size_t)(argc + 1));
+    int nrest = 0;
+    for (int i = 0; i < argc; i++) {
+        int is_frame = !strcmp(argv[i], "--frame"), is_count = !strcmp(argv[i], "--frames");
+        if ((is_frame || is_count) && i + 1 < argc) {
+            char *end;
+            long v = strtol(argv[i + 1], &end, 10);
+            if (*end || v < (is_count ? 1 : -1000000000L) || v > 1000000000L) {
+                fprintf(stderr, "kerf turntable: %s wants an integer, got '%s'\n", argv[i], argv[i + 1]);
+                free(rest);
+                return KF_EXIT_USAGE;
+            }
+            if (is_frame) frame = (int)v;
+            else count = (int)v;
+            i++;
+        } else rest[nrest++] = argv[i];
+    }
+    kf_cli_opts o;
+    int rc = kf_cli_parse("turntable", nrest, rest, &o);
+    free(rest);
+    if (rc) return rc;
+    if (o.help) {
+        kf_cli_usage(stdout, "turntable");
+        return KF_EXIT_OK;
+    }
+    kf_shot *shot;
+    kf_scene sc;
+    rc = kf_cli_load(&o, &shot, &sc, NULL);
+    if (rc) return rc;
+    if (frame == 0) frame = shot->frame_start;
+    kf_frame_paths fp;
+    char err[4200];
+    if (frame < shot->frame_start || frame > shot->frame_end) {
+        fprintf(stderr, "kerf turntable: --frame %d is outside the shot's frames %d-%d\n", frame, shot->frame_start,
+                shot->frame_end);
+        rc = KF_EXIT_USAGE;
+    } else if (kf_frame_paths_make(shot, o.out, frame, &fp) || access(fp.surface, R_OK) != 0) {
+        fprintf(stderr, "kerf turntable: frame %d has no surface yet: run kerf run (or kerf surface) first\n", frame);
+        rc = KF_EXIT_FAIL;
+    } else {
+        kf_render_opts ro = kf_render_opts_for(shot);
+        ro.turntable_n = count;
+        for (int k = 0; k < count && rc == KF_EXIT_OK; k++) {
+            char png[4200];
+            snprintf(png, sizeof png, "%s/turntable/%s.f%d.%04d.png", fp.dir, shot->name, frame, k);
+            ro.turntable_k = k;
+            if (kf_stage_render(shot, &sc, fp.surface, png, frame, &ro, err, sizeof err)) {
+                fprintf(stderr, "kerf turntable: %s\n", err);
+                rc = KF_EXIT_FAIL;
+            }
+        }
+        if (rc == KF_EXIT_OK && !o.quiet)
+            fprintf(stderr, "kerf: turntable of frame %d: %d views in %s/turntable/\n", frame, count, fp.dir);
+    }
+    kf_scene_free(&sc);
+    kf_shot_free(shot);
+    return rc;
+}

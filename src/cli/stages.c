@@ -1,0 +1,194 @@
+/* stages.c — surfacing and rendering of one frame (see stages.h). */
+#include "stages.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "../io/atomic_file.h"
+#include "../io/checkpoint.h"
+#include "../io/vdb_bridge.h"
+#include "../kerf.h"
+#include "render.h"
+
+int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_frame_paths *fp) {
+    char name[1024];
+    if (kf_shot_expand(out ? out : shot->output_dir, shot, frame, fp->dir, sizeof fp->dir) ||
+        kf_shot_expand(shot->output_name, shot, frame, name, sizeof name))
+        return -1;
+    snprintf(fp->particles, sizeof fp->particles, "%s/particles/%s.ply", fp->dir, name);
+    snprintf(fp->checkpoint, sizeof fp->checkpoint, "%s/checkpoints/%s.kfc", fp->dir, name);
+    snprintf(fp->surface, sizeof fp->surface, "%s/surface/%s.vdb", fp->dir, name);
+    snprintf(fp->image, sizeof fp->image, "%s/images/%s.png", fp->dir, name);
+    return 0;
+}
+
+int kf_ensure_parent(const char *path) {
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (!slash) return 0;
+    *slash = 0;
+    return kf_mkdirs(dir);
+}
+
+int kf_output_current(const char *output, const char *input) {
+    struct stat so, si;
+    if (stat(output, &so) != 0 || stat(input, &si) != 0) return 0;
+    if (so.st_mtim.tv_sec != si.st_mtim.tv_sec) return so.st_mtim.tv_sec > si.st_mtim.tv_sec;
+    return so.st_mtim.tv_nsec >= si.st_mtim.tv_nsec;
+}
+
+/* ---- surface ------------------------------------------------------------ */
+
+/* the settings every material's level set uses: voxels of half the particle
+ * spacing, spheres of one spacing, a little mean-curvature smoothing, then an
+ * erosion that puts the zero crossing back on the material's boundary
+ * (vdb_bridge.h explains the half-spacing offset) */
+static void surface_params(const kf_shot *shot, kf_vdb_surface_params *p, const char *name) {
+    kf_vdb_surface_params_default(p);
+    double spacing = shot->sim.dx / shot->ppc_axis;
+    p->spacing = spacing;
+    p->smooth = KF_VDB_OP_MEAN_CURVATURE;
+    p->smooth_iterations = 3;
+    p->erode = 0.5 * spacing;
+    p->clamp_small = 1;
+    p->name = name;
+}
+
+int kf_stage_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
+                     size_t errlen) {
+    kf_checkpoint_info info;
+    if (kf_checkpoint_read(fp->checkpoint, sc->model, sc->state, &info, err, errlen)) return -1;
+    kf_particles_view pv = kf_state_particles_read(sc->state);
+    int nmat = shot->nmaterials, ngrids = 0, rc = -1;
+    kf_vdb_grid *grids[KF_VDB_MAX_GRIDS] = {0};
+    float *x = malloc(sizeof(float) * 3 * (pv.n + 1)), *v = malloc(sizeof(float) * 3 * (pv.n + 1));
+    if (!x || !v) {
+        snprintf(err, errlen, "out of memory surfacing %zu particles", pv.n);
+        goto done;
+    }
+    /* group 0: every particle, named "surface"; then one per material */
+    for (int group = -1; group < nmat && ngrids < KF_VDB_MAX_GRIDS; group++) {
+        if (group >= 0 && nmat < 2) break;
+        size_t n = 0;
+        for (size_t i = 0; i < pv.n; i++) {
+            if (group >= 0 && pv.mat[i] != group) continue;
+            for (int a = 0; a < 3; a++) x[3 * n + a] = (float)pv.x[a][i], v[3 * n + a] = (float)pv.v[a][i];
+            n++;
+        }
+        if (n == 0) continue;
+        char name[128];
+        if (group < 0) snprintf(name, sizeof name, "surface");
+        else snprintf(name, sizeof name, "surface.%s", shot->materials[group].mat.name);
+        kf_vdb_surface_params p;
+        surface_params(shot, &p, name);
+        if (kf_vdb_levelset_from_particles(n, NULL, x, NULL, group < 0 ? v : NULL, &p, &grids[ngrids], NULL, err,
+                                           errlen))
+            goto done;
+        ngrids++;
+    }
+    kf_vdb_meta meta;
+    memset(&meta, 0, sizeof meta);
+    snprintf(meta.shot, sizeof meta.shot, "%s", shot->name);
+    meta.frame = frame;
+    snprintf(meta.kerf_version, sizeof meta.kerf_version, "%s", KERF_VERSION);
+    meta.dx = shot->sim.dx;
+    if (kf_ensure_parent(fp->surface)) {
+        snprintf(err, errlen, "%s: cannot create directory: %s", fp->surface, strerror(errno));
+        goto done;
+    }
+    rc = kf_vdb_write(fp->surface, grids, ngrids, &meta, err, errlen);
+done:
+    for (int g = 0; g < ngrids; g++) kf_vdb_free(grids[g]);
+    free(x);
+    free(v);
+    return rc;
+}
+
+/* ---- render --------------------------------------------------------------- */
+
+kf_render_opts kf_render_opts_for(const kf_shot *shot) {
+    kf_render_opts o = {1280, 720, 4, 0, 0};
+    if (shot->quality == KF_QUALITY_PREVIEW) o.width = 640, o.height = 360, o.samples = 1;
+    return o;
+}
+
+/* a palette for materials in file order: warm, cool, neutral, ... */
+static const float palette[6][3] = {{0.80f, 0.62f, 0.38f}, {0.85f, 0.25f, 0.30f}, {0.25f, 0.55f, 0.85f},
+                                    {0.45f, 0.75f, 0.40f}, {0.85f, 0.80f, 0.70f}, {0.60f, 0.45f, 0.75f}};
+
+int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
+                    const kf_render_opts *ro, char *err, size_t errlen) {
+    (void)sc;
+    kf_vdb_file_info info;
+    if (kf_vdb_info(vdb, &info, err, errlen)) return -1;
+    /* per-material surfaces when the file has them, else the union */
+    int use_groups = 0;
+    for (int g = 0; g < info.ngrids; g++) use_groups |= strncmp(info.grids[g].name, "surface.", 8) == 0;
+    kf_vdb_trimesh meshes[KF_VDB_MAX_GRIDS];
+    kf_render_mesh rm[KF_VDB_MAX_GRIDS];
+    int nm = 0, rc = -1;
+    for (int g = 0; g < info.ngrids && nm < KF_VDB_MAX_GRIDS; g++) {
+        const char *name = info.grids[g].name;
+        int group = strncmp(name, "surface.", 8) == 0;
+        if (strcmp(info.grids[g].cls, "level set") != 0 || (use_groups ? !group : strcmp(name, "surface") != 0))
+            continue;
+        kf_vdb_grid *ls;
+        if (kf_vdb_read_levelset(vdb, name, &ls, NULL, err, errlen)) goto done;
+        int mesh_rc = kf_vdb_mesh(ls, 0, 0, &meshes[nm], err, errlen);
+        kf_vdb_free(ls);
+        if (mesh_rc) goto done;
+        int colour = 0;
+        for (int i = 0; group && i < shot->nmaterials; i++)
+            if (!strcmp(name + 8, shot->materials[i].mat.name)) colour = i;
+        memset(&rm[nm], 0, sizeof rm[nm]);
+        rm[nm].positions = meshes[nm].verts;
+        rm[nm].normals = meshes[nm].normals;
+        rm[nm].nverts = meshes[nm].nverts;
+        rm[nm].tris = meshes[nm].tris;
+        rm[nm].ntris = meshes[nm].ntris;
+        memcpy(rm[nm].mat.diffuse, palette[colour % 6], sizeof rm[nm].mat.diffuse);
+        rm[nm].mat.specular = 0.3f;
+        rm[nm].mat.roughness = 0.5f;
+        nm++;
+    }
+    kf_render_scene scene = kf_render_scene_default();
+    scene.meshes = rm;
+    scene.nmeshes = nm;
+    scene.ground = 1;
+    /* a steady camera: the domain box when there are walls, else the frame's bounds */
+    float lo[3], hi[3];
+    if (shot->sim.walls)
+        for (int a = 0; a < 3; a++) lo[a] = (float)shot->sim.domain_min[a], hi[a] = (float)shot->sim.domain_max[a];
+    else if (kf_render_scene_bounds(&scene, lo, hi))
+        for (int a = 0; a < 3; a++) lo[a] = 0, hi[a] = 1;
+    if (shot->sim.walls) scene.ground_y = lo[1];
+    /* looking from the front right, above: view_dir points from the eye to the subject */
+    float view[3] = {-0.55f, -0.45f, -1.0f};
+    kf_camera cam = ro->turntable_n > 0 ? kf_camera_turntable(lo, hi, ro->turntable_k, ro->turntable_n, 25.0f, 35.0f)
+                                         : kf_camera_frame_bounds(lo, hi, view, 35.0f);
+    kf_render_ctx *ctx = kf_render_create(ro->width, ro->height, ro->samples, err, errlen);
+    if (!ctx) goto done;
+    uint8_t *rgba = malloc((size_t)ro->width * ro->height * 4);
+    if (!rgba) {
+        snprintf(err, errlen, "out of memory for a %dx%d image", ro->width, ro->height);
+        kf_render_destroy(ctx);
+        goto done;
+    }
+    if (kf_render_frame(ctx, &scene, &cam, rgba, err, errlen) == 0) {
+        char fr[32];
+        snprintf(fr, sizeof fr, "%d", frame);
+        const char *kv[] = {"shot", shot->name, "frame", fr, "Software", "kerf " KERF_VERSION};
+        if (kf_ensure_parent(png)) snprintf(err, errlen, "%s: cannot create directory: %s", png, strerror(errno));
+        else rc = kf_png_write(png, rgba, ro->width, ro->height, kv, 3, err, errlen);
+    }
+    free(rgba);
+    kf_render_destroy(ctx);
+done:
+    for (int i = 0; i < nm; i++) kf_vdb_mesh_free(&meshes[i]);
+    return rc;
+}

@@ -1,0 +1,48 @@
+/* stages.h — the stages after simulation: surface a frame's particles into
+ * OpenVDB level sets, and render the surfaces to PNG.
+ *
+ * Each stage reads only what the previous one wrote (a checkpoint, a .vdb),
+ * so `kerf surface` and `kerf render` run on their own for any frame range,
+ * and a stage whose output is newer than its input and was made with the same
+ * settings is skipped. */
+#ifndef KF_STAGES_H
+#define KF_STAGES_H
+
+#include <stdint.h>
+
+#include "../shot/shot.h"
+#include "../scene/builtin.h"
+
+typedef struct kf_frame_paths {
+    char dir[2048];
+    char particles[4096], checkpoint[4096], surface[4096], image[4096];
+} kf_frame_paths;
+
+/* {dir}/particles/{name}.ply, checkpoints/{name}.kfc, surface/{name}.vdb,
+ * images/{name}.png. out: a directory template replacing output.dir, or NULL. */
+int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_frame_paths *fp);
+
+/* mkdir -p the directory holding path */
+int kf_ensure_parent(const char *path);
+
+/* 1 when `output` exists and is at least as new as `input` */
+int kf_output_current(const char *output, const char *input);
+
+/* Checkpoint → particles grouped by material → level sets: `surface` (all
+ * material) and `surface.<material>` per material when there are several →
+ * .vdb. Returns 0, or -1 with a message. */
+int kf_stage_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
+                     size_t errlen);
+
+/* Render settings that are not in the shot file yet: size and sampling. */
+typedef struct kf_render_opts {
+    int width, height, samples;
+    int turntable_k, turntable_n; /* n > 0: orbit camera, view k of n */
+} kf_render_opts;
+kf_render_opts kf_render_opts_for(const kf_shot *shot);
+
+/* .vdb → meshes (per material when present) → PNG at `png`. */
+int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
+                    const kf_render_opts *ro, char *err, size_t errlen);
+
+#endif

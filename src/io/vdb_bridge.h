@@ -1,0 +1,180 @@
+/* vdb_bridge.h — the OpenVDB bridge: kerf's only C++ (src/io/vdb/ *.cpp), seen from C.
+ *
+ * No C++ type crosses this header. Every function catches every exception at
+ * the boundary and turns it into a message in the caller's buffer
+ * (char *err, size_t errlen; err may be NULL), and returns 0 or -1.
+ * Arrays handed out by the bridge (meshes, points) are freed with the
+ * bridge's own free functions.
+ *
+ * Surfacing convention (kf_vdb_levelset_from_particles):
+ *   Each particle becomes a sphere of radius r; the level set is their union.
+ *   Default r = KF_VDB_RADIUS_FACTOR x spacing (1.0 x spacing) on a voxel of
+ *   spacing / 2 (r = 2 voxels). For particles seeded on a lattice inside a
+ *   shape, the zero crossing lies on average r - spacing/2 beyond the shape's
+ *   boundary: in any direction the outermost centre sits on average half a
+ *   spacing inside it (the lattice's staircase) and its sphere reaches r
+ *   beyond. So the default surface is spacing/2 proud of the material;
+ *   erode by r - spacing/2 (the `erode` field) to put it on the boundary.
+ *   The staircase leaves bumps of about +/- spacing/2 (tests/test_vdb.c
+ *   measures them); smoothing (dilate, smooth, erode) flattens them.
+ *   OpenVDB silently skips spheres under 1.5 voxels; the bridge never does:
+ *   by default such particles are an error (message gives the count and the
+ *   smallest radius); with clamp_small they are raised to 1.5 voxels and
+ *   counted in stats.n_small.
+ *
+ * Files: the level set grid is written as class "level set" under its name
+ * (default "surface"); a particle-velocity grid "vel" (vec3s, closest
+ * particle) comes with it when velocities were given. File and grid metadata:
+ * shot (string), frame (int32), kerf_version (string), dx (double), and
+ * compression ("blosc" or "zip", whichever this OpenVDB build supports).
+ * Every write goes to <path>.tmp-<pid>, is fsync'ed and renamed over path. */
+#ifndef KF_VDB_BRIDGE_H
+#define KF_VDB_BRIDGE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define KF_VDB_RADIUS_FACTOR 1.0 /* default particle radius / spacing */
+#define KF_VDB_RMIN_VOXELS 1.5   /* OpenVDB's smallest rasterised radius, voxels */
+#define KF_VDB_MAX_GRIDS 32
+
+/* An opaque float level set (plus an optional velocity grid). */
+typedef struct kf_vdb_grid kf_vdb_grid;
+
+/* smoothing operators for kf_vdb_filter and kf_vdb_surface_params.smooth */
+typedef enum kf_vdb_op {
+    KF_VDB_OP_NONE = 0,
+    KF_VDB_OP_DILATE,         /* amount: metres outward (LevelSetFilter offset(-amount)) */
+    KF_VDB_OP_ERODE,          /* amount: metres inward  (offset(+amount)) */
+    KF_VDB_OP_MEAN_CURVATURE, /* iterations: mean-curvature flow steps */
+    KF_VDB_OP_GAUSSIAN,       /* iterations: Gaussian passes of width 1 voxel */
+    KF_VDB_OP_LAPLACIAN,      /* iterations: Laplacian flow steps */
+} kf_vdb_op;
+
+/* particles -> level set. Zero means default in every field. */
+typedef struct kf_vdb_surface_params {
+    double voxel;         /* voxel size, m (default spacing / 2) */
+    double spacing;       /* particle spacing, m (required unless every radius is given) */
+    double radius;        /* one radius for all particles, m (default factor x spacing) */
+    double radius_factor; /* radius / spacing (default KF_VDB_RADIUS_FACTOR) */
+    double half_width;    /* narrow-band half width, voxels (default 3) */
+    double dilate;        /* m, applied first (0: none) */
+    kf_vdb_op smooth;     /* KF_VDB_OP_MEAN_CURVATURE / _GAUSSIAN / _LAPLACIAN or NONE */
+    int smooth_iterations;
+    double erode;         /* m, applied last (0: none) */
+    int clamp_small;      /* 1: raise radii under 1.5 voxels and count; 0: error */
+    const char *name;     /* grid name (default "surface") */
+} kf_vdb_surface_params;
+
+typedef struct kf_vdb_surface_stats {
+    size_t n_in;       /* particles given */
+    size_t n_small;    /* radius < 1.5 voxels (clamped; 0 unless clamp_small) */
+    size_t n_dropped;  /* particles OpenVDB skipped anyway (always 0 or an error) */
+    double r_min;      /* smallest radius used, m */
+    size_t active_voxels;
+    double seconds;    /* wall time: rasterise + filter */
+} kf_vdb_surface_stats;
+
+/* File / grid metadata. */
+typedef struct kf_vdb_meta {
+    char shot[256];
+    int frame;
+    char kerf_version[64];
+    double dx;
+    char compression[16]; /* filled on read: "blosc", "zip" or "" */
+} kf_vdb_meta;
+
+typedef struct kf_vdb_file_info {
+    int ngrids;
+    struct {
+        char name[128];
+        char cls[32];  /* "level set", "fog volume", "staggered", "unknown" */
+        char type[32]; /* OpenVDB value type: "float", "vec3s", "ptdataidx32"... */
+    } grids[KF_VDB_MAX_GRIDS];
+    kf_vdb_meta meta; /* the file-level metadata */
+} kf_vdb_file_info;
+
+/* A triangle mesh; arrays are the bridge's, freed by kf_vdb_mesh_free. */
+typedef struct kf_vdb_trimesh {
+    size_t nverts, ntris;
+    float *verts;    /* (nverts x 3) world position, m */
+    float *normals;  /* (nverts x 3) unit outward normal (level-set gradient) */
+    uint32_t *tris;  /* (ntris x 3) vertex indices, counter-clockwise seen from outside */
+} kf_vdb_trimesh;
+
+/* Particles as OpenVDB points; read back by kf_vdb_points_read. */
+typedef struct kf_vdb_points {
+    size_t n;
+    float *x;          /* (n x 3) position, m */
+    float *v;          /* (n x 3) velocity, m/s (NULL: not written / absent) */
+    int32_t *material; /* (n) material id (NULL: absent) */
+    float *jp;         /* (n) plastic state Jp (NULL: absent) */
+} kf_vdb_points;
+
+void kf_vdb_surface_params_default(kf_vdb_surface_params *p);
+
+/* Surface n particles. Positions are xd (n x 3 doubles) or xf (n x 3
+ * floats), exactly one non-NULL. radii: (n) per-particle radius in m or NULL
+ * (then p->radius or factor x spacing). vel: (n x 3) m/s or NULL; when given
+ * the grid carries a "vel" grid (velocity of the closest particle).
+ * stats may be NULL. Returns 0 and *out, or -1 with a message. */
+int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
+                                   const float *radii, const float *vel,
+                                   const kf_vdb_surface_params *p, kf_vdb_grid **out,
+                                   kf_vdb_surface_stats *stats, char *err, size_t errlen);
+
+/* One filter pass: amount (m) for dilate/erode, iterations for smoothing. */
+int kf_vdb_filter(kf_vdb_grid *g, kf_vdb_op op, double amount, int iterations,
+                  char *err, size_t errlen);
+
+int kf_vdb_set_name(kf_vdb_grid *g, const char *name, char *err, size_t errlen);
+const char *kf_vdb_name(const kf_vdb_grid *g);
+double kf_vdb_voxel_size(const kf_vdb_grid *g);
+size_t kf_vdb_active_voxels(const kf_vdb_grid *g);
+
+/* Write level sets (each with its vel grid, named "vel" for the grid named
+ * "surface" and "<name>_vel" otherwise) to one .vdb, atomically. */
+int kf_vdb_write(const char *path, kf_vdb_grid *const *grids, int ngrids,
+                 const kf_vdb_meta *meta, char *err, size_t errlen);
+
+/* Write particles as a PointDataGrid named "points" with attributes P and,
+ * where given, v (vec3f), material (int32), Jp (float). voxel: the points
+ * grid's voxel size in m (0: OpenVDB's ~8 points per voxel estimate). */
+int kf_vdb_points_write(const char *path, size_t n, const float *x, const float *v,
+                        const int32_t *material, const float *jp, double voxel,
+                        const kf_vdb_meta *meta, char *err, size_t errlen);
+/* Read every point of the first PointDataGrid (order is OpenVDB's, not the
+ * writer's). Free with kf_vdb_points_free. */
+int kf_vdb_points_read(const char *path, kf_vdb_points *out, char *err, size_t errlen);
+void kf_vdb_points_free(kf_vdb_points *pts);
+
+/* Level set -> triangles (volumeToMesh; quads split in two). isovalue in m
+ * (0: the surface), adaptivity 0..1 (0: uniform). */
+int kf_vdb_mesh(const kf_vdb_grid *g, double isovalue, double adaptivity, kf_vdb_trimesh *out,
+                char *err, size_t errlen);
+void kf_vdb_mesh_free(kf_vdb_trimesh *m);
+
+/* Read-back. */
+int kf_vdb_info(const char *path, kf_vdb_file_info *info, char *err, size_t errlen);
+/* Load the float level set called name (NULL: "surface"); meta may be NULL. */
+int kf_vdb_read_levelset(const char *path, const char *name, kf_vdb_grid **out,
+                         kf_vdb_meta *meta, char *err, size_t errlen);
+/* Signed distance (m, negative inside) at n world points xyz (n x 3),
+ * trilinear; outside the narrow band it is +/- the band width. */
+int kf_vdb_sample(const kf_vdb_grid *g, const double *xyz, size_t n, double *out,
+                  char *err, size_t errlen);
+/* The renderer's path from a .vdb alone: read "surface" and mesh it. */
+int kf_vdb_read_surface_mesh(const char *path, double adaptivity, kf_vdb_trimesh *out,
+                             kf_vdb_meta *meta, char *err, size_t errlen);
+
+void kf_vdb_free(kf_vdb_grid *g);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
