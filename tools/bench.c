@@ -13,13 +13,18 @@
  * block: a fixed-corotated block of ~1M particles falling onto the floor
  *        (sorting and grid allocation exercised), CFL-adaptive frames:
  *        particle-steps per second, ms per stage, peak memory.
- * --quick shrinks both (8³ → 40-cell cube, 100k-particle block) for a smoke run. */
+ * frame: surfacing (OpenVDB level set + mesh) and rendering (OSMesa, 1920x1080,
+ *        4x MSAA) of the falling block's ~1M particles after one frame, beside
+ *        the cost of simulating that frame at preview quality (2x dx).
+ * --quick shrinks them (24³ and 16³ cubes, a 100k-particle block) for a smoke run. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
 
+#include "../render/render.h"
 #include "../src/core/timer.h"
+#include "../src/io/vdb_bridge.h"
 #include "../src/kerf.h"
 #include "../src/scene/builtin.h"
 
@@ -82,6 +87,71 @@ static int bench_cube(int cells, kf_force force, int threads, int runs, cube_res
     return 0;
 }
 
+typedef struct frame_result {
+    size_t particles;
+    double surface_s, mesh_s, render_s, sim_preview_s;
+    size_t triangles;
+} frame_result;
+
+/* surface and render one frame of ~n particles; simulate the same frame at
+ * preview quality (dx doubled, 1/8 the particles) for comparison */
+static int bench_frame(long n, frame_result *out) {
+    char err[512], msg[512];
+    kf_scene sc, pv;
+    if (kf_scene_falling_block(&sc, n, 0, err, sizeof err) || kf_scene_falling_block(&pv, n / 8, 0, err, sizeof err)) {
+        fprintf(stderr, "bench: %s\n", err);
+        return -1;
+    }
+    double t0 = kf_now_ms();
+    if (kf_advance(pv.model, pv.state, 1.0 / 24, NULL, msg, sizeof msg)) fprintf(stderr, "bench: %s\n", msg);
+    out->sim_preview_s = (kf_now_ms() - t0) / 1e3;
+    kf_advance(sc.model, sc.state, 1.0 / 24, NULL, msg, sizeof msg);
+    kf_particles_view p = kf_state_particles_read(sc.state);
+    float *x = malloc(sizeof(float) * 3 * p.n);
+    for (size_t i = 0; i < p.n; i++)
+        for (int a = 0; a < 3; a++) x[3 * i + a] = (float)p.x[a][i];
+    kf_vdb_surface_params sp;
+    kf_vdb_surface_params_default(&sp);
+    sp.spacing = kf_model_sim(sc.model)->dx / 2;
+    sp.smooth = KF_VDB_OP_MEAN_CURVATURE;
+    sp.smooth_iterations = 3;
+    sp.erode = sp.spacing / 2;
+    sp.clamp_small = 1;
+    kf_vdb_grid *g = NULL;
+    kf_vdb_trimesh mesh = {0};
+    t0 = kf_now_ms();
+    int rc = kf_vdb_levelset_from_particles(p.n, NULL, x, NULL, NULL, &sp, &g, NULL, err, sizeof err);
+    out->surface_s = (kf_now_ms() - t0) / 1e3;
+    t0 = kf_now_ms();
+    if (!rc) rc = kf_vdb_mesh(g, 0, 0, &mesh, err, sizeof err);
+    out->mesh_s = (kf_now_ms() - t0) / 1e3;
+    out->particles = p.n;
+    out->triangles = mesh.ntris;
+    if (!rc) {
+        kf_render_ctx *ctx = kf_render_create(1920, 1080, 4, err, sizeof err);
+        uint8_t *rgba = malloc((size_t)1920 * 1080 * 4);
+        kf_render_mesh rm = {mesh.verts, mesh.normals, mesh.nverts, mesh.tris, mesh.ntris, {{0.8f, 0.3f, 0.3f}, 0.3f, 0.5f}};
+        kf_render_scene scene = kf_render_scene_default();
+        scene.meshes = &rm;
+        scene.nmeshes = 1;
+        scene.ground = 1;
+        float lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, view[3] = {-0.55f, -0.45f, -1.0f};
+        kf_camera cam = kf_camera_frame_bounds(lo, hi, view, 35.0f);
+        t0 = kf_now_ms();
+        if (!ctx || kf_render_frame(ctx, &scene, &cam, rgba, err, sizeof err)) rc = -1;
+        out->render_s = (kf_now_ms() - t0) / 1e3;
+        free(rgba);
+        if (ctx) kf_render_destroy(ctx);
+    }
+    if (rc) fprintf(stderr, "bench: frame: %s\n", err);
+    kf_vdb_mesh_free(&mesh);
+    if (g) kf_vdb_free(g);
+    free(x);
+    kf_scene_free(&sc);
+    kf_scene_free(&pv);
+    return rc;
+}
+
 typedef struct block_result {
     size_t particles;
     int frames;
@@ -123,7 +193,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
         else {
-            fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block]\n");
+            fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame]\n");
             return 2;
         }
     }
@@ -133,6 +203,10 @@ int main(int argc, char **argv) {
     block_result blk = {0};
     int have_block = !only || !strcmp(only, "block");
     if (have_block && bench_block(quick ? 100000 : 1000000, quick ? 1 : 2, &blk)) return 1;
+
+    frame_result fr = {0};
+    int have_frame = !only || !strcmp(only, "frame");
+    if (have_frame && bench_frame(quick ? 100000 : 1000000, &fr)) return 1;
 
     cube_result cubes[16];
     int nc = 0;
@@ -170,8 +244,16 @@ int main(int argc, char **argv) {
             for (int k = 0; k < KF_STAGE_COUNT; k++) printf("%s\"%s\":%.3f", k ? "," : "", kf_stage_name((kf_stage)k), blk.ms[k]);
             printf("}}");
         }
+        if (have_frame)
+            printf(",\"frame\":{\"particles\":%zu,\"triangles\":%zu,\"surface_s\":%.3f,\"mesh_s\":%.3f,"
+                   "\"render_1080p_s\":%.3f,\"simulate_preview_frame_s\":%.3f}",
+                   fr.particles, fr.triangles, fr.surface_s, fr.mesh_s, fr.render_s, fr.sim_preview_s);
         printf("}\n");
     } else {
+        if (have_frame)
+            printf("frame of %zu particles: surface %.2f s, mesh %.2f s (%zu triangles), render 1920x1080 %.2f s; "
+                   "simulating that frame at preview quality %.2f s\n",
+                   fr.particles, fr.surface_s, fr.mesh_s, fr.triangles, fr.render_s, fr.sim_preview_s);
         if (have_block) {
             printf("falling block: %zu particles, %d frames, %ld substeps, %.2f s, %.2f M particle-steps/s, peak %.0f MB\n",
                    blk.particles, blk.frames, blk.substeps, blk.seconds, blk.mpsteps, blk.peak_mb);
