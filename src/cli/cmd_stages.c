@@ -6,13 +6,24 @@
 #include <unistd.h>
 
 #include "../core/timer.h"
+#include "../io/checkpoint.h"
 #include "cli.h"
 #include "stages.h"
+
+/* The camera frames the shot's first frame, whichever command renders:
+ * load that frame's checkpoint (the initial state) and size the view on it. */
+static kf_render_opts framing(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc) {
+    kf_frame_paths fp;
+    char err[4200];
+    if (kf_frame_paths_make(shot, o->out, shot->frame_start, &fp) == 0)
+        kf_checkpoint_read(fp.checkpoint, sc->model, sc->state, NULL, err, sizeof err);
+    return kf_render_opts_for(shot, sc);
+}
 
 /* surface and render frames first..last, skipping current outputs */
 int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render) {
     char err[4200];
-    kf_render_opts ro = kf_render_opts_for(shot);
+    kf_render_opts ro = framing(o, shot, sc);
     int made_s = 0, made_r = 0, kept = 0;
     double t_s = 0, t_r = 0;
     for (int f = shot->first; f <= shot->last; f++) {
@@ -130,7 +141,7 @@ int kf_cmd_turntable(int argc, char **argv) {
         fprintf(stderr, "kerf turntable: frame %d has no surface yet: run kerf run (or kerf surface) first\n", frame);
         rc = KF_EXIT_FAIL;
     } else {
-        kf_render_opts ro = kf_render_opts_for(shot);
+        kf_render_opts ro = framing(&o, shot, &sc);
         ro.turntable_n = count;
         for (int k = 0; k < count && rc == KF_EXIT_OK; k++) {
             char png[4200];

@@ -111,9 +111,31 @@ done:
 
 /* ---- render --------------------------------------------------------------- */
 
-kf_render_opts kf_render_opts_for(const kf_shot *shot) {
-    kf_render_opts o = {1280, 720, 4, 0, 0};
+kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc) {
+    kf_render_opts o = {1280, 720, 4, 0, 0, {0, 0, 0}, {1, 1, 1}};
     if (shot->quality == KF_QUALITY_PREVIEW) o.width = 640, o.height = 360, o.samples = 1;
+    kf_particles_view p = kf_state_particles_read(sc->state);
+    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+    for (size_t i = 0; i < p.n; i++)
+        for (int a = 0; a < 3; a++) {
+            float x = (float)p.x[a][i];
+            lo[a] = x < lo[a] ? x : lo[a];
+            hi[a] = x > hi[a] ? x : hi[a];
+        }
+    if (p.n == 0) return o;
+    /* widen sideways by half the largest extent (things fall, slump and spread) */
+    float ext = 0;
+    for (int a = 0; a < 3; a++) ext = hi[a] - lo[a] > ext ? hi[a] - lo[a] : ext;
+    for (int a = 0; a < 3; a += 2) lo[a] -= 0.5f * ext, hi[a] += 0.5f * ext;
+    if (shot->sim.walls) {
+        /* the floor is in the picture; nothing beyond the walls is */
+        lo[1] = (float)shot->sim.domain_min[1];
+        for (int a = 0; a < 3; a++) {
+            if (lo[a] < shot->sim.domain_min[a]) lo[a] = (float)shot->sim.domain_min[a];
+            if (hi[a] > shot->sim.domain_max[a]) hi[a] = (float)shot->sim.domain_max[a];
+        }
+    }
+    for (int a = 0; a < 3; a++) o.lo[a] = lo[a], o.hi[a] = hi[a];
     return o;
 }
 
@@ -160,13 +182,9 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
     scene.meshes = rm;
     scene.nmeshes = nm;
     scene.ground = 1;
-    /* a steady camera: the domain box when there are walls, else the frame's bounds */
-    float lo[3], hi[3];
-    if (shot->sim.walls)
-        for (int a = 0; a < 3; a++) lo[a] = (float)shot->sim.domain_min[a], hi[a] = (float)shot->sim.domain_max[a];
-    else if (kf_render_scene_bounds(&scene, lo, hi))
-        for (int a = 0; a < 3; a++) lo[a] = 0, hi[a] = 1;
-    if (shot->sim.walls) scene.ground_y = lo[1];
+    /* a steady camera on what the options frame */
+    const float *lo = ro->lo, *hi = ro->hi;
+    if (shot->sim.walls) scene.ground_y = (float)shot->sim.domain_min[1];
     /* looking from the front right, above: view_dir points from the eye to the subject */
     float view[3] = {-0.55f, -0.45f, -1.0f};
     kf_camera cam = ro->turntable_n > 0 ? kf_camera_turntable(lo, hi, ro->turntable_k, ro->turntable_n, 25.0f, 35.0f)

@@ -38,8 +38,11 @@ int kf_stage_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_pat
 typedef struct kf_render_opts {
     int width, height, samples;
     int turntable_k, turntable_n; /* n > 0: orbit camera, view k of n */
+    float lo[3], hi[3];           /* what the camera frames, the same for every frame */
 } kf_render_opts;
-kf_render_opts kf_render_opts_for(const kf_shot *shot);
+/* The shot's render settings; the camera frames the initial particles of sc
+ * (widened, since material spreads), clipped to the domain when walled. */
+kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc);
 
 /* .vdb → meshes (per material when present) → PNG at `png`. */
 int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
