@@ -68,26 +68,66 @@ const char *kf_material_check(const kf_material *m);
 
 typedef enum kf_boundary { KF_BOUNDARY_STICKY = 0, KF_BOUNDARY_SLIP, KF_BOUNDARY_SEPARATE } kf_boundary;
 
-typedef enum kf_shape { KF_SHAPE_PLANE = 0, KF_SHAPE_BOX, KF_SHAPE_SPHERE } kf_shape;
+typedef enum kf_shape { KF_SHAPE_PLANE = 0, KF_SHAPE_BOX, KF_SHAPE_SPHERE, KF_SHAPE_MESH } kf_shape;
+
+/* How a keyed collider moves between keys (per channel: position, each
+ * rotation angle and each scale factor). Both pass exactly through the keys
+ * and hold the first and last key outside the keyed range.
+ *   LINEAR: straight segments; the velocity is each segment's slope.
+ *   SMOOTH: cubic Hermite; the tangent at an inner key is the central
+ *           difference (p[i+1] - p[i-1]) / (t[i+1] - t[i-1]) (Catmull-Rom
+ *           for uneven key spacing), zero at the first and last key, so the
+ *           velocity is continuous everywhere (it eases in and out). */
+typedef enum kf_interp { KF_INTERP_LINEAR = 0, KF_INTERP_SMOOTH } kf_interp;
 
 #define KF_MAX_KEYS 64
+/* A pose of a keyed collider. The collider's rest shape (centred on its
+ * pivot, `center`) is scaled along world axes, then rotated, about the
+ * pivot, then the pivot is put at `position`:
+ *     x(t) = position(t) + R(t) S(t) (x_rest - center)
+ * Rotation angles are interpolated per channel like a DCC's animation
+ * curves, so a key of 720 degrees means two full turns. */
 typedef struct kf_key {
     double time;         /* seconds */
-    double position[3];  /* metres */
+    double position[3];  /* metres: where the pivot is */
+    double rotate[3];    /* degrees about x, then y, then z (fixed axes: R = Rz Ry Rx) */
+    double scale[3];     /* factors along x, y, z (0 means 1) */
 } kf_key;
 
+/* A signed distance field sampled on a regular grid (mesh colliders). Node
+ * (i, j, k) sits at origin + spacing (i, j, k) in the collider's shape frame
+ * (the rest shape relative to the pivot, before `rotate`), and holds
+ * phi[(i * dims[1] + j) * dims[2] + k], metres, negative inside the solid.
+ * Between nodes φ is trilinear; outside the grid it grows with the distance
+ * to the grid's box, so the grid should pad the solid by a few cells. */
+typedef struct kf_sdf_grid {
+    double origin[3];   /* m */
+    double spacing;     /* m */
+    int dims[3];        /* nodes along x, y, z; each >= 2 */
+    const float *phi;   /* (dims[0] x dims[1] x dims[2]) */
+} kf_sdf_grid;
+
+/* A kinematic collider: its shape at rest, and its motion (static, constant
+ * velocity, or keys). The pose and the velocity of the collider's own
+ * material point at a grid node (linear + angular + scale rate) are
+ * evaluated at each substep's time. */
 typedef struct kf_collider {
     kf_shape shape;
     kf_boundary boundary;
     double friction;     /* Coulomb μ (separate boundaries) */
-    double center[3];    /* plane: a point on it; box and sphere: centre at t = 0 */
+    double center[3];    /* the pivot at rest. plane: a point on it; box, sphere: centre; mesh: the
+                            origin of the sdf's frame */
     double normal[3];    /* plane: the side material stays on */
     double half[3];      /* box half extents */
     double radius;       /* sphere */
-    double velocity[3];  /* constant velocity when nkeys == 0 */
-    int nkeys;           /* > 1: centre follows the keys (linear, held outside) */
+    double rotate[3];    /* rest orientation of the shape, degrees XYZ (R0 = Rz Ry Rx): a box's axes, a
+                            plane's normal, a mesh's sdf frame */
+    const kf_sdf_grid *sdf; /* mesh: the distance field (kf_model_add_collider copies it) */
+    double velocity[3];  /* constant velocity of the pivot when nkeys == 0 */
+    kf_interp interp;    /* between keys */
+    int nkeys;           /* >= 1: the pose follows the keys (one key: held there) */
     kf_key keys[KF_MAX_KEYS];
-    int inside;          /* box and sphere: 1 = material is kept inside (a container) */
+    int inside;          /* box, sphere, mesh: 1 = material is kept inside (a container) */
 } kf_collider;
 
 /* ---- simulation settings ----------------------------------------------- */

@@ -12,9 +12,9 @@ static void keyframes(void) {
     c.shape = KF_SHAPE_SPHERE;
     c.radius = 0.1;
     c.nkeys = 3;
-    c.keys[0] = (kf_key){1.0, {0, 0, 0}};
-    c.keys[1] = (kf_key){2.0, {1, 2, 0}};
-    c.keys[2] = (kf_key){4.0, {1, 2, 4}};
+    c.keys[0] = (kf_key){.time = 1.0, .position = {0, 0, 0}};
+    c.keys[1] = (kf_key){.time = 2.0, .position = {1, 2, 0}};
+    c.keys[2] = (kf_key){.time = 4.0, .position = {1, 2, 4}};
     double x[3], v[3];
     kf_collider_at(&c, 0.5, x, v);
     KT_NEAR(x[0] + x[1] + x[2], 0, 0, "held at the first key before it");
@@ -113,8 +113,8 @@ static void moving_sphere_pushes(void) {
     c.boundary = KF_BOUNDARY_SEPARATE;
     c.radius = 0.08;
     c.nkeys = 2;
-    c.keys[0] = (kf_key){0.0, {0.5, 0.8, 0.5}};
-    c.keys[1] = (kf_key){0.5, {0.5, 0.4, 0.5}};
+    c.keys[0] = (kf_key){.time = 0.0, .position = {0.5, 0.8, 0.5}};
+    c.keys[1] = (kf_key){.time = 0.5, .position = {0.5, 0.4, 0.5}};
     char err[256];
     KT_CHECK(kf_model_add_collider(m, &c, err, sizeof err) == 0, "%s", err);
     kf_state *s = kf_state_create(m);

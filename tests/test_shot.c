@@ -102,6 +102,8 @@ static void table_is_consistent(void) {
     CHOICE("sim.force", KF_FORCE_CLASSIC, "classic");
     CHOICE("sim.transfer", KF_TRANSFER_PIC, "pic");
     CHOICE("colliders[].shape", KF_SHAPE_SPHERE, "sphere");
+    CHOICE("colliders[].shape", KF_SHAPE_MESH, "mesh");
+    CHOICE("colliders[].interpolation", KF_INTERP_SMOOTH, "smooth");
     CHOICE("colliders[].boundary", KF_BOUNDARY_SLIP, "slip");
     CHOICE("materials.*.model", KF_MAT_SNOW, "snow");
     CHOICE("objects[].shape", KF_SOURCE_MESH, "mesh");
@@ -537,10 +539,102 @@ static void templates(void) {
     KT_NEAR(kf_shot_frame_time(&(kf_shot){.frame_start = 1001, .fps = 24}, 1013), 0.5, 1e-15, "frame to seconds");
 }
 
+/* ---- colliders: meshes, placement, rotate/scale keys, interpolation ---------------------- */
+
+static void collider_keys(void) {
+    kf_diag d;
+    kf_shot *s = load("colliders.yaml", NULL, 0, NULL, NULL, &d);
+    KT_CHECK(s != NULL && d.count == 0, "colliders.yaml loads cleanly (%d diagnostics)", d.count);
+    if (!s) return dump(&d), kf_diag_free(&d);
+    KT_CHECK(s->ncolliders == 4, "4 colliders");
+    const kf_shot_collider *spin = &s->colliders[0], *lid = &s->colliders[1], *flap = &s->colliders[2],
+                           *tilt = &s->colliders[3];
+    /* a fitted mesh: placed like an object, pivot at fit.center + translate */
+    KT_CHECK(spin->col.shape == KF_SHAPE_MESH && spin->col.boundary == KF_BOUNDARY_STICKY, "mesh collider");
+    KT_CHECK(strstr(spin->mesh_path, "/shots/assets/cube.off") != NULL, "mesh relative to the shot: %s",
+             spin->mesh_path);
+    KT_CHECK(spin->fit == 1 && spin->place.fit == 1, "fitted");
+    KT_NEAR(spin->place.fit_center[1], 0.35, 1e-15, "the fit centre moved by translate");
+    KT_NEAR(spin->place.fit_size, 0.2, 0, "fit size");
+    KT_NEAR(spin->place.rotate[1], 45, 0, "rest rotation goes into the placement");
+    KT_NEAR(spin->place.scale[0], 2, 0, "scale into the placement");
+    KT_NEAR(spin->col.rotate[1], 0, 0, "a mesh's rest rotation is baked into its distance grid, not col.rotate");
+    KT_NEAR(spin->col.center[1], 0.35, 1e-15, "pivot = fit.center + translate");
+    KT_CHECK(spin->col.interp == KF_INTERP_SMOOTH && spin->col.nkeys == 3, "smooth, 3 keys");
+    const kf_key *k = spin->col.keys;
+    KT_NEAR(k[1].time, 0.5, 1e-12, "frame 1013 at 24 fps = 0.5 s");
+    KT_NEAR(k[1].position[0], 0.6, 1e-15, "key position = pivot + translate");
+    KT_NEAR(k[0].rotate[1] + k[0].scale[0], 1, 0, "a bare key: no rotation, scale 1");
+    KT_NEAR(k[1].rotate[1], 180, 0, "key rotate");
+    KT_NEAR(k[1].scale[2], 1.5, 0, "one number scales uniformly");
+    KT_NEAR(k[2].scale[1], 2, 0, "per-axis key scale");
+    KT_NEAR(k[2].rotate[1], 360, 0, "a full turn is kept as written");
+    /* an unfitted mesh with its own pivot, a container */
+    KT_CHECK(lid->fit == 0 && lid->col.inside == 1 && lid->col.nkeys == 0, "lid");
+    KT_NEAR(lid->place.translate[0], 0.4, 0, "placed by translate");
+    KT_NEAR(lid->col.center[0], 0.5, 0, "the given pivot");
+    KT_NEAR(lid->place.scale[1], 1, 0, "default scale");
+    KT_CHECK(lid->mesh_at.line == 24 && lid->mesh_at.col == 36, "where its mesh: is (%d:%d)", lid->mesh_at.line,
+             lid->mesh_at.col);
+    /* a box: rest rotation on the collider, keys rotate on top of it */
+    KT_CHECK(flap->col.shape == KF_SHAPE_BOX && flap->col.interp == KF_INTERP_LINEAR && flap->col.nkeys == 2, "flap");
+    KT_NEAR(flap->col.rotate[2], 30, 0, "a box's rest orientation");
+    KT_NEAR(flap->col.keys[1].rotate[2], 60, 0, "key rotation");
+    KT_NEAR(flap->col.keys[1].position[1], 0.7, 1e-15, "key position = center + translate");
+    KT_NEAR(flap->col.keys[1].time, 0.25, 1e-12, "frame 1007 = 0.25 s");
+    /* one key holds the pose */
+    KT_CHECK(tilt->col.nkeys == 1, "one key kept (held)");
+    KT_NEAR(tilt->col.keys[0].rotate[0], 10, 0, "its rotation");
+    KT_NEAR(tilt->col.keys[0].position[1], 0.1, 0, "at the point");
+    kf_shot_free(s);
+    kf_diag_free(&d);
+}
+
+static void bad_collider_keys(void) {
+    kf_diag d;
+    const char *f = fixture("bad_colliders.yaml");
+    kf_shot *s = load("bad_colliders.yaml", NULL, 0, NULL, NULL, &d);
+    KT_CHECK(s == NULL, "bad_colliders.yaml fails");
+    KT_CHECK(d.errors == 13 && d.warnings == 1, "13 errors and 1 warning, got %d and %d", d.errors, d.warnings);
+    EXPECT(&d, f, 7, 5, KF_DIAG_ERROR, "colliders[0].mesh is missing (required for shape mesh)");
+    EXPECT(&d, f, 7, 33, KF_DIAG_ERROR, "colliders[0].fit.size is missing (required)");
+    EXPECT(&d, f, 8, 37, KF_DIAG_ERROR, "colliders[1]: mesh file 'assets/none.obj' not found (looked for ");
+    EXPECT(&d, f, 8, 61, KF_DIAG_ERROR, "colliders[1].scale must be > 0, got 0");
+    EXPECT(&d, f, 9, 66, KF_DIAG_ERROR, "colliders[2].scale does not apply to shape box (only to mesh)");
+    EXPECT(&d, f, 9, 76, KF_DIAG_ERROR, "colliders[2].fit does not apply to shape box (only to mesh)");
+    EXPECT(&d, f, 10, 71, KF_DIAG_ERROR, "colliders[3].rotate does not apply to shape sphere (only to box|mesh)");
+    EXPECT(&d, f, 10, 106, KF_DIAG_WARNING, "colliders[3].interpolation has no effect with no keys");
+    EXPECT(&d, f, 15, 20, KF_DIAG_ERROR,
+           "colliders[4].interpolation: unknown value 'smoth' (did you mean 'smooth'?); choose linear or smooth");
+    EXPECT(&d, f, 17, 31, KF_DIAG_ERROR, "colliders[4].keys[0].rotate: expected [x, y, z], got 2 numbers");
+    EXPECT(&d, f, 18, 17, KF_DIAG_ERROR,
+           "colliders[4].keys[1].frame must come after the previous key's frame 1010, got 1005");
+    EXPECT(&d, f, 18, 30, KF_DIAG_ERROR, "colliders[4].keys[1].scale must be > 0, got 0");
+    EXPECT(&d, f, 19, 23, KF_DIAG_ERROR, "unknown key 'rotation' in colliders[4].keys[2]; keys here: frame, translate, "
+                                         "rotate, scale");
+    EXPECT(&d, f, 20, 70, KF_DIAG_ERROR, "colliders[5].inside does not apply to shape plane (only to box|sphere|mesh)");
+    kf_diag_free(&d);
+
+    /* overrides reach the new keys too */
+    const char *sets[] = {"colliders.spinner.interpolation=linear", "colliders.flap.rotate=[0, 0, 45]",
+                          "colliders.lid.scale=0.5"};
+    s = load("colliders.yaml", sets, 3, NULL, NULL, &d);
+    KT_CHECK(s != NULL && d.count == 0, "overrides of collider keys apply cleanly");
+    if (s) {
+        KT_CHECK(s->colliders[0].col.interp == KF_INTERP_LINEAR, "interpolation overridden");
+        KT_NEAR(s->colliders[2].col.rotate[2], 45, 0, "rotate overridden");
+        KT_NEAR(s->colliders[1].place.scale[2], 0.5, 0, "scale overridden");
+    } else {
+        dump(&d);
+    }
+    kf_shot_free(s);
+    kf_diag_free(&d);
+}
+
 /* the example shots in shots/ load cleanly */
 static void example_shots(void) {
-    const char *names[] = {"demo.yaml", "goo_sphere.yaml", "dam_break.yaml"};
-    for (int i = 0; i < 3; i++) {
+    const char *names[] = {"demo.yaml", "goo_sphere.yaml", "dam_break.yaml", "mesh_collider.yaml"};
+    for (int i = 0; i < (int)(sizeof names / sizeof *names); i++) {
         char path[1024];
         const char *slash = strrchr(__FILE__, '/');
         snprintf(path, sizeof path, "%.*s/../shots/%s", slash ? (int)(slash - __FILE__) : 1, slash ? __FILE__ : ".",
@@ -570,6 +664,8 @@ int main(int argc, char **argv) {
     KT_RUN(quality, argc, argv);
     KT_RUN(frames, argc, argv);
     KT_RUN(templates, argc, argv);
+    KT_RUN(collider_keys, argc, argv);
+    KT_RUN(bad_collider_keys, argc, argv);
     KT_RUN(example_shots, argc, argv);
     return KT_EXIT();
 }

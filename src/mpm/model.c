@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "model.h"
+#include "sdf_grid.h"
 
 kf_sim_def kf_default_sim_def(void) {
     kf_sim_def d;
@@ -55,7 +56,12 @@ kf_model *kf_model_create(const kf_sim_def *def, char *err, size_t errlen) {
     return m;
 }
 
-void kf_model_destroy(kf_model *m) { free(m); }
+void kf_model_destroy(kf_model *m) {
+    if (!m) return;
+    for (int c = 0; c < m->ncol; c++) /* the model's own copies of mesh distance fields */
+        if (m->col[c].shape == KF_SHAPE_MESH) free((void *)m->col[c].sdf);
+    free(m);
+}
 
 const kf_sim_def *kf_model_sim(const kf_model *m) { return &m->sim; }
 
@@ -70,17 +76,51 @@ int kf_model_add_material(kf_model *m, const kf_material *mat, char *err, size_t
     return id;
 }
 
+static int finite3(const double v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
+
 int kf_model_add_collider(kf_model *m, const kf_collider *c, char *err, size_t errlen) {
     if (m->ncol >= KF_MAX_COLLIDERS) return fail(err, errlen, "too many colliders (at most 64)");
+    if ((int)c->shape < KF_SHAPE_PLANE || c->shape > KF_SHAPE_MESH) return fail(err, errlen, "unknown collider shape");
     if (c->shape == KF_SHAPE_SPHERE && !(c->radius > 0)) return fail(err, errlen, "sphere collider needs radius > 0");
     if (c->shape == KF_SHAPE_BOX && !(c->half[0] > 0 && c->half[1] > 0 && c->half[2] > 0))
         return fail(err, errlen, "box collider needs positive half extents");
     if (c->shape == KF_SHAPE_PLANE && !(fabs(c->normal[0]) + fabs(c->normal[1]) + fabs(c->normal[2]) > 0))
         return fail(err, errlen, "plane collider needs a non-zero normal");
+    if (c->shape == KF_SHAPE_MESH) {
+        const char *bad = kf_sdf_grid_check(c->sdf);
+        if (*bad) return fail(err, errlen, bad);
+    }
+    if (c->inside && c->shape == KF_SHAPE_PLANE) return fail(err, errlen, "a plane collider cannot keep material inside");
+    if (!finite3(c->center) || !finite3(c->rotate) || !finite3(c->velocity))
+        return fail(err, errlen, "collider center, rotate and velocity must be finite");
+    if ((int)c->interp < KF_INTERP_LINEAR || c->interp > KF_INTERP_SMOOTH)
+        return fail(err, errlen, "unknown collider interpolation");
     if (c->nkeys < 0 || c->nkeys > KF_MAX_KEYS) return fail(err, errlen, "collider has too many keys (at most 64)");
-    for (int k = 1; k < c->nkeys; k++)
-        if (!(c->keys[k].time > c->keys[k - 1].time)) return fail(err, errlen, "collider keys must have increasing times");
+    for (int k = 0; k < c->nkeys; k++) {
+        const kf_key *key = &c->keys[k];
+        if (!isfinite(key->time) || !finite3(key->position) || !finite3(key->rotate))
+            return fail(err, errlen, "collider keys must be finite");
+        for (int a = 0; a < 3; a++)
+            if (!(key->scale[a] >= 0 && isfinite(key->scale[a]))) /* 0 means 1 */
+                return fail(err, errlen, "collider key scale must be > 0");
+        if (k > 0 && !(key->time > c->keys[k - 1].time))
+            return fail(err, errlen, "collider keys must have increasing times");
+    }
     if (!(c->friction >= 0)) return fail(err, errlen, "collider friction must be >= 0");
-    m->col[m->ncol++] = *c;
+    kf_collider col = *c;
+    if (c->shape == KF_SHAPE_MESH) {
+        /* the model keeps its own copy: the caller's field may go away */
+        size_t n = kf_sdf_grid_nodes(c->sdf);
+        kf_sdf_grid *g = malloc(sizeof *g + n * sizeof(float));
+        if (!g) return fail(err, errlen, "out of memory copying the collider's distance field");
+        *g = *c->sdf;
+        float *phi = (float *)(g + 1);
+        memcpy(phi, c->sdf->phi, n * sizeof(float));
+        g->phi = phi;
+        col.sdf = g;
+    } else {
+        col.sdf = NULL;
+    }
+    m->col[m->ncol++] = col;
     return m->ncol - 1;
 }

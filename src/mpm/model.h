@@ -55,7 +55,7 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F */
 void kf_stress(const kf_model *m, kf_state *s, int project);
 
-/* collider geometry (grid_update.c) */
+/* collider pose and velocity at a time (collider.c) */
 void kf_collider_at(const kf_collider *c, double t, double center[3], double velocity[3]);
 
 #endif

@@ -5,7 +5,34 @@
 #include <string.h>
 
 #include "../core/timer.h"
+#include "mesh_sdf.h"
 #include "sample.h"
+
+/* A mesh collider's distance grid: the mesh placed like an object, checked
+ * closed, sampled at spacing dx/2 (padded by 3 dx) in the frame centred on
+ * the pivot. */
+static int mesh_collider(const kf_shot_collider *c, double dx, int threads, kf_mesh_sdf *sdf, char *err, size_t n) {
+    kf_mesh mesh;
+    if (kf_mesh_load(c->mesh_path, &mesh, err, n)) return -1;
+    int rc = kf_mesh_check_closed(&mesh, err, n);
+    if (rc == 0) {
+        kf_sample_def d = kf_default_sample_def();
+        d.kind = KF_SOURCE_MESH;
+        d.place = c->place;
+        double M[12], lo[3], hi[3];
+        rc = kf_sample_placement(&d, &mesh, M, lo, hi, err, n);
+        if (rc == 0) {
+            kf_mesh_transform(&mesh, M);
+            kf_mesh_sdf_def sd = kf_default_mesh_sdf_def();
+            sd.spacing = 0.5 * dx;
+            sd.pad = 3 * dx;
+            sd.threads = threads;
+            rc = kf_mesh_sdf_build(&mesh, c->col.center, &sd, sdf, err, n);
+        }
+    }
+    kf_mesh_free(&mesh);
+    return rc;
+}
 
 int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_stats *stats, kf_diag *diag) {
     char err[1024];
@@ -28,11 +55,29 @@ int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_
             kf_shot_report(diag, &shot->materials[i].at, KF_DIAG_ERROR, "%s", err);
             bad = 1;
         }
-    for (int i = 0; i < shot->ncolliders; i++)
-        if (kf_model_add_collider(sc->model, &shot->colliders[i].col, err, sizeof err) < 0) {
-            kf_shot_report(diag, &shot->colliders[i].at, KF_DIAG_ERROR, "%s", err);
+    for (int i = 0; i < shot->ncolliders; i++) {
+        const kf_shot_collider *c = &shot->colliders[i];
+        kf_collider col = c->col;
+        kf_mesh_sdf sdf = {0};
+        if (col.shape == KF_SHAPE_MESH) {
+            if (mesh_collider(c, sd.dx, sd.threads, &sdf, err, sizeof err)) {
+                kf_shot_report(diag, &c->mesh_at, KF_DIAG_ERROR, "collider '%s': %s", c->name, err);
+                bad = 1;
+                continue;
+            }
+            col.sdf = &sdf.grid;
+            if (sdf.grid.spacing > 1.001 * sdf.spacing_asked)
+                kf_shot_report(diag, &c->mesh_at, KF_DIAG_WARNING,
+                               "collider '%s': distance grid spacing %.3g m instead of dx/2 = %.3g m (at dx/2 the grid "
+                               "would exceed %zu nodes)",
+                               c->name, sdf.grid.spacing, sdf.spacing_asked, (size_t)KF_MESH_SDF_MAX_NODES);
+        }
+        if (kf_model_add_collider(sc->model, &col, err, sizeof err) < 0) {
+            kf_shot_report(diag, &c->at, KF_DIAG_ERROR, "%s", err);
             bad = 1;
         }
+        kf_mesh_sdf_free(&sdf); /* the model keeps its own copy */
+    }
     sc->state = kf_state_create(sc->model);
     if (bad || !sc->state) goto fail;
 
@@ -136,12 +181,26 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
         if (o->shape == KF_SOURCE_MESH) hash_file(&h, o->mesh_path);
     }
     for (int i = 0; i < shot->ncolliders; i++) {
-        const kf_collider *c = &shot->colliders[i].col;
+        const kf_shot_collider *sc = &shot->colliders[i];
+        const kf_collider *c = &sc->col;
+        const kf_placement *p = &sc->place;
         double v[] = {c->shape, c->boundary, c->friction, c->center[0], c->center[1], c->center[2], c->normal[0],
-                      c->normal[1], c->normal[2], c->half[0], c->half[1], c->half[2], c->radius, c->velocity[0],
-                      c->velocity[1], c->velocity[2], c->nkeys, c->inside};
+                      c->normal[1], c->normal[2], c->half[0], c->half[1], c->half[2], c->radius, c->rotate[0],
+                      c->rotate[1], c->rotate[2], c->velocity[0], c->velocity[1], c->velocity[2], c->interp,
+                      c->nkeys, c->inside};
         hash_vals(&h, v, (int)(sizeof v / sizeof *v));
-        for (int k = 0; k < c->nkeys; k++) hash_vals(&h, &c->keys[k].time, 1), hash_vals(&h, c->keys[k].position, 3);
+        for (int k = 0; k < c->nkeys; k++) {
+            const kf_key *key = &c->keys[k];
+            hash_vals(&h, &key->time, 1), hash_vals(&h, key->position, 3);
+            hash_vals(&h, key->rotate, 3), hash_vals(&h, key->scale, 3);
+        }
+        if (c->shape == KF_SHAPE_MESH) {
+            double pl[] = {p->translate[0], p->translate[1], p->translate[2], p->rotate[0], p->rotate[1],
+                           p->rotate[2], p->scale[0], p->scale[1], p->scale[2], p->fit, p->fit_center[0],
+                           p->fit_center[1], p->fit_center[2], p->fit_size};
+            hash_vals(&h, pl, (int)(sizeof pl / sizeof *pl));
+            hash_file(&h, sc->mesh_path);
+        }
     }
     return h;
 }

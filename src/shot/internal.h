@@ -137,6 +137,8 @@ typedef struct kf_top {
 typedef struct kf_rawkey {
     double frame;
     double translate[3];
+    double rotate[3];
+    double scale[3];
 } kf_rawkey;
 
 extern const kf_keydef kf_keys[];

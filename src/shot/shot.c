@@ -440,6 +440,20 @@ static void placement(kf_shot_object *o) {
     if (!p->fit) memset(p->fit_center, 0, sizeof p->fit_center);
 }
 
+/* a mesh path relative to the shot's folder, checked to exist (reported at
+ * the key's value) */
+static void resolve_mesh_path(loader *L, inst *I, const kf_shot *s, const char *key, const char *mesh, char *path,
+                              size_t n) {
+    char msg[1600];
+    if (mesh[0] == '/' || strcmp(s->dir, ".") == 0) snprintf(path, n, "%s", mesh);
+    else snprintf(path, n, "%.700s/%s", s->dir, mesh);
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) {
+        snprintf(msg, sizeof msg, "%s: mesh file '%s' not found (looked for %s)", I->label, mesh, path);
+        report_inst(L, I, key, KF_DIAG_ERROR, msg);
+    }
+}
+
 static void resolve_object(loader *L, inst *I, int index, kf_shot *s, kf_shot_object *o) {
     char msg[1600];
     *o = *(const kf_shot_object *)I->base;
@@ -474,20 +488,33 @@ static void resolve_object(loader *L, inst *I, int index, kf_shot *s, kf_shot_ob
     }
     /* a mesh must exist now, not after an hour of simulation */
     int meshk = K("objects[].mesh");
-    if (o->shape == KF_SOURCE_MESH && I->ok[meshk]) {
-        if (o->mesh[0] == '/' || strcmp(s->dir, ".") == 0) snprintf(o->mesh_path, sizeof o->mesh_path, "%s", o->mesh);
-        else snprintf(o->mesh_path, sizeof o->mesh_path, "%.700s/%s", s->dir, o->mesh);
-        struct stat st;
-        if (stat(o->mesh_path, &st) != 0 || !S_ISREG(st.st_mode)) {
-            snprintf(msg, sizeof msg, "%s: mesh file '%s' not found (looked for %s)", I->label, o->mesh, o->mesh_path);
-            report_inst(L, I, "objects[].mesh", KF_DIAG_ERROR, msg);
-        }
-    }
+    if (o->shape == KF_SOURCE_MESH && I->ok[meshk])
+        resolve_mesh_path(L, I, s, "objects[].mesh", o->mesh, o->mesh_path, sizeof o->mesh_path);
     o->fit = I->at[K("objects[].fit")] != NULL && o->shape == KF_SOURCE_MESH;
     placement(o);
     if (o->fit) memcpy(o->center, o->place.fit_center, sizeof o->center);
     o->at = loc_of(L, s, I->map);
     if (I->at[meshk]) o->mesh_at = loc_of(L, s, I->at[meshk]);
+}
+
+/* A mesh collider is placed like a mesh object (the sampler's placement);
+ * its pivot, the origin of its distance grid and of its keys, is the given
+ * pivot, else the fitted bounding box's centre, else where its origin went. */
+static void collider_placement(const inst *I, kf_shot_collider *c) {
+    kf_placement *p = &c->place;
+    memset(p, 0, sizeof *p);
+    if (c->col.shape != KF_SHAPE_MESH) return;
+    c->fit = I->at[K("colliders[].fit")] != NULL;
+    memcpy(p->rotate, c->rotate, sizeof p->rotate);
+    memcpy(p->scale, c->scale, sizeof p->scale);
+    for (int a = 0; a < 3; a++) {
+        p->translate[a] = c->translate[a];
+        p->fit_center[a] = c->fit ? c->fit_center[a] + c->translate[a] : 0;
+    }
+    p->fit = c->fit;
+    p->fit_size = c->fit ? c->fit_size : 0;
+    if (I->at[K("colliders[].pivot")]) memcpy(c->col.center, c->pivot, sizeof c->col.center);
+    else memcpy(c->col.center, c->fit ? p->fit_center : p->translate, sizeof c->col.center);
 }
 
 static void resolve_collider(loader *L, int ii, int index, kf_shot *s, int times_ok, kf_shot_collider *c) {
@@ -504,7 +531,14 @@ static void resolve_collider(loader *L, int ii, int index, kf_shot *s, int times
             for (int a = 0; a < 3; a++) c->col.normal[a] /= len;
     }
     for (int a = 0; a < 3; a++) c->col.half[a] = 0.5 * c->size[a];
-    /* keys: frames → seconds, offsets → absolute centre positions */
+    /* a box's rest orientation is the collider's; a mesh's goes into its placement */
+    if (c->col.shape == KF_SHAPE_BOX) memcpy(c->col.rotate, c->rotate, sizeof c->col.rotate);
+    int meshk = K("colliders[].mesh");
+    if (c->col.shape == KF_SHAPE_MESH && I->ok[meshk])
+        resolve_mesh_path(L, I, s, "colliders[].mesh", c->mesh, c->mesh_path, sizeof c->mesh_path);
+    collider_placement(I, c);
+    if (I->at[meshk]) c->mesh_at = loc_of(L, s, I->at[meshk]);
+    /* keys: frames → seconds, offsets → absolute pivot positions */
     int nk = 0;
     double prev = 0;
     for (int j = 0; j < L->n; j++) {
@@ -524,19 +558,25 @@ static void resolve_collider(loader *L, int ii, int index, kf_shot *s, int times
             report_inst(L, KI, "colliders[].keys[].frame", KF_DIAG_ERROR, msg);
         }
         if (KI->ok[fk]) prev = rk->frame;
-        if (times_ok) c->col.keys[nk].time = (rk->frame - s->frame_start) / s->fps;
-        for (int a = 0; a < 3; a++) c->col.keys[nk].position[a] = c->col.center[a] + rk->translate[a];
+        kf_key *key = &c->col.keys[nk];
+        if (times_ok) key->time = (rk->frame - s->frame_start) / s->fps;
+        for (int a = 0; a < 3; a++) {
+            key->position[a] = c->col.center[a] + rk->translate[a];
+            key->rotate[a] = rk->rotate[a];
+            key->scale[a] = rk->scale[a];
+        }
         nk++;
     }
     if (nk > 0 && I->at[K("colliders[].velocity")]) {
         snprintf(msg, sizeof msg, "%s: give velocity or keys, not both (keys define the motion)", I->label);
         report_inst(L, I, "colliders[].velocity", KF_DIAG_ERROR, msg);
     }
-    if (nk == 1) { /* one key: a constant offset */
-        memcpy(c->col.center, c->col.keys[0].position, sizeof c->col.center);
-        nk = 0;
+    if (nk < 2 && I->at[K("colliders[].interpolation")]) {
+        snprintf(msg, sizeof msg, "%s.interpolation has no effect with %s", I->label,
+                 nk ? "one key (the collider is held there)" : "no keys");
+        report_inst(L, I, "colliders[].interpolation", KF_DIAG_WARNING, msg);
     }
-    c->col.nkeys = nk;
+    c->col.nkeys = nk; /* one key: held there */
 }
 
 /* two objects (or colliders) must not share a name: --set addresses by it */

@@ -17,8 +17,9 @@
  *
  * The values in a kf_shot are final: presets merged with overrides, --set
  * applied, quality applied (preview doubles sim.dx), collider keys in
- * seconds, paths resolved. Nothing here touches the file system except
- * reading the shot and checking that mesh files exist. */
+ * seconds, paths resolved (objects' and colliders' meshes). Nothing here
+ * touches the file system except reading the shot and checking that mesh
+ * files exist. */
 #ifndef KF_SHOT_H
 #define KF_SHOT_H
 
@@ -83,12 +84,28 @@ typedef struct kf_shot_object {
     kf_loc mesh_at;            /* its mesh: value (mesh objects) */
 } kf_shot_object;
 
+/* A collider. Analytic shapes are complete in `col`; a mesh collider also
+ * needs its distance grid, which the builder samples from the mesh placed by
+ * `place` (the same placement objects use), in the frame centred on the
+ * pivot col.center. Keys are in col.keys: seconds since frames.start,
+ * absolute pivot positions (pivot + translate), rotate and scale as written. */
 typedef struct kf_shot_collider {
     char name[64];
-    kf_collider col;  /* ready for kf_model_add_collider: box half = size/2, plane normal unit,
-                         keys in seconds since frames.start (absolute centre positions) */
+    kf_collider col;  /* ready for kf_model_add_collider except a mesh's col.sdf: box half = size/2, plane
+                         normal unit, col.rotate the box's rest orientation (a mesh's is in place) */
     double size[3];   /* box: full edge lengths as written, m */
-    kf_loc at;        /* the collider's entry */
+    char mesh[256];         /* mesh: the path as written */
+    char mesh_path[1024];   /* mesh: resolved against the shot file's directory (exists) */
+    int fit;                /* mesh: 1 = fit its bounding box */
+    double fit_center[3];   /* m, as written */
+    double fit_size;        /* m */
+    double rotate[3];       /* degrees about x, then y, then z (R = Rz Ry Rx) */
+    double scale[3];        /* mesh: factors */
+    double translate[3];    /* mesh: m */
+    double pivot[3];        /* mesh: m, as written (col.center is the one used) */
+    kf_placement place;     /* mesh: for kf_sample_placement (kind KF_SOURCE_MESH) */
+    kf_loc at;              /* the collider's entry */
+    kf_loc mesh_at;         /* its mesh: value (mesh colliders) */
 } kf_shot_collider;
 
 typedef struct kf_shot {

@@ -1,0 +1,73 @@
+/* collider.h — where a kinematic collider is at a time, and what a grid node
+ * sees of it: signed distance, outward normal, and the velocity of the
+ * collider's own material point there.
+ *
+ * Motion (kerf.h, kf_key): the rest shape, centred on the pivot `center`, is
+ * scaled along world axes, rotated, then moved so the pivot is at p(t):
+ *     x(t) = p(t) + R(t) S(t) (x_rest - center),   x_rest - center = R0 X
+ * where X is a point in the shape's own frame (a box's axes, the sdf grid's
+ * frame) and R0 the rest orientation `rotate`. Each channel (p, the three
+ * angles, the three scale factors) is interpolated on its own, linearly or
+ * by a C1 cubic Hermite (kf_interp), and differentiated exactly, so the
+ * velocity of a point of the collider is
+ *     v(x) = p' + ω × r + R S' S⁻¹ Rᵀ r,   r = x - p,
+ * with ω from the Euler angle rates (R = Rz Ry Rx):
+ *     ω = a' Rz Ry e_x + b' Rz e_y + c' e_z.
+ *
+ * Distance: with B = R0ᵀ S⁻¹ Rᵀ the shape-frame point is X = B (x - p). The
+ * shape gives f(X) and g = ∇f; the world gradient is Bᵀ g and the returned
+ * φ = f |g| / |Bᵀ g| (exact for rigid motion and uniform scale, first order
+ * for non-uniform scale), n = Bᵀ g / |Bᵀ g|.
+ *
+ * The grid update makes one kf_collider_frame per collider per substep and
+ * then only evaluates nodes in the frame's world bounds. */
+#ifndef KF_COLLIDER_H
+#define KF_COLLIDER_H
+
+#include "../kerf.h"
+
+/* the motion at a time: pivot, orientation, scale and their rates */
+typedef struct kf_collider_pose {
+    double p[3];      /* pivot, m */
+    double dp[3];     /* its velocity, m/s */
+    double deg[3];    /* keyed rotation, degrees about x, y, z */
+    double R[9];      /* Rz Ry Rx of deg, row-major */
+    double omega[3];  /* angular velocity, rad/s (world) */
+    double s[3];      /* scale factors */
+    double ds[3];     /* their rates, 1/s */
+} kf_collider_pose;
+
+/* everything a node needs, computed once per collider per substep */
+typedef struct kf_collider_frame {
+    const kf_collider *c;
+    kf_collider_pose pose;
+    double B[9];        /* world → shape frame: X = B (x - p) */
+    double L[9];        /* velocity gradient: v(x) = dp + L (x - p) */
+    double nplane[3];   /* plane: unit normal in the shape frame */
+    int uniform;        /* the scale is the same on every axis: φ = s f exactly */
+    int bounded;        /* 1: φ <= 0 only inside [lo, hi] (not planes, not containers) */
+    double lo[3], hi[3];/* world box of the solid (bounded) */
+} kf_collider_frame;
+
+/* Pose and rates at time t (seconds). */
+void kf_collider_pose_at(const kf_collider *c, double t, kf_collider_pose *pose);
+
+/* R = Rz Ry Rx from degrees, row-major. */
+void kf_euler_matrix(const double deg[3], double R[9]);
+
+/* The frame of c at time t. */
+void kf_collider_frame_at(const kf_collider *c, double t, kf_collider_frame *f);
+
+/* Signed distance at world point x (negative where material may not be:
+ * inside a solid, outside a container) and, when n is not NULL, the unit
+ * normal pointing to where material may be (without it, rigid and uniformly
+ * scaled colliders skip the gradient: the cheap test for every node). */
+double kf_collider_sdf(const kf_collider_frame *f, const double x[3], double n[3]);
+
+/* Velocity of the collider's material point at world point x. */
+void kf_collider_velocity(const kf_collider_frame *f, const double x[3], double v[3]);
+
+/* Whether the block of nodes spanning [lo, hi] may hold a node with φ <= 0. */
+int kf_collider_may_touch(const kf_collider_frame *f, const double lo[3], const double hi[3]);
+
+#endif
