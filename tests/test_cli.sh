@@ -65,11 +65,19 @@ check "frame log line per frame (not a terminal)" test "$(grep -cE '^frame 10[0-
 check "twelve surfaces (.vdb)" test "$(ls full/surface/*.vdb 2>/dev/null | wc -l)" -eq 12
 check "twelve images (.png)" test "$(ls full/images/*.png 2>/dev/null | wc -l)" -eq 12
 check "the images are 1280x720 PNGs" bash -c "file full/images/tiny.1012.png | grep -q 'PNG image data, 1280 x 720'"
+check "the PNG carries the shot and frame" bash -c "grep -a -q 'shot' full/images/tiny.1012.png && grep -a -q '1012' full/images/tiny.1012.png"
 "$kerf" render tiny.yaml --out full > render.log 2>&1
 check "kerf render keeps current images" grep -q "0 images made, 12 current outputs kept" render.log
 touch full/surface/tiny.1005.vdb
 "$kerf" render tiny.yaml --out full > render.log 2>&1
 check "a newer surface is rendered again, alone" grep -q "1 images made, 11 current outputs kept" render.log
+"$kerf" run tiny.yaml --out full --set render.width=320 --set render.height=180 > rs.log 2>&1
+check "changed render settings do not re-simulate" grep -q "nothing to simulate" rs.log
+check "changed render settings re-render every frame" grep -q "12 images made" rs.log
+check "at the new size" bash -c "file full/images/tiny.1012.png | grep -q 'PNG image data, 320 x 180'"
+"$kerf" run tiny.yaml --out pts --quality preview --frames 1001-1002 --set output.points=true --set output.images=false > pts.log 2>&1
+check "output.points writes OpenVDB points per frame" test "$(ls pts/points/*.vdb 2>/dev/null | wc -l)" -eq 2
+check "output.images=false renders nothing" test ! -e pts/images
 "$kerf" turntable tiny.yaml --out full --frame 1006 --frames 4 --quality preview > tt.log 2>&1
 check "kerf turntable writes its views" test "$(ls full/turntable/*.png 2>/dev/null | wc -l)" -eq 4
 "$kerf" turntable tiny.yaml --out full --frame 999 --frames 4 > tt.log 2>&1

@@ -6,7 +6,7 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-"$here/build"}
 
-packages=(build-essential cmake pkg-config
+packages=(build-essential cmake pkg-config file
           libopenvdb-dev libboost-iostreams-dev libtbb-dev libembree-dev libassimp-dev
           libosmesa6-dev libfyaml-dev libpng-dev libmujoco-dev libqhull-dev)
 missing=()

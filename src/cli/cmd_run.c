@@ -16,38 +16,15 @@
 #include "../io/checkpoint.h"
 #include "../io/points_ply.h"
 #include "cli.h"
-
-typedef struct run_paths {
-    char dir[2048], particles[4096], checkpoint[4096];
-} run_paths;
-
-/* {dir}/particles/{name}.ply and {dir}/checkpoints/{name}.kfc */
-static int frame_paths(const kf_shot *shot, const char *out_override, int frame, run_paths *rp) {
-    char name[1024];
-    if (kf_shot_expand(out_override ? out_override : shot->output_dir, shot, frame, rp->dir, sizeof rp->dir) ||
-        kf_shot_expand(shot->output_name, shot, frame, name, sizeof name))
-        return -1;
-    snprintf(rp->particles, sizeof rp->particles, "%s/particles/%s.ply", rp->dir, name);
-    snprintf(rp->checkpoint, sizeof rp->checkpoint, "%s/checkpoints/%s.kfc", rp->dir, name);
-    return 0;
-}
-
-static int ensure_parent(const char *path) {
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    if (!slash) return 0;
-    *slash = 0;
-    return kf_mkdirs(dir);
-}
+#include "stages.h"
 
 /* the last frame with a readable checkpoint made from the same inputs */
 static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint64_t hash, int *frame) {
     char err[1024];
     for (int f = shot->last; f >= shot->frame_start; f--) {
-        run_paths rp;
+        kf_frame_paths rp;
         kf_checkpoint_info info;
-        if (frame_paths(shot, out, f, &rp) || access(rp.checkpoint, R_OK) != 0) continue;
+        if (kf_frame_paths_make(shot, out, f, &rp) || access(rp.checkpoint, R_OK) != 0) continue;
         if (kf_checkpoint_peek(rp.checkpoint, &info, err, sizeof err)) {
             fprintf(stderr, "kerf: resume: skipping %s\n", err);
             continue;
@@ -74,23 +51,23 @@ static int cache_current(const kf_shot *shot, const char *out, kf_scene *sc, uin
     char err[4200];
     *matched = 0;
     for (int f = shot->frame_start; f <= shot->last; f++) {
-        run_paths rp;
+        kf_frame_paths rp;
         kf_checkpoint_info info;
-        if (frame_paths(shot, out, f, &rp) || kf_checkpoint_peek(rp.checkpoint, &info, err, sizeof err) ||
+        if (kf_frame_paths_make(shot, out, f, &rp) || kf_checkpoint_peek(rp.checkpoint, &info, err, sizeof err) ||
             info.inputs_hash != hash || info.frame != f)
             return 0;
         (*matched)++;
     }
     for (int f = shot->first; f <= shot->last; f++) {
-        run_paths rp;
-        frame_paths(shot, out, f, &rp);
+        kf_frame_paths rp;
+        kf_frame_paths_make(shot, out, f, &rp);
         int need_ply = shot->output_particles && access(rp.particles, R_OK) != 0;
         if (f != shot->last && !need_ply) continue;
         if (kf_checkpoint_read(rp.checkpoint, sc->model, sc->state, NULL, err, sizeof err)) {
             fprintf(stderr, "kerf: cache: %s\n", err);
             return 0;
         }
-        if (need_ply && (ensure_parent(rp.particles) || kf_write_points_ply(rp.particles, sc->state, err, sizeof err))) {
+        if (need_ply && (kf_ensure_parent(rp.particles) || kf_write_points_ply(rp.particles, sc->state, err, sizeof err))) {
             fprintf(stderr, "kerf: %s\n", err);
             return -1;
         }
@@ -106,14 +83,14 @@ static void fmt_eta(char *buf, size_t n, double seconds) {
 
 /* write this frame's outputs; returns 0 or prints and returns 1 */
 static int write_frame(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash) {
-    run_paths rp;
+    kf_frame_paths rp;
     char err[4200];
-    if (frame_paths(shot, out, frame, &rp)) {
+    if (kf_frame_paths_make(shot, out, frame, &rp)) {
         fprintf(stderr, "kerf: output path for frame %d is too long\n", frame);
         return 1;
     }
     if (shot->output_checkpoints) {
-        if (ensure_parent(rp.checkpoint)) {
+        if (kf_ensure_parent(rp.checkpoint)) {
             fprintf(stderr, "kerf: %s: cannot create directory: %s\n", rp.checkpoint, strerror(errno));
             return 1;
         }
@@ -122,8 +99,13 @@ static int write_frame(const kf_shot *shot, const char *out, kf_scene *sc, int f
             return 1;
         }
     }
+    if (shot->output_points && frame >= shot->first &&
+        kf_stage_points(shot, sc->state, rp.points, frame, err, sizeof err)) {
+        fprintf(stderr, "kerf: %s\n", err);
+        return 1;
+    }
     if (shot->output_particles && frame >= shot->first) {
-        if (ensure_parent(rp.particles)) {
+        if (kf_ensure_parent(rp.particles)) {
             fprintf(stderr, "kerf: %s: cannot create directory: %s\n", rp.particles, strerror(errno));
             return 1;
         }
@@ -175,8 +157,8 @@ int kf_cmd_run(int argc, char **argv) {
             frame = shot->frame_start;
         }
     }
-    run_paths rp;
-    frame_paths(shot, o.out, shot->first, &rp);
+    kf_frame_paths rp;
+    kf_frame_paths_make(shot, o.out, shot->first, &rp);
     int tty = isatty(fileno(stderr));
     if (!o.quiet)
         fprintf(stderr, "kerf %s: %s v%03d, %zu particles, dx %.4g m, frames %d-%d at %g fps -> %s/\n", KERF_VERSION,

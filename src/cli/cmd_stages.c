@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include "../core/timer.h"
+#include "../io/atomic_file.h"
 #include "../io/checkpoint.h"
 #include "cli.h"
 #include "stages.h"
@@ -20,10 +21,44 @@ static kf_render_opts framing(const kf_cli_opts *o, const kf_shot *shot, kf_scen
     return kf_render_opts_for(shot, sc);
 }
 
+/* The render settings as text: images made under other settings are stale
+ * even when newer than their surfaces. Stored in <dir>/images/.settings. */
+static void render_settings(const kf_shot *shot, char *buf, size_t n) {
+    snprintf(buf, n, "%d %d %d %d %d %.9g %.9g %.9g %.9g %.9g %.9g %.9g %d\n", shot->render_width, shot->render_height,
+             shot->render_samples, shot->render_eye_set, shot->render_target_set, shot->render_eye[0],
+             shot->render_eye[1], shot->render_eye[2], shot->render_target[0], shot->render_target[1],
+             shot->render_target[2], shot->render_fov, shot->render_ground);
+}
+
+static int settings_changed(const char *stamp, const char *now) {
+    char old[512] = "";
+    FILE *f = fopen(stamp, "r");
+    if (!f) return 1;
+    size_t got = fread(old, 1, sizeof old - 1, f);
+    old[got] = 0;
+    fclose(f);
+    return strcmp(old, now) != 0;
+}
+
+static void write_stamp(const char *stamp, const char *now) {
+    kf_atomic_file af;
+    if (kf_ensure_parent(stamp) || kf_atomic_open(&af, stamp)) return;
+    fputs(now, af.f);
+    if (kf_atomic_commit(&af)) kf_atomic_abort(&af);
+}
+
 /* surface and render frames first..last, skipping current outputs */
 int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render) {
     char err[4200];
     kf_render_opts ro = framing(o, shot, sc);
+    do_surface &= shot->output_surface;
+    do_render &= shot->output_images;
+    char settings[512], stamp[2200];
+    kf_frame_paths first;
+    kf_frame_paths_make(shot, o->out, shot->first, &first);
+    render_settings(shot, settings, sizeof settings);
+    snprintf(stamp, sizeof stamp, "%s/images/.settings", first.dir);
+    int rerender = do_render && settings_changed(stamp, settings);
     int made_s = 0, made_r = 0, kept = 0;
     double t_s = 0, t_r = 0;
     for (int f = shot->first; f <= shot->last; f++) {
@@ -53,7 +88,7 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
                 fprintf(stderr, "kerf: frame %d has no surface (%s): run kerf surface first\n", f, fp.surface);
                 return KF_EXIT_FAIL;
             }
-            if (o->force || !kf_output_current(fp.image, fp.surface)) {
+            if (o->force || rerender || !kf_output_current(fp.image, fp.surface)) {
                 double t0 = kf_now_ms();
                 if (kf_stage_render(shot, sc, fp.surface, fp.image, f, &ro, err, sizeof err)) {
                     fprintf(stderr, "kerf: frame %d: render: %s\n", f, err);
@@ -67,6 +102,7 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
             fprintf(stderr, "frame %d: surface %.0f ms, render %.0f ms (averages so far)\n", f,
                     made_s ? t_s / made_s : 0, made_r ? t_r / made_r : 0);
     }
+    if (do_render) write_stamp(stamp, settings);
     if (!o->quiet) {
         kf_frame_paths fp;
         kf_frame_paths_make(shot, o->out, shot->first, &fp);

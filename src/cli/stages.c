@@ -23,6 +23,7 @@ int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_fram
     snprintf(fp->checkpoint, sizeof fp->checkpoint, "%s/checkpoints/%s.kfc", fp->dir, name);
     snprintf(fp->surface, sizeof fp->surface, "%s/surface/%s.vdb", fp->dir, name);
     snprintf(fp->image, sizeof fp->image, "%s/images/%s.png", fp->dir, name);
+    snprintf(fp->points, sizeof fp->points, "%s/points/%s.vdb", fp->dir, name);
     return 0;
 }
 
@@ -109,11 +110,40 @@ done:
     return rc;
 }
 
+/* ---- points ----------------------------------------------------------------- */
+
+int kf_stage_points(const kf_shot *shot, const kf_state *s, const char *path, int frame, char *err, size_t errlen) {
+    kf_particles_view p = kf_state_particles_read(s);
+    float *x = malloc(sizeof(float) * 3 * (p.n + 1)), *v = malloc(sizeof(float) * 3 * (p.n + 1));
+    float *jp = malloc(sizeof(float) * (p.n + 1));
+    int32_t *mat = malloc(sizeof(int32_t) * (p.n + 1));
+    int rc = -1;
+    if (!x || !v || !jp || !mat) snprintf(err, errlen, "out of memory writing %zu points", p.n);
+    else {
+        for (size_t i = 0; i < p.n; i++) {
+            for (int a = 0; a < 3; a++) x[3 * i + a] = (float)p.x[a][i], v[3 * i + a] = (float)p.v[a][i];
+            jp[i] = (float)p.ps[0][i];
+            mat[i] = p.mat[i];
+        }
+        kf_vdb_meta meta;
+        memset(&meta, 0, sizeof meta);
+        snprintf(meta.shot, sizeof meta.shot, "%s", shot->name);
+        meta.frame = frame;
+        snprintf(meta.kerf_version, sizeof meta.kerf_version, "%s", KERF_VERSION);
+        meta.dx = shot->sim.dx;
+        if (kf_ensure_parent(path)) snprintf(err, errlen, "%s: cannot create directory: %s", path, strerror(errno));
+        else rc = kf_vdb_points_write(path, p.n, x, v, mat, jp, 0, &meta, err, errlen);
+    }
+    free(x), free(v), free(jp), free(mat);
+    return rc;
+}
+
 /* ---- render --------------------------------------------------------------- */
 
 kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc) {
-    kf_render_opts o = {1280, 720, 4, 0, 0, {0, 0, 0}, {1, 1, 1}};
-    if (shot->quality == KF_QUALITY_PREVIEW) o.width = 640, o.height = 360, o.samples = 1;
+    /* the shot's size and sampling, with --quality already applied */
+    kf_render_opts o = {shot->render_width, shot->render_height, shot->render_samples, 0, 0, {0, 0, 0}, {1, 1, 1},
+                        shot->render_ground};
     kf_particles_view p = kf_state_particles_read(sc->state);
     float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
     for (size_t i = 0; i < p.n; i++)
@@ -181,14 +211,22 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
     kf_render_scene scene = kf_render_scene_default();
     scene.meshes = rm;
     scene.nmeshes = nm;
-    scene.ground = 1;
+    scene.ground = ro->ground;
     /* a steady camera on what the options frame */
     const float *lo = ro->lo, *hi = ro->hi;
     if (shot->sim.walls) scene.ground_y = (float)shot->sim.domain_min[1];
     /* looking from the front right, above: view_dir points from the eye to the subject */
-    float view[3] = {-0.55f, -0.45f, -1.0f};
-    kf_camera cam = ro->turntable_n > 0 ? kf_camera_turntable(lo, hi, ro->turntable_k, ro->turntable_n, 25.0f, 35.0f)
-                                         : kf_camera_frame_bounds(lo, hi, view, 35.0f);
+    float view[3] = {-0.55f, -0.45f, -1.0f}, fov = (float)shot->render_fov;
+    kf_camera cam = ro->turntable_n > 0 ? kf_camera_turntable(lo, hi, ro->turntable_k, ro->turntable_n, 25.0f, fov)
+                                         : kf_camera_frame_bounds(lo, hi, view, fov);
+    if (shot->render_eye_set && ro->turntable_n == 0) {
+        /* the shot's camera; the target defaults to the framed centre */
+        for (int a = 0; a < 3; a++) {
+            cam.eye[a] = (float)shot->render_eye[a];
+            if (shot->render_target_set) cam.target[a] = (float)shot->render_target[a];
+        }
+        cam.up[0] = 0, cam.up[1] = 1, cam.up[2] = 0;
+    }
     kf_render_ctx *ctx = kf_render_create(ro->width, ro->height, ro->samples, err, errlen);
     if (!ctx) goto done;
     uint8_t *rgba = malloc((size_t)ro->width * ro->height * 4);

@@ -15,7 +15,7 @@
 
 typedef struct kf_frame_paths {
     char dir[2048];
-    char particles[4096], checkpoint[4096], surface[4096], image[4096];
+    char particles[4096], checkpoint[4096], surface[4096], image[4096], points[4096];
 } kf_frame_paths;
 
 /* {dir}/particles/{name}.ply, checkpoints/{name}.kfc, surface/{name}.vdb,
@@ -39,7 +39,11 @@ typedef struct kf_render_opts {
     int width, height, samples;
     int turntable_k, turntable_n; /* n > 0: orbit camera, view k of n */
     float lo[3], hi[3];           /* what the camera frames, the same for every frame */
+    int ground;
 } kf_render_opts;
+
+/* particles as OpenVDB points (output.points) */
+int kf_stage_points(const kf_shot *shot, const kf_state *s, const char *path, int frame, char *err, size_t errlen);
 /* The shot's render settings; the camera frames the initial particles of sc
  * (widened, since material spreads), clipped to the domain when walled. */
 kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc);

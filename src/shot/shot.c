@@ -614,6 +614,23 @@ static void resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
         snprintf(msg, sizeof msg, "frames.end must not be before frames.start (%d), got %d", s->frame_start, s->frame_end);
         report_inst(L, T, "frames.end", KF_DIAG_ERROR, msg);
     }
+    /* a camera must look somewhere: eye and target may not coincide */
+    int ek2 = K("render.eye"), tk = K("render.target");
+    s->render_eye_set = T->at[ek2] != NULL;
+    s->render_target_set = T->at[tk] != NULL;
+    if (s->render_eye_set && T->ok[ek2] && (!s->render_target_set || T->ok[tk])) {
+        double d2 = 0;
+        for (int a = 0; a < 3; a++) d2 += (s->render_eye[a] - s->render_target[a]) * (s->render_eye[a] - s->render_target[a]);
+        if (s->render_target_set && !(d2 > 1e-12)) {
+            snprintf(msg, sizeof msg, "render.eye is at render.target (%g, %g, %g): the camera looks nowhere",
+                     s->render_eye[0], s->render_eye[1], s->render_eye[2]);
+            report_inst(L, T, "render.eye", KF_DIAG_ERROR, msg);
+        }
+    }
+    if (T->at[K("output.images")] && s->output_images && !s->output_surface) {
+        snprintf(msg, sizeof msg, "output.images renders the surfaces: it needs output.surface: true");
+        report_inst(L, T, "output.images", KF_DIAG_ERROR, msg);
+    }
     int mk = K("domain.min"), xk = K("domain.max");
     if ((!T->at[mk] || T->ok[mk]) && (!T->at[xk] || T->ok[xk]))
         for (int a = 0; a < 3; a++)
@@ -741,6 +758,9 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
     if (kf_quality_parse(quality, &L.srcs, &s->quality, d) == 0 && s->quality == KF_QUALITY_PREVIEW) {
         s->sim.dx *= 2;
         s->resolution_scale = 0.5;
+        s->render_width = s->render_width / 2 > 16 ? s->render_width / 2 : 16;
+        s->render_height = s->render_height / 2 > 16 ? s->render_height / 2 : 16;
+        s->render_samples = 1;
     }
     s->first = s->frame_start;
     s->last = s->frame_end;

@@ -138,6 +138,16 @@ typedef struct kf_shot {
     char output_name[256];       /* template of a frame's file stem (no extension) */
     int output_particles;        /* write particles each frame */
     int output_checkpoints;      /* write checkpoints each frame */
+    int output_surface;          /* surface each frame to .vdb */
+    int output_images;           /* render each frame to .png */
+    int output_points;           /* particles as OpenVDB points each frame */
+
+    int render_width, render_height; /* pixels, quality applied */
+    int render_samples;              /* anti-aliasing samples (1 in preview) */
+    double render_eye[3], render_target[3]; /* m, when render_eye_set / render_target_set */
+    int render_eye_set, render_target_set;
+    double render_fov;               /* vertical, degrees */
+    int render_ground;
 
     char **strings;              /* (nstrings) owned by the shot: the text kf_loc points to */
     int nstrings;
