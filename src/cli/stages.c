@@ -12,6 +12,7 @@
 #include "../io/checkpoint.h"
 #include "../io/vdb_bridge.h"
 #include "../kerf.h"
+#include "../mpm/collider.h"
 #include "render.h"
 
 int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_frame_paths *fp) {
@@ -169,6 +170,82 @@ kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc) {
     return o;
 }
 
+/* A box or sphere collider as triangles at its pose at time t (grown
+ * arrays in *pos / *tri). Planes stay out of the picture (the ground is
+ * drawn), and mesh colliders are not drawn yet. Returns triangles added. */
+typedef struct tri_soup {
+    float *pos;
+    uint32_t *tri;
+    size_t nv, nt, capv, capt;
+} tri_soup;
+
+static int soup_grow(tri_soup *s, size_t nv, size_t nt) {
+    if (s->nv + nv > s->capv) {
+        size_t c = (s->nv + nv) * 2;
+        float *p = realloc(s->pos, c * 3 * sizeof *p);
+        if (!p) return -1;
+        s->pos = p, s->capv = c;
+    }
+    if (s->nt + nt > s->capt) {
+        size_t c = (s->nt + nt) * 2;
+        uint32_t *t = realloc(s->tri, c * 3 * sizeof *t);
+        if (!t) return -1;
+        s->tri = t, s->capt = c;
+    }
+    return 0;
+}
+
+/* x = p + R S R0 X: the collider's rest offset X placed at its pose */
+static void place(const kf_collider *c, const kf_collider_pose *ps, const double X[3], float out[3]) {
+    double R0[9], y[3], z[3];
+    kf_euler_matrix(c->rotate, R0);
+    for (int i = 0; i < 3; i++) y[i] = (R0[3 * i] * X[0] + R0[3 * i + 1] * X[1] + R0[3 * i + 2] * X[2]) * (ps->s[i] ? ps->s[i] : 1);
+    for (int i = 0; i < 3; i++) z[i] = ps->R[3 * i] * y[0] + ps->R[3 * i + 1] * y[1] + ps->R[3 * i + 2] * y[2];
+    for (int i = 0; i < 3; i++) out[i] = (float)(ps->p[i] + z[i]);
+}
+
+static int collider_mesh(const kf_collider *c, double t, tri_soup *s) {
+    kf_collider_pose ps;
+    kf_collider_pose_at(c, t, &ps);
+    size_t base = s->nv;
+    if (c->shape == KF_SHAPE_BOX) {
+        static const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+        if (soup_grow(s, 8, 12)) return -1;
+        for (int k = 0; k < 8; k++) {
+            double X[3] = {(k & 4 ? 1 : -1) * c->half[0], (k & 2 ? 1 : -1) * c->half[1], (k & 1 ? 1 : -1) * c->half[2]};
+            place(c, &ps, X, &s->pos[3 * (s->nv + (size_t)k)]);
+        }
+        for (int q = 0; q < 6; q++) {
+            uint32_t *t2 = &s->tri[3 * s->nt];
+            t2[0] = (uint32_t)base + quads[q][0], t2[1] = (uint32_t)base + quads[q][1], t2[2] = (uint32_t)base + quads[q][2];
+            t2[3] = (uint32_t)base + quads[q][0], t2[4] = (uint32_t)base + quads[q][2], t2[5] = (uint32_t)base + quads[q][3];
+            s->nt += 2;
+        }
+        s->nv += 8;
+        return 12;
+    }
+    if (c->shape == KF_SHAPE_SPHERE) {
+        enum { RINGS = 24, SEGS = 48 };
+        if (soup_grow(s, (RINGS + 1) * SEGS, RINGS * SEGS * 2)) return -1;
+        for (int i = 0; i <= RINGS; i++)
+            for (int j = 0; j < SEGS; j++) {
+                double th = 3.14159265358979 * i / RINGS, ph = 2 * 3.14159265358979 * j / SEGS;
+                double X[3] = {c->radius * sin(th) * cos(ph), c->radius * cos(th), c->radius * sin(th) * sin(ph)};
+                place(c, &ps, X, &s->pos[3 * (s->nv + (size_t)(i * SEGS + j))]);
+            }
+        for (int i = 0; i < RINGS; i++)
+            for (int j = 0; j < SEGS; j++) {
+                uint32_t a = (uint32_t)(base + (size_t)(i * SEGS + j)), b = (uint32_t)(base + (size_t)(i * SEGS + (j + 1) % SEGS));
+                uint32_t *t2 = &s->tri[3 * s->nt];
+                t2[0] = a, t2[1] = b, t2[2] = a + SEGS, t2[3] = b, t2[4] = b + SEGS, t2[5] = a + SEGS;
+                s->nt += 2;
+            }
+        s->nv += (size_t)(RINGS + 1) * SEGS;
+        return RINGS * SEGS * 2;
+    }
+    return 0;
+}
+
 /* a palette for materials in file order: warm, cool, neutral, ... */
 static const float palette[6][3] = {{0.80f, 0.62f, 0.38f}, {0.85f, 0.25f, 0.30f}, {0.25f, 0.55f, 0.85f},
                                     {0.45f, 0.75f, 0.40f}, {0.85f, 0.80f, 0.70f}, {0.60f, 0.45f, 0.75f}};
@@ -184,6 +261,7 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
     kf_vdb_trimesh meshes[KF_VDB_MAX_GRIDS];
     kf_render_mesh rm[KF_VDB_MAX_GRIDS];
     int nm = 0, rc = -1;
+    tri_soup soup = {0};
     for (int g = 0; g < info.ngrids && nm < KF_VDB_MAX_GRIDS; g++) {
         const char *name = info.grids[g].name;
         int group = strncmp(name, "surface.", 8) == 0;
@@ -208,9 +286,26 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
         rm[nm].mat.roughness = 0.5f;
         nm++;
     }
+    /* the colliders at their pose for this frame, in a neutral grey */
+    double t = kf_shot_frame_time(shot, frame);
+    for (int i = 0; i < shot->ncolliders; i++)
+        if (collider_mesh(&shot->colliders[i].col, t, &soup) < 0) {
+            snprintf(err, errlen, "out of memory drawing colliders");
+            goto done;
+        }
+    if (soup.nt && nm < KF_VDB_MAX_GRIDS) {
+        memset(&rm[nm], 0, sizeof rm[nm]);
+        rm[nm].positions = soup.pos;
+        rm[nm].nverts = soup.nv;
+        rm[nm].tris = soup.tri;
+        rm[nm].ntris = soup.nt;
+        rm[nm].mat.diffuse[0] = rm[nm].mat.diffuse[1] = rm[nm].mat.diffuse[2] = 0.55f;
+        rm[nm].mat.specular = 0.2f;
+        rm[nm].mat.roughness = 0.6f;
+    }
     kf_render_scene scene = kf_render_scene_default();
     scene.meshes = rm;
-    scene.nmeshes = nm;
+    scene.nmeshes = nm + (soup.nt && nm < KF_VDB_MAX_GRIDS);
     scene.ground = ro->ground;
     /* a steady camera on what the options frame */
     const float *lo = ro->lo, *hi = ro->hi;
@@ -246,5 +341,7 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
     kf_render_destroy(ctx);
 done:
     for (int i = 0; i < nm; i++) kf_vdb_mesh_free(&meshes[i]);
+    free(soup.pos);
+    free(soup.tri);
     return rc;
 }
