@@ -250,6 +250,19 @@ static int collider_mesh(const kf_collider *c, double t, tri_soup *s) {
 static const float palette[6][3] = {{0.80f, 0.62f, 0.38f}, {0.85f, 0.25f, 0.30f}, {0.25f, 0.55f, 0.85f},
                                     {0.45f, 0.75f, 0.40f}, {0.85f, 0.80f, 0.70f}, {0.60f, 0.45f, 0.75f}};
 
+/* what a material looks like: by what it is (water blue, sand tan, snow
+ * white, ...), else the palette by its place in the file */
+static void material_colour(const kf_shot *shot, int i, float rgb[3]) {
+    static const struct { const char *preset; float rgb[3]; } known[] = {
+        {"water", {0.25f, 0.50f, 0.85f}}, {"sand", {0.80f, 0.65f, 0.42f}}, {"wet_sand", {0.55f, 0.43f, 0.30f}},
+        {"snow", {0.92f, 0.94f, 0.97f}},  {"jello", {0.85f, 0.25f, 0.30f}}, {"rubber", {0.25f, 0.55f, 0.85f}},
+        {"goo", {0.45f, 0.75f, 0.40f}},    {"cheese", {0.95f, 0.80f, 0.35f}}, {"metal", {0.70f, 0.72f, 0.75f}}};
+    memcpy(rgb, palette[i % 6], 3 * sizeof *rgb);
+    if (i < 0 || i >= shot->nmaterials) return;
+    for (size_t k = 0; k < sizeof known / sizeof *known; k++)
+        if (!strcmp(shot->materials[i].preset, known[k].preset)) memcpy(rgb, known[k].rgb, 3 * sizeof *rgb);
+}
+
 int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
                     const kf_render_opts *ro, char *err, size_t errlen) {
     (void)sc;
@@ -275,13 +288,14 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
         int colour = 0;
         for (int i = 0; group && i < shot->nmaterials; i++)
             if (!strcmp(name + 8, shot->materials[i].mat.name)) colour = i;
+        if (!group && shot->nmaterials > 0) colour = 0;
         memset(&rm[nm], 0, sizeof rm[nm]);
         rm[nm].positions = meshes[nm].verts;
         rm[nm].normals = meshes[nm].normals;
         rm[nm].nverts = meshes[nm].nverts;
         rm[nm].tris = meshes[nm].tris;
         rm[nm].ntris = meshes[nm].ntris;
-        memcpy(rm[nm].mat.diffuse, palette[colour % 6], sizeof rm[nm].mat.diffuse);
+        material_colour(shot, colour, rm[nm].mat.diffuse);
         rm[nm].mat.specular = 0.3f;
         rm[nm].mat.roughness = 0.5f;
         nm++;
