@@ -20,27 +20,8 @@
 
 /* ---- helpers ---------------------------------------------------------------- */
 
-static uint64_t rng_state = 0x2545F4914F6CDD1Dull;
-static double urand(void) {
-    rng_state ^= rng_state << 13;
-    rng_state ^= rng_state >> 7;
-    rng_state ^= rng_state << 17;
-    return (double)(rng_state >> 11) * (1.0 / 9007199254740992.0);
-}
-static double srand1(void) { return 2 * urand() - 1; }
-
-static void random_rotation(double Q[9]) {
-    double q[4], n = 0;
-    for (int i = 0; i < 4; i++) {
-        q[i] = srand1();
-        n += q[i] * q[i];
-    }
-    n = sqrt(n);
-    double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
-    Q[0] = 1 - 2 * (y * y + z * z), Q[1] = 2 * (x * y - w * z), Q[2] = 2 * (x * z + w * y);
-    Q[3] = 2 * (x * y + w * z), Q[4] = 1 - 2 * (x * x + z * z), Q[5] = 2 * (y * z - w * x);
-    Q[6] = 2 * (x * z - w * y), Q[7] = 2 * (y * z + w * x), Q[8] = 1 - 2 * (x * x + y * y);
-}
+#define KT_RNG_SEED 0x2545F4914F6CDD1Dull
+#include "random_util.h"
 
 /* F = Q1 diag(exp(e)) Q2ᵀ with random rotations */
 static void random_F_log(kf_real F[9], const double e[3]) {
