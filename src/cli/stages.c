@@ -13,6 +13,8 @@
 #include "../io/vdb_bridge.h"
 #include "../kerf.h"
 #include "../mpm/collider.h"
+#include "../scene/mesh.h"
+#include "../scene/sample.h"
 #include "render.h"
 
 int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_frame_paths *fp) {
@@ -170,9 +172,9 @@ kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc) {
     return o;
 }
 
-/* A box or sphere collider as triangles at its pose at time t (grown
- * arrays in *pos / *tri). Planes stay out of the picture (the ground is
- * drawn), and mesh colliders are not drawn yet. Returns triangles added. */
+/* A collider as triangles at its pose at time t (grown arrays in *pos /
+ * *tri). Planes stay out of the picture (the ground is drawn). Returns the
+ * triangles added, or -1 with a message. */
 typedef struct tri_soup {
     float *pos;
     uint32_t *tri;
@@ -204,10 +206,40 @@ static void place(const kf_collider *c, const kf_collider_pose *ps, const double
     for (int i = 0; i < 3; i++) out[i] = (float)(ps->p[i] + z[i]);
 }
 
-static int collider_mesh(const kf_collider *c, double t, tri_soup *s) {
+static int collider_mesh(const kf_shot_collider *sc, double t, tri_soup *s, char *err, size_t errlen) {
+    const kf_collider *c = &sc->col;
     kf_collider_pose ps;
     kf_collider_pose_at(c, t, &ps);
     size_t base = s->nv;
+    if (c->shape == KF_SHAPE_MESH) {
+        /* the mesh placed as the builder placed it (build.c), then moved by
+         * the pose about its pivot like its distance field */
+        kf_mesh mesh;
+        if (kf_mesh_load(sc->mesh_path, &mesh, err, errlen)) return -1;
+        kf_sample_def d = kf_default_sample_def();
+        d.kind = KF_SOURCE_MESH;
+        d.place = sc->place;
+        double M[12], lo[3], hi[3];
+        int rc = kf_sample_placement(&d, &mesh, M, lo, hi, err, errlen);
+        if (rc == 0 && soup_grow(s, mesh.nvert, mesh.ntri)) {
+            snprintf(err, errlen, "out of memory drawing %s", sc->mesh_path);
+            rc = -1;
+        }
+        if (rc == 0) {
+            kf_mesh_transform(&mesh, M);
+            for (size_t v = 0; v < mesh.nvert; v++) {
+                double X[3] = {mesh.vert[3 * v] - c->center[0], mesh.vert[3 * v + 1] - c->center[1],
+                               mesh.vert[3 * v + 2] - c->center[2]};
+                place(c, &ps, X, &s->pos[3 * (s->nv + v)]);
+            }
+            for (size_t k = 0; k < 3 * mesh.ntri; k++) s->tri[3 * s->nt + k] = (uint32_t)base + mesh.tri[k];
+            s->nv += mesh.nvert;
+            s->nt += mesh.ntri;
+            rc = (int)mesh.ntri;
+        }
+        kf_mesh_free(&mesh);
+        return rc;
+    }
     if (c->shape == KF_SHAPE_BOX) {
         static const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
         if (soup_grow(s, 8, 12)) return -1;
@@ -303,10 +335,7 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
     /* the colliders at their pose for this frame, in a neutral grey */
     double t = kf_shot_frame_time(shot, frame);
     for (int i = 0; i < shot->ncolliders; i++)
-        if (collider_mesh(&shot->colliders[i].col, t, &soup) < 0) {
-            snprintf(err, errlen, "out of memory drawing colliders");
-            goto done;
-        }
+        if (collider_mesh(&shot->colliders[i], t, &soup, err, errlen) < 0) goto done;
     if (soup.nt && nm < KF_VDB_MAX_GRIDS) {
         memset(&rm[nm], 0, sizeof rm[nm]);
         rm[nm].positions = soup.pos;
