@@ -24,14 +24,22 @@ static kf_render_opts framing(const kf_cli_opts *o, const kf_shot *shot, kf_scen
 /* The render settings as text: images made under other settings are stale
  * even when newer than their surfaces. Stored in <dir>/images/.settings. */
 static void render_settings(const kf_shot *shot, char *buf, size_t n) {
-    snprintf(buf, n, "%d %d %d %d %d %.9g %.9g %.9g %.9g %.9g %.9g %.9g %d\n", shot->render_width, shot->render_height,
-             shot->render_samples, shot->render_eye_set, shot->render_target_set, shot->render_eye[0],
-             shot->render_eye[1], shot->render_eye[2], shot->render_target[0], shot->render_target[1],
-             shot->render_target[2], shot->render_fov, shot->render_ground);
+    int len = snprintf(buf, n, "%d %d %d %d %d %.9g %.9g %.9g %.9g %.9g %.9g %.9g %d", shot->render_width,
+                       shot->render_height, shot->render_samples, shot->render_eye_set, shot->render_target_set,
+                       shot->render_eye[0], shot->render_eye[1], shot->render_eye[2], shot->render_target[0],
+                       shot->render_target[1], shot->render_target[2], shot->render_fov, shot->render_ground);
+    /* colours too: a recoloured material or collider is a new picture */
+    for (int i = 0; i < shot->nmaterials && len > 0 && (size_t)len < n; i++)
+        len += snprintf(buf + len, n - (size_t)len, " m%.4g,%.4g,%.4g", shot->materials[i].color[0],
+                        shot->materials[i].color[1], shot->materials[i].color[2]);
+    for (int i = 0; i < shot->ncolliders && len > 0 && (size_t)len < n; i++)
+        len += snprintf(buf + len, n - (size_t)len, " c%.4g,%.4g,%.4g", shot->colliders[i].color[0],
+                        shot->colliders[i].color[1], shot->colliders[i].color[2]);
+    if (len > 0 && (size_t)len < n - 1) buf[len] = '\n', buf[len + 1] = 0;
 }
 
 static int settings_changed(const char *stamp, const char *now) {
-    char old[512] = "";
+    char old[4096] = "";
     FILE *f = fopen(stamp, "r");
     if (!f) return 1;
     size_t got = fread(old, 1, sizeof old - 1, f);
@@ -53,7 +61,7 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
     kf_render_opts ro = framing(o, shot, sc);
     do_surface &= shot->output_surface;
     do_render &= shot->output_images;
-    char settings[512], stamp[2200];
+    char settings[4096], stamp[2200];
     kf_frame_paths first;
     kf_frame_paths_make(shot, o->out, shot->first, &first);
     render_settings(shot, settings, sizeof settings);

@@ -291,6 +291,10 @@ static void material_colour(const kf_shot *shot, int i, float rgb[3]) {
         {"goo", {0.45f, 0.75f, 0.40f}},    {"cheese", {0.95f, 0.80f, 0.35f}}, {"metal", {0.70f, 0.72f, 0.75f}}};
     memcpy(rgb, palette[i % 6], 3 * sizeof *rgb);
     if (i < 0 || i >= shot->nmaterials) return;
+    if (shot->materials[i].color[0] >= 0) {
+        for (int a = 0; a < 3; a++) rgb[a] = (float)shot->materials[i].color[a];
+        return;
+    }
     for (size_t k = 0; k < sizeof known / sizeof *known; k++)
         if (!strcmp(shot->materials[i].preset, known[k].preset)) memcpy(rgb, known[k].rgb, 3 * sizeof *rgb);
 }
@@ -332,23 +336,32 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
         rm[nm].mat.roughness = 0.5f;
         nm++;
     }
-    /* the colliders at their pose for this frame, in a neutral grey */
+    /* the colliders at their pose for this frame, each in its colour: one
+     * vertex soup, one render mesh per collider over its triangle range */
     double t = kf_shot_frame_time(shot, frame);
-    for (int i = 0; i < shot->ncolliders; i++)
+    size_t first_tri[KF_VDB_MAX_GRIDS + 1];
+    int ncol = shot->ncolliders < KF_VDB_MAX_GRIDS - nm ? shot->ncolliders : KF_VDB_MAX_GRIDS - nm;
+    for (int i = 0; i < ncol; i++) {
+        first_tri[i] = soup.nt;
         if (collider_mesh(&shot->colliders[i], t, &soup, err, errlen) < 0) goto done;
-    if (soup.nt && nm < KF_VDB_MAX_GRIDS) {
-        memset(&rm[nm], 0, sizeof rm[nm]);
-        rm[nm].positions = soup.pos;
-        rm[nm].nverts = soup.nv;
-        rm[nm].tris = soup.tri;
-        rm[nm].ntris = soup.nt;
-        rm[nm].mat.diffuse[0] = rm[nm].mat.diffuse[1] = rm[nm].mat.diffuse[2] = 0.55f;
-        rm[nm].mat.specular = 0.2f;
-        rm[nm].mat.roughness = 0.6f;
+    }
+    first_tri[ncol] = soup.nt;
+    int nscene = nm;
+    for (int i = 0; i < ncol; i++) {
+        if (first_tri[i + 1] == first_tri[i]) continue; /* planes */
+        kf_render_mesh *r = &rm[nscene++];
+        memset(r, 0, sizeof *r);
+        r->positions = soup.pos;
+        r->nverts = soup.nv;
+        r->tris = soup.tri + 3 * first_tri[i];
+        r->ntris = first_tri[i + 1] - first_tri[i];
+        for (int a = 0; a < 3; a++) r->mat.diffuse[a] = (float)shot->colliders[i].color[a];
+        r->mat.specular = 0.2f;
+        r->mat.roughness = 0.6f;
     }
     kf_render_scene scene = kf_render_scene_default();
     scene.meshes = rm;
-    scene.nmeshes = nm + (soup.nt && nm < KF_VDB_MAX_GRIDS);
+    scene.nmeshes = nscene;
     scene.ground = ro->ground;
     /* a steady camera on what the options frame */
     const float *lo = ro->lo, *hi = ro->hi;

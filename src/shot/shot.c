@@ -337,6 +337,7 @@ static void resolve_material(loader *L, inst *I, kf_shot *s, kf_shot_material *o
     int pk = K("materials.*.preset"), mk = K("materials.*.model");
     char msg[512];
     memset(out, 0, sizeof *out);
+    out->color[0] = out->color[1] = out->color[2] = -1; /* by kind unless given */
     int based = 0;
     if (I->at[pk]) {
         based = I->ok[pk] && kf_material_preset(raw->preset, &out->mat) == 0;

@@ -50,6 +50,7 @@ typedef struct kf_loc {
 typedef struct kf_shot_material {
     kf_material mat;  /* ready for kf_model_add_material; mat.name is the shot's name for it */
     char preset[32];  /* the preset it started from, "" when none */
+    double color[3];  /* sRGB render colour; negative: by kind (unset) */
     kf_loc at;        /* its name under materials: */
 } kf_shot_material;
 
@@ -91,6 +92,7 @@ typedef struct kf_shot_object {
  * absolute pivot positions (pivot + translate), rotate and scale as written. */
 typedef struct kf_shot_collider {
     char name[64];
+    double color[3];  /* sRGB render colour */
     kf_collider col;  /* ready for kf_model_add_collider except a mesh's col.sdf: box half = size/2, plane
                          normal unit, col.rotate the box's rest orientation (a mesh's is in place) */
     double size[3];   /* box: full edge lengths as written, m */
