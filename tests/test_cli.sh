@@ -77,6 +77,10 @@ check "changed render settings re-render every frame" grep -q "12 images made" r
 check "at the new size" bash -c "file full/images/tiny.1012.png | grep -q 'PNG image data, 320 x 180'"
 "$kerf" run tiny.yaml --out full --set render.width=320 --set render.height=180 --set materials.goo.color=[0,1,0] > rc.log 2>&1
 check "a recoloured material re-renders without re-simulating" bash -c "grep -q 'nothing to simulate' rc.log && grep -q '12 images made' rc.log"
+"$kerf" run tiny.yaml --out full --set render.width=320 --set render.height=180 --set materials.goo.color=[0,1,0] \
+    --set surface.voxel=1 --set surface.radius=1.5 > sv.log 2>&1
+check "changed surface settings re-surface and re-render, without re-simulating" \
+    bash -c "grep -q 'nothing to simulate' sv.log && grep -q '12 surfaces, 12 images made' sv.log"
 "$kerf" run tiny.yaml --out pts --quality preview --frames 1001-1002 --set output.points=true --set output.images=false > pts.log 2>&1
 check "output.points writes OpenVDB points per frame" test "$(ls pts/points/*.vdb 2>/dev/null | wc -l)" -eq 2
 check "output.images=false renders nothing" test ! -e pts/images

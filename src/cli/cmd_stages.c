@@ -55,6 +55,12 @@ static void write_stamp(const char *stamp, const char *now) {
     if (kf_atomic_commit(&af)) kf_atomic_abort(&af);
 }
 
+/* the surface settings as text, for <dir>/surface/.settings */
+static void surface_settings(const kf_shot *shot, char *buf, size_t n) {
+    snprintf(buf, n, "%.9g %.9g %d %d %.9g %.9g\n", shot->surface_voxel, shot->surface_radius, shot->surface_smooth,
+             shot->surface_iterations, shot->surface_dilate, shot->surface_erode);
+}
+
 /* surface and render frames first..last, skipping current outputs */
 int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render) {
     char err[4200];
@@ -67,6 +73,10 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
     render_settings(shot, settings, sizeof settings);
     snprintf(stamp, sizeof stamp, "%s/images/.settings", first.dir);
     int rerender = do_render && settings_changed(stamp, settings);
+    char ssettings[512], sstamp[2200];
+    surface_settings(shot, ssettings, sizeof ssettings);
+    snprintf(sstamp, sizeof sstamp, "%s/surface/.settings", first.dir);
+    int resurface = do_surface && settings_changed(sstamp, ssettings);
     int made_s = 0, made_r = 0, kept = 0;
     double t_s = 0, t_r = 0;
     for (int f = shot->first; f <= shot->last; f++) {
@@ -81,7 +91,7 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
                         fp.checkpoint);
                 return KF_EXIT_FAIL;
             }
-            if (o->force || !kf_output_current(fp.surface, fp.checkpoint)) {
+            if (o->force || resurface || !kf_output_current(fp.surface, fp.checkpoint)) {
                 double t0 = kf_now_ms();
                 if (kf_stage_surface(shot, sc, &fp, f, err, sizeof err)) {
                     fprintf(stderr, "kerf: frame %d: surface: %s\n", f, err);
@@ -111,6 +121,7 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
                     made_s ? t_s / made_s : 0, made_r ? t_r / made_r : 0);
     }
     if (do_render) write_stamp(stamp, settings);
+    if (do_surface) write_stamp(sstamp, ssettings);
     if (!o->quiet) {
         kf_frame_paths fp;
         kf_frame_paths_make(shot, o->out, shot->first, &fp);

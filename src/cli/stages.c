@@ -53,12 +53,18 @@ int kf_output_current(const char *output, const char *input) {
  * erosion that puts the zero crossing back on the material's boundary
  * (vdb_bridge.h explains the half-spacing offset) */
 static void surface_params(const kf_shot *shot, kf_vdb_surface_params *p, const char *name) {
+    static const kf_vdb_op ops[4] = {KF_VDB_OP_NONE, KF_VDB_OP_MEAN_CURVATURE, KF_VDB_OP_GAUSSIAN, KF_VDB_OP_LAPLACIAN};
     kf_vdb_surface_params_default(p);
     double spacing = shot->sim.dx / shot->ppc_axis;
     p->spacing = spacing;
-    p->smooth = KF_VDB_OP_MEAN_CURVATURE;
-    p->smooth_iterations = 3;
-    p->erode = 0.5 * spacing;
+    p->voxel = shot->surface_voxel * spacing;
+    p->radius = shot->surface_radius * spacing;
+    p->smooth = ops[shot->surface_smooth & 3];
+    p->smooth_iterations = shot->surface_iterations;
+    p->dilate = shot->surface_dilate;
+    /* automatic erosion puts the zero crossing back on the material boundary */
+    p->erode = shot->surface_erode >= 0 ? shot->surface_erode
+                                        : (shot->surface_radius - 0.5) * spacing + shot->surface_dilate;
     p->clamp_small = 1;
     p->name = name;
 }

@@ -144,6 +144,12 @@ typedef struct kf_shot {
     int output_images;           /* render each frame to .png */
     int output_points;           /* particles as OpenVDB points each frame */
 
+    double surface_voxel;            /* particle spacings */
+    double surface_radius;           /* particle spacings */
+    int surface_smooth;              /* 0 none, 1 mean curvature, 2 gaussian, 3 laplacian */
+    int surface_iterations;
+    double surface_dilate, surface_erode; /* m; erode < 0: automatic */
+
     int render_width, render_height; /* pixels, quality applied */
     int render_samples;              /* anti-aliasing samples (1 in preview) */
     double render_eye[3], render_target[3]; /* m, when render_eye_set / render_target_set */
