@@ -6,4 +6,4 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 "$here/tools/setup.sh"
 cd "$here"
 ./build/kerf run shots/demo.yaml "$@"
-echo "frames: $here/out/demo/v001/particles/ (PLY point clouds), checkpoints beside them"
+echo "images: $here/out/demo/v001/images/ (PNG); surface/ (.vdb), particles/ (.ply) and checkpoints/ beside them"

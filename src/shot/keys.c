@@ -236,9 +236,9 @@ const kf_keydef kf_keys[] = {
 
     {"surface", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
      "How particles become OpenVDB level sets (changing these never re-simulates)."},
-    {"surface.voxel", KT_NUM, TOP(s.surface_voxel), CC(0.1, 4), NULL, "0.5", "particle spacings", NULL, 0,
+    {"surface.voxel", KT_NUM, TOP(s.surface_voxel), CC(0.1, 4), NULL, "0.75", "particle spacings", NULL, 0,
      "Voxel size of the level set, in particle spacings (dx / cube root of ppc)."},
-    {"surface.radius", KT_NUM, TOP(s.surface_radius), CC(0.5, 4), NULL, "1", "particle spacings", NULL, 0,
+    {"surface.radius", KT_NUM, TOP(s.surface_radius), CC(0.5, 4), NULL, "1.2", "particle spacings", NULL, 0,
      "Radius of each particle's sphere; at least 1.5 voxels (smaller ones are raised and counted)."},
     {"surface.smooth", KT_ENUM, TOP(s.surface_smooth), ANY, "none|mean_curvature|gaussian|laplacian",
      "mean_curvature", NULL, NULL, 0, "Smoothing filter between dilation and erosion."},
