@@ -1,8 +1,9 @@
 /* step.c — one substep, CFL-adaptive advancing, and recovery from trouble.
  *
  * A substep: bin (sort) → P2G → grid update → G2P (with F update and
- * advection) → plasticity. Each stage is timed into kf_step_stats. The G2P
- * pass checks every particle for numerical trouble; kf_advance answers
+ * advection) → stress (the return mapping and the stress the next P2G
+ * scatters). Each stage is timed into kf_step_stats. P2G and G2P check every
+ * particle for numerical trouble; kf_advance answers
  * trouble by restarting the interval at half the CFL number. */
 #include <math.h>
 #include <omp.h>
