@@ -32,6 +32,12 @@ int kf_cli_parse(const char *cmd, int argc, char **argv, kf_cli_opts *o);
  * as file:line:col with the line echoed. Returns 0, or 2 (nothing touched). */
 int kf_cli_load(const kf_cli_opts *o, kf_shot **shot, kf_scene *sc, kf_build_stats *stats);
 
+/* What every command does first: parse, answer --help, load the shot and
+ * seed its scene. *shot is NULL when the command is already done (help
+ * printed, or an error reported): return the value then. */
+int kf_cli_start(const char *cmd, int argc, char **argv, kf_cli_opts *o, kf_shot **shot, kf_scene *sc,
+                 kf_build_stats *stats);
+
 int kf_cmd_run(int argc, char **argv);
 int kf_cmd_surface(int argc, char **argv);
 int kf_cmd_render(int argc, char **argv);

@@ -8,16 +8,10 @@
 
 int kf_cmd_check(int argc, char **argv) {
     kf_cli_opts o;
-    int rc = kf_cli_parse("check", argc, argv, &o);
-    if (rc) return rc;
-    if (o.help) {
-        kf_cli_usage(stdout, "check");
-        return KF_EXIT_OK;
-    }
     kf_shot *shot;
     kf_scene sc;
-    rc = kf_cli_load(&o, &shot, &sc, NULL);
-    if (rc) return rc;
+    int rc = kf_cli_start("check", argc, argv, &o, &shot, &sc, NULL);
+    if (!shot) return rc;
     printf("%s: ok (%s, %zu particles, frames %d-%d)\n", o.shot, shot->name, kf_state_count(sc.state), shot->first,
            shot->last);
     kf_scene_free(&sc);
@@ -33,17 +27,11 @@ static const char *model_name(kf_material_model m) {
 
 int kf_cmd_info(int argc, char **argv) {
     kf_cli_opts o;
-    int rc = kf_cli_parse("info", argc, argv, &o);
-    if (rc) return rc;
-    if (o.help) {
-        kf_cli_usage(stdout, "info");
-        return KF_EXIT_OK;
-    }
     kf_shot *shot;
     kf_scene sc;
     kf_build_stats bs;
-    rc = kf_cli_load(&o, &shot, &sc, &bs);
-    if (rc) return rc;
+    int rc = kf_cli_start("info", argc, argv, &o, &shot, &sc, &bs);
+    if (!shot) return rc;
     const kf_model *m = sc.model;
     kf_state *s = sc.state;
     size_t n = kf_state_count(s);

@@ -119,17 +119,11 @@ static int write_frame(const kf_shot *shot, const char *out, kf_scene *sc, int f
 
 int kf_cmd_run(int argc, char **argv) {
     kf_cli_opts o;
-    int rc = kf_cli_parse("run", argc, argv, &o);
-    if (rc) return rc;
-    if (o.help) {
-        kf_cli_usage(stdout, "run");
-        return KF_EXIT_OK;
-    }
     kf_shot *shot;
     kf_scene sc;
     kf_build_stats bs;
-    rc = kf_cli_load(&o, &shot, &sc, &bs);
-    if (rc) return rc;
+    int rc = kf_cli_start("run", argc, argv, &o, &shot, &sc, &bs);
+    if (!shot) return rc;
 
     uint64_t hash = kf_shot_sim_hash(shot);
     int frame = shot->frame_start; /* the frame the state is at */

@@ -133,16 +133,10 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
 
 static int stage_command(const char *cmd, int argc, char **argv, int do_surface, int do_render) {
     kf_cli_opts o;
-    int rc = kf_cli_parse(cmd, argc, argv, &o);
-    if (rc) return rc;
-    if (o.help) {
-        kf_cli_usage(stdout, cmd);
-        return KF_EXIT_OK;
-    }
     kf_shot *shot;
     kf_scene sc;
-    rc = kf_cli_load(&o, &shot, &sc, NULL);
-    if (rc) return rc;
+    int rc = kf_cli_start(cmd, argc, argv, &o, &shot, &sc, NULL);
+    if (!shot) return rc;
     rc = kf_cli_post(&o, shot, &sc, do_surface, do_render);
     kf_scene_free(&sc);
     kf_shot_free(shot);
@@ -174,17 +168,11 @@ int kf_cmd_turntable(int argc, char **argv) {
         } else rest[nrest++] = argv[i];
     }
     kf_cli_opts o;
-    int rc = kf_cli_parse("turntable", nrest, rest, &o);
-    free(rest);
-    if (rc) return rc;
-    if (o.help) {
-        kf_cli_usage(stdout, "turntable");
-        return KF_EXIT_OK;
-    }
     kf_shot *shot;
     kf_scene sc;
-    rc = kf_cli_load(&o, &shot, &sc, NULL);
-    if (rc) return rc;
+    int rc = kf_cli_start("turntable", nrest, rest, &o, &shot, &sc, NULL);
+    free(rest);
+    if (!shot) return rc;
     if (frame == 0) frame = shot->frame_start;
     kf_frame_paths fp;
     char err[4200];

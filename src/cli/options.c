@@ -73,6 +73,18 @@ int kf_cli_parse(const char *cmd, int argc, char **argv, kf_cli_opts *o) {
     return KF_EXIT_OK;
 }
 
+int kf_cli_start(const char *cmd, int argc, char **argv, kf_cli_opts *o, kf_shot **shot, kf_scene *sc,
+                 kf_build_stats *stats) {
+    *shot = NULL;
+    int rc = kf_cli_parse(cmd, argc, argv, o);
+    if (rc) return rc;
+    if (o->help) {
+        kf_cli_usage(stdout, cmd);
+        return KF_EXIT_OK;
+    }
+    return kf_cli_load(o, shot, sc, stats);
+}
+
 int kf_cli_load(const kf_cli_opts *o, kf_shot **shot, kf_scene *sc, kf_build_stats *stats) {
     kf_diag diag;
     kf_diag_init(&diag);

@@ -24,6 +24,7 @@
 #ifndef KF_COLLIDER_H
 #define KF_COLLIDER_H
 
+#include "../core/euler.h"
 #include "../kerf.h"
 
 /* the motion at a time: pivot, orientation, scale and their rates */
@@ -52,8 +53,6 @@ typedef struct kf_collider_frame {
 /* Pose and rates at time t (seconds). */
 void kf_collider_pose_at(const kf_collider *c, double t, kf_collider_pose *pose);
 
-/* R = Rz Ry Rx from degrees, row-major. */
-void kf_euler_matrix(const double deg[3], double R[9]);
 
 /* The frame of c at time t. */
 void kf_collider_frame_at(const kf_collider *c, double t, kf_collider_frame *f);

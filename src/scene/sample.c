@@ -7,6 +7,7 @@
  * test decides the whole block; only blocks near the surface test each point.
  * The output order is block order, fixed for a given def whatever the thread
  * count. */
+#include "../core/euler.h"
 #include "sample.h"
 
 #include <math.h>
@@ -101,22 +102,12 @@ static int check_def(const kf_sample_def *d, char *err, size_t errlen) {
 
 /* ---- placement ---------------------------------------------------------------- */
 
-/* R = Rz(c) Ry(b) Rx(a), degrees */
-static void euler_xyz(const double deg[3], double R[9]) {
-    const double r = 3.14159265358979323846 / 180.0;
-    double ca = cos(deg[0] * r), sa = sin(deg[0] * r), cb = cos(deg[1] * r), sb = sin(deg[1] * r);
-    double cg = cos(deg[2] * r), sg = sin(deg[2] * r);
-    double M[9] = {cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa,
-                   sg * cb, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa,
-                   -sb,     cb * sa,                cb * ca};
-    memcpy(R, M, sizeof M);
-}
 
 int kf_sample_placement(const kf_sample_def *def, const kf_mesh *mesh, double M[12], double lo[3], double hi[3],
                         char *err, size_t errlen) {
     const kf_placement *pl = &def->place;
     double R[9], A[9];
-    euler_xyz(pl->rotate, R);
+    kf_euler_matrix(pl->rotate, R);
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++) A[3 * i + j] = R[3 * i + j] * (pl->scale[j] != 0 ? pl->scale[j] : 1.0);
     /* bounds of the shape under A (before translation / fit) */

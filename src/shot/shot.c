@@ -3,6 +3,7 @@
  * (presets, references between sections, files, ranges across keys) into a
  * kf_shot. Every problem is reported and the walk goes on, so one run shows
  * them all; nothing is returned unless there were none. */
+#include "../core/euler.h"
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
@@ -381,16 +382,6 @@ static void default_name(char *name, size_t n, const inst *I, const char *shape_
     snprintf(name, n, "%s%d", shape, index);
 }
 
-/* R = Rz Ry Rx from degrees, as the sampler builds it */
-static void euler_matrix(const double deg[3], double R[9]) {
-    const double r = KF_PI / 180.0;
-    double ca = cos(deg[0] * r), sa = sin(deg[0] * r), cb = cos(deg[1] * r), sb = sin(deg[1] * r);
-    double cg = cos(deg[2] * r), sg = sin(deg[2] * r);
-    double M[9] = {cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa,
-                   sg * cb, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa,
-                   -sb,     cb * sa,                cb * ca};
-    memcpy(R, M, sizeof M);
-}
 
 /* the inverse: degrees about x, y, z of a rotation matrix (any at gimbal lock) */
 static void euler_angles(const double R[9], double deg[3]) {
@@ -423,7 +414,7 @@ static void placement(kf_shot_object *o) {
         static const double to_z[9] = {1, 0, 0, 0, 0, -1, 0, 1, 0}; /* Rx(90): y → z */
         const double *A = o->axis == 0 ? to_x : to_z;
         double U[9], R[9];
-        euler_matrix(o->rotate, U);
+        kf_euler_matrix(o->rotate, U);
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++) R[3 * i + j] = U[3 * i] * A[j] + U[3 * i + 1] * A[3 + j] + U[3 * i + 2] * A[6 + j];
         euler_angles(R, p->rotate);
