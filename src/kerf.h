@@ -130,11 +130,71 @@ typedef struct kf_collider {
     int inside;          /* box, sphere, mesh: 1 = material is kept inside (a container) */
 } kf_collider;
 
+/* ---- rigid bodies (CPIC, paper §5) ------------------------------------------
+ *
+ * A rigid body is a triangle mesh that material cannot pass through, however
+ * thin: a cutter, a thin wall, a paddle, a floating block. Material on its two
+ * sides moves independently (Compatible Particle-In-Cell). Static and
+ * kinematic bodies move as told; dynamic bodies are pushed by the material
+ * and push back (two-way coupling), and collide with each other. */
+typedef enum kf_rigid_motion { KF_RIGID_STATIC = 0, KF_RIGID_KINEMATIC, KF_RIGID_DYNAMIC } kf_rigid_motion;
+
+/* One grid node stores 2 bits per body (affinity, side) and the closest
+ * body's index in one 32-bit word beside its distance (paper §5.2.3). */
+#define KF_MAX_RIGIDS 14
+
+typedef struct kf_rigid_def {
+    char name[32];
+    /* the surface in the mesh's own frame, metres; a closed solid is wound
+     * counter-clockwise seen from outside. The model copies it. */
+    const double *vertices;  /* (nvertices x 3) */
+    int nvertices;
+    const int *triangles;    /* (ntriangles x 3) */
+    int ntriangles;
+    int thin;                /* 1 = a shell or cutter (may be open); 0 = a closed solid */
+    kf_rigid_motion motion;
+    /* pose: x_world = position(t) + R(t) (x_mesh - center), R = Rz Ry Rx of rotate (degrees) */
+    double center[3];        /* the pivot, in the mesh frame */
+    double position[3];      /* where the pivot is at time 0 */
+    double rotate[3];        /* orientation at time 0, degrees */
+    kf_interp interp;        /* kinematic: between keys */
+    int nkeys;               /* kinematic: >= 1 keys (their scale is ignored: bodies are rigid) */
+    kf_key keys[KF_MAX_KEYS];
+    double velocity[3];      /* dynamic: initial, m/s; kinematic without keys: constant */
+    double angular_velocity[3]; /* dynamic: initial; kinematic without keys: constant, rad/s, world */
+    double density;          /* dynamic: kg/m³ for a solid, kg/m² for a thin shell */
+    kf_boundary boundary;    /* how material meets it (Eq. 25) */
+    double friction;         /* Coulomb μ for slip and separate */
+    double penalty;          /* k, 1/s: pushes slightly penetrated particles back out (Eq. 22); 0 = off */
+    double push;             /* c, m/s²: the collided velocity's push away from the surface (Eq. 27) */
+} kf_rigid_def;
+
+/* A hinge between two dynamic bodies, or a body and the world (-1): a
+ * wheel on an axle, a hinged paddle. */
+typedef struct kf_joint_def {
+    int body_a, body_b;      /* rigid indices, or -1 for the world */
+    double anchor[3];        /* a point on the axis at time 0, world metres */
+    double axis[3];          /* hinge axis, world */
+    double damping;          /* N·m·s/rad */
+} kf_joint_def;
+
+/* Where a body is and how it moves, at the state's time:
+ * x_world = R x_mesh + t, v(x) = v + ω × (x - com). */
+typedef struct kf_rigid_pose {
+    double R[9];             /* row-major */
+    double t[3];
+    double com[3];           /* centre of mass, world */
+    double v[3], omega[3];   /* of the centre of mass; rad/s */
+} kf_rigid_pose;
+
 /* ---- simulation settings ----------------------------------------------- */
 
 typedef enum kf_kernel { KF_KERNEL_QUADRATIC = 0, KF_KERNEL_CUBIC } kf_kernel;
 typedef enum kf_force { KF_FORCE_MLS = 0, KF_FORCE_CLASSIC } kf_force;
 typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC } kf_transfer;
+/* How the grid velocities advance (issue 7): explicit symplectic Euler, or
+ * backward Euler solved by Newton-Krylov on the incremental potential. */
+typedef enum kf_integrator { KF_INTEGRATOR_EXPLICIT = 0, KF_INTEGRATOR_IMPLICIT } kf_integrator;
 
 typedef struct kf_sim_def {
     double dx;            /* grid spacing, m */
@@ -153,6 +213,12 @@ typedef struct kf_sim_def {
     double j_min, j_max;  /* sane range of det F; outside it is numerical trouble */
     double max_cells_per_step; /* CFL violation: |v| Δt / Δx above this is trouble */
     int threads;          /* 0 = OpenMP default */
+    /* implicit integration (integrator == KF_INTEGRATOR_IMPLICIT) */
+    kf_integrator integrator;
+    double newton_tol;    /* residual relative to the momentum scale (0 = default) */
+    int newton_max;       /* Newton iterations per substep (0 = default) */
+    double krylov_tol;    /* CG relative residual (0 = default) */
+    int krylov_max;       /* CG iterations per Newton step (0 = default) */
 } kf_sim_def;
 
 kf_sim_def kf_default_sim_def(void);
@@ -168,6 +234,13 @@ void kf_model_destroy(kf_model *m);
 int kf_model_add_material(kf_model *m, const kf_material *mat, char *err, size_t errlen);
 int kf_model_add_collider(kf_model *m, const kf_collider *c, char *err, size_t errlen);
 const kf_sim_def *kf_model_sim(const kf_model *m);
+/* Rigid bodies and joints (at most KF_MAX_RIGIDS bodies). Returns the index. */
+int kf_model_add_rigid(kf_model *m, const kf_rigid_def *r, char *err, size_t errlen);
+int kf_model_add_joint(kf_model *m, const kf_joint_def *j, char *err, size_t errlen);
+int kf_model_rigid_count(const kf_model *m);
+/* Mass (kg), and the rigid particles (seeds) the body carries. */
+double kf_model_rigid_mass(const kf_model *m, int body);
+size_t kf_model_rigid_seeds(const kf_model *m, int body);
 
 kf_state *kf_state_create(const kf_model *m);
 void kf_state_destroy(kf_state *s);
@@ -198,6 +271,8 @@ typedef struct kf_particles_view {
     kf_real *ps[2];       /* plastic state: Jp / J (water) / log-volume correction, q */
     uint16_t *mat;
     uint32_t *id;
+    uint16_t *obj;        /* the shot object a particle came from (surfacing per object), 0 by default */
+    uint32_t *colour;     /* CPIC: 2 bits (affinity, side) per rigid body; persists between substeps */
 } kf_particles_view;
 kf_particles_view kf_state_particles(kf_state *s);
 /* The same arrays for reading only: the state's cached per-particle stress
@@ -208,11 +283,16 @@ kf_particles_view kf_state_particles_read(const kf_state *s);
 typedef enum kf_stage {
     KF_STAGE_SORT = 0, KF_STAGE_P2G, KF_STAGE_GRID, KF_STAGE_G2P,
     KF_STAGE_STRESS, /* return mapping (plasticity) and the stress of the new F */
+    KF_STAGE_CDF,    /* CPIC: rigid seeds, grid colored distance field, particle colour */
+    KF_STAGE_RIGID,  /* rigid bodies: contacts, joints, advection */
     KF_STAGE_COUNT
 } kf_stage;
 const char *kf_stage_name(kf_stage s);
 
 typedef struct kf_step_stats {
+    /* implicit integration: totals since the last reset, and the last solve's residual */
+    long newton_iterations, krylov_iterations;
+    double newton_residual;
     double ms[KF_STAGE_COUNT]; /* wall milliseconds per stage */
     long substeps;
     long particle_steps;
@@ -242,6 +322,9 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
 
 /* The substep the CFL rule would choose now. */
 double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl);
+
+/* The pose of rigid body `body` at the state's time. */
+kf_rigid_pose kf_state_rigid(const kf_state *s, int body);
 
 /* Diagnostics. */
 typedef struct kf_energy {

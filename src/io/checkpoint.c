@@ -21,6 +21,9 @@ typedef struct header {
     int64_t substep;
     uint64_t next_id;
     uint64_t inputs_hash;
+    uint32_t nrigid;      /* kf_rigid_state records after the particles */
+    uint32_t pad;
+    uint64_t rsim_bytes;  /* then the rigid solver's own state */
 } header;
 
 typedef struct hashed_writer {
@@ -60,11 +63,28 @@ int kf_checkpoint_write(const char *path, const kf_state *s, int frame, uint64_t
     h.substep = s->substep;
     h.next_id = s->next_id;
     h.inputs_hash = inputs_hash;
+    h.nrigid = (uint32_t)s->nrigid;
+    void *rsim = NULL;
+    if (s->rsim) {
+        h.rsim_bytes = kf_rigid_sim_state_size(s->rsim);
+        rsim = malloc(h.rsim_bytes ? h.rsim_bytes : 1);
+        if (!rsim) {
+            kf_atomic_abort(&af);
+            snprintf(err, errlen, "%s: out of memory writing checkpoint", path);
+            return -1;
+        }
+        kf_rigid_sim_save(s->rsim, rsim);
+    }
     hashed_writer w = {af.f, 1469598103934665603ULL, 0};
     put(&w, &h, sizeof h);
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) put(&w, p->plane[k], p->n * sizeof(kf_real));
     put(&w, p->mat, p->n * sizeof *p->mat);
     put(&w, p->id, p->n * sizeof *p->id);
+    put(&w, p->obj, p->n * sizeof *p->obj);
+    put(&w, p->colour, p->n * sizeof *p->colour);
+    put(&w, s->rigid, (size_t)s->nrigid * sizeof s->rigid[0]);
+    put(&w, rsim, h.rsim_bytes);
+    free(rsim);
     uint64_t sum = w.h;
     if (!w.failed && fwrite(&sum, sizeof sum, 1, af.f) != 1) w.failed = 1;
     if (w.failed || kf_atomic_commit(&af)) {
@@ -145,22 +165,42 @@ int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_chec
     }
     if (ok) ok = fread(p.mat, sizeof *p.mat, n, f) == n, fnv(&sum, p.mat, n * sizeof *p.mat);
     if (ok) ok = fread(p.id, sizeof *p.id, n, f) == n, fnv(&sum, p.id, n * sizeof *p.id);
+    if (ok) ok = fread(p.obj, sizeof *p.obj, n, f) == n, fnv(&sum, p.obj, n * sizeof *p.obj);
+    if (ok) ok = fread(p.colour, sizeof *p.colour, n, f) == n, fnv(&sum, p.colour, n * sizeof *p.colour);
+    kf_rigid_state rigid[KF_MAX_RIGIDS];
+    void *rsim = NULL;
+    if (ok && (h.nrigid != (uint32_t)s->nrigid || h.rsim_bytes != (s->rsim ? kf_rigid_sim_state_size(s->rsim) : 0))) {
+        fclose(f);
+        kf_particles_free(&p);
+        snprintf(err, errlen, "%s: checkpoint has %u rigid bodies in another configuration than the shot's %d", path,
+                 h.nrigid, s->nrigid);
+        return -1;
+    }
+    if (ok) ok = fread(rigid, sizeof rigid[0], h.nrigid, f) == h.nrigid, fnv(&sum, rigid, h.nrigid * sizeof rigid[0]);
+    if (ok && h.rsim_bytes) {
+        rsim = malloc(h.rsim_bytes);
+        ok = rsim && fread(rsim, 1, h.rsim_bytes, f) == h.rsim_bytes;
+        if (ok) fnv(&sum, rsim, h.rsim_bytes);
+    }
     uint64_t stored = 0;
     if (ok) ok = fread(&stored, sizeof stored, 1, f) == 1;
     fclose(f);
     if (!ok) {
         kf_particles_free(&p);
+        free(rsim);
         snprintf(err, errlen, "%s: checkpoint is truncated (expected %zu particles)", path, n);
         return -1;
     }
     if (stored != sum) {
         kf_particles_free(&p);
+        free(rsim);
         snprintf(err, errlen, "%s: checkpoint checksum mismatch (file damaged)", path);
         return -1;
     }
     for (size_t i = 0; i < n; i++)
         if (p.mat[i] >= m->nmat) {
             kf_particles_free(&p);
+            free(rsim);
             snprintf(err, errlen, "%s: particle %zu uses material %u but the shot defines %d", path, i, p.mat[i],
                      m->nmat);
             return -1;
@@ -168,6 +208,9 @@ int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_chec
     p.n = n;
     kf_particles_free(&s->p);
     s->p = p;
+    memcpy(s->rigid, rigid, h.nrigid * sizeof rigid[0]);
+    if (rsim) kf_rigid_sim_load(s->rsim, rsim, h.rsim_bytes);
+    free(rsim);
     s->time = h.time;
     s->substep = (long)h.substep;
     s->next_id = (uint32_t)h.next_id;

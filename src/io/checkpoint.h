@@ -7,8 +7,10 @@
  * the bit (tests/test_checkpoint.c).
  *
  * Layout (little-endian): header {magic "KERFCKPT", format version, size of
- * kf_real, particle count, frame, time, substep, next id, inputs hash}, the
- * particle planes, then a 64-bit FNV-1a checksum of everything before it.
+ * kf_real, particle count, frame, time, substep, next id, inputs hash, rigid
+ * body count, rigid solver bytes}, the particle planes (reals, material, id,
+ * object, CPIC colour), the rigid body states and the rigid solver's state,
+ * then a 64-bit FNV-1a checksum of everything before it.
  * Written to a temporary name and renamed. */
 #ifndef KF_CHECKPOINT_H
 #define KF_CHECKPOINT_H
@@ -18,7 +20,7 @@
 
 #include "../kerf.h"
 
-#define KF_CHECKPOINT_VERSION 1
+#define KF_CHECKPOINT_VERSION 2 /* 2: object ids, CPIC colours, rigid bodies */
 
 typedef struct kf_checkpoint_info {
     int frame;

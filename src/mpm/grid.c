@@ -59,6 +59,17 @@ static int hash_reset(kf_grid *g, size_t expect) {
 
 static size_t bcoord_cap_of(const kf_grid *g) { return g->bcap; }
 
+int32_t kf_grid_find(const kf_grid *g, int bx, int by, int bz) {
+    if (!g->hcap) return -1;
+    uint64_t key = kf_block_key(bx, by, bz);
+    size_t mask = g->hcap - 1, s = hash_slot(key, mask);
+    while (g->hkey[s] != UINT64_MAX) {
+        if (g->hkey[s] == key) return g->hval[s];
+        s = (s + 1) & mask;
+    }
+    return -1;
+}
+
 /* index of the block with this coordinate, created if missing; -1 on OOM */
 static int32_t block_get_or_insert(kf_grid *g, int bx, int by, int bz) {
     uint64_t key = kf_block_key(bx, by, bz);

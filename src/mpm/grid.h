@@ -69,6 +69,9 @@ void kf_grid_free(kf_grid *g);
  * (*bad_particle is set to its index). */
 int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle);
 
+/* The block with this block coordinate, or -1 if there is none. */
+int32_t kf_grid_find(const kf_grid *g, int bx, int by, int bz);
+
 /* Zero every node of every block. */
 void kf_grid_clear(kf_grid *g, int threads);
 

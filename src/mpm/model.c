@@ -25,6 +25,12 @@ kf_sim_def kf_default_sim_def(void) {
     d.j_min = 1e-3;
     d.j_max = 1e3;
     d.max_cells_per_step = 1.0;
+    /* implicit integration (issue 7); explicit stays the default */
+    d.integrator = KF_INTEGRATOR_EXPLICIT;
+    d.newton_tol = 1e-3;
+    d.newton_max = 20;
+    d.krylov_tol = 1e-2;
+    d.krylov_max = 200;
     return d;
 }
 
@@ -42,6 +48,10 @@ kf_model *kf_model_create(const kf_sim_def *def, char *err, size_t errlen) {
             if (!(def->domain_max[a] > def->domain_min[a])) bad = "domain max must exceed min on every axis";
     }
     if (!bad && !(def->j_min > 0 && def->j_max > def->j_min)) bad = "j_min must be positive and below j_max";
+    if (!bad && !(def->integrator == KF_INTEGRATOR_EXPLICIT || def->integrator == KF_INTEGRATOR_IMPLICIT))
+        bad = "integrator must be explicit or implicit";
+    if (!bad && !(def->newton_tol >= 0 && def->krylov_tol >= 0 && def->newton_max >= 0 && def->krylov_max >= 0))
+        bad = "newton_tol, krylov_tol, newton_max and krylov_max must be >= 0 (0 = default)";
     if (bad) {
         fail(err, errlen, bad);
         return NULL;
@@ -60,6 +70,7 @@ void kf_model_destroy(kf_model *m) {
     if (!m) return;
     for (int c = 0; c < m->ncol; c++) /* the model's own copies of mesh distance fields */
         if (m->col[c].shape == KF_SHAPE_MESH) free((void *)m->col[c].sdf);
+    for (int r = 0; r < m->nrigid; r++) kf_rigid_body_free(&m->rigid[r]);
     free(m);
 }
 
@@ -69,6 +80,9 @@ int kf_model_add_material(kf_model *m, const kf_material *mat, char *err, size_t
     if (m->nmat >= KF_MAX_MATERIALS) return fail(err, errlen, "too many materials (at most 64)");
     const char *bad = kf_material_check(mat);
     if (bad && bad[0]) return fail(err, errlen, bad);
+    if (mat->model == KF_MAT_WATER && m->sim.integrator == KF_INTEGRATOR_IMPLICIT)
+        return fail(err, errlen, "water needs the explicit integrator (sim.integrator: explicit): the implicit solve "
+                                 "covers the elastic and elastoplastic solids");
     int id = m->nmat++;
     m->mat_def[id] = *mat;
     kf_mat_compile(&m->mat[id], mat);
@@ -123,4 +137,43 @@ int kf_model_add_collider(kf_model *m, const kf_collider *c, char *err, size_t e
     }
     m->col[m->ncol++] = col;
     return m->ncol - 1;
+}
+
+int kf_model_add_rigid(kf_model *m, const kf_rigid_def *r, char *err, size_t errlen) {
+    if (m->sim.integrator == KF_INTEGRATOR_IMPLICIT)
+        return fail(err, errlen, "rigid bodies (CPIC) need the explicit integrator (sim.integrator: explicit)");
+    if (m->nrigid >= KF_MAX_RIGIDS) {
+        if (err && errlen)
+            snprintf(err, errlen, "too many rigid bodies (at most %d: each takes 2 bits of a grid node's 32-bit colour)",
+                     KF_MAX_RIGIDS);
+        return -1;
+    }
+    if (m->sim.kernel != KF_KERNEL_QUADRATIC)
+        return fail(err, errlen, "rigid bodies (CPIC) need the quadratic kernel");
+    if (kf_rigid_compile(&m->rigid[m->nrigid], r, m->sim.dx, err, errlen)) return -1;
+    return m->nrigid++;
+}
+
+int kf_model_add_joint(kf_model *m, const kf_joint_def *j, char *err, size_t errlen) {
+    if (m->njoint >= KF_MAX_JOINTS) return fail(err, errlen, "too many joints (at most 32)");
+    if (j->body_a < -1 || j->body_a >= m->nrigid || j->body_b < -1 || j->body_b >= m->nrigid || j->body_a == j->body_b)
+        return fail(err, errlen, "a joint needs two different bodies (or one body and the world, -1)");
+    for (int k = 0; k < 2; k++) {
+        int b = k ? j->body_b : j->body_a;
+        if (b >= 0 && m->rigid[b].def.motion != KF_RIGID_DYNAMIC)
+            return fail(err, errlen, "joints connect dynamic bodies (and the world)");
+    }
+    if (!finite3(j->anchor) || !finite3(j->axis) || !(fabs(j->axis[0]) + fabs(j->axis[1]) + fabs(j->axis[2]) > 0))
+        return fail(err, errlen, "a joint needs a finite anchor and a non-zero axis");
+    if (!(j->damping >= 0)) return fail(err, errlen, "joint damping must be >= 0");
+    m->joint[m->njoint++] = *j;
+    return m->njoint - 1;
+}
+
+int kf_model_rigid_count(const kf_model *m) { return m->nrigid; }
+double kf_model_rigid_mass(const kf_model *m, int body) {
+    return body >= 0 && body < m->nrigid ? m->rigid[body].mass : 0;
+}
+size_t kf_model_rigid_seeds(const kf_model *m, int body) {
+    return body >= 0 && body < m->nrigid ? m->rigid[body].nseed : 0;
 }

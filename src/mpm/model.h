@@ -10,6 +10,7 @@
 #include "grid.h"
 #include "material.h"
 #include "particles.h"
+#include "../rigid/rigid.h"
 
 #define KF_MAX_MATERIALS 64
 #define KF_MAX_COLLIDERS 64
@@ -23,6 +24,10 @@ struct kf_model {
     int ncol;
     kf_collider col[KF_MAX_COLLIDERS];
     int any_plastic; /* some material needs the return-mapping pass */
+    int nrigid;
+    kf_rigid_body rigid[KF_MAX_RIGIDS];
+    int njoint;
+    kf_joint_def joint[KF_MAX_JOINTS];
 };
 
 struct kf_state {
@@ -34,6 +39,15 @@ struct kf_state {
     kf_particles snapshot; /* particles at the start of the interval being advanced */
     int tau_valid;     /* particle stress planes match F (set by kf_stress) */
     int snapshot_tau_valid;
+    /* rigid bodies (CPIC): motion state and the solver, created with the
+     * state from the model's bodies; copies for retrying an interval */
+    int nrigid;
+    kf_rigid_state rigid[KF_MAX_RIGIDS];
+    kf_rigid_sim *rsim;
+    kf_rigid_state snapshot_rigid[KF_MAX_RIGIDS];
+    void *snapshot_rsim; /* kf_rigid_sim_save bytes */
+    size_t snapshot_rsim_size;
+    struct kf_cpic *cpic; /* CPIC scratch (grid colored distance field, particle distances), src/cpic */
 };
 
 /* MLS inertia-like tensor D_p = d I: d = Δx²/4 (quadratic), Δx²/3 (cubic) */
@@ -50,6 +64,11 @@ typedef struct kf_g2p_result {
 
 /* P2G; trouble (may be NULL) receives the first particle with non-finite stress */
 void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble);
+/* implicit integration instead of kf_p2g + kf_grid_update (implicit_solve.c):
+ * P2G of mass and momentum, backward Euler by Newton-Krylov on the grid
+ * velocities, boundaries; the grid ends as kf_grid_update leaves it.
+ * Returns 0, or 1 with trouble filled. Adds iteration counts to st. */
+int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_trouble *trouble);
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt);
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F */

@@ -11,6 +11,8 @@ _Static_assert(sizeof(((kf_particles *)0)->plane) == 34 * sizeof(kf_real *), "pl
 void kf_particles_free(kf_particles *p) {
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) free(p->plane[k]);
     free(p->mat);
+    free(p->obj);
+    free(p->colour);
     free(p->id);
     free(p->key);
     free(p->block);
@@ -31,6 +33,7 @@ int kf_particles_reserve(kf_particles *p, size_t cap) {
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
         if (grow((void **)&p->plane[k], sizeof(kf_real), c)) return -1;
     if (grow((void **)&p->mat, sizeof *p->mat, c) || grow((void **)&p->id, sizeof *p->id, c) ||
+        grow((void **)&p->obj, sizeof *p->obj, c) || grow((void **)&p->colour, sizeof *p->colour, c) ||
         grow((void **)&p->key, sizeof *p->key, c) || grow((void **)&p->block, sizeof *p->block, c))
         return -1;
     p->cap = c;
@@ -43,6 +46,8 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) memcpy(dst->plane[k], src->plane[k], n * sizeof(kf_real));
     memcpy(dst->mat, src->mat, n * sizeof *src->mat);
     memcpy(dst->id, src->id, n * sizeof *src->id);
+    memcpy(dst->obj, src->obj, n * sizeof *src->obj);
+    memcpy(dst->colour, src->colour, n * sizeof *src->colour);
     memcpy(dst->key, src->key, n * sizeof *src->key);
     memcpy(dst->block, src->block, n * sizeof *src->block);
     dst->n = n;
@@ -60,7 +65,7 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
 
 void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, int threads) {
     size_t n = p->n;
-    int nplanes = KF_PARTICLE_REAL_PLANES + 4;
+    int nplanes = KF_PARTICLE_REAL_PLANES + 6;
     /* scratch holds one plane per thread: n * 8 bytes * threads */
 #pragma omp parallel num_threads(threads)
     {
@@ -72,6 +77,8 @@ void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, 
             else if (k == KF_PARTICLE_REAL_PLANES) PERMUTE_PLANE(uint16_t, p->mat);
             else if (k == KF_PARTICLE_REAL_PLANES + 1) PERMUTE_PLANE(uint32_t, p->id);
             else if (k == KF_PARTICLE_REAL_PLANES + 2) PERMUTE_PLANE(uint64_t, p->key);
+            else if (k == KF_PARTICLE_REAL_PLANES + 3) PERMUTE_PLANE(uint16_t, p->obj);
+            else if (k == KF_PARTICLE_REAL_PLANES + 4) PERMUTE_PLANE(uint32_t, p->colour);
             else PERMUTE_PLANE(int32_t, p->block);
         }
     }

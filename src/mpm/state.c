@@ -6,13 +6,35 @@
 #include "../core/mat3.h"
 #include "model.h"
 
-kf_state *kf_state_create(const kf_model *m) {
-    (void)m;
-    return calloc(1, sizeof(kf_state));
+/* rigid bodies at time 0 and their solver (none without rigid bodies) */
+static int rigid_init(kf_state *s, const kf_model *m) {
+    s->nrigid = m->nrigid;
+    if (!m->nrigid) return 0;
+    for (int r = 0; r < m->nrigid; r++) kf_rigid_state_at(&m->rigid[r], 0, &s->rigid[r]);
+    double walls[6];
+    for (int a = 0; a < 3; a++) walls[a] = m->sim.domain_min[a], walls[3 + a] = m->sim.domain_max[a];
+    char err[256];
+    s->rsim = kf_rigid_sim_create(m->rigid, m->nrigid, m->joint, m->njoint, m->sim.gravity,
+                                  m->sim.walls ? walls : NULL, err, sizeof err);
+    return s->rsim ? 0 : -1;
 }
+
+kf_state *kf_state_create(const kf_model *m) {
+    kf_state *s = calloc(1, sizeof(kf_state));
+    if (s && rigid_init(s, m)) {
+        kf_state_destroy(s);
+        return NULL;
+    }
+    return s;
+}
+
+void kf_cpic_free(struct kf_cpic *c);
 
 void kf_state_destroy(kf_state *s) {
     if (!s) return;
+    kf_rigid_sim_destroy(s->rsim);
+    free(s->snapshot_rsim);
+    kf_cpic_free(s->cpic);
     kf_particles_free(&s->p);
     kf_particles_free(&s->snapshot);
     kf_grid_free(&s->g);
@@ -26,12 +48,46 @@ void kf_state_copy(kf_state *dst, const kf_state *src) {
     dst->next_id = src->next_id;
     dst->tau_valid = src->tau_valid;
     dst->g.valid = 0;
+    /* rigid bodies: both states come from the same model */
+    dst->nrigid = src->nrigid;
+    memcpy(dst->rigid, src->rigid, sizeof dst->rigid);
+    if (src->rsim && dst->rsim) {
+        size_t n = kf_rigid_sim_state_size(src->rsim);
+        void *buf = malloc(n ? n : 1);
+        if (buf) {
+            kf_rigid_sim_save(src->rsim, buf);
+            kf_rigid_sim_load(dst->rsim, buf, n);
+            free(buf);
+        }
+    }
 }
 
 kf_state *kf_state_clone(const kf_state *s) {
     kf_state *c = calloc(1, sizeof *c);
-    if (c) kf_state_copy(c, s);
+    if (!c) return NULL;
+    if (s->rsim) {
+        /* a solver of the same shape: created from the blob of the source */
+        c->rsim = kf_rigid_sim_clone(s->rsim);
+        if (!c->rsim) {
+            free(c);
+            return NULL;
+        }
+    }
+    kf_state_copy(c, s);
     return c;
+}
+
+kf_rigid_pose kf_state_rigid(const kf_state *s, int body) {
+    kf_rigid_pose p;
+    memset(&p, 0, sizeof p);
+    if (body < 0 || body >= s->nrigid) return p;
+    const kf_rigid_state *r = &s->rigid[body];
+    memcpy(p.R, r->R, sizeof p.R);
+    memcpy(p.t, r->t, sizeof p.t);
+    memcpy(p.com, r->com, sizeof p.com);
+    memcpy(p.v, r->v, sizeof p.v);
+    memcpy(p.omega, r->w, sizeof p.omega);
+    return p;
 }
 
 size_t kf_state_count(const kf_state *s) { return s->p.n; }
@@ -55,6 +111,8 @@ kf_particles_view kf_state_particles_read(const kf_state *s) {
     v.ps[1] = p->ps[1];
     v.mat = p->mat;
     v.id = p->id;
+    v.obj = p->obj;
+    v.colour = p->colour;
     return v;
 }
 
@@ -90,6 +148,8 @@ long kf_state_add_particles(kf_state *s, const kf_model *m, size_t n, const doub
         p->ps[0][i] = ps0;
         p->ps[1][i] = 0;
         p->mat[i] = (uint16_t)material;
+        p->obj[i] = 0;
+        p->colour[i] = 0;
         p->id[i] = s->next_id++;
         p->key[i] = 0;
         p->block[i] = 0;

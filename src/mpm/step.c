@@ -11,10 +11,11 @@
 #include <string.h>
 
 #include "../core/timer.h"
+#include "../cpic/cpic.h"
 #include "model.h"
 
 const char *kf_stage_name(kf_stage s) {
-    static const char *names[KF_STAGE_COUNT] = {"sort", "p2g", "grid", "g2p", "stress"};
+    static const char *names[KF_STAGE_COUNT] = {"sort", "p2g", "grid", "g2p", "stress", "cdf", "rigid"};
     return s < KF_STAGE_COUNT ? names[s] : "?";
 }
 
@@ -49,18 +50,44 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     t1 = kf_now_ms();
     if (st) st->ms[KF_STAGE_SORT] += t1 - t0;
 
-    kf_trouble p2g_trouble;
-    kf_p2g(m, s, rdt, &p2g_trouble);
-    t0 = kf_now_ms();
-    if (st) st->ms[KF_STAGE_P2G] += t0 - t1;
-    if (p2g_trouble.found) {
-        *trouble = p2g_trouble;
-        return 1;
+    /* CPIC: the grid colored distance field of this substep's rigid poses */
+    if (m->nrigid) {
+        if (kf_cpic_splat(m, s, dt)) {
+            set_trouble(trouble, s, 0, "out of memory building the colored distance field", 0);
+            return 1;
+        }
+        t0 = kf_now_ms();
+        if (st) st->ms[KF_STAGE_CDF] += t0 - t1;
+        t1 = t0;
     }
 
-    kf_grid_update(m, s, rdt);
-    t1 = kf_now_ms();
-    if (st) st->ms[KF_STAGE_GRID] += t1 - t0;
+    if (m->sim.integrator == KF_INTEGRATOR_IMPLICIT) {
+        /* backward Euler (issue 7, implicit.h): P2G of mass and momentum,
+         * Newton-Krylov on the grid velocities, boundaries; leaves the grid
+         * where kf_grid_update leaves it, so G2P and stress run unchanged */
+        kf_trouble imp_trouble;
+        int irc = kf_implicit_grid(m, s, dt, st, &imp_trouble);
+        t0 = t1;
+        t1 = kf_now_ms();
+        if (st) st->ms[KF_STAGE_GRID] += t1 - t0;
+        if (irc) {
+            *trouble = imp_trouble;
+            return 1;
+        }
+    } else {
+        kf_trouble p2g_trouble;
+        kf_p2g(m, s, rdt, &p2g_trouble);
+        t0 = kf_now_ms();
+        if (st) st->ms[KF_STAGE_P2G] += t0 - t1;
+        if (p2g_trouble.found) {
+            *trouble = p2g_trouble;
+            return 1;
+        }
+
+        kf_grid_update(m, s, rdt);
+        t1 = kf_now_ms();
+        if (st) st->ms[KF_STAGE_GRID] += t1 - t0;
+    }
 
     kf_g2p_result res;
     kf_g2p(m, s, rdt, &res);
@@ -71,6 +98,13 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     kf_stress(m, s, 1);
     t1 = kf_now_ms();
     if (st) st->ms[KF_STAGE_STRESS] += t1 - t0;
+
+    /* rigid bodies: the material's impulses, contacts, joints, advection */
+    if (m->nrigid) {
+        kf_cpic_finish(m, s, dt);
+        t0 = kf_now_ms();
+        if (st) st->ms[KF_STAGE_RIGID] += t0 - t1;
+    }
 
     s->time += dt;
     s->substep++;
@@ -97,6 +131,28 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
         return 1;
     }
     return 0;
+}
+
+/* the fastest point of any rigid body's surface now: |v| + |ω| (farthest vertex) */
+static double rigid_max_speed(const kf_model *m, const kf_state *s) {
+    double best = 0;
+    for (int r = 0; r < m->nrigid; r++) {
+        const kf_rigid_body *b = &m->rigid[r];
+        const kf_rigid_state *st = &s->rigid[r];
+        double reach = 0;
+        for (int k = 0; k < b->nvert; k++) {
+            const double *x = &b->vert[3 * k];
+            double w[3];
+            for (int a = 0; a < 3; a++)
+                w[a] = st->R[3 * a] * x[0] + st->R[3 * a + 1] * x[1] + st->R[3 * a + 2] * x[2] + st->t[a] - st->com[a];
+            double d2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+            if (d2 > reach) reach = d2;
+        }
+        double v = sqrt(st->v[0] * st->v[0] + st->v[1] * st->v[1] + st->v[2] * st->v[2]) +
+                   sqrt(st->w[0] * st->w[0] + st->w[1] * st->w[1] + st->w[2] * st->w[2]) * sqrt(reach);
+        if (v > best) best = v;
+    }
+    return best;
 }
 
 /* Δx / (c + |v|max): the substep at CFL number 1. c is the fastest wave
@@ -134,6 +190,15 @@ static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
         double c = kf_mat_wave_speed(&m->mat[k], stateful ? (double)state_min[k] : 1.0);
         if (c > cmax) cmax = c;
     }
+    if (m->sim.integrator == KF_INTEGRATOR_IMPLICIT) {
+        /* implicit: no elastic wave limit, advection alone; the speed gained
+         * falling one cell stands in for c, so a body at rest still steps */
+        const double *gr = m->sim.gravity;
+        cmax = sqrt(sqrt(gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]) * m->sim.dx);
+    }
+    /* a rigid surface must not cross more than the kernel tolerates either */
+    double vr = rigid_max_speed(m, s);
+    if (vr * vr > vmax2) vmax2 = vr * vr;
     return m->sim.dx / (cmax + sqrt(vmax2) + 1e-30);
 }
 
@@ -145,10 +210,23 @@ double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl) { return c
 
 static int save_snapshot(kf_state *s) {
     s->snapshot_tau_valid = s->tau_valid;
+    memcpy(s->snapshot_rigid, s->rigid, sizeof s->rigid);
+    if (s->rsim) {
+        size_t n = kf_rigid_sim_state_size(s->rsim);
+        if (n > s->snapshot_rsim_size) {
+            void *b = realloc(s->snapshot_rsim, n);
+            if (!b) return -1;
+            s->snapshot_rsim = b;
+        }
+        s->snapshot_rsim_size = n;
+        kf_rigid_sim_save(s->rsim, s->snapshot_rsim);
+    }
     return kf_particles_copy(&s->snapshot, &s->p);
 }
 
 static void restore_snapshot(kf_state *s, double time0, long substep0) {
+    memcpy(s->rigid, s->snapshot_rigid, sizeof s->rigid);
+    if (s->rsim) kf_rigid_sim_load(s->rsim, s->snapshot_rsim, s->snapshot_rsim_size);
     kf_particles_copy(&s->p, &s->snapshot);
     s->time = time0;
     s->substep = substep0;

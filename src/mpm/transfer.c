@@ -25,90 +25,8 @@
 #include "../core/mat3.h"
 #include "model.h"
 
-#define KF_INLINE static inline __attribute__((always_inline))
-#define CD_MAX 7    /* cache edge: 4 base offsets + cubic stencil (4) - 1 */
-#define KF_CHUNK 16 /* particles per phase: one AVX-512 register of floats */
-
-/* per-thread scratch of one chunk, structure of arrays across particles */
-typedef struct chunk {
-    int n;
-    int l[3][KF_CHUNK];                /* base node offset inside the owner block */
-    kf_real w[3][4][KF_CHUNK];         /* kernel weights per axis */
-    kf_real dw[3][4][KF_CHUNK];        /* their derivatives (grid units) */
-    kf_real d[3][4][KF_CHUNK];         /* node minus particle, m */
-    kf_real q[9][KF_CHUNK];            /* P2G: MLS Q, or APIC m C for classic */
-    kf_real t[9][KF_CHUNK];            /* P2G classic: -Δt V⁰ τ / Δx */
-    kf_real mv[4][KF_CHUNK];           /* P2G: m v, m */
-    kf_real v[3][KF_CHUNK];            /* G2P: Σ w v_i */
-    kf_real b[9][KF_CHUNK];            /* G2P: Σ w v_i dᵀ */
-    kf_real g[9][KF_CHUNK];            /* G2P classic: Σ v_i ∇wᵀ (grid units) */
-} chunk;
-
-/* ---- kernels ----------------------------------------------------------------
- * fx is the particle position in grid units minus its base node. w[i] is the
- * weight of node base+i, dw[i] its derivative with respect to the particle
- * position, in grid units (divide by Δx for world units). */
-KF_INLINE void stencil_axis(int KW, int n, const kf_real *restrict x, int origin, kf_real inv_dx, kf_real dx,
-                            int *restrict l, kf_real (*restrict w)[KF_CHUNK], kf_real (*restrict dw)[KF_CHUNK],
-                            kf_real (*restrict d)[KF_CHUNK]) {
-    for (int j = 0; j < n; j++) {
-        int base = kf_base_node(x[j], inv_dx, KW == 4);
-        kf_real fx = x[j] * inv_dx - (kf_real)base;
-        l[j] = base - origin;
-        if (KW == 3) {
-            /* quadratic: fx in [0.5, 1.5) */
-            kf_real p = KF_R(1.5) - fx, q = fx - 1, r = fx - KF_R(0.5);
-            w[0][j] = KF_R(0.5) * p * p;
-            w[1][j] = KF_R(0.75) - q * q;
-            w[2][j] = KF_R(0.5) * r * r;
-            dw[0][j] = -p;
-            dw[1][j] = -2 * q;
-            dw[2][j] = r;
-        } else {
-            /* cubic: fx in [1, 2) */
-            kf_real r1 = fx - 1, s2 = 2 - fx;
-            w[0][j] = s2 * s2 * s2 / 6;
-            w[1][j] = KF_R(0.5) * r1 * r1 * r1 - r1 * r1 + KF_R(2.0 / 3.0);
-            w[2][j] = KF_R(0.5) * s2 * s2 * s2 - s2 * s2 + KF_R(2.0 / 3.0);
-            w[3][j] = r1 * r1 * r1 / 6;
-            dw[0][j] = -KF_R(0.5) * s2 * s2;
-            dw[1][j] = KF_R(1.5) * r1 * r1 - 2 * r1;
-            dw[2][j] = -(KF_R(1.5) * s2 * s2 - 2 * s2);
-            dw[3][j] = KF_R(0.5) * r1 * r1;
-        }
-        for (int i = 0; i < KW; i++) d[i][j] = ((kf_real)i - fx) * dx;
-    }
-}
-
-KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, const int32_t *bc, kf_real inv_dx,
-                             kf_real dx) {
-    for (int a = 0; a < 3; a++)
-        stencil_axis(KW, ck->n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a]);
-}
-
-/* node (a, b, c) of an owner's cache, counted from the owner's first node,
- * in the 2x2x2 block neighbourhood nb */
-static inline kf_v4 *nb_node(const kf_grid *g, const int32_t *nb, int a, int b, int c) {
-    int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (c >> 2)];
-    return &g->node[(size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3))];
-}
-
-/* ---- trouble: the first (lowest id) particle in trouble, per thread ---- */
-
-typedef struct step_acc {
-    kf_trouble trouble;
-    double max_cells;
-} step_acc;
-
-static void note_trouble(step_acc *acc, const kf_particles *p, size_t i, const char *what, double value, long substep) {
-    if (acc->trouble.found && acc->trouble.particle <= p->id[i]) return;
-    acc->trouble.found = 1;
-    snprintf(acc->trouble.what, sizeof acc->trouble.what, "%s", what);
-    acc->trouble.particle = p->id[i];
-    acc->trouble.material = p->mat[i];
-    acc->trouble.value = value;
-    acc->trouble.substep = substep;
-}
+#include "transfer_chunk.h"
+#include "../cpic/cpic.h"
 
 /* ---- P2G ---------------------------------------------------------------------- */
 
@@ -121,6 +39,7 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const kf_real minv = (kf_real)(1.0 / kf_model_dfactor(m));
     const int apic = m->sim.transfer == KF_TRANSFER_APIC;
     const int32_t *bc = &g->bcoord[3 * r];
+    const int band = kf_cpic_band(s, r);
     memset(cache, 0, sizeof(kf_v4) * CD * CD * CD);
 
     for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
@@ -160,6 +79,12 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
                     if (!(kf_fabs(p->tau[k][i0 + (size_t)j]) < (kf_real)1e30))
                         note_trouble(acc, p, i0 + (size_t)j, "NaN or Inf stress", (double)p->tau[k][i0 + (size_t)j],
                                      s->substep);
+        }
+
+        /* near a rigid surface: compatible nodes only, impulses on the bodies */
+        if (band) {
+            kf_cpic_p2g_chunk(m, s, r, ck, i0, cache, CLASSIC);
+            continue;
         }
 
         /* scatter: one node row per vector op, Q d as three column FMAs */
@@ -256,6 +181,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const kf_real minv = (kf_real)(1.0 / kf_model_dfactor(m));
     const int32_t *bc = &g->bcoord[3 * r];
     const kf_real jmin = (kf_real)m->sim.j_min, jmax = (kf_real)m->sim.j_max;
+    const int band = kf_cpic_band(s, r);
     kf_real max_v2 = 0;
 
     /* gather the neighbourhood's velocities */
@@ -272,8 +198,10 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         const int n = ck->n;
         stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
 
-        /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i */
-        for (int j = 0; j < n; j++) {
+        /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
+         * near a rigid surface, ghost velocities on incompatible nodes */
+        if (band) kf_cpic_g2p_chunk(m, s, r, ck, i0, cache, CLASSIC);
+        for (int j = 0; j < (band ? 0 : n); j++) {
             kf_real w2[4], wd2[4], dw2[4];
             for (int c = 0; c < KW; c++) {
                 w2[c] = ck->w[2][c][j];
@@ -371,6 +299,9 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
                 for (int k = 0; k < 9; k++) p->F[k][i] = (kf_real)(k % 4 == 0);
             }
         }
+
+        /* slightly penetrated particles pushed back out (Eq. 22) */
+        if (band) kf_cpic_penalty(m, s, r, i0, n);
 
         /* numerical trouble: non-finite, volume out of range, too fast */
         int bad = 0;

@@ -1,0 +1,107 @@
+/* cpic.h — Compatible Particle-In-Cell (paper §5): material on the two sides
+ * of an infinitely thin rigid surface moves independently, and rigid bodies
+ * and material exchange momentum. Private to the library.
+ *
+ * A substep with rigid bodies (step.c), in the paper's order (Fig. 10):
+ *   bin → kf_cpic_splat (grid colored distance field from the rigid seeds,
+ *   §5.2; marks the owner blocks in the narrow band) → P2G (band blocks go
+ *   through kf_cpic_p2g_particle: particle colour, distance and normal
+ *   §5.3, compatible nodes only, impulses on the bodies for incompatible
+ *   ones §5.4) → grid update → G2P (band blocks: ghost velocities on
+ *   incompatible nodes, §5.5; penalty) → kf_cpic_finish (rigid advection
+ *   from the summed impulses, §5.6).
+ * Blocks outside the narrow band take the ordinary vectorised path and pay
+ * nothing; a scene without rigid bodies never gets here.
+ *
+ * Node colour word (32 bits, beside a 32-bit float distance: §5.2.3):
+ *   bit 2r   = T_ir, the node is on body r's negative side (behind its normals)
+ *   bit 2r+1 = A_ir, the node has a valid distance to body r
+ *   bits 28..31 = r*(x_i) + 1, the closest body (0 = none)
+ * so a scene holds at most KF_MAX_RIGIDS = 14 bodies. A particle's colour
+ * (kf_particles.colour) uses the same low 28 bits.
+ *
+ * Choices where the paper is silent (cpic-notes.md §9): the tag at a node is
+ * the sign at the body's closest valid primitive (the paper's rule, not the
+ * authors' code's "negative wins"); ties go to the smaller distance, then the
+ * smaller body index, so runs are deterministic for any thread count. The
+ * body velocity V_r is pinned for the whole substep, and the ghost velocity
+ * of G2P is the very projection whose complement P2G gave the body, so
+ * momentum is exchanged exactly (the push and the penalty give the body
+ * their reactions too). The impulse of an incompatible node includes the
+ * node's share of the particle's affine momentum, stress force and gravity,
+ * so an isolated system of material and bodies conserves momentum. */
+#ifndef KF_CPIC_H
+#define KF_CPIC_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../mpm/model.h"
+
+#define KF_CPIC_RSTAR_SHIFT 28
+#define KF_CPIC_BITS_MASK ((1u << KF_CPIC_RSTAR_SHIFT) - 1)
+#define KF_CPIC_AFFINITY 0xAAAAAAAu /* the A bits of the 14 bodies */
+#define KF_CPIC_NB 6                /* quadratic owner cache edge: 4 + 3 - 1 */
+
+/* A body's primitives in world space for this substep (plane data per triangle). */
+typedef struct kf_cpic_tri {
+    float v0[3], e1[3], e2[3], n[3]; /* corner, edges, unit normal */
+    float g11, g12, g22;             /* inverse Gram matrix of (e1, e2) */
+} kf_cpic_tri;
+
+typedef struct kf_cpic {
+    uint32_t epoch;       /* one per splat: a block's CDF is valid iff stamp == epoch */
+    /* grid colored distance field, per grid block (cap_blocks x 64 nodes) */
+    size_t cap_blocks;
+    float *node_d;        /* unsigned distance in cells */
+    uint32_t *node_c;     /* colour word */
+    uint32_t *stamp;      /* per block */
+    float *best;          /* per node: the closest |u| of the body being splatted */
+    uint32_t *best_stamp; /* per block: epoch * 16 + body of `best` */
+    /* owner blocks in the narrow band and their impulse accumulators */
+    size_t cap_owner;
+    int32_t *slot;        /* per owner: index into imp, or -1 outside the band */
+    size_t nslot, cap_slot;
+    double (*imp)[KF_MAX_RIGIDS][6];
+    long band_owners;     /* for the frame log */
+    long band_particles;
+    /* particle distance and normal of this substep (§5.3.2), per particle */
+    size_t cap_p;
+    float *pd;            /* d_p, m; valid where near[p] */
+    float *pn;            /* (n x 3) n_p */
+    uint8_t *near;        /* the MLS fit succeeded */
+    /* world primitives, per body */
+    kf_cpic_tri *tri[KF_MAX_RIGIDS];
+    int cap_tri[KF_MAX_RIGIDS];
+    /* the substep's totals per body: J[3], L[3] about the com */
+    double impulse[KF_MAX_RIGIDS][6];
+    /* the substep's pinned constants */
+    double dt, gdt[3];
+} kf_cpic;
+
+void kf_cpic_free(kf_cpic *c);
+
+/* Build the grid CDF for the current bin (after kf_grid_bin). Returns 0 or -1
+ * (out of memory). */
+int kf_cpic_splat(const kf_model *m, kf_state *s, double dt);
+
+/* CPIC transfers of one owner block in the band (cpic_transfer.c). The
+ * chunk's stencil, q, mv (and t for classic) are computed by the caller as
+ * in the ordinary path; these replace the scatter and the gather. */
+struct chunk;
+void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, struct chunk *ck, size_t i0, void *cache,
+                       int classic);
+void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, struct chunk *ck, size_t i0, const void *cache,
+                       int classic);
+/* after G2P's advection: the penalty on slightly penetrated particles (Eq. 22) */
+void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, int n);
+
+/* Sum the impulses and advance the rigid bodies to t + dt. */
+void kf_cpic_finish(const kf_model *m, kf_state *s, double dt);
+
+/* Is this owner block in the narrow band (valid between splat and finish)? */
+static inline int kf_cpic_band(const kf_state *s, size_t owner) {
+    return s->cpic && owner < s->cpic->cap_owner && s->cpic->slot[owner] >= 0;
+}
+
+#endif

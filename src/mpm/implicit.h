@@ -1,0 +1,134 @@
+/* implicit.h — backward Euler by Newton–Krylov on the grid velocities
+ * (issue 7; paper §3.5, Eq. 19). Private to the library (and its tests).
+ *
+ * A substep minimises the incremental potential over the velocities v of
+ * the grid nodes that carry mass:
+ *     E(v) = ½ Σ_i m_i |v_i − v*_i|² + Σ_p V⁰_p Ψ(F_p(v)),
+ *     F_p(v) = (I + Δt Σ_i v_i γ_ipᵀ) F_pⁿ,
+ * where v*_i = (P2G momentum)/m_i + Δt g (inertia and gravity) and γ_ip is
+ * the per-node "gradient" of the force discretisation: w_ip D_p⁻¹ (x_i − x_p)
+ * for MLS (no kernel gradients, Eq. 19) or ∇w_ip for classic MPM. F_p(v) is
+ * exactly the F that kf_g2p computes from the same grid velocities, so after
+ * the solve the explicit G2P and stress pass run unchanged.
+ *
+ * Everything here is double: the solve's symmetry and convergence checks
+ * need it even when the particles are float. */
+#ifndef KF_IMPLICIT_H
+#define KF_IMPLICIT_H
+
+#include "model.h"
+
+/* ---- double 3x3 algebra for the energies (implicit_svd.c) ------------------ */
+
+/* Sign-fixed SVD F = U diag(σ) Vᵀ, det U = det V = +1, |σ0| >= |σ1| >= |σ2|,
+ * σ0, σ1 >= 0 and σ2 carrying the sign of det F (so an inverted F keeps a
+ * rotation, as the fixed-corotated energy needs). */
+void kf_imp_svd(const double F[9], double U[9], double sigma[3], double V[9]);
+/* Symmetric eigen-decomposition A = Q diag(w) Qᵀ (Jacobi, to round-off). */
+void kf_imp_sym_eig3(const double A[9], double w[3], double Q[9]);
+
+/* ---- energies (implicit_energy.c) ------------------------------------------
+ * Every elastic model of kerf is isotropic: Ψ(F) = ψ(σ). The stress is
+ * P = U diag(∂ψ/∂σ) Vᵀ and the Hessian, in the rotated frame δF̂ = Uᵀ δF V,
+ * splits into the 3x3 block ∂²ψ/∂σ² on the diagonal entries and one 2x2
+ * block per pair (i, j) acting on (δF̂_ij, δF̂_ji), whose eigenvalues are
+ * (ψ_i − ψ_j)/(σ_i − σ_j) (stretch) and (ψ_i + ψ_j)/(σ_i + σ_j) (twist).
+ * Projecting to positive semi-definite clamps those eigenvalues at 0. */
+typedef struct kf_imp_energy {
+    double psi;        /* Ψ, J/m³ */
+    double P[9];       /* first Piola–Kirchhoff stress ∂Ψ/∂F, row-major */
+    double H[81];      /* ∂²Ψ/∂F², H[9 (3a + b) + 3c + d] = ∂P_ab / ∂F_cd (symmetric) */
+} kf_imp_energy;
+
+/* Ψ, P and (when H is wanted) the Hessian of material m at F with plastic
+ * state ps (snow's hardening). project: clamp the Hessian's eigenvalues at
+ * zero. Water is not supported (returns -1); 0 otherwise. */
+int kf_imp_energy_eval(const kf_mat *m, const double F[9], const kf_real ps[2], int want_hessian, int project,
+                       kf_imp_energy *out);
+/* Ψ alone (the line search's energy). */
+double kf_imp_energy_psi(const kf_mat *m, const double F[9], const kf_real ps[2]);
+
+/* ---- the workspace of one substep ------------------------------------------- */
+
+typedef struct kf_implicit {
+    const kf_model *m;
+    kf_state *s;
+    double dt;
+    size_t nnode;      /* nodes of the sparse grid: nblocks × 64, flat index block·64 + local */
+    size_t np;         /* particles */
+    int K;             /* stencil nodes per particle: 27 (quadratic) or 64 (cubic) */
+    int32_t *idx;      /* (np × K) flat node of each stencil entry */
+    double *gam;       /* (np × K × 3) γ_ip */
+    double *mass;      /* (nnode) m_i */
+    double *vstar;     /* (3 nnode) v*_i, 0 where m_i = 0 */
+    double *Fn;        /* (9 np) F_pⁿ */
+    double *F;         /* (9 np) F_p(v) at the last linearisation */
+    double *Kp;        /* (81 np) Δt² V⁰ Tᵀ (∂²Ψ/∂F²) T, T: G ↦ G Fⁿ: the per-particle Hessian of E in G */
+    double *S;         /* (9 np) Δt V⁰ P Fⁿᵀ: what a particle scatters into the gradient */
+    double *Y;         /* (9 np) scratch: per-particle matrix to scatter */
+    double *psi;       /* (np) V⁰ Ψ at the last linearisation */
+    /* boundary conditions (implicit_boundary.c): constrained nodes, each with
+     * the orthogonal projection onto its free directions */
+    size_t ncon;
+    int32_t *con_node;
+    double *con_P;     /* (9 ncon) */
+    double *con_slide; /* (ncon) Coulomb friction budget μ |v*_n| of separate boundaries, m/s (0 = none) */
+    double *con_n;     /* (3 ncon) the separate boundary's normal */
+    double *con_vc;    /* (3 ncon) the boundary's velocity */
+    /* solver vectors (3 nnode each) */
+    double *v, *g, *d, *r, *z, *p, *q, *vt, *diag;
+    double *bsum;      /* (nblocks) partial sums, summed in block order (deterministic) */
+    /* what the last solve did */
+    int newton_iterations, krylov_iterations, converged;
+    double residual;
+} kf_implicit;
+
+/* ---- transfers (implicit_transfer.c) ------------------------------------------- */
+
+/* The stencils of every particle (after kf_grid_bin) and the P2G of mass
+ * and momentum without the stress term; fills mass, vstar (with gravity)
+ * and Fn. Returns 0 or -1 (out of memory). */
+int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt);
+void kf_imp_free(kf_implicit *w);
+/* G_p = Σ_i x_i γ_ipᵀ of particle p for a grid vector x. */
+void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9]);
+/* out_i += Σ_p Y_p γ_ip (race-free in the owner colours, deterministic). */
+void kf_imp_scatter(const kf_implicit *w, const double *Y, double *out);
+/* out_ia += Σ_p Σ_bc Kp[(a,b),(a,c)] γ_ipb γ_ipc: the particles' part of the
+ * Hessian's diagonal (the Jacobi preconditioner). */
+void kf_imp_scatter_diag(const kf_implicit *w, double *out);
+
+/* ---- the potential and its derivatives (implicit_solve.c) --------------------- */
+
+/* F_p(v), Ψ, and the per-particle Hessian blocks (projected or exact).
+ * Returns E(v), or NaN when some particle's F is not finite. */
+double kf_imp_linearize(kf_implicit *w, const double *v, int project);
+/* g = ∂E/∂v at the last linearisation (unprojected on boundaries). */
+void kf_imp_gradient(kf_implicit *w, const double *v, double *g);
+/* y = (∂²E/∂v²) x at the last linearisation (unprojected on boundaries). */
+void kf_imp_hessian_action(kf_implicit *w, const double *x, double *y);
+/* x · y over all nodes, deterministic. */
+double kf_imp_dot(kf_implicit *w, const double *x, const double *y);
+
+/* ---- boundary conditions (implicit_boundary.c) --------------------------------- */
+
+/* Walls and colliders at the substep's end: which nodes are constrained,
+ * and v (3 nnode) set to v* projected (sticky: the boundary's velocity; slip
+ * and separate approaching: the normal part; separate leaving: free).
+ * Returns 0 or -1 (out of memory). */
+int kf_imp_constraints(kf_implicit *w, double *v);
+/* x_i ← P_i x_i on constrained nodes (search directions stay admissible). */
+void kf_imp_project(const kf_implicit *w, double *x);
+/* Coulomb friction of separate boundaries after the solve: the tangential
+ * velocity relative to the boundary shrinks by μ times the normal velocity
+ * the solve removed. */
+void kf_imp_friction(const kf_implicit *w, double *v);
+
+/* ---- the solve ---------------------------------------------------------------- */
+
+/* Newton with preconditioned CG and a line search, from v (admissible) to
+ * the minimiser; fills the iteration counts and residual. Returns 0, or -1
+ * when the potential or the residual stopped being finite. */
+int kf_imp_solve(kf_implicit *w, double *v);
+
+#endif

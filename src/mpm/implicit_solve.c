@@ -1,0 +1,298 @@
+/* implicit_solve.c — backward Euler on the grid velocities: Newton's method
+ * on the incremental potential E(v) (implicit.h), each step solved by
+ * Jacobi-preconditioned CG on the projected (positive semi-definite)
+ * Hessian, then a backtracking line search on E.
+ *
+ * The Hessian is never assembled: its action is a gather of G_p from the
+ * increment, the per-particle 9x9 block Kp (the energy's projected second
+ * derivative mapped to G), and a scatter (Eq. 19). Walls and colliders are
+ * linear constraints: the solve starts admissible and every direction is
+ * projected onto the free directions (implicit_boundary.c). Convergence is
+ * the residual ‖P g‖ in the inverse-mass norm relative to the momentum
+ * scale √M · v_scale, v_scale the RMS speed of v* (at least |g| Δt). */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "implicit.h"
+
+#define DEF_NEWTON_TOL 1e-3
+#define DEF_NEWTON_MAX 20
+#define DEF_KRYLOV_TOL 1e-2
+#define DEF_KRYLOV_MAX 200
+
+/* ---- vectors over the grid nodes (3 per node), block-ordered sums -------- */
+
+double kf_imp_dot(kf_implicit *w, const double *x, const double *y) {
+    size_t nb = w->nnode / KF_BLOCK_NODES;
+#pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
+    for (size_t b = 0; b < nb; b++) {
+        double t = 0;
+        for (size_t k = 3 * b * KF_BLOCK_NODES; k < 3 * (b + 1) * KF_BLOCK_NODES; k++) t += x[k] * y[k];
+        w->bsum[b] = t;
+    }
+    double s = 0;
+    for (size_t b = 0; b < nb; b++) s += w->bsum[b];
+    return s;
+}
+
+/* ‖x‖ in the inverse-mass norm: √(Σ |x_i|² / m_i) over nodes with mass */
+static double norm_minv(kf_implicit *w, const double *x) {
+    size_t nb = w->nnode / KF_BLOCK_NODES;
+#pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
+    for (size_t b = 0; b < nb; b++) {
+        double t = 0;
+        for (size_t i = b * KF_BLOCK_NODES; i < (b + 1) * KF_BLOCK_NODES; i++)
+            if (w->mass[i] > 0) t += (x[3 * i] * x[3 * i] + x[3 * i + 1] * x[3 * i + 1] + x[3 * i + 2] * x[3 * i + 2]) / w->mass[i];
+        w->bsum[b] = t;
+    }
+    double s = 0;
+    for (size_t b = 0; b < nb; b++) s += w->bsum[b];
+    return sqrt(s);
+}
+
+/* ---- the potential ------------------------------------------------------------- */
+
+double kf_imp_linearize(kf_implicit *w, const double *v, int project) {
+    const kf_model *m = w->m;
+    const kf_particles *p = &w->s->p;
+    const double dt = w->dt;
+    int bad = 0;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(| : bad)
+    for (size_t i = 0; i < w->np; i++) {
+        double G[9], *F = w->F + 9 * i;
+        const double *Fn = w->Fn + 9 * i;
+        kf_imp_gather(w, v, i, G);
+        /* F(v) = (I + Δt G) Fⁿ, as kf_g2p computes it */
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++)
+                F[3 * a + b] = Fn[3 * a + b] + dt * (G[3 * a] * Fn[b] + G[3 * a + 1] * Fn[3 + b] + G[3 * a + 2] * Fn[6 + b]);
+        kf_imp_energy e;
+        const kf_real ps[2] = {p->ps[0][i], p->ps[1][i]};
+        const double vol = p->vol0[i];
+        if (kf_imp_energy_eval(&m->mat[p->mat[i]], F, ps, 1, project, &e) || !isfinite(e.psi)) {
+            bad = 1;
+            continue;
+        }
+        w->psi[i] = vol * e.psi;
+        /* S = Δt V⁰ P Fⁿᵀ: the particle's gradient, scattered with γ */
+        double *S = w->S + 9 * i;
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++)
+                S[3 * a + b] = dt * vol * (e.P[3 * a] * Fn[3 * b] + e.P[3 * a + 1] * Fn[3 * b + 1] + e.P[3 * a + 2] * Fn[3 * b + 2]);
+        /* Kp = Δt² V⁰ Tᵀ H T with T: G ↦ G Fⁿ, i.e.
+         * Kp[(a,b),(a',b')] = Δt² V⁰ Σ_cc' Fⁿ_bc H[(a,c),(a',c')] Fⁿ_b'c' */
+        double X[81], *Kp = w->Kp + 81 * i, s2 = dt * dt * vol;
+        for (int r = 0; r < 9; r++)
+            for (int a2 = 0; a2 < 3; a2++)
+                for (int b2 = 0; b2 < 3; b2++) {
+                    const double *h = e.H + 9 * r + 3 * a2;
+                    X[9 * r + 3 * a2 + b2] = h[0] * Fn[3 * b2] + h[1] * Fn[3 * b2 + 1] + h[2] * Fn[3 * b2 + 2];
+                }
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++)
+                for (int col = 0; col < 9; col++)
+                    Kp[9 * (3 * a + b) + col] = s2 * (Fn[3 * b] * X[9 * (3 * a) + col] + Fn[3 * b + 1] * X[9 * (3 * a + 1) + col] +
+                                                      Fn[3 * b + 2] * X[9 * (3 * a + 2) + col]);
+        for (int r = 0; r < 9; r++)
+            for (int c = r + 1; c < 9; c++) {
+                double k = 0.5 * (Kp[9 * r + c] + Kp[9 * c + r]);
+                Kp[9 * r + c] = Kp[9 * c + r] = k;
+            }
+    }
+    if (bad) return NAN;
+    /* E = ½ Σ m |v − v*|² + Σ V⁰ Ψ, summed in a fixed order */
+    size_t nb = w->nnode / KF_BLOCK_NODES;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    for (size_t b = 0; b < nb; b++) {
+        double t = 0;
+        for (size_t i = b * KF_BLOCK_NODES; i < (b + 1) * KF_BLOCK_NODES; i++)
+            for (int a = 0; a < 3; a++) {
+                double d = v[3 * i + a] - w->vstar[3 * i + a];
+                t += 0.5 * w->mass[i] * d * d;
+            }
+        w->bsum[b] = t;
+    }
+    double E = 0;
+    for (size_t b = 0; b < nb; b++) E += w->bsum[b];
+    for (size_t i = 0; i < w->np; i++) E += w->psi[i];
+    return E;
+}
+
+void kf_imp_gradient(kf_implicit *w, const double *v, double *g) {
+#pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
+    for (size_t i = 0; i < w->nnode; i++)
+        for (int a = 0; a < 3; a++) g[3 * i + a] = w->mass[i] * (v[3 * i + a] - w->vstar[3 * i + a]);
+    kf_imp_scatter(w, w->S, g);
+}
+
+void kf_imp_hessian_action(kf_implicit *w, const double *x, double *y) {
+#pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
+    for (size_t i = 0; i < w->np; i++) {
+        double G[9], *Y = w->Y + 9 * i;
+        const double *Kp = w->Kp + 81 * i;
+        kf_imp_gather(w, x, i, G);
+        for (int r = 0; r < 9; r++) {
+            const double *k = Kp + 9 * r;
+            Y[r] = k[0] * G[0] + k[1] * G[1] + k[2] * G[2] + k[3] * G[3] + k[4] * G[4] + k[5] * G[5] + k[6] * G[6] +
+                   k[7] * G[7] + k[8] * G[8];
+        }
+    }
+#pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
+    for (size_t i = 0; i < w->nnode; i++)
+        for (int a = 0; a < 3; a++) y[3 * i + a] = w->mass[i] * x[3 * i + a];
+    kf_imp_scatter(w, w->Y, y);
+}
+
+/* ---- Newton–Krylov ------------------------------------------------------------ */
+
+/* z = P D⁻¹ r: the Jacobi preconditioner restricted to the free directions */
+static void precondition(kf_implicit *w, const double *r, double *z) {
+#pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
+    for (size_t k = 0; k < 3 * w->nnode; k++) z[k] = w->diag[k] > 0 ? r[k] / w->diag[k] : 0.0;
+    kf_imp_project(w, z);
+}
+
+/* CG on (P H P) d = −P g from d = 0; returns the iterations taken */
+static int pcg(kf_implicit *w, double tol, int kmax) {
+    const size_t n3 = 3 * w->nnode;
+    double *d = w->d, *r = w->r, *z = w->z, *p = w->p, *q = w->q;
+    memset(d, 0, n3 * sizeof *d);
+    for (size_t k = 0; k < n3; k++) r[k] = -w->g[k];
+    /* the diagonal of the Hessian: mass plus the particles' stiffness */
+    for (size_t i = 0; i < w->nnode; i++)
+        for (int a = 0; a < 3; a++) w->diag[3 * i + a] = w->mass[i];
+    kf_imp_scatter_diag(w, w->diag);
+    precondition(w, r, z);
+    memcpy(p, z, n3 * sizeof *p);
+    double rz = kf_imp_dot(w, r, z), r0 = norm_minv(w, r);
+    int it = 0;
+    while (it < kmax && r0 > 0) {
+        kf_imp_hessian_action(w, p, q);
+        kf_imp_project(w, q);
+        double pq = kf_imp_dot(w, p, q);
+        it++;
+        if (!(pq > 0)) break;
+        double alpha = rz / pq;
+        for (size_t k = 0; k < n3; k++) d[k] += alpha * p[k], r[k] -= alpha * q[k];
+        if (norm_minv(w, r) <= tol * r0) break;
+        precondition(w, r, z);
+        double rz1 = kf_imp_dot(w, r, z), beta = rz1 / rz;
+        rz = rz1;
+        for (size_t k = 0; k < n3; k++) p[k] = z[k] + beta * p[k];
+    }
+    return it;
+}
+
+int kf_imp_solve(kf_implicit *w, double *v) {
+    const kf_sim_def *sd = &w->m->sim;
+    const double tol = sd->newton_tol > 0 ? sd->newton_tol : DEF_NEWTON_TOL;
+    const int nmax = sd->newton_max > 0 ? sd->newton_max : DEF_NEWTON_MAX;
+    const double ktol = sd->krylov_tol > 0 ? sd->krylov_tol : DEF_KRYLOV_TOL;
+    const int kmax = sd->krylov_max > 0 ? sd->krylov_max : DEF_KRYLOV_MAX;
+    const size_t n3 = 3 * w->nnode;
+
+    /* the momentum scale: √M times the RMS speed of v* (at least what gravity adds in a substep) */
+    double M = 0, mv2 = 0;
+    for (size_t i = 0; i < w->nnode; i++) {
+        const double *vs = w->vstar + 3 * i;
+        M += w->mass[i];
+        mv2 += w->mass[i] * (vs[0] * vs[0] + vs[1] * vs[1] + vs[2] * vs[2]);
+    }
+    double gmag = sqrt(sd->gravity[0] * sd->gravity[0] + sd->gravity[1] * sd->gravity[1] + sd->gravity[2] * sd->gravity[2]);
+    double vscale = M > 0 ? sqrt(mv2 / M) : 0;
+    if (vscale < gmag * w->dt) vscale = gmag * w->dt;
+    if (vscale < 1e-6 * sd->dx / w->dt) vscale = 1e-6 * sd->dx / w->dt;
+    const double scale = sqrt(M) * vscale;
+
+    w->newton_iterations = w->krylov_iterations = 0;
+    w->converged = 0;
+    double E = kf_imp_linearize(w, v, 1);
+    if (!isfinite(E)) return -1;
+    kf_imp_gradient(w, v, w->g);
+    kf_imp_project(w, w->g);
+    double res = scale > 0 ? norm_minv(w, w->g) / scale : 0;
+    while (res > tol && w->newton_iterations < nmax) {
+        w->krylov_iterations += pcg(w, ktol, kmax);
+        double slope = kf_imp_dot(w, w->g, w->d);
+        if (!(slope < 0)) {
+            /* CG found no descent (round-off at convergence): steepest descent in the mass metric */
+            for (size_t i = 0; i < w->nnode; i++)
+                for (int a = 0; a < 3; a++) w->d[3 * i + a] = w->mass[i] > 0 ? -w->g[3 * i + a] / w->mass[i] : 0.0;
+            slope = kf_imp_dot(w, w->g, w->d);
+        }
+        /* backtracking (Armijo) on E; the slack is E's round-off */
+        double alpha = 1, Et = NAN;
+        int ok = 0;
+        for (int ls = 0; ls < 30; ls++) {
+            for (size_t k = 0; k < n3; k++) w->vt[k] = v[k] + alpha * w->d[k];
+            Et = kf_imp_linearize(w, w->vt, 1);
+            if (isfinite(Et) && Et <= E + 1e-4 * alpha * slope + 1e-13 * fabs(E)) {
+                ok = 1;
+                break;
+            }
+            alpha *= 0.5;
+        }
+        w->newton_iterations++;
+        if (!ok) {
+            /* no decrease to round-off: v is as good as it gets */
+            kf_imp_linearize(w, v, 1);
+            break;
+        }
+        memcpy(v, w->vt, n3 * sizeof *v);
+        E = Et;
+        kf_imp_gradient(w, v, w->g);
+        kf_imp_project(w, w->g);
+        res = norm_minv(w, w->g) / scale;
+        if (!isfinite(res)) return -1;
+    }
+    w->residual = res;
+    w->converged = res <= tol;
+    return 0;
+}
+
+/* ---- the substep's grid stage ------------------------------------------------- */
+
+int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_trouble *trouble) {
+    memset(trouble, 0, sizeof *trouble);
+    kf_implicit w;
+    int rc = 0;
+    if (kf_imp_create(&w, m, s, dt) || kf_imp_constraints(&w, w.v)) {
+        rc = 1;
+        trouble->found = 1;
+        snprintf(trouble->what, sizeof trouble->what, "out of memory in the implicit solve");
+    } else if (kf_imp_solve(&w, w.v)) {
+        rc = 1;
+        trouble->found = 1;
+        snprintf(trouble->what, sizeof trouble->what, "implicit solve: non-finite potential");
+        trouble->value = w.residual;
+    }
+    trouble->substep = s->substep;
+    trouble->material = -1;
+    if (rc) {
+        kf_imp_free(&w);
+        return 1;
+    }
+    kf_imp_friction(&w, w.v);
+    /* leave (m (v − Δt g), m) so the explicit grid update turns it into
+     * exactly the velocity it would have produced, boundaries included */
+    kf_grid *g = &s->g;
+    const double gdt[3] = {dt * m->sim.gravity[0], dt * m->sim.gravity[1], dt * m->sim.gravity[2]};
+#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    for (size_t i = 0; i < w.nnode; i++) {
+        double mi = w.mass[i];
+        if (mi > 0)
+            g->node[i] = (kf_v4){(kf_real)(mi * (w.v[3 * i] - gdt[0])), (kf_real)(mi * (w.v[3 * i + 1] - gdt[1])),
+                                 (kf_real)(mi * (w.v[3 * i + 2] - gdt[2])), (kf_real)mi};
+        else
+            g->node[i] = (kf_v4){0, 0, 0, 0};
+    }
+    kf_grid_update(m, s, (kf_real)dt);
+    if (st) {
+        st->newton_iterations += w.newton_iterations;
+        st->krylov_iterations += w.krylov_iterations;
+        st->newton_residual = w.residual;
+    }
+    kf_imp_free(&w);
+    return 0;
+}

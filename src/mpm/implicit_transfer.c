@@ -1,0 +1,213 @@
+/* implicit_transfer.c — the implicit solve's transfers, in double.
+ *
+ * Once per substep each particle's stencil is laid out flat: the grid node
+ * of every stencil entry and its γ_ip (MLS: w_ip D⁻¹ (x_i − x_p), classic:
+ * ∇w_ip), while mass and APIC momentum go to the grid (P2G without the
+ * stress term: the solve supplies the force). Every Newton and Krylov
+ * iteration is then a gather G_p = Σ_i x_i γ_ipᵀ (G2P, Eq. 19's A_p) and a
+ * scatter Σ_p Y_p γ_ip (P2G, Eq. 19's δf_i) over these flat stencils.
+ *
+ * Scatters run owner colour by owner colour, as the explicit P2G does
+ * (grid.h): same-colour owners write disjoint nodes, so there are no atomics
+ * and each node sums its contributions in the same order for any thread
+ * count. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "implicit.h"
+
+/* flat node of offset (a, b, c) from an owner's first node, in its 2x2x2 neighbourhood */
+static inline int32_t flat_node(const int32_t *nb, int a, int b, int c) {
+    int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (c >> 2)];
+    return (int32_t)(blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3)));
+}
+
+/* B-spline weights and derivatives (grid units) along one axis, in double;
+ * base node as the binning computes it (to the bit) */
+static int axis_weights(kf_real x, kf_real inv_dx, int cubic, double w[4], double dw[4], double *fx_out) {
+    int base = kf_base_node(x, inv_dx, cubic);
+    double fx = (double)x * (double)inv_dx - base;
+    if (!cubic) {
+        double p = 1.5 - fx, q = fx - 1, r = fx - 0.5;
+        w[0] = 0.5 * p * p, w[1] = 0.75 - q * q, w[2] = 0.5 * r * r, w[3] = 0;
+        dw[0] = -p, dw[1] = -2 * q, dw[2] = r, dw[3] = 0;
+    } else {
+        double r1 = fx - 1, s2 = 2 - fx;
+        w[0] = s2 * s2 * s2 / 6;
+        w[1] = 0.5 * r1 * r1 * r1 - r1 * r1 + 2.0 / 3.0;
+        w[2] = 0.5 * s2 * s2 * s2 - s2 * s2 + 2.0 / 3.0;
+        w[3] = r1 * r1 * r1 / 6;
+        dw[0] = -0.5 * s2 * s2;
+        dw[1] = 1.5 * r1 * r1 - 2 * r1;
+        dw[2] = -(1.5 * s2 * s2 - 2 * s2);
+        dw[3] = 0.5 * r1 * r1;
+    }
+    *fx_out = fx;
+    return base;
+}
+
+/* stencil and P2G of mass and momentum for the particles of owner block r */
+static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
+    const kf_model *m = w->m;
+    const kf_particles *p = &w->s->p;
+    const kf_grid *g = &w->s->g;
+    const int cubic = m->sim.kernel == KF_KERNEL_CUBIC, KW = cubic ? 4 : 3, K = w->K;
+    const int classic = m->sim.force == KF_FORCE_CLASSIC, apic = m->sim.transfer == KF_TRANSFER_APIC;
+    const double dx = m->sim.dx, inv_dxd = 1 / dx, minv = 1 / kf_model_dfactor(m);
+    const kf_real inv_dx = (kf_real)(1.0 / m->sim.dx);
+    const int32_t *bc = &g->bcoord[3 * r], *nb = g->nb[r];
+    for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
+        double wt[3][4], dw[3][4], d[3][4];
+        int l[3];
+        for (int a = 0; a < 3; a++) {
+            double fx;
+            int base = axis_weights(p->x[a][i], inv_dx, cubic, wt[a], dw[a], &fx);
+            l[a] = base - KF_BLOCK * bc[a];
+            for (int k = 0; k < KW; k++) d[a][k] = (k - fx) * dx;
+        }
+        double mp = p->mass[i], vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]}, C[9];
+        for (int k = 0; k < 9; k++) C[k] = apic ? (double)p->C[k][i] : 0.0;
+        int32_t *id = w->idx + (size_t)K * i;
+        double *ga = w->gam + (size_t)3 * K * i;
+        int e = 0;
+        for (int a = 0; a < KW; a++)
+            for (int b = 0; b < KW; b++)
+                for (int c = 0; c < KW; c++, e++) {
+                    double wabc = wt[0][a] * wt[1][b] * wt[2][c], dd[3] = {d[0][a], d[1][b], d[2][c]};
+                    int32_t node = flat_node(nb, l[0] + a, l[1] + b, l[2] + c);
+                    id[e] = node;
+                    if (classic) {
+                        ga[3 * e] = dw[0][a] * wt[1][b] * wt[2][c] * inv_dxd;
+                        ga[3 * e + 1] = wt[0][a] * dw[1][b] * wt[2][c] * inv_dxd;
+                        ga[3 * e + 2] = wt[0][a] * wt[1][b] * dw[2][c] * inv_dxd;
+                    } else {
+                        for (int k = 0; k < 3; k++) ga[3 * e + k] = wabc * minv * dd[k];
+                    }
+                    /* APIC: m w (v + C (x_i − x_p)) */
+                    w->mass[node] += wabc * mp;
+                    for (int k = 0; k < 3; k++)
+                        mom[3 * (size_t)node + k] +=
+                            wabc * mp * (vp[k] + C[3 * k] * dd[0] + C[3 * k + 1] * dd[1] + C[3 * k + 2] * dd[2]);
+                }
+        for (int k = 0; k < 9; k++) w->Fn[9 * i + k] = p->F[k][i];
+    }
+}
+
+void kf_imp_free(kf_implicit *w) {
+    void *all[] = {w->idx, w->gam, w->mass, w->vstar, w->Fn, w->F, w->S, w->Kp, w->Y,       w->psi,   w->con_node,
+                   w->con_P, w->con_slide, w->con_n, w->con_vc, w->v, w->g, w->d, w->r, w->z, w->p,
+                   w->q, w->vt, w->diag, w->bsum};
+    for (size_t k = 0; k < sizeof all / sizeof *all; k++) free(all[k]);
+    memset(w, 0, sizeof *w);
+}
+
+int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
+    memset(w, 0, sizeof *w);
+    w->m = m;
+    w->s = s;
+    w->dt = dt;
+    const kf_grid *g = &s->g;
+    w->nnode = g->nblocks * KF_BLOCK_NODES;
+    w->np = s->p.n;
+    w->K = m->sim.kernel == KF_KERNEL_CUBIC ? 64 : 27;
+    size_t n3 = 3 * w->nnode, np = w->np ? w->np : 1, K = (size_t)w->K;
+    w->idx = malloc(np * K * sizeof *w->idx);
+    w->gam = malloc(np * K * 3 * sizeof *w->gam);
+    w->mass = calloc(w->nnode + 1, sizeof *w->mass);
+    w->vstar = calloc(n3 + 1, sizeof *w->vstar);
+    w->Fn = malloc(np * 9 * sizeof *w->Fn);
+    w->F = malloc(np * 9 * sizeof *w->F);
+    w->Kp = malloc(np * 81 * sizeof *w->Kp);
+    w->Y = malloc(np * 9 * sizeof *w->Y);
+    w->S = malloc(np * 9 * sizeof *w->S);
+    w->psi = malloc(np * sizeof *w->psi);
+    w->bsum = malloc((g->nblocks + 1) * sizeof *w->bsum);
+    double **vec[] = {&w->v, &w->g, &w->d, &w->r, &w->z, &w->p, &w->q, &w->vt, &w->diag};
+    int bad = 0;
+    for (size_t k = 0; k < sizeof vec / sizeof *vec; k++) bad |= !(*vec[k] = calloc(n3 + 1, sizeof(double)));
+    if (bad || !w->idx || !w->gam || !w->mass || !w->vstar || !w->Fn || !w->F || !w->Kp || !w->Y || !w->S || !w->psi ||
+        !w->bsum) {
+        kf_imp_free(w);
+        return -1;
+    }
+    /* momentum into vstar, then divided by the mass (plus gravity) */
+    double *mom = w->vstar;
+#pragma omp parallel num_threads(m->nthreads)
+    for (int c = 0; c < 8; c++) {
+#pragma omp for schedule(dynamic, 4)
+        for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) owner_stencils(w, (size_t)g->owner[k], mom);
+    }
+    const double gdt[3] = {dt * m->sim.gravity[0], dt * m->sim.gravity[1], dt * m->sim.gravity[2]};
+#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    for (size_t i = 0; i < w->nnode; i++) {
+        double mi = w->mass[i];
+        for (int k = 0; k < 3; k++) mom[3 * i + k] = mi > 0 ? mom[3 * i + k] / mi + gdt[k] : 0.0;
+    }
+    return 0;
+}
+
+void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9]) {
+    const int K = w->K;
+    const int32_t *id = w->idx + (size_t)K * p;
+    const double *ga = w->gam + (size_t)3 * K * p;
+    for (int k = 0; k < 9; k++) G[k] = 0;
+    for (int e = 0; e < K; e++) {
+        const double *xi = x + 3 * (size_t)id[e], *ge = ga + 3 * e;
+        for (int a = 0; a < 3; a++) {
+            G[3 * a] += xi[a] * ge[0];
+            G[3 * a + 1] += xi[a] * ge[1];
+            G[3 * a + 2] += xi[a] * ge[2];
+        }
+    }
+}
+
+void kf_imp_scatter(const kf_implicit *w, const double *Y, double *out) {
+    const kf_grid *g = &w->s->g;
+    const int K = w->K;
+#pragma omp parallel num_threads(w->m->nthreads)
+    for (int c = 0; c < 8; c++) {
+#pragma omp for schedule(dynamic, 4)
+        for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
+            size_t r = (size_t)g->owner[k];
+            for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
+                const double *y = Y + 9 * i, *ga = w->gam + (size_t)3 * K * i;
+                const int32_t *id = w->idx + (size_t)K * i;
+                for (int e = 0; e < K; e++) {
+                    double *o = out + 3 * (size_t)id[e];
+                    const double *ge = ga + 3 * e;
+                    o[0] += y[0] * ge[0] + y[1] * ge[1] + y[2] * ge[2];
+                    o[1] += y[3] * ge[0] + y[4] * ge[1] + y[5] * ge[2];
+                    o[2] += y[6] * ge[0] + y[7] * ge[1] + y[8] * ge[2];
+                }
+            }
+        }
+    }
+}
+
+void kf_imp_scatter_diag(const kf_implicit *w, double *out) {
+    const kf_grid *g = &w->s->g;
+    const int K = w->K;
+#pragma omp parallel num_threads(w->m->nthreads)
+    for (int c = 0; c < 8; c++) {
+#pragma omp for schedule(dynamic, 4)
+        for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
+            size_t r = (size_t)g->owner[k];
+            for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
+                const double *Kp = w->Kp + 81 * i, *ga = w->gam + (size_t)3 * K * i;
+                const int32_t *id = w->idx + (size_t)K * i;
+                for (int e = 0; e < K; e++) {
+                    double *o = out + 3 * (size_t)id[e];
+                    const double *ge = ga + 3 * e;
+                    for (int a = 0; a < 3; a++) {
+                        const double *row = Kp + 9 * (3 * a);
+                        double t = 0;
+                        for (int b = 0; b < 3; b++)
+                            t += ge[b] * (row[9 * b + 3 * a] * ge[0] + row[9 * b + 3 * a + 1] * ge[1] +
+                                          row[9 * b + 3 * a + 2] * ge[2]);
+                        o[a] += t;
+                    }
+                }
+            }
+        }
+    }
+}

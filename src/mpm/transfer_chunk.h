@@ -1,0 +1,100 @@
+/* transfer_chunk.h — what the explicit transfers (transfer.c) and the CPIC
+ * transfers (src/cpic/cpic_transfer.c) share: the per-thread chunk of
+ * particles in structure-of-arrays form, the B-spline stencil, the owner
+ * block's node cache, the G2P finish phase, and trouble reporting.
+ * Private to the library. */
+#ifndef KF_TRANSFER_CHUNK_H
+#define KF_TRANSFER_CHUNK_H
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "model.h"
+
+#define KF_INLINE static inline __attribute__((always_inline))
+#define CD_MAX 7    /* cache edge: 4 base offsets + cubic stencil (4) - 1 */
+#define KF_CHUNK 16 /* particles per phase: one AVX-512 register of floats */
+
+/* per-thread scratch of one chunk, structure of arrays across particles */
+typedef struct chunk {
+    int n;
+    int l[3][KF_CHUNK];                /* base node offset inside the owner block */
+    kf_real w[3][4][KF_CHUNK];         /* kernel weights per axis */
+    kf_real dw[3][4][KF_CHUNK];        /* their derivatives (grid units) */
+    kf_real d[3][4][KF_CHUNK];         /* node minus particle, m */
+    kf_real q[9][KF_CHUNK];            /* P2G: MLS Q, or APIC m C for classic */
+    kf_real t[9][KF_CHUNK];            /* P2G classic: -Δt V⁰ τ / Δx */
+    kf_real mv[4][KF_CHUNK];           /* P2G: m v, m */
+    kf_real v[3][KF_CHUNK];            /* G2P: Σ w v_i */
+    kf_real b[9][KF_CHUNK];            /* G2P: Σ w v_i dᵀ */
+    kf_real g[9][KF_CHUNK];            /* G2P classic: Σ v_i ∇wᵀ (grid units) */
+} chunk;
+
+/* ---- kernels ----------------------------------------------------------------
+ * fx is the particle position in grid units minus its base node. w[i] is the
+ * weight of node base+i, dw[i] its derivative with respect to the particle
+ * position, in grid units (divide by Δx for world units). */
+KF_INLINE void stencil_axis(int KW, int n, const kf_real *restrict x, int origin, kf_real inv_dx, kf_real dx,
+                            int *restrict l, kf_real (*restrict w)[KF_CHUNK], kf_real (*restrict dw)[KF_CHUNK],
+                            kf_real (*restrict d)[KF_CHUNK]) {
+    for (int j = 0; j < n; j++) {
+        int base = kf_base_node(x[j], inv_dx, KW == 4);
+        kf_real fx = x[j] * inv_dx - (kf_real)base;
+        l[j] = base - origin;
+        if (KW == 3) {
+            /* quadratic: fx in [0.5, 1.5) */
+            kf_real p = KF_R(1.5) - fx, q = fx - 1, r = fx - KF_R(0.5);
+            w[0][j] = KF_R(0.5) * p * p;
+            w[1][j] = KF_R(0.75) - q * q;
+            w[2][j] = KF_R(0.5) * r * r;
+            dw[0][j] = -p;
+            dw[1][j] = -2 * q;
+            dw[2][j] = r;
+        } else {
+            /* cubic: fx in [1, 2) */
+            kf_real r1 = fx - 1, s2 = 2 - fx;
+            w[0][j] = s2 * s2 * s2 / 6;
+            w[1][j] = KF_R(0.5) * r1 * r1 * r1 - r1 * r1 + KF_R(2.0 / 3.0);
+            w[2][j] = KF_R(0.5) * s2 * s2 * s2 - s2 * s2 + KF_R(2.0 / 3.0);
+            w[3][j] = r1 * r1 * r1 / 6;
+            dw[0][j] = -KF_R(0.5) * s2 * s2;
+            dw[1][j] = KF_R(1.5) * r1 * r1 - 2 * r1;
+            dw[2][j] = -(KF_R(1.5) * s2 * s2 - 2 * s2);
+            dw[3][j] = KF_R(0.5) * r1 * r1;
+        }
+        for (int i = 0; i < KW; i++) d[i][j] = ((kf_real)i - fx) * dx;
+    }
+}
+
+KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, const int32_t *bc, kf_real inv_dx,
+                             kf_real dx) {
+    for (int a = 0; a < 3; a++)
+        stencil_axis(KW, ck->n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a]);
+}
+
+/* node (a, b, c) of an owner's cache, counted from the owner's first node,
+ * in the 2x2x2 block neighbourhood nb */
+static inline kf_v4 *nb_node(const kf_grid *g, const int32_t *nb, int a, int b, int c) {
+    int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (c >> 2)];
+    return &g->node[(size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3))];
+}
+
+/* ---- trouble: the first (lowest id) particle in trouble, per thread ---- */
+
+typedef struct step_acc {
+    kf_trouble trouble;
+    double max_cells;
+} step_acc;
+
+static inline void note_trouble(step_acc *acc, const kf_particles *p, size_t i, const char *what, double value, long substep) {
+    if (acc->trouble.found && acc->trouble.particle <= p->id[i]) return;
+    acc->trouble.found = 1;
+    snprintf(acc->trouble.what, sizeof acc->trouble.what, "%s", what);
+    acc->trouble.particle = p->id[i];
+    acc->trouble.material = p->mat[i];
+    acc->trouble.value = value;
+    acc->trouble.substep = substep;
+}
+
+#endif

@@ -1,0 +1,161 @@
+/* compile.c — a rigid def becomes a body: checked, mesh copied, mass
+ * properties computed (dynamic), surface seeded (paper §5.2.1). */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mass.h"
+#include "rigid.h"
+
+static int fail(char *err, size_t errlen, const char *fmt, ...) {
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return -1;
+}
+
+static int finite3(const double v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
+
+/* twice the area of triangle t */
+static double tri_area2(const double *v, const int *t) {
+    const double *a = v + 3 * t[0], *b = v + 3 * t[1], *c = v + 3 * t[2];
+    double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    return sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+}
+
+static int cmp_edge(const void *a, const void *b) {
+    const long long *x = a, *y = b;
+    return (*x > *y) - (*x < *y);
+}
+
+/* closed (every edge is shared by exactly two non-degenerate triangles,
+ * used once in each direction): the divergence theorem needs it */
+static int closed_mesh(const int *tri, int ntri, int nvert) {
+    long long *e = malloc(sizeof(long long) * 3 * (size_t)ntri);
+    if (!e) return 0;
+    for (int t = 0; t < ntri; t++)
+        for (int k = 0; k < 3; k++) e[3 * t + k] = (long long)tri[3 * t + k] * nvert + tri[3 * t + (k + 1) % 3];
+    size_t n = 3 * (size_t)ntri;
+    qsort(e, n, sizeof *e, cmp_edge);
+    int ok = 1;
+    for (size_t i = 0; i < n && ok; i++) {
+        if (i + 1 < n && e[i + 1] == e[i]) ok = 0; /* the same directed edge twice */
+        long long a = e[i] / nvert, b = e[i] % nvert, rev = b * nvert + a;
+        if (ok && !bsearch(&rev, e, n, sizeof *e, cmp_edge)) ok = 0; /* a border edge */
+    }
+    free(e);
+    return ok;
+}
+
+static int check(const kf_rigid_def *d, double dx, char *err, size_t errlen) {
+    const char *nm = d->name[0] ? d->name : "(unnamed)";
+    if (!(dx > 0) || !isfinite(dx)) return fail(err, errlen, "rigid %s: grid spacing dx must be positive", nm);
+    if (!d->vertices || d->nvertices < 3) return fail(err, errlen, "rigid %s: needs at least 3 vertices", nm);
+    if (!d->triangles || d->ntriangles < 1) return fail(err, errlen, "rigid %s: needs at least one triangle", nm);
+    if (d->motion < KF_RIGID_STATIC || d->motion > KF_RIGID_DYNAMIC)
+        return fail(err, errlen, "rigid %s: unknown motion %d", nm, (int)d->motion);
+    for (int i = 0; i < d->nvertices; i++)
+        if (!finite3(d->vertices + 3 * i)) return fail(err, errlen, "rigid %s: vertex %d is not finite", nm, i);
+    int nondegenerate = 0;
+    double ext = 0;
+    for (int i = 0; i < 3 * d->nvertices; i++) ext = fmax(ext, fabs(d->vertices[i]));
+    for (int t = 0; t < d->ntriangles; t++) {
+        for (int k = 0; k < 3; k++) {
+            int v = d->triangles[3 * t + k];
+            if (v < 0 || v >= d->nvertices)
+                return fail(err, errlen, "rigid %s: triangle %d uses vertex %d, outside [0, %d)", nm, t, v,
+                            d->nvertices);
+        }
+        /* degenerate: area below round-off of the mesh's extent */
+        if (tri_area2(d->vertices, d->triangles + 3 * t) > 1e-12 * ext * ext) nondegenerate++;
+    }
+    if (!nondegenerate) return fail(err, errlen, "rigid %s: every triangle is degenerate (zero area)", nm);
+    if (!finite3(d->center) || !finite3(d->position) || !finite3(d->rotate) || !finite3(d->velocity) ||
+        !finite3(d->angular_velocity))
+        return fail(err, errlen, "rigid %s: center, position, rotate, velocity and angular_velocity must be finite", nm);
+    if (!isfinite(d->friction) || d->friction < 0) return fail(err, errlen, "rigid %s: friction must be >= 0", nm);
+    if (!isfinite(d->penalty) || d->penalty < 0) return fail(err, errlen, "rigid %s: penalty must be >= 0", nm);
+    if (!isfinite(d->push) || d->push < 0) return fail(err, errlen, "rigid %s: push must be >= 0", nm);
+    if (d->motion == KF_RIGID_KINEMATIC) {
+        if (d->nkeys < 0 || d->nkeys > KF_MAX_KEYS)
+            return fail(err, errlen, "rigid %s: %d keys, at most %d", nm, d->nkeys, KF_MAX_KEYS);
+        for (int k = 0; k < d->nkeys; k++) {
+            const kf_key *key = &d->keys[k];
+            if (!isfinite(key->time) || !finite3(key->position) || !finite3(key->rotate))
+                return fail(err, errlen, "rigid %s: key %d is not finite", nm, k);
+            if (k > 0 && !(key->time > d->keys[k - 1].time))
+                return fail(err, errlen, "rigid %s: key times must increase (key %d)", nm, k);
+        }
+    }
+    if (d->motion == KF_RIGID_DYNAMIC) {
+        if (!(d->density > 0) || !isfinite(d->density))
+            return fail(err, errlen, "rigid %s: a dynamic body needs density > 0", nm);
+        if (!d->thin && !closed_mesh(d->triangles, d->ntriangles, d->nvertices))
+            return fail(err, errlen,
+                        "rigid %s: a dynamic solid must be a closed, consistently wound mesh (or set thin: 1)", nm);
+    }
+    return 0;
+}
+
+int kf_rigid_compile(kf_rigid_body *b, const kf_rigid_def *d, double dx, char *err, size_t errlen) {
+    memset(b, 0, sizeof *b);
+    if (check(d, dx, err, errlen)) return -1;
+    const char *nm = d->name[0] ? d->name : "(unnamed)";
+    b->def = *d;
+    b->nvert = d->nvertices;
+    b->ntri = d->ntriangles;
+    b->vert = malloc(sizeof(double) * 3 * (size_t)b->nvert);
+    b->tri = malloc(sizeof(int) * 3 * (size_t)b->ntri);
+    if (!b->vert || !b->tri) {
+        kf_rigid_body_free(b);
+        return fail(err, errlen, "rigid %s: out of memory", nm);
+    }
+    memcpy(b->vert, d->vertices, sizeof(double) * 3 * (size_t)b->nvert);
+    memcpy(b->tri, d->triangles, sizeof(int) * 3 * (size_t)b->ntri);
+    b->def.vertices = b->vert;
+    b->def.triangles = b->tri;
+
+    if (d->motion == KF_RIGID_DYNAMIC) {
+        kf_mass_props mp;
+        if (d->thin)
+            kf_mass_shell(b->vert, b->tri, b->ntri, d->density, &mp);
+        else
+            kf_mass_solid(b->vert, b->tri, b->ntri, d->density, &mp);
+        if (!(mp.measure > 0) || !(mp.mass > 0)) {
+            kf_rigid_body_free(b);
+            return fail(err, errlen,
+                        d->thin ? "rigid %s: the shell has no area"
+                                : "rigid %s: the solid has volume %g <= 0 (inside out? wind counter-clockwise seen "
+                                  "from outside)",
+                        nm, mp.measure);
+        }
+        b->mass = mp.mass;
+        memcpy(b->com, mp.com, sizeof b->com);
+        memcpy(b->inertia, mp.inertia, sizeof b->inertia);
+    } else {
+        memcpy(b->com, d->center, sizeof b->com);
+    }
+
+    /* rigid particles at half the grid spacing (paper §5.2.1: finer than dx) */
+    b->nseed = kf_rigid_seed_surface(b->vert, b->nvert, b->tri, b->ntri, 0.5 * dx, &b->seed, &b->seed_tri);
+    if (!b->nseed) {
+        kf_rigid_body_free(b);
+        return fail(err, errlen, "rigid %s: could not seed the surface", nm);
+    }
+    return 0;
+}
+
+void kf_rigid_body_free(kf_rigid_body *b) {
+    free(b->vert);
+    free(b->tri);
+    free(b->seed);
+    free(b->seed_tri);
+    b->vert = NULL, b->tri = NULL, b->seed = NULL, b->seed_tri = NULL;
+    b->nseed = 0;
+}

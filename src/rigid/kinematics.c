@@ -1,0 +1,72 @@
+/* kinematics.c — where static and kinematic bodies are at a time, and the
+ * initial state of dynamic ones.
+ *
+ * The def's pose maps the mesh to the world as x = p(t) + R(t) (x_mesh - c),
+ * c the pivot; so the state's translation is t = p - R c, and the velocity
+ * reference point (com) of a static or kinematic body is the pivot p. */
+#include <string.h>
+
+#include "../core/euler.h"
+#include "../mpm/collider.h"
+#include "rigid.h"
+#include "rmath.h"
+
+/* fill t and com from the pivot p, the pivot's mesh point c and R */
+static void place(kf_rigid_state *st, const double p[3], const double c[3], const double com_mesh[3]) {
+    double Rc[3], Rm[3];
+    rm_mv(st->R, c, Rc);
+    rm_mv(st->R, com_mesh, Rm);
+    for (int a = 0; a < 3; a++) {
+        st->t[a] = p[a] - Rc[a];
+        st->com[a] = st->t[a] + Rm[a];
+    }
+}
+
+/* keyed motion: the collider's key interpolation, without scale */
+static void keyed(const kf_rigid_def *d, double t, kf_rigid_state *st) {
+    kf_collider c;
+    memset(&c, 0, sizeof c);
+    c.interp = d->interp;
+    c.nkeys = d->nkeys > KF_MAX_KEYS ? KF_MAX_KEYS : d->nkeys;
+    memcpy(c.keys, d->keys, sizeof(kf_key) * (size_t)c.nkeys);
+    kf_collider_pose pose;
+    kf_collider_pose_at(&c, t, &pose);
+    memcpy(st->R, pose.R, sizeof st->R);
+    place(st, pose.p, d->center, d->center);
+    memcpy(st->v, pose.dp, sizeof st->v);
+    memcpy(st->w, pose.omega, sizeof st->w);
+}
+
+void kf_rigid_state_at(const kf_rigid_body *b, double t, kf_rigid_state *st) {
+    const kf_rigid_def *d = &b->def;
+    memset(st, 0, sizeof *st);
+    if (d->motion == KF_RIGID_KINEMATIC && d->nkeys > 0) {
+        keyed(d, t, st);
+        return;
+    }
+    double R0[9];
+    kf_euler_matrix(d->rotate, R0);
+    if (d->motion == KF_RIGID_STATIC) {
+        memcpy(st->R, R0, sizeof st->R);
+        place(st, d->position, d->center, d->center);
+        return;
+    }
+    if (d->motion == KF_RIGID_DYNAMIC) {
+        /* time 0: the def's pose, velocity and angular velocity of the centre of mass */
+        memcpy(st->R, R0, sizeof st->R);
+        place(st, d->position, d->center, b->com);
+        memcpy(st->v, d->velocity, sizeof st->v);
+        memcpy(st->w, d->angular_velocity, sizeof st->w);
+        return;
+    }
+    /* kinematic without keys: constant velocity of the pivot and constant
+     * world angular velocity, R(t) = exp(t [ω]×) R0 */
+    double wt[3] = {d->angular_velocity[0] * t, d->angular_velocity[1] * t, d->angular_velocity[2] * t}, Q[9];
+    rm_rotvec(wt, Q);
+    rm_mm(Q, R0, st->R);
+    double p[3];
+    for (int a = 0; a < 3; a++) p[a] = d->position[a] + d->velocity[a] * t;
+    place(st, p, d->center, d->center);
+    memcpy(st->v, d->velocity, sizeof st->v);
+    memcpy(st->w, d->angular_velocity, sizeof st->w);
+}

@@ -1,0 +1,291 @@
+/* sim.c — the rigid solver (paper §5.6): static bodies stay, kinematic
+ * bodies follow their keys, dynamic bodies move in a MuJoCo world built
+ * from the bodies (mjcf.c): gravity, the material's impulses as a force
+ * and torque over the substep, contacts with each other, the static and
+ * kinematic bodies (mocap bodies placed every substep) and the walls, and
+ * hinges. Without a dynamic body there is no MuJoCo world at all. */
+#include <mujoco/mujoco.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mjcf.h"
+#include "mjguard.h"
+#include "rigid.h"
+#include "rmath.h"
+
+struct kf_rigid_sim {
+    int nbodies;
+    int motion[KF_MAX_RIGIDS];
+    double com_mesh[KF_MAX_RIGIDS][3]; /* MuJoCo body origin of a dynamic body, mesh frame */
+    mjModel *m;                        /* NULL: no dynamic body */
+    mjData *d;
+    int bid[KF_MAX_RIGIDS];            /* MuJoCo body id */
+    int mocap[KF_MAX_RIGIDS];          /* mocap index, -1 for dynamic bodies */
+};
+
+static void set_err(char *err, size_t errlen, const char *msg) {
+    if (err && errlen) snprintf(err, errlen, "%s", msg);
+}
+
+/* the MJCF text through an in-memory file */
+static mjModel *load(const char *xml, char *err, size_t errlen) {
+    mjVFS *vfs = malloc(sizeof *vfs);
+    if (!vfs) return NULL;
+    mj_defaultVFS(vfs);
+    mjModel *m = NULL;
+    size_t len = strlen(xml);
+    if (len < 0x7fffffff && mj_makeEmptyFileVFS(vfs, "kerf.xml", (int)len) == 0) {
+        memcpy(vfs->filedata[mj_findFileVFS(vfs, "kerf.xml")], xml, len);
+        char e[512] = "";
+        m = mj_loadXML("kerf.xml", vfs, e, sizeof e);
+        if (!m) snprintf(err, errlen, "rigid solver: MuJoCo rejected the model: %s", e);
+    } else {
+        set_err(err, errlen, "rigid solver: out of memory");
+    }
+    mj_deleteVFS(vfs);
+    free(vfs);
+    return m;
+}
+
+/* initial velocities: a free joint's are (v of the com, ω in the body
+ * frame); a hinge's is the relative angular velocity along its axis */
+static void initial_velocity(kf_rigid_sim *sim, const kf_rigid_body *bodies) {
+    const mjModel *m = sim->m;
+    mjData *d = sim->d;
+    for (int r = 0; r < sim->nbodies; r++) {
+        if (sim->motion[r] != KF_RIGID_DYNAMIC) continue;
+        int b = sim->bid[r];
+        if (m->body_jntnum[b] < 1) continue;
+        int j = m->body_jntadr[b], dof = m->jnt_dofadr[j];
+        const kf_rigid_def *def = &bodies[r].def;
+        double R[9];
+        memcpy(R, d->xmat + 9 * b, sizeof R);
+        if (m->jnt_type[j] == mjJNT_FREE) {
+            double wl[3];
+            rm_mtv(R, def->angular_velocity, wl);
+            for (int a = 0; a < 3; a++) d->qvel[dof + a] = def->velocity[a], d->qvel[dof + 3 + a] = wl[a];
+        } else if (m->jnt_type[j] == mjJNT_HINGE) {
+            double ax[3], wp[3] = {0, 0, 0};
+            rm_mv(R, m->jnt_axis + 3 * j, ax);
+            int p = m->body_parentid[b];
+            for (int k = 0; k < sim->nbodies; k++)
+                if (sim->bid[k] == p) memcpy(wp, bodies[k].def.angular_velocity, sizeof wp);
+            double rel[3] = {def->angular_velocity[0] - wp[0], def->angular_velocity[1] - wp[1],
+                             def->angular_velocity[2] - wp[2]};
+            d->qvel[dof] = rm_dot(rel, ax);
+        }
+    }
+}
+
+kf_rigid_sim *kf_rigid_sim_create(const kf_rigid_body *bodies, int nbodies, const kf_joint_def *joints, int njoints,
+                                  const double gravity[3], const double *walls, char *err, size_t errlen) {
+    if (nbodies < 0 || nbodies > KF_MAX_RIGIDS) {
+        if (err && errlen) snprintf(err, errlen, "rigid solver: %d bodies, at most %d", nbodies, KF_MAX_RIGIDS);
+        return NULL;
+    }
+    kf_rigid_sim *sim = calloc(1, sizeof *sim);
+    if (!sim) {
+        set_err(err, errlen, "rigid solver: out of memory");
+        return NULL;
+    }
+    sim->nbodies = nbodies;
+    int ndyn = 0;
+    for (int r = 0; r < nbodies; r++) {
+        sim->motion[r] = bodies[r].def.motion;
+        memcpy(sim->com_mesh[r], bodies[r].com, sizeof bodies[r].com);
+        ndyn += sim->motion[r] == KF_RIGID_DYNAMIC;
+    }
+    if (!ndyn) {
+        if (njoints > 0) {
+            set_err(err, errlen, "rigid solver: joints need a dynamic body");
+            free(sim);
+            return NULL;
+        }
+        return sim;
+    }
+    char *xml = kf_rigid_mjcf(bodies, nbodies, joints, njoints, gravity, walls, NULL, err, errlen);
+    if (!xml) {
+        free(sim);
+        return NULL;
+    }
+    kf_mj_hooks();
+    kf_mj_clear();
+    jmp_buf jb;
+    if (setjmp(jb)) {
+        /* MuJoCo failed inside; what it allocated is lost */
+        kf_mj_guard(NULL);
+        set_err(err, errlen, kf_mj_message());
+        free(xml);
+        free(sim);
+        return NULL;
+    }
+    kf_mj_guard(&jb);
+    sim->m = load(xml, err, errlen);
+    free(xml);
+    if (sim->m) sim->d = mj_makeData(sim->m);
+    kf_mj_guard(NULL);
+    if (!sim->m || !sim->d) {
+        if (sim->m && !sim->d) set_err(err, errlen, "rigid solver: out of memory");
+        kf_rigid_sim_destroy(sim);
+        return NULL;
+    }
+    for (int r = 0; r < nbodies; r++) {
+        char name[16];
+        snprintf(name, sizeof name, "b%d", r);
+        sim->bid[r] = mj_name2id(sim->m, mjOBJ_BODY, name);
+        sim->mocap[r] = sim->m->body_mocapid[sim->bid[r]];
+    }
+    mj_kinematics(sim->m, sim->d);
+    initial_velocity(sim, bodies);
+    return sim;
+}
+
+void kf_rigid_sim_destroy(kf_rigid_sim *sim) {
+    if (!sim) return;
+    if (sim->d) mj_deleteData(sim->d);
+    if (sim->m) mj_deleteModel(sim->m);
+    free(sim);
+}
+
+kf_rigid_sim *kf_rigid_sim_clone(const kf_rigid_sim *sim) {
+    kf_rigid_sim *volatile c = malloc(sizeof *c); /* volatile: read after a longjmp */
+    if (!c) return NULL;
+    *c = *sim;
+    c->m = NULL, c->d = NULL;
+    if (!sim->m) return c;
+    jmp_buf jb;
+    if (setjmp(jb)) {
+        kf_mj_guard(NULL);
+        free(c);
+        return NULL;
+    }
+    kf_mj_guard(&jb);
+    c->m = mj_copyModel(NULL, sim->m);
+    if (c->m) c->d = mj_copyData(NULL, c->m, sim->d);
+    kf_mj_guard(NULL);
+    if (!c->d) {
+        kf_rigid_sim_destroy(c);
+        return NULL;
+    }
+    return c;
+}
+
+/* a dynamic body's state from MuJoCo's (positions and com velocities current) */
+static void read_body(const kf_rigid_sim *sim, int r, kf_rigid_state *st) {
+    const int b = sim->bid[r];
+    memcpy(st->R, sim->d->xmat + 9 * b, sizeof st->R);
+    memcpy(st->com, sim->d->xpos + 3 * b, sizeof st->com);
+    double Rc[3], vel[6];
+    rm_mv(st->R, sim->com_mesh[r], Rc);
+    for (int a = 0; a < 3; a++) st->t[a] = st->com[a] - Rc[a];
+    mj_objectVelocity(sim->m, sim->d, mjOBJ_BODY, b, vel, 0); /* (ω, v) at the com, world axes */
+    memcpy(st->w, vel, 3 * sizeof(double));
+    memcpy(st->v, vel + 3, 3 * sizeof(double));
+}
+
+void kf_rigid_sim_step(kf_rigid_sim *sim, const kf_rigid_body *bodies, int nbodies, kf_rigid_state *st, double t,
+                       double dt, const double (*impulse)[6]) {
+    for (int r = 0; r < nbodies; r++)
+        if (bodies[r].def.motion != KF_RIGID_DYNAMIC) kf_rigid_state_at(&bodies[r], t + dt, &st[r]);
+    if (!sim->m || !(dt > 0)) return;
+    mjData *d = sim->d;
+    for (int r = 0; r < nbodies; r++) {
+        int mc = sim->mocap[r];
+        if (mc >= 0) {
+            /* where the body is at the end of the substep */
+            memcpy(d->mocap_pos + 3 * mc, st[r].t, 3 * sizeof(double));
+            rm_mat_to_quat(st[r].R, d->mocap_quat + 4 * mc);
+        } else if (impulse) {
+            /* the substep's impulses as a constant force and torque at the com */
+            for (int k = 0; k < 6; k++) d->xfrc_applied[6 * sim->bid[r] + k] = impulse[r][k] / dt;
+        }
+    }
+    sim->m->opt.timestep = dt;
+    jmp_buf jb;
+    if (setjmp(jb)) {
+        /* an engine error: keep the bodies where they were */
+        kf_mj_guard(NULL);
+        mju_zero(d->xfrc_applied, 6 * sim->m->nbody);
+        return;
+    }
+    kf_mj_guard(&jb);
+    mj_step(sim->m, d);
+    mju_zero(d->xfrc_applied, 6 * sim->m->nbody);
+    /* positions and velocities of the new state */
+    mj_kinematics(sim->m, d);
+    mj_comPos(sim->m, d);
+    mj_comVel(sim->m, d);
+    kf_mj_guard(NULL);
+    for (int r = 0; r < nbodies; r++)
+        if (sim->mocap[r] < 0 && bodies[r].def.motion == KF_RIGID_DYNAMIC) read_body(sim, r, &st[r]);
+}
+
+/* ---- checkpoints: everything mj_step reads that is not in the model ------ */
+
+typedef struct blob_header {
+    uint32_t magic, nq, nv, na, nmocap, pad;
+} blob_header;
+
+#define BLOB_MAGIC 0x6b726d6aU /* "jmrk" */
+
+static size_t nvals(const mjModel *m) {
+    return 1 + (size_t)m->nq + 2 * (size_t)m->nv + (size_t)m->na + 7 * (size_t)m->nmocap;
+}
+
+size_t kf_rigid_sim_state_size(const kf_rigid_sim *sim) {
+    if (!sim || !sim->m) return 0;
+    return sizeof(blob_header) + sizeof(double) * nvals(sim->m);
+}
+
+void kf_rigid_sim_save(const kf_rigid_sim *sim, void *buf) {
+    if (!sim || !sim->m) return;
+    const mjModel *m = sim->m;
+    const mjData *d = sim->d;
+    blob_header h = {BLOB_MAGIC, (uint32_t)m->nq, (uint32_t)m->nv, (uint32_t)m->na, (uint32_t)m->nmocap, 0};
+    char *p = buf;
+    memcpy(p, &h, sizeof h);
+    p += sizeof h;
+#define PUT(src, n)                                  \
+    do {                                             \
+        memcpy(p, (src), sizeof(double) * (size_t)(n)); \
+        p += sizeof(double) * (size_t)(n);           \
+    } while (0)
+    PUT(&d->time, 1);
+    PUT(d->qpos, m->nq);
+    PUT(d->qvel, m->nv);
+    PUT(d->qacc_warmstart, m->nv);
+    PUT(d->act, m->na);
+    PUT(d->mocap_pos, 3 * m->nmocap);
+    PUT(d->mocap_quat, 4 * m->nmocap);
+#undef PUT
+}
+
+int kf_rigid_sim_load(kf_rigid_sim *sim, const void *buf, size_t size) {
+    if (!sim) return -1;
+    if (!sim->m) return size == 0 ? 0 : -1;
+    const mjModel *m = sim->m;
+    mjData *d = sim->d;
+    blob_header h;
+    if (size != kf_rigid_sim_state_size(sim)) return -1;
+    memcpy(&h, buf, sizeof h);
+    if (h.magic != BLOB_MAGIC || h.nq != (uint32_t)m->nq || h.nv != (uint32_t)m->nv || h.na != (uint32_t)m->na ||
+        h.nmocap != (uint32_t)m->nmocap)
+        return -1;
+    const char *p = (const char *)buf + sizeof h;
+#define GET(dst, n)                                  \
+    do {                                             \
+        memcpy((dst), p, sizeof(double) * (size_t)(n)); \
+        p += sizeof(double) * (size_t)(n);           \
+    } while (0)
+    GET(&d->time, 1);
+    GET(d->qpos, m->nq);
+    GET(d->qvel, m->nv);
+    GET(d->qacc_warmstart, m->nv);
+    GET(d->act, m->na);
+    GET(d->mocap_pos, 3 * m->nmocap);
+    GET(d->mocap_quat, 4 * m->nmocap);
+#undef GET
+    mju_zero(d->xfrc_applied, 6 * m->nbody);
+    return 0;
+}
