@@ -10,11 +10,14 @@
  *
  * Reach: the paper visits the 3x3x3 nodes around a seed's nearest node; kerf
  * visits every node within 1.5 cells of the seed along each axis (3 or 4 per
- * axis). A particle's quadratic stencil reaches nodes up to 1.5 cells away,
+ * axis), 2.5 cells for solid bodies (see below). A particle's quadratic stencil reaches nodes up to 1.5 cells away,
  * so with seeds closer than half a cell every node a particle beside the
  * surface can touch on the far side gets its colour; the 3x3x3 rule misses
  * some of them when the surface lies between nodes, and those nodes then
- * couple both sides.
+ * couple both sides. Around a solid, a particle that advection pushed a
+ * fraction of a cell inside would, with 1.5, reach interior nodes that no
+ * seed colours: free space inside the body, through which the material
+ * leaks in (a floating block measured it); 2.5 cells closes that.
  *
  * Order: bodies in index order, seeds in array order, strict comparisons:
  * deterministic, and ties go to the smaller body index. */
@@ -135,11 +138,11 @@ static int32_t touch_block(kf_cpic *c, const kf_grid *g, int bx, int by, int bz,
 
 /* all nodes within 1.5 cells (per axis) of one seed on triangle t of body r */
 static void splat_seed(kf_cpic *c, const kf_grid *g, const kf_cpic_tri *t, const double x[3], int r, double inv_dx,
-                       double dx) {
+                       double dx, double reach) {
     int lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
-        lo[a] = (int)ceil(x[a] * inv_dx - 1.5);
-        hi[a] = (int)floor(x[a] * inv_dx + 1.5);
+        lo[a] = (int)ceil(x[a] * inv_dx - reach);
+        hi[a] = (int)floor(x[a] * inv_dx + reach);
     }
     if (t->g11 == 0 && t->g22 == 0) return;
     const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
@@ -191,12 +194,15 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
         const kf_rigid_body *b = &m->rigid[r];
         const kf_rigid_state *st = &s->rigid[r];
         if (world_triangles(c, b, st, r)) return -1;
+        /* a solid reaches a cell deeper: a particle pushed slightly inside it
+         * must still see every node of its stencil inside as incompatible */
+        const double reach = b->def.thin ? 1.5 : 2.5;
         for (size_t e = 0; e < b->nseed; e++) {
             const float *o = &b->seed[3 * e];
             double x[3];
             for (int a = 0; a < 3; a++)
                 x[a] = st->R[3 * a] * o[0] + st->R[3 * a + 1] * o[1] + st->R[3 * a + 2] * o[2] + st->t[a];
-            splat_seed(c, g, &c->tri[r][b->seed_tri[e]], x, r, inv_dx, dx);
+            splat_seed(c, g, &c->tri[r][b->seed_tri[e]], x, r, inv_dx, dx, reach);
         }
     }
     /* the narrow band: owners whose 2x2x2 neighbourhood holds a coloured block */

@@ -75,6 +75,8 @@ typedef struct kf_cpic {
     int cap_tri[KF_MAX_RIGIDS];
     /* the substep's totals per body: J[3], L[3] about the com */
     double impulse[KF_MAX_RIGIDS][6];
+    /* running totals since the state was made (diagnostics, frame log) */
+    double impulse_total[KF_MAX_RIGIDS][6];
     /* the substep's pinned constants */
     double dt, gdt[3];
 } kf_cpic;

@@ -357,5 +357,7 @@ void kf_cpic_finish(const kf_model *m, kf_state *s, double dt) {
     for (size_t k = 0; k < c->nslot; k++)
         for (int r = 0; r < m->nrigid; r++)
             for (int e = 0; e < 6; e++) c->impulse[r][e] += c->imp[k][r][e];
+    for (int r = 0; r < m->nrigid; r++)
+        for (int e = 0; e < 6; e++) c->impulse_total[r][e] += c->impulse[r][e];
     kf_rigid_sim_step(s->rsim, m->rigid, m->nrigid, s->rigid, s->time, dt, (const double(*)[6])c->impulse);
 }
