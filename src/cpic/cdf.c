@@ -119,10 +119,8 @@ static int world_triangles(kf_cpic *c, const kf_rigid_body *b, const kf_rigid_st
     return 0;
 }
 
-/* the node's block, cleared (CDF) and reset (per-body best) on first touch */
-static int32_t touch_block(kf_cpic *c, const kf_grid *g, int bx, int by, int bz, int r) {
-    int32_t b = kf_grid_find(g, bx, by, bz);
-    if (b < 0) return -1;
+/* a block's CDF cleared, and its per-body best reset, on first touch */
+static inline void touch_block(kf_cpic *c, int32_t b, int r) {
     if (c->stamp[b] != c->epoch) {
         c->stamp[b] = c->epoch;
         for (int k = 0; k < 64; k++) c->node_d[64 * (size_t)b + k] = FLT_MAX;
@@ -133,7 +131,6 @@ static int32_t touch_block(kf_cpic *c, const kf_grid *g, int bx, int by, int bz,
         c->best_stamp[b] = bs;
         for (int k = 0; k < 64; k++) c->best[64 * (size_t)b + k] = FLT_MAX;
     }
-    return b;
 }
 
 /* all nodes within 1.5 cells (per axis) of one seed on triangle t of body r */
@@ -146,16 +143,29 @@ static void splat_seed(kf_cpic *c, const kf_grid *g, const kf_cpic_tri *t, const
     }
     if (t->g11 == 0 && t->g22 == 0) return;
     const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
-    int32_t last_key[3] = {INT32_MIN, 0, 0}, blk = -1;
+    /* the (at most 3x3x3) blocks the node box spans, each looked up once */
+    int b0[3], nbk[3];
+    for (int a = 0; a < 3; a++) {
+        b0[a] = kf_block_of(lo[a]);
+        nbk[a] = kf_block_of(hi[a]) - b0[a] + 1; /* <= 6 nodes span <= 3 blocks */
+    }
+    int32_t blkof[3][3][3];
+    int any = 0;
+    for (int p = 0; p < 3; p++)
+        for (int q = 0; q < 3; q++)
+            for (int w = 0; w < 3; w++) {
+                int32_t bi = -1;
+                if (p < nbk[0] && q < nbk[1] && w < nbk[2]) bi = kf_grid_find(g, b0[0] + p, b0[1] + q, b0[2] + w);
+                blkof[p][q][w] = bi;
+                any |= bi >= 0;
+            }
+    if (!any) return; /* no material near this seed */
     for (int i = lo[0]; i <= hi[0]; i++)
         for (int j = lo[1]; j <= hi[1]; j++)
             for (int k = lo[2]; k <= hi[2]; k++) {
-                int bx = kf_block_of(i), by = kf_block_of(j), bz = kf_block_of(k);
-                if (bx != last_key[0] || by != last_key[1] || bz != last_key[2]) {
-                    last_key[0] = bx, last_key[1] = by, last_key[2] = bz;
-                    blk = touch_block(c, g, bx, by, bz, r);
-                }
+                int32_t blk = blkof[kf_block_of(i) - b0[0]][kf_block_of(j) - b0[1]][kf_block_of(k) - b0[2]];
                 if (blk < 0) continue;
+                touch_block(c, blk, r);
                 /* x_i − v0 = α e1 + β e2 + u n */
                 double q[3] = {i * dx - t->v0[0], j * dx - t->v0[1], k * dx - t->v0[2]};
                 double d1 = q[0] * t->e1[0] + q[1] * t->e1[1] + q[2] * t->e1[2];
@@ -190,6 +200,14 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     if (++c->epoch == 0) c->epoch = 1; /* never 0: fresh stamps are 0 */
     const kf_grid *g = &s->g;
     const double dx = m->sim.dx, inv_dx = 1 / dx;
+    /* the grid's extent in metres: a body entirely outside it splats nothing */
+    double glo[3] = {1e300, 1e300, 1e300}, ghi[3] = {-1e300, -1e300, -1e300};
+    for (size_t b = 0; b < g->nblocks; b++)
+        for (int a = 0; a < 3; a++) {
+            double x0 = g->bcoord[3 * b + a] * KF_BLOCK * dx;
+            if (x0 < glo[a]) glo[a] = x0;
+            if (x0 + KF_BLOCK * dx > ghi[a]) ghi[a] = x0 + KF_BLOCK * dx;
+        }
     for (int r = 0; r < m->nrigid; r++) {
         const kf_rigid_body *b = &m->rigid[r];
         const kf_rigid_state *st = &s->rigid[r];
@@ -197,6 +215,17 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
         /* a solid reaches a cell deeper: a particle pushed slightly inside it
          * must still see every node of its stencil inside as incompatible */
         const double reach = b->def.thin ? 1.5 : 2.5;
+        int apart = 0;
+        for (int a = 0; a < 3 && !apart; a++) {
+            double lo = 1e300, hi = -1e300;
+            for (int k = 0; k < b->ntri; k++) {
+                const kf_cpic_tri *t = &c->tri[r][k];
+                double v[3] = {t->v0[a], t->v0[a] + t->e1[a], t->v0[a] + t->e2[a]};
+                for (int q = 0; q < 3; q++) lo = v[q] < lo ? v[q] : lo, hi = v[q] > hi ? v[q] : hi;
+            }
+            apart = lo > ghi[a] + reach * dx || hi < glo[a] - reach * dx;
+        }
+        if (apart) continue;
         for (size_t e = 0; e < b->nseed; e++) {
             const float *o = &b->seed[3 * e];
             double x[3];

@@ -224,6 +224,12 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, chunk *ck, 
         size_t i = i0 + (size_t)j;
         particle_cdf(c, p, i, ck, j, col, dist, dx);
         const uint32_t cp = p->colour[i];
+        /* no affinity to any body: every node is compatible, the ordinary scatter */
+        if (!(cp & AFF)) {
+            if (classic) scatter_one(3, 1, ck, j, cache);
+            else scatter_one(3, 0, ck, j, cache);
+            continue;
+        }
         const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
         const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
         const double mass = ck->mv[3][j];
@@ -279,6 +285,11 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, chunk *ck, 
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
         const uint32_t cp = p->colour[i];
+        if (!(cp & AFF)) {
+            if (classic) gather_one(3, 1, ck, j, cache);
+            else gather_one(3, 0, ck, j, cache);
+            continue;
+        }
         const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
         const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
         const double mass = p->mass[i];

@@ -88,40 +88,7 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         }
 
         /* scatter: one node row per vector op, Q d as three column FMAs */
-        for (int j = 0; j < n; j++) {
-            const kf_v4 base = {ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
-            const kf_v4 q0 = {ck->q[0][j], ck->q[3][j], ck->q[6][j], 0};
-            const kf_v4 q1 = {ck->q[1][j], ck->q[4][j], ck->q[7][j], 0};
-            const kf_v4 q2 = {ck->q[2][j], ck->q[5][j], ck->q[8][j], 0};
-            kf_v4 t0 = {0}, t1 = {0}, t2 = {0};
-            if (CLASSIC) {
-                t0 = (kf_v4){ck->t[0][j], ck->t[3][j], ck->t[6][j], 0};
-                t1 = (kf_v4){ck->t[1][j], ck->t[4][j], ck->t[7][j], 0};
-                t2 = (kf_v4){ck->t[2][j], ck->t[5][j], ck->t[8][j], 0};
-            }
-            kf_real w2[4], d2[4], dw2[4];
-            for (int c = 0; c < KW; c++) w2[c] = ck->w[2][c][j], d2[c] = ck->d[2][c][j], dw2[c] = ck->dw[2][c][j];
-            kf_v4 *origin = &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
-            for (int a = 0; a < KW; a++) {
-                const kf_v4 ha = base + ck->d[0][a][j] * q0;
-                for (int b = 0; b < KW; b++) {
-                    const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
-                    const kf_v4 hab = ha + ck->d[1][b][j] * q1;
-                    kf_v4 *row = origin + (a * CD + b) * CD;
-                    kf_v4 fa = {0}, fb = {0};
-                    if (CLASSIC) {
-                        /* classic force f = −V⁰ τ ∇w, ∇w split by axis */
-                        fa = (ck->dw[0][a][j] * ck->w[1][b][j]) * t0 + (ck->w[0][a][j] * ck->dw[1][b][j]) * t1;
-                        fb = wab * t2;
-                    }
-                    for (int c = 0; c < KW; c++) {
-                        kf_v4 add = (wab * w2[c]) * (hab + d2[c] * q2);
-                        if (CLASSIC) add += w2[c] * fa + dw2[c] * fb;
-                        row[c] += add;
-                    }
-                }
-            }
-        }
+        for (int j = 0; j < n; j++) scatter_one(KW, CLASSIC, ck, j, cache);
     }
 
     /* flush the cache into the 8 blocks of the neighbourhood */
@@ -201,47 +168,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
          * near a rigid surface, ghost velocities on incompatible nodes */
         if (band) kf_cpic_g2p_chunk(m, s, r, ck, i0, cache, CLASSIC);
-        for (int j = 0; j < (band ? 0 : n); j++) {
-            kf_real w2[4], wd2[4], dw2[4];
-            for (int c = 0; c < KW; c++) {
-                w2[c] = ck->w[2][c][j];
-                wd2[c] = ck->w[2][c][j] * ck->d[2][c][j];
-                dw2[c] = ck->dw[2][c][j];
-            }
-            const kf_v4 *origin = &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
-            kf_v4 v = {0}, b0 = {0}, b1 = {0}, b2 = {0}, g0 = {0}, g1 = {0}, g2 = {0};
-            for (int a = 0; a < KW; a++)
-                for (int b = 0; b < KW; b++) {
-                    const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
-                    const kf_v4 *row = origin + (a * CD + b) * CD;
-                    kf_v4 ra = {0}, rd = {0}, rg = {0};
-                    for (int c = 0; c < KW; c++) {
-                        ra += w2[c] * row[c];
-                        rd += wd2[c] * row[c];
-                        if (CLASSIC) rg += dw2[c] * row[c];
-                    }
-                    v += wab * ra;
-                    b0 += (wab * ck->d[0][a][j]) * ra;
-                    b1 += (wab * ck->d[1][b][j]) * ra;
-                    b2 += wab * rd;
-                    if (CLASSIC) {
-                        g0 += (ck->dw[0][a][j] * ck->w[1][b][j]) * ra;
-                        g1 += (ck->w[0][a][j] * ck->dw[1][b][j]) * ra;
-                        g2 += wab * rg;
-                    }
-                }
-            for (int k = 0; k < 3; k++) {
-                ck->v[k][j] = v[k];
-                ck->b[3 * k][j] = b0[k];
-                ck->b[3 * k + 1][j] = b1[k];
-                ck->b[3 * k + 2][j] = b2[k];
-                if (CLASSIC) {
-                    ck->g[3 * k][j] = g0[k];
-                    ck->g[3 * k + 1][j] = g1[k];
-                    ck->g[3 * k + 2][j] = g2[k];
-                }
-            }
-        }
+        for (int j = 0; j < (band ? 0 : n); j++) gather_one(KW, CLASSIC, ck, j, cache);
 
         /* C = D⁻¹ B; velocity gradient L = C (MLS) or Σ v_i ∇wᵀ (classic) */
         for (int k = 0; k < 9; k++) {

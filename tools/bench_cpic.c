@@ -1,0 +1,147 @@
+/* bench_cpic.c — what CPIC costs (issue 5's benchmark; the paper's §6.1 claim
+ * of 6% on a large cutting scene).
+ *
+ * One scene three ways, the same substeps with a fixed Δt:
+ *   none    a jello slab, no rigid body;
+ *   far     the same with a thin blade far from the material (pays the splat only);
+ *   cutting the blade moving down through the slab (the narrow band pays CPIC).
+ * Prints ms per stage per substep (median of --runs), particle-steps/s and the
+ * overhead against `none`.
+ *
+ *   kerf_bench_cpic [--cells N] [--steps N] [--runs N] [--json]
+ * N cells across the slab's width (default 128: ~1M particles). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cpic/cpic.h"
+#include "kerf.h"
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, int n) {
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+typedef struct result {
+    double ms[KF_STAGE_COUNT]; /* per substep */
+    double total_ms, mpsteps;
+    long particles, band_particles;
+} result;
+
+/* mode 0 none, 1 far, 2 cutting */
+static int run(int mode, int cells, int steps, result *out) {
+    kf_sim_def sd = kf_default_sim_def();
+    const double width = 0.5;
+    sd.dx = width / cells;
+    sd.walls = 1;
+    sd.wall_boundary = KF_BOUNDARY_STICKY;
+    for (int a = 0; a < 3; a++) sd.domain_min[a] = 0, sd.domain_max[a] = 1;
+    char err[256];
+    kf_model *m = kf_model_create(&sd, err, sizeof err);
+    kf_material mat;
+    kf_material_preset("jello", &mat);
+    int id = kf_model_add_material(m, &mat, err, sizeof err);
+    /* the blade: a 0.4 x 0.6 m quad in the plane x = 0.5, bottom edge at y = 0 of its frame */
+    double vert[12] = {0.5, 0, 0.2, 0.5, 0, 0.8, 0.5, 0.6, 0.8, 0.5, 0.6, 0.2};
+    int tri[6] = {0, 1, 2, 0, 2, 3};
+    if (mode) {
+        kf_rigid_def d;
+        memset(&d, 0, sizeof d);
+        snprintf(d.name, sizeof d.name, "blade");
+        d.vertices = vert, d.nvertices = 4, d.triangles = tri, d.ntriangles = 2;
+        d.thin = 1;
+        d.motion = KF_RIGID_KINEMATIC;
+        d.boundary = KF_BOUNDARY_SEPARATE;
+        d.nkeys = 2;
+        d.keys[0].time = 0, d.keys[1].time = 1;
+        if (mode == 1) d.keys[0].position[2] = d.keys[1].position[2] = 5; /* far away */
+        /* from inside the slab, 1 m/s down: the bottom edge cuts from y = 0.1 */
+        d.keys[0].position[1] = 0.1, d.keys[1].position[1] = 0.1 - 1.0;
+        if (kf_model_add_rigid(m, &d, err, sizeof err) < 0) {
+            fprintf(stderr, "rigid: %s\n", err);
+            return -1;
+        }
+    }
+    kf_state *s = kf_state_create(m);
+    double lo[3] = {0.25, 0.0, 0.25}, hi[3] = {0.75, 0.125, 0.75};
+    kf_state_fill_box(s, m, lo, hi, id, NULL, 2, 0);
+    kf_step_stats st;
+    memset(&st, 0, sizeof st);
+    const double dt = 2e-4;
+    long band = 0;
+    kf_step(m, s, dt, NULL, NULL); /* the first bin builds everything */
+    for (int k = 0; k < steps; k++) {
+        kf_trouble tr;
+        if (kf_step(m, s, dt, &st, &tr)) {
+            fprintf(stderr, "substep %d: %s\n", k, tr.what);
+            return -1;
+        }
+        if (s->cpic) band += s->cpic->band_particles;
+    }
+    memset(out, 0, sizeof *out);
+    for (int k = 0; k < KF_STAGE_COUNT; k++) {
+        out->ms[k] = st.ms[k] / steps;
+        out->total_ms += out->ms[k];
+    }
+    out->particles = (long)kf_state_count(s);
+    out->band_particles = band / steps;
+    out->mpsteps = out->particles / (out->total_ms * 1e3);
+    kf_state_destroy(s);
+    kf_model_destroy(m);
+    return 0;
+}
+
+int main(int argc, char **argv) {
+    int cells = 128, steps = 20, runs = 3, json = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--cells") && i + 1 < argc) cells = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--steps") && i + 1 < argc) steps = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--json")) json = 1;
+        else {
+            fprintf(stderr, "usage: %s [--cells N] [--steps N] [--runs N] [--json]\n", argv[0]);
+            return 2;
+        }
+    }
+    static const char *mode_name[3] = {"none", "far", "cutting"};
+    result med[3];
+    for (int mode = 0; mode < 3; mode++) {
+        double ms[KF_STAGE_COUNT][16], tot[16];
+        result r = {0};
+        for (int k = 0; k < runs && k < 16; k++) {
+            if (run(mode, cells, steps, &r)) return 1;
+            for (int e = 0; e < KF_STAGE_COUNT; e++) ms[e][k] = r.ms[e];
+            tot[k] = r.total_ms;
+        }
+        med[mode] = r;
+        for (int e = 0; e < KF_STAGE_COUNT; e++) med[mode].ms[e] = median(ms[e], runs);
+        med[mode].total_ms = median(tot, runs);
+        med[mode].mpsteps = r.particles / (med[mode].total_ms * 1e3);
+    }
+    if (json) printf("{\"cells\":%d,\"steps\":%d,\"runs\":%d", cells, steps, runs);
+    else printf("CPIC overhead: %ld particles, %d substeps, median of %d runs (ms per substep)\n", med[0].particles,
+                steps, runs);
+    for (int mode = 0; mode < 3; mode++) {
+        const result *r = &med[mode];
+        double over = 100 * (r->total_ms / med[0].total_ms - 1);
+        if (json) {
+            printf(",\"%s\":{\"total_ms\":%.3f,\"mpsteps\":%.3f,\"overhead_pct\":%.2f,\"band_particles\":%ld", mode_name[mode],
+                   r->total_ms, r->mpsteps, over, r->band_particles);
+            for (int e = 0; e < KF_STAGE_COUNT; e++) printf(",\"%s\":%.3f", kf_stage_name((kf_stage)e), r->ms[e]);
+            printf("}");
+        } else {
+            printf("%-8s total %8.2f  %6.2f M p-steps/s  overhead %+6.1f%%  band %ld particles |", mode_name[mode],
+                   r->total_ms, r->mpsteps, over, r->band_particles);
+            for (int e = 0; e < KF_STAGE_COUNT; e++) printf(" %s %.2f", kf_stage_name((kf_stage)e), r->ms[e]);
+            printf("\n");
+        }
+    }
+    if (json) printf("}\n");
+    return 0;
+}
