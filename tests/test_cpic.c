@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "cpic/cpic.h"
+#include "io/checkpoint.h"
 #include "kt.h"
 #include "scene_util.h"
 
@@ -267,6 +268,36 @@ static void three_plates_colour(void) {
             }
         }
     }
+    /* compatibility of every particle with every node of its stencil: the
+     * same geometric side of every plane both are coloured for */
+    long pairs = 0, incompatible = 0, pair_wrong = 0;
+    for (size_t i = 0; i < pv.n; i++) {
+        double x[3] = {pv.x[0][i], pv.x[1][i], pv.x[2][i]};
+        int base[3];
+        for (int a = 0; a < 3; a++) base[a] = (int)floor(x[a] / sd.dx - 0.5);
+        for (int e = 0; e < 27; e++) {
+            int node[3] = {base[0] + e / 9, base[1] + e / 3 % 3, base[2] + e % 3};
+            int32_t b = kf_grid_find(g, kf_block_of(node[0]), kf_block_of(node[1]), kf_block_of(node[2]));
+            if (b < 0 || c->stamp[b] != c->epoch) continue;
+            uint32_t w = c->node_c[64 * (size_t)b + (size_t)((node[0] & 3) << 4 | (node[1] & 3) << 2 | (node[2] & 3))];
+            double xn[3] = {node[0] * sd.dx, node[1] * sd.dx, node[2] * sd.dx};
+            int expect = 1, skip = 0;
+            for (int r = 0; r < 3; r++) {
+                if (!(w >> (2 * r + 1) & 1) || !(pv.colour[i] >> (2 * r + 1) & 1)) continue;
+                double sn = plane_side(normal[r], p0, xn), spp = plane_side(normal[r], p0, x);
+                if (fabs(sn) < 1e-6 || fabs(spp) < 0.25 * sd.dx) skip = 1; /* on a plane, or a junction case above */
+                if ((sn < 0) != (spp < 0)) expect = 0;
+            }
+            if (skip) continue;
+            int got = kf_cpic_compatible(w, pv.colour[i]);
+            pairs++;
+            incompatible += !got;
+            pair_wrong += got != expect;
+        }
+    }
+    KT_CHECK(pairs > 100000 && incompatible > 1000, "pairs checked %ld, incompatible %ld", pairs, incompatible);
+    KT_CHECK(pair_wrong == 0, "%ld particle-node pairs with the wrong compatibility", pair_wrong);
+    printf("  three plates: %ld particle-node pairs, %ld incompatible, %ld wrong\n", pairs, incompatible, pair_wrong);
     KT_CHECK(p_checked > 1000, "particle colours checked: %ld", p_checked);
     KT_CHECK(p_wrong == 0, "%ld particle tags disagree with the geometric side", p_wrong);
     KT_CHECK(p_missing == 0, "%ld particles within a cell of a plane have no colour for it", p_missing);
@@ -480,12 +511,69 @@ static void block_floats(void) {
     kf_model_destroy(m);
 }
 
+/* ---- resume: a checkpoint with bodies continues bit for bit ------------------
+ * A kinematic blade cuts a jello block while a dynamic box lands on it. Save
+ * a checkpoint mid-way, continue; load it into a fresh state and continue the
+ * same substeps: particles (with their colours) and bodies match exactly. */
+static kf_model *resume_model(box_mesh *bm, quad *q, int *mat) {
+    kf_sim_def sd = kf_default_sim_def();
+    sd.dx = 1.0 / 48;
+    sd.walls = 1;
+    kf_model *m = tu_model(&sd, "jello", 0, -1, 0, mat);
+    double c[3] = {0.5, 0.15, 0.5}, u[3] = {0, 0, 1}, v[3] = {0, 1, 0};
+    make_quad(q, c, u, v, 0.2, 0.15);
+    kf_rigid_def d = thin_def(q, KF_RIGID_KINEMATIC);
+    d.nkeys = 2;
+    d.keys[1].time = 1;
+    d.keys[0].position[1] = 0.15, d.keys[1].position[1] = -0.35;
+    add_rigid(m, &d);
+    double half[3] = {0.04, 0.04, 0.04}, pos[3] = {0.4, 0.3, 0.5};
+    make_box(bm, half);
+    kf_rigid_def b = box_def(bm, pos, 400);
+    b.penalty = 100;
+    add_rigid(m, &b);
+    return m;
+}
+
+static void resume_is_exact(void) {
+    box_mesh bm;
+    quad q;
+    int mat;
+    kf_model *m = resume_model(&bm, &q, &mat);
+    kf_state *a = kf_state_create(m);
+    double lo[3] = {0.3, 0.0, 0.35}, hi[3] = {0.7, 0.2, 0.65};
+    kf_state_fill_box(a, m, lo, hi, mat, NULL, 2, 5);
+    for (int k = 0; k < 30; k++) kf_step(m, a, 1e-3, NULL, NULL);
+    const char *path = "test_cpic_resume.kfc";
+    char err[256];
+    KT_CHECK(kf_checkpoint_write(path, a, 1, 0, err, sizeof err) == 0, "%s", err);
+    for (int k = 0; k < 30; k++) kf_step(m, a, 1e-3, NULL, NULL);
+    kf_state *b = kf_state_create(m);
+    KT_CHECK(kf_checkpoint_read(path, m, b, NULL, err, sizeof err) == 0, "%s", err);
+    for (int k = 0; k < 30; k++) kf_step(m, b, 1e-3, NULL, NULL);
+    kf_rigid_pose pa = kf_state_rigid(a, 1), pb = kf_state_rigid(b, 1);
+    KT_CHECK(kf_state_hash(a) == kf_state_hash(b), "resumed run = uninterrupted run (particles, colours, bodies)");
+    KT_CHECK(memcmp(&pa, &pb, sizeof pa) == 0, "dynamic box pose and velocity identical");
+    long coloured = 0;
+    kf_particles_view pv = kf_state_particles_read(a);
+    for (size_t i = 0; i < pv.n; i++) coloured += pv.colour[i] != 0;
+    KT_CHECK(coloured > 100, "the checkpoint carried CPIC colours (%ld coloured particles)", coloured);
+    KT_CHECK(pa.t[1] < 0.3 - 0.001, "the box moved (y %g)", pa.t[1]);
+    remove(path);
+    kf_state_destroy(a);
+    kf_state_destroy(b);
+    kf_model_destroy(m);
+}
+
 int main(int argc, char **argv) {
+    KT_RUN(resume_is_exact, argc, argv);
     /* KNOWN FAILURE, not run by ctest (run `test_cpic block_floats`): the
      * block floats and comes nearly to rest, but its draft measures 0.080 m
      * against Archimedes' 0.060 m (0.073 m allowing for the particles'
-     * half-spacing overlap at the faces): the water slowly leaks into the
-     * solid and the support is short by ~10%. See the issue 5 note. */
+     * half-spacing overlap at the faces). The water's particles rest about
+     * 0.1 cell inside the faces, so the block displaces as one ~0.4 cell
+     * smaller per face: a sub-cell boundary error that should shrink with
+     * Δx (not yet measured). See the issue 5 note. */
     if (argc >= 2 && strcmp(argv[1], "block_floats") == 0) KT_RUN(block_floats, argc, argv);
     KT_RUN(momentum_ball_hits_box, argc, argv);
     KT_RUN(three_plates_colour, argc, argv);

@@ -101,6 +101,12 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
 /* Sum the impulses and advance the rigid bodies to t + dt. */
 void kf_cpic_finish(const kf_model *m, kf_state *s, double dt);
 
+/* compatible (§5.3.4): equal tags on every body both node and particle have affinity to */
+static inline int kf_cpic_compatible(uint32_t node, uint32_t part) {
+    uint32_t shared = (node & part & KF_CPIC_AFFINITY) >> 1;
+    return ((node ^ part) & shared) == 0;
+}
+
 /* Is this owner block in the narrow band (valid between splat and finish)? */
 static inline int kf_cpic_band(const kf_state *s, size_t owner) {
     return s->cpic && owner < s->cpic->cap_owner && s->cpic->slot[owner] >= 0;

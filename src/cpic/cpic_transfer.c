@@ -32,11 +32,7 @@ static void cdf_cache(const kf_cpic *c, const kf_grid *g, size_t owner, uint32_t
             }
 }
 
-/* compatible (§5.3.4): equal tags on every body both have affinity to */
-static inline int compatible(uint32_t node, uint32_t part) {
-    uint32_t shared = (node & part & AFF) >> 1;
-    return ((node ^ part) & shared) == 0;
-}
+#define compatible kf_cpic_compatible
 
 /* Eq. 25 on v relative to the body, normal n (zero when unknown) */
 static void project(double v[3], const double n[3], kf_boundary type, double mu) {
@@ -349,8 +345,10 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
         if (!c->near[i]) continue;
         int r = c->near[i] - 1;
         double k = m->rigid[r].def.penalty, d = c->pd[i];
-        /* slightly penetrated (Eq. 22); deeper than a cell the normal is not trusted */
-        if (k <= 0 || !(d < 0 && d > -dx)) continue;
+        /* slightly penetrated (Eq. 22); deeper than the splat's reach minus the
+         * kernel (1 cell for a thin body, 2 inside a solid) the fit is not trusted */
+        double depth = m->rigid[r].def.thin ? dx : 2 * dx;
+        if (k <= 0 || !(d < 0 && d > -depth)) continue;
         double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, J[3];
         for (int a = 0; a < 3; a++) {
             double dv = -k * d * c->pn[3 * i + a];

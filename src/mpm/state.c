@@ -286,7 +286,11 @@ uint64_t kf_state_hash(const kf_state *s) {
         size_t i = (size_t)where[k];
         for (int f = 0; f < KF_PARTICLE_REAL_PLANES; f++) FNV(&p->plane[f][i], sizeof(kf_real));
         FNV(&p->mat[i], sizeof p->mat[i]);
+        FNV(&p->obj[i], sizeof p->obj[i]);
+        FNV(&p->colour[i], sizeof p->colour[i]);
     }
+    /* rigid bodies: pose and velocity */
+    FNV(s->rigid, (size_t)s->nrigid * sizeof s->rigid[0]);
 #undef FNV
     free(where);
     return h;
