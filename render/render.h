@@ -105,6 +105,8 @@ void kf_render_destroy(kf_render_ctx *r);
 /* The sample count actually used (after clamping), and the GL renderer string. */
 int kf_render_samples(const kf_render_ctx *r);
 const char *kf_render_gl_renderer(const kf_render_ctx *r);
+/* the GL context backend: "osmesa" or "egl" (KERF_GL picks; context.h) */
+const char *kf_render_backend(const kf_render_ctx *r);
 
 /* Draw scene from cam into rgba_out (w*h*4 bytes, rows top-down). */
 int kf_render_frame(kf_render_ctx *r, const kf_render_scene *scene, const kf_camera *cam,

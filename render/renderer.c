@@ -332,6 +332,8 @@ void kf_render_destroy(kf_render_ctx *r) {
 }
 
 int kf_render_samples(const kf_render_ctx *r) { return r->samples; }
+const char *kf_render_backend(const kf_render_ctx *r) { return r ? kf_gl_context_backend(r->glc) : ""; }
+
 const char *kf_render_gl_renderer(const kf_render_ctx *r) { return r->renderer_name; }
 
 /* ---- scene --------------------------------------------------------------- */

@@ -78,9 +78,16 @@ check "at the new size" bash -c "file full/images/tiny.1012.png | grep -q 'PNG i
 "$kerf" run tiny.yaml --out full --set render.width=320 --set render.height=180 --set materials.goo.color=[0,1,0] > rc.log 2>&1
 check "a recoloured material re-renders without re-simulating" bash -c "grep -q 'nothing to simulate' rc.log && grep -q '12 images made' rc.log"
 "$kerf" run tiny.yaml --out full --set render.width=320 --set render.height=180 --set materials.goo.color=[0,1,0] \
+    --set materials.goo.specular=0.9 --set materials.goo.roughness=0.1 > rsp.log 2>&1
+check "a reshaded material (specular, roughness) re-renders without re-simulating" \
+    bash -c "grep -q 'nothing to simulate' rsp.log && grep -q '0 surfaces, 12 images made' rsp.log"
+"$kerf" run tiny.yaml --out full --set render.width=320 --set render.height=180 --set materials.goo.color=[0,1,0] \
     --set surface.voxel=1 --set surface.radius=1.5 > sv.log 2>&1
 check "changed surface settings re-surface and re-render, without re-simulating" \
     bash -c "grep -q 'nothing to simulate' sv.log && grep -q '12 surfaces, 12 images made' sv.log"
+"$kerf" run tiny.yaml --out full --frames 1012 --set surface.group=object > sg.log 2>&1
+check "surface.group=object re-surfaces without re-simulating" \
+    bash -c "grep -q 'nothing to simulate' sg.log && grep -q '1 surfaces, 1 images made' sg.log"
 "$kerf" run tiny.yaml --out pts --quality preview --frames 1001-1002 --set output.points=true --set output.images=false > pts.log 2>&1
 check "output.points writes OpenVDB points per frame" test "$(ls pts/points/*.vdb 2>/dev/null | wc -l)" -eq 2
 check "output.images=false renders nothing" test ! -e pts/images

@@ -29,6 +29,20 @@ static void make_quad(quad *q, const double c[3], const double u[3], const doubl
     memcpy(q->tri, t, sizeof t);
 }
 
+/* a closed box (12 triangles, counter-clockwise seen from outside) centred at the origin */
+typedef struct box_mesh {
+    double vert[24];
+    int tri[36];
+} box_mesh;
+
+static void make_box(box_mesh *b, const double half[3]) {
+    for (int k = 0; k < 8; k++)
+        for (int a = 0; a < 3; a++) b->vert[3 * k + a] = (k >> a & 1) ? half[a] : -half[a];
+    static const int t[36] = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                              2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+    memcpy(b->tri, t, sizeof t);
+}
+
 static kf_rigid_def thin_def(const quad *q, kf_rigid_motion motion) {
     kf_rigid_def d;
     memset(&d, 0, sizeof d);
@@ -56,11 +70,13 @@ static void add_rigid(kf_model *m, const kf_rigid_def *d) {
  * A vertical blade in the plane x = x0 comes down at 1 m/s through a jello
  * block resting on a sticky floor, to the floor. No particle may be on the
  * other side of the blade's plane, wherever the blade is, at any substep. */
-static void blade_cuts_block(void) {
+/* mode 0: open sheet, 1: closed 2 mm slab, 2: no blade (the control: the
+ * block slides across x0, so crossings prove the check can see them) */
+static long blade_cuts_block_with(int closed) {
     kf_sim_def sd = kf_default_sim_def();
     sd.dx = 1.0 / 64;
     sd.walls = 1;
-    sd.wall_boundary = KF_BOUNDARY_STICKY;
+    sd.wall_boundary = KF_BOUNDARY_SLIP;
     int mat;
     kf_model *m = tu_model(&sd, "jello", 0, -1, 0, &mat);
     const double x0 = 0.5 + 0.37 * sd.dx, H = 0.3, zlo = 0.3, zhi = 0.7;
@@ -68,6 +84,15 @@ static void blade_cuts_block(void) {
     double c[3] = {x0, 0.5 * H, 0.5}, u[3] = {0, 0, 1}, v[3] = {0, 1, 0};
     make_quad(&q, c, u, v, 0.5 * (zhi - zlo), 0.5 * H); /* normal u × v = -x */
     kf_rigid_def d = thin_def(&q, KF_RIGID_KINEMATIC);
+    /* or the blade as a closed slab 2 mm thick (a blade with two faces, as
+     * cutter meshes often are): kerf turns it into one sheet (thin.c) */
+    box_mesh slab;
+    if (closed) {
+        double half[3] = {0.001, 0.5 * H, 0.5 * (zhi - zlo)};
+        make_box(&slab, half);
+        for (int k = 0; k < 8; k++) slab.vert[3 * k] += x0, slab.vert[3 * k + 1] += 0.5 * H, slab.vert[3 * k + 2] += 0.5;
+        d.vertices = slab.vert, d.nvertices = 8, d.triangles = slab.tri, d.ntriangles = 12;
+    }
     /* the blade's bottom edge starts at y = 0.2 (above the block) and reaches the floor at t = 0.2 */
     d.nkeys = 2;
     d.keys[0].time = 0;
@@ -75,18 +100,25 @@ static void blade_cuts_block(void) {
     d.keys[1].time = 0.2;
     d.keys[1].position[1] = 0.0;
     d.interp = KF_INTERP_LINEAR;
-    add_rigid(m, &d);
+    /* §5.3.3 and Eq. 27: slightly penetrated particles are pushed back out,
+     * and the collided velocity pushes away from the blade (the paper's code
+     * defaults to c = 2e4 Δx, 312 m/s² here) */
+    d.penalty = 1000;
+    d.push = 2e4 * sd.dx;
+    if (closed < 2) add_rigid(m, &d);
     kf_state *s = kf_state_create(m);
     KT_CHECK(s != NULL, "state with a kinematic blade");
-    double lo[3] = {0.4, 0.0, 0.4}, hi[3] = {0.6, 0.12, 0.6};
-    kf_state_fill_box(s, m, lo, hi, mat, NULL, 2, 0);
+    /* the block slides towards +x on a slippery floor: the blade must hold its left part back */
+    double lo[3] = {0.4, 0.0, 0.4}, hi[3] = {0.6, 0.12, 0.6}, slide[3] = {0.3, 0, 0};
+    kf_state_fill_box(s, m, lo, hi, mat, slide, 2, 0);
     size_t n = kf_state_count(s);
-    /* each particle's side of the plane, by stable id */
+    /* each particle's side of the plane, by stable id, as it was when the blade reached it */
     kf_particles_view pv = kf_state_particles_read(s);
     signed char *side = malloc(n);
     for (size_t i = 0; i < n; i++) side[pv.id[i]] = pv.x[0][i] > x0 ? 1 : -1;
 
-    long crossings = 0, checked = 0;
+    long crossings = 0, checked = 0, uncoloured = 0;
+    int pos_side = 0; /* the geometric side of a positive tag, learnt */
     double dt = 5e-4, t = 0;
     kf_step_stats st;
     memset(&st, 0, sizeof st);
@@ -101,16 +133,54 @@ static void blade_cuts_block(void) {
         pv = kf_state_particles_read(s);
         for (size_t i = 0; i < pv.n; i++) {
             double y = pv.x[1][i], z = pv.x[2][i];
-            if (y < bottom + sd.dx || y > bottom + H || z < zlo + sd.dx || z > zhi - sd.dx) continue;
+            /* a particle pressed against the sheet may overshoot it by a
+             * small advection error within a substep, which its persistent
+             * colour, the push and the penalty undo (§5.3.3); a crossing is a
+             * particle more than a tenth of a cell on the other side */
+            double off = (pv.x[0][i] - x0) / sd.dx;
+            int now = off > 0.1 ? 1 : off < -0.1 ? -1 : 0;
+            /* the rim: nodes beyond a sheet's edge have no colour, so both
+             * sides share them (the paper's sub-grid limit, §8); a particle
+             * within the splat's reach plus its kernel's (1.5 + 1.5 cells) of
+             * the edge can reach such a node */
+            const double rim = 3 * sd.dx;
+            if (y < bottom + rim || y > bottom + H || z < zlo + rim || z > zhi - rim) continue;
             checked++;
-            int now = pv.x[0][i] > x0 ? 1 : -1;
-            if (now != side[pv.id[i]]) crossings++;
+            /* the side the particle's tag names: the open sheet's normal is -x
+             * (positive = left); the closed slab's sheet faces along its
+             * thinnest axis, either way: learnt from the first clear case */
+            int coloured = pv.colour[i] >> 1 & 1;
+            if (coloured && !pos_side && fabs(off) > 0.5) pos_side = (pv.colour[i] & 1 ? -1 : 1) * (off > 0 ? 1 : -1);
+            int held = (pv.colour[i] & 1 ? -1 : 1) * pos_side;
+            if (coloured && !pos_side) continue; /* not learnt yet: no particle clear of the plane */
+            if (closed == 2) held = side[pv.id[i]], coloured = 1; /* the control: the side it started on */
+            if (!coloured) {
+                uncoloured += fabs(off) < 1; /* within a cell of the blade, yet no side */
+                continue;
+            }
+            if (now && now != held) {
+                if (getenv("KF_DEBUG") && crossings < 12)
+                    fprintf(stderr, "cross t=%.4f y-bot %.2f cells, x-x0 %.3f cells, z %.3f, vx %.3f colour %x\n", t,
+                            (y - bottom) / sd.dx, off, z, pv.v[0][i], pv.colour[i]);
+                crossings++;
+            }
         }
+    }
+    if (closed == 2) {
+        free(side);
+        kf_state_destroy(s);
+        kf_model_destroy(m);
+        return crossings;
     }
     KT_CHECK(kf_state_count(s) == n, "no particle deleted or added (%zu vs %zu)", kf_state_count(s), n);
     KT_CHECK(crossings == 0, "%ld particle positions on the wrong side of the blade (of %ld checked)", crossings,
              checked);
+    KT_CHECK(closed || pos_side == -1, "the open sheet's positive side is the side its normal (-x) points to (%d)",
+             pos_side);
     KT_CHECK(checked > (long)n * 100, "the check saw the block under the blade (%ld particle-substeps)", checked);
+    /* particles on the blade's plane as it arrives cannot tell their side
+     * yet (§5.3.1 retries each substep); they must be few and brief */
+    KT_CHECK(uncoloured < checked / 1000, "uncoloured particles under the blade: %ld of %ld", uncoloured, checked);
     /* two pieces: the whole block lies under the blade's reach, on its two sides */
     pv = kf_state_particles_read(s);
     long left = 0, right = 0;
@@ -121,15 +191,15 @@ static void blade_cuts_block(void) {
         if (pv.x[1][i] > ymax) ymax = pv.x[1][i];
     }
     KT_CHECK(ymax < H, "the block is below the blade's top (%g < %g): the blade went through it", ymax, H);
-    long left0 = 0;
-    for (size_t k = 0; k < n; k++) left0 += side[k] < 0;
-    KT_CHECK(left == left0 && right == (long)n - left0 && left > 0 && right > 0,
-             "two pieces, as many particles on each side as at the start (%ld | %ld)", left, right);
-    printf("  blade: %zu particles, %ld particle-substeps checked, %ld crossings, cdf %.1f ms, p2g %.1f ms total\n", n,
-           checked, crossings, st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_P2G]);
+    KT_CHECK(left > 0 && right > 0, "two pieces, one on each side (%ld | %ld)", left, right);
+    printf("  blade (%s): %zu particles, %ld particle-substeps checked, %ld crossings, %ld uncoloured, cdf %.1f ms, "
+           "p2g %.1f ms total\n",
+           closed ? "closed 2 mm slab" : "open sheet", n, checked, crossings, uncoloured, st.ms[KF_STAGE_CDF],
+           st.ms[KF_STAGE_P2G]);
     free(side);
     kf_state_destroy(s);
     kf_model_destroy(m);
+    return crossings;
 }
 
 /* ---- a static thin wall keeps two streams apart ------------------------------
@@ -336,20 +406,6 @@ static void three_plates_colour(void) {
 
 /* ---- a dynamic body and material: momentum -------------------------------- */
 
-/* a closed box (12 triangles, counter-clockwise seen from outside) centred at the origin */
-typedef struct box_mesh {
-    double vert[24];
-    int tri[36];
-} box_mesh;
-
-static void make_box(box_mesh *b, const double half[3]) {
-    for (int k = 0; k < 8; k++)
-        for (int a = 0; a < 3; a++) b->vert[3 * k + a] = (k >> a & 1) ? half[a] : -half[a];
-    static const int t[36] = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
-                              2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
-    memcpy(b->tri, t, sizeof t);
-}
-
 static kf_rigid_def box_def(const box_mesh *b, const double pos[3], double density) {
     kf_rigid_def d;
     memset(&d, 0, sizeof d);
@@ -421,9 +477,11 @@ static void momentum_ball_hits_box(void) {
  * in a closed tank. It must float with a draft of ρ_b/ρ_w of its height,
  * 0.06 m: averaged over the last half second (the bobbing's period is
  * 2π√(d/g) = 0.49 s), surface height measured away from the block. */
+static int float_cells = 64; /* cells per metre; `test_cpic block_floats 96` for a finer run */
+
 static void block_floats(void) {
     kf_sim_def sd = kf_default_sim_def();
-    sd.dx = 1.0 / 64;
+    sd.dx = 1.0 / float_cells;
     sd.walls = 1;
     sd.wall_boundary = KF_BOUNDARY_SLIP;
     for (int a = 0; a < 3; a++) sd.domain_min[a] = 0;
@@ -565,7 +623,35 @@ static void resume_is_exact(void) {
     kf_model_destroy(m);
 }
 
+/* ---- the colour word's capacity: 14 bodies, the 15th is refused ------------- */
+static void body_limit(void) {
+    kf_sim_def sd = kf_default_sim_def();
+    int mat;
+    kf_model *m = tu_model(&sd, "jello", 0, -1, 0, &mat);
+    quad q;
+    double c[3] = {0.5, 0.5, 0.5}, u[3] = {1, 0, 0}, v[3] = {0, 1, 0};
+    make_quad(&q, c, u, v, 0.1, 0.1);
+    kf_rigid_def d = thin_def(&q, KF_RIGID_STATIC);
+    char err[256] = "";
+    int last = -1;
+    for (int k = 0; k < KF_MAX_RIGIDS; k++) last = kf_model_add_rigid(m, &d, err, sizeof err);
+    KT_CHECK(last == KF_MAX_RIGIDS - 1, "14 bodies fit (%s)", err);
+    KT_CHECK(kf_model_add_rigid(m, &d, err, sizeof err) < 0, "the 15th is refused");
+    KT_CHECK(strstr(err, "at most 14") != NULL, "and the message names the limit: %s", err);
+    kf_model_destroy(m);
+}
+
+static void blade_cuts_block(void) {
+    blade_cuts_block_with(0);
+    long control = blade_cuts_block_with(2);
+    KT_CHECK(control > 1000, "control: without the blade the sliding block crosses x0 (%ld crossings)", control);
+    printf("  control without a blade: %ld crossings\n", control);
+}
+static void closed_blade_cuts_block(void) { blade_cuts_block_with(1); }
+
 int main(int argc, char **argv) {
+    KT_RUN(closed_blade_cuts_block, argc, argv);
+    KT_RUN(body_limit, argc, argv);
     KT_RUN(resume_is_exact, argc, argv);
     /* KNOWN FAILURE, not run by ctest (run `test_cpic block_floats`): the
      * block floats and comes nearly to rest, but its draft measures 0.080 m
@@ -574,6 +660,7 @@ int main(int argc, char **argv) {
      * 0.1 cell inside the faces, so the block displaces as one ~0.4 cell
      * smaller per face: a sub-cell boundary error that should shrink with
      * Δx (not yet measured). See the issue 5 note. */
+    if (argc >= 3) float_cells = atoi(argv[2]);
     if (argc >= 2 && strcmp(argv[1], "block_floats") == 0) KT_RUN(block_floats, argc, argv);
     KT_RUN(momentum_ball_hits_box, argc, argv);
     KT_RUN(three_plates_colour, argc, argv);

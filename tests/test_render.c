@@ -479,9 +479,55 @@ static void test_preview_and_timing(void) {
     }
 }
 
+/* The two context backends (render/context.c): KERF_GL=osmesa and
+ * KERF_GL=egl (surfaceless) each render the golden scene, on the backend
+ * asked for, to the same picture (both are Mesa's llvmpipe here: within the
+ * golden tolerance); an unknown KERF_GL is refused with a message. */
+static void test_backends(void) {
+    const int W = 64, H = 48;
+    const char *names[2] = {"osmesa", "egl"};
+    uint8_t *img[2] = {malloc((size_t)W * H * 4), malloc((size_t)W * H * 4)};
+    int ok[2] = {0, 0};
+    char err[1024] = "";
+    const char *was = getenv("KERF_GL");
+    char saved[64] = "";
+    if (was) snprintf(saved, sizeof saved, "%s", was);
+    two_objects t;
+    two_objects_init(&t);
+    float lo[3], hi[3], dir[3] = {-0.4f, -0.35f, -1};
+    kf_render_scene_bounds(&t.sc, lo, hi);
+    kf_camera cam = kf_camera_frame_bounds(lo, hi, dir, 35);
+    for (int b = 0; b < 2; b++) {
+        setenv("KERF_GL", names[b], 1);
+        kf_render_ctx *r = kf_render_create(W, H, 4, err, sizeof err);
+        KT_CHECK(r != NULL, "KERF_GL=%s: %s", names[b], err);
+        if (!r) continue;
+        KT_CHECK(!strcmp(kf_render_backend(r), names[b]), "asked for %s, got %s", names[b], kf_render_backend(r));
+        printf("  %s: %s\n", kf_render_backend(r), kf_render_gl_renderer(r));
+        ok[b] = kf_render_frame(r, &t.sc, &cam, img[b], err, sizeof err) == 0;
+        KT_CHECK(ok[b], "%s: %s", names[b], err);
+        kf_render_destroy(r);
+    }
+    if (ok[0] && ok[1]) {
+        double d = mean_abs_diff(img[0], img[1], (size_t)W * H * 4);
+        printf("  osmesa vs egl: mean |diff| %.4f\n", d);
+        KT_NEAR(d, 0.0, 1.0, "the two backends draw the same picture");
+    }
+    setenv("KERF_GL", "vulkan", 1);
+    kf_render_ctx *r = kf_render_create(W, H, 1, err, sizeof err);
+    KT_CHECK(r == NULL && strstr(err, "KERF_GL") != NULL, "unknown KERF_GL refused: '%s'", err);
+    kf_render_destroy(r);
+    if (was) setenv("KERF_GL", saved, 1);
+    else unsetenv("KERF_GL");
+    two_objects_free(&t);
+    free(img[0]);
+    free(img[1]);
+}
+
 int main(int argc, char **argv) {
     KT_RUN(test_silhouette_and_upright, argc, argv);
     KT_RUN(test_golden, argc, argv);
+    KT_RUN(test_backends, argc, argv);
     KT_RUN(test_png_round_trip, argc, argv);
     KT_RUN(test_turntable_loop, argc, argv);
     KT_RUN(test_errors, argc, argv);

@@ -62,7 +62,7 @@ static char *printed(const kf_diag_entry *e) {
 /* every default satisfies its own key, every `only` names a real choice,
  * every key sits in a container the table declares and says what it is */
 static void table_is_consistent(void) {
-    static char scratch[sizeof(kf_top) + sizeof(kf_shot_object) + 4096];
+    static char scratch[sizeof(kf_top) + sizeof(kf_shot_object) + sizeof(kf_shot_rigid) + 4096];
     for (int i = 0; i < kf_nkeys; i++) {
         const kf_keydef *k = &kf_keys[i];
         KT_CHECK(kf_key_default(k, scratch) == 0, "default of %s ('%s') does not satisfy its own bounds", k->path,
@@ -108,6 +108,9 @@ static void table_is_consistent(void) {
     CHOICE("materials.*.model", KF_MAT_SNOW, "snow");
     CHOICE("objects[].shape", KF_SOURCE_MESH, "mesh");
     CHOICE("domain.walls", KF_BOUNDARY_SEPARATE + 1, "separate"); /* after "none" */
+    CHOICE("rigids[].motion", KF_RIGID_DYNAMIC, "dynamic");
+    CHOICE("rigids[].boundary", KF_BOUNDARY_SEPARATE, "separate");
+    CHOICE("rigids[].interpolation", KF_INTERP_SMOOTH, "smooth");
 #undef CHOICE
 
     /* the help is generated from the same rows */

@@ -510,6 +510,91 @@ static void test_timing_200k(void)
     unlink(path);
 }
 
+/* the zero crossing of g along +x from c, by bisection between c and c + 2r */
+static double crossing_x(kf_vdb_grid *g, const double c[3], double r)
+{
+    char err[256];
+    double lo = 0, hi = 2 * r;
+    for (int it = 0; it < 40; it++) {
+        double mid = 0.5 * (lo + hi), q[3] = {c[0] + mid, c[1] + 0.0013, c[2] + 0.0021}, v = 0;
+        kf_vdb_sample(g, q, 1, &v, err, sizeof err);
+        if (v < 0) lo = mid;
+        else hi = mid;
+    }
+    return lo;
+}
+
+/* surface.group: object — `kerf run` (the binary built beside this test)
+ * surfaces two balls of one material to two level sets, read back here with
+ * OpenVDB; the default (per material) makes one `surface`. No gravity and no
+ * velocity, so each ball's zero crossing stays at its radius: within one
+ * particle spacing (the lattice staircase is +/- half a spacing, the
+ * automatic erosion puts the surface back on the material). */
+static void test_object_groups(void)
+{
+    char exe[1024], kerf[1100], dir[256], cmd[4096], path[512], err[512] = "";
+    ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    KT_CHECK(len > 0, "readlink /proc/self/exe");
+    if (len <= 0) return;
+    exe[len] = 0;
+    *strrchr(exe, '/') = 0;
+    snprintf(kerf, sizeof kerf, "%s/kerf", exe);
+    KT_CHECK(access(kerf, X_OK) == 0, "the kerf binary beside this test: %s", kerf);
+    snprintf(dir, sizeof dir, "/tmp/kerf_test_vdb_%ld_objects", (long)getpid());
+    snprintf(cmd, sizeof cmd, "mkdir -p %s", dir);
+    KT_CHECK(system(cmd) == 0, "%s", cmd);
+    snprintf(path, sizeof path, "%s/balls.yaml", dir);
+    FILE *f = fopen(path, "w");
+    KT_CHECK(f != NULL, "cannot write %s", path);
+    if (!f) return;
+    const double rb = 0.12, spacing = 0.02, cl[3] = {0.3, 0.5, 0.5}, cr[3] = {0.7, 0.5, 0.5};
+    fprintf(f, "shot: balls\nframes: {start: 1, end: 1}\nsim: {dx: 0.04, ppc: 8, gravity: [0, 0, 0]}\n"
+               "materials:\n  jelly: {preset: jello}\nobjects:\n"
+               "  - {name: left, shape: sphere, center: [%g, %g, %g], radius: %g, material: jelly}\n"
+               "  - {name: right, shape: sphere, center: [%g, %g, %g], radius: %g, material: jelly}\n"
+               "output: {dir: \"{shot}\", particles: false, images: false}\n",
+            cl[0], cl[1], cl[2], rb, cr[0], cr[1], cr[2], rb);
+    fclose(f);
+    snprintf(cmd, sizeof cmd, "cd %s && %s run balls.yaml --quiet --set surface.group=object > run.log 2>&1", dir, kerf);
+    KT_CHECK(system(cmd) == 0, "%s (see %s/run.log)", cmd, dir);
+    snprintf(path, sizeof path, "%s/balls/surface/balls.0001.vdb", dir);
+    kf_vdb_file_info info;
+    KT_CHECK(kf_vdb_info(path, &info, err, sizeof err) == 0, "%s", err);
+    int nls = 0;
+    for (int i = 0; i < info.ngrids; i++) {
+        printf("  grid %s (%s, %s)\n", info.grids[i].name, info.grids[i].cls, info.grids[i].type);
+        nls += strcmp(info.grids[i].cls, "level set") == 0;
+    }
+    KT_CHECK(nls == 2, "two level sets, got %d", nls);
+    kf_vdb_grid *gl = NULL, *gr = NULL;
+    KT_CHECK(kf_vdb_read_levelset(path, "surface_left", &gl, NULL, err, sizeof err) == 0, "%s", err);
+    KT_CHECK(kf_vdb_read_levelset(path, "surface_right", &gr, NULL, err, sizeof err) == 0, "%s", err);
+    if (gl && gr) {
+        double v[4], q[6] = {cl[0], cl[1], cl[2], cr[0], cr[1], cr[2]};
+        kf_vdb_sample(gl, q, 2, v, err, sizeof err);
+        kf_vdb_sample(gr, q, 2, v + 2, err, sizeof err);
+        KT_CHECK(v[0] < 0 && v[1] > 0, "surface_left: inside at the left ball (%g), outside at the right (%g)", v[0], v[1]);
+        KT_CHECK(v[2] > 0 && v[3] < 0, "surface_right: outside at the left ball (%g), inside at the right (%g)", v[2], v[3]);
+        double el = crossing_x(gl, cl, rb) - rb, er = crossing_x(gr, cr, rb) - rb;
+        printf("  zero crossing - radius along +x: left %+.4f m, right %+.4f m (spacing %g m)\n", el, er, spacing);
+        KT_NEAR(el, 0, spacing, "left ball's surface at its radius");
+        KT_NEAR(er, 0, spacing, "right ball's surface at its radius");
+    }
+    kf_vdb_free(gl);
+    kf_vdb_free(gr);
+    /* the default groups by material: one material, one grid named surface */
+    snprintf(cmd, sizeof cmd, "cd %s && %s run balls.yaml --quiet --out bym > run2.log 2>&1", dir, kerf);
+    KT_CHECK(system(cmd) == 0, "%s", cmd);
+    snprintf(path, sizeof path, "%s/bym/surface/balls.0001.vdb", dir);
+    KT_CHECK(kf_vdb_info(path, &info, err, sizeof err) == 0, "%s", err);
+    nls = 0;
+    for (int i = 0; i < info.ngrids; i++) nls += strcmp(info.grids[i].cls, "level set") == 0;
+    KT_CHECK(nls == 1 && strcmp(info.grids[0].name, "surface") == 0, "one level set named surface (%d, '%s')", nls,
+             info.grids[0].name);
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    KT_CHECK(system(cmd) == 0, "%s", cmd);
+}
+
 int main(int argc, char **argv)
 {
     KT_RUN(test_sphere_file, argc, argv);
@@ -519,5 +604,6 @@ int main(int argc, char **argv)
     KT_RUN(test_bad_paths, argc, argv);
     KT_RUN(test_points_roundtrip, argc, argv);
     KT_RUN(test_timing_200k, argc, argv);
+    KT_RUN(test_object_groups, argc, argv);
     return KT_EXIT();
 }

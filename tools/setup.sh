@@ -8,7 +8,8 @@ build=${1:-"$here/build"}
 
 packages=(build-essential cmake pkg-config file
           libopenvdb-dev libboost-iostreams-dev libtbb-dev libembree-dev libassimp-dev
-          libosmesa6-dev libfyaml-dev libpng-dev libmujoco-dev libqhull-dev)
+          libosmesa6-dev libegl-dev libegl-mesa0 libfyaml-dev libpng-dev libmujoco-dev libqhull-dev
+          gnuplot-nox)  # gnuplot: the figures of tools/evidence/run.sh
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

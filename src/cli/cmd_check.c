@@ -5,6 +5,7 @@
 
 #include "../mpm/model.h"
 #include "cli.h"
+#include "rigid_log.h"
 
 int kf_cmd_check(int argc, char **argv) {
     kf_cli_opts o;
@@ -54,6 +55,7 @@ int kf_cmd_info(int argc, char **argv) {
                d->density, m->mat[i].wave_speed0);
     }
     if (shot->ncolliders) printf("colliders %d\n", shot->ncolliders);
+    kf_rigid_log_info(stdout, shot, m); /* bodies, seeds, masses, joints (rigid_log.c) */
 
     /* the grid as the first substep will build it, and the substep the CFL rule picks now */
     size_t bad;

@@ -16,6 +16,7 @@
 #include "../io/checkpoint.h"
 #include "../io/points_ply.h"
 #include "cli.h"
+#include "rigid_log.h"
 #include "stages.h"
 
 /* the last frame with a readable checkpoint made from the same inputs */
@@ -195,10 +196,16 @@ int kf_cmd_run(int argc, char **argv) {
             /* one plain line per frame for farm logs */
             fprintf(stderr,
                     "frame %d: %zu particles, %ld blocks, %ld substeps, max cfl %.2f, %.0f ms (sort %.0f p2g %.0f "
-                    "grid %.0f g2p %.0f stress %.0f), %.1f M p-steps/s, %d retries, %ld warnings, ETA %s\n",
+                    "grid %.0f g2p %.0f stress %.0f cdf %.0f rigid %.0f), %.1f M p-steps/s, %d retries, %ld warnings, ETA %s\n",
                     frame, kf_state_count(sc.state), st.active_blocks, st.substeps, st.max_cfl, frame_ms,
                     st.ms[KF_STAGE_SORT], st.ms[KF_STAGE_P2G], st.ms[KF_STAGE_GRID], st.ms[KF_STAGE_G2P],
-                    st.ms[KF_STAGE_STRESS], mps, st.retries, st.warnings, eta);
+                    st.ms[KF_STAGE_STRESS], st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID], mps, st.retries, st.warnings,
+                    eta);
+            /* implicit integration: how hard the solves worked this frame */
+            if (kf_model_sim(sc.model)->integrator == KF_INTEGRATOR_IMPLICIT)
+                fprintf(stderr, "frame %d: implicit: %ld Newton, %ld Krylov iterations, last residual %.2g\n", frame,
+                        st.newton_iterations, st.krylov_iterations, st.newton_residual);
+            kf_rigid_log_frame(stderr, shot, sc.state); /* where each rigid body is (rigid_log.c) */
         }
     }
     if (!o.quiet && tty) fputc('\n', stderr);

@@ -28,13 +28,18 @@ static void render_settings(const kf_shot *shot, char *buf, size_t n) {
                        shot->render_height, shot->render_samples, shot->render_eye_set, shot->render_target_set,
                        shot->render_eye[0], shot->render_eye[1], shot->render_eye[2], shot->render_target[0],
                        shot->render_target[1], shot->render_target[2], shot->render_fov, shot->render_ground);
-    /* colours too: a recoloured material or collider is a new picture */
+    /* looks too: a recoloured or reshaded material or collider is a new picture */
     for (int i = 0; i < shot->nmaterials && len > 0 && (size_t)len < n; i++)
-        len += snprintf(buf + len, n - (size_t)len, " m%.4g,%.4g,%.4g", shot->materials[i].color[0],
-                        shot->materials[i].color[1], shot->materials[i].color[2]);
+        len += snprintf(buf + len, n - (size_t)len, " m%.4g,%.4g,%.4g,%.4g,%.4g", shot->materials[i].color[0],
+                        shot->materials[i].color[1], shot->materials[i].color[2], shot->materials[i].specular,
+                        shot->materials[i].roughness);
     for (int i = 0; i < shot->ncolliders && len > 0 && (size_t)len < n; i++)
-        len += snprintf(buf + len, n - (size_t)len, " c%.4g,%.4g,%.4g", shot->colliders[i].color[0],
-                        shot->colliders[i].color[1], shot->colliders[i].color[2]);
+        len += snprintf(buf + len, n - (size_t)len, " c%.4g,%.4g,%.4g,%.4g,%.4g", shot->colliders[i].color[0],
+                        shot->colliders[i].color[1], shot->colliders[i].color[2], shot->colliders[i].specular,
+                        shot->colliders[i].roughness);
+    for (int i = 0; i < shot->nrigids && len > 0 && (size_t)len < n; i++)
+        len += snprintf(buf + len, n - (size_t)len, " r%.4g,%.4g,%.4g", shot->rigids[i].color[0],
+                        shot->rigids[i].color[1], shot->rigids[i].color[2]);
     if (len > 0 && (size_t)len < n - 1) buf[len] = '\n', buf[len + 1] = 0;
 }
 
@@ -57,8 +62,8 @@ static void write_stamp(const char *stamp, const char *now) {
 
 /* the surface settings as text, for <dir>/surface/.settings */
 static void surface_settings(const kf_shot *shot, char *buf, size_t n) {
-    snprintf(buf, n, "%.9g %.9g %d %d %.9g %.9g\n", shot->surface_voxel, shot->surface_radius, shot->surface_smooth,
-             shot->surface_iterations, shot->surface_dilate, shot->surface_erode);
+    snprintf(buf, n, "%.9g %.9g %d %d %.9g %.9g %d\n", shot->surface_voxel, shot->surface_radius, shot->surface_smooth,
+             shot->surface_iterations, shot->surface_dilate, shot->surface_erode, shot->surface_group);
 }
 
 /* surface and render frames first..last, skipping current outputs */

@@ -42,7 +42,7 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                    "\nA terminal gets a live progress bar with ETA; a log gets one line per frame with\n"
                    "particles, grid blocks, substeps, max CFL, ms per stage and warnings.\n"
                    "Outputs per frame under <dir>: particles/<name>.ply, checkpoints/<name>.kfc,\n"
-                   "surface/<name>.vdb (level set `surface`, and `surface.<material>` per material),\n"
+                   "surface/<name>.vdb (level set `surface`, or `surface_<group>` per material/object),\n"
                    "images/<name>.png. When every requested frame is cached from the same inputs (shot\n"
                    "values that affect the simulation, mesh file contents, kerf version), nothing is\n"
                    "simulated; surfaces and images newer than their inputs are kept.\n");

@@ -16,6 +16,7 @@
 #include "../scene/mesh.h"
 #include "../scene/sample.h"
 #include "render.h"
+#include "rigid_draw.h"
 
 int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_frame_paths *fp) {
     char name[1024];
@@ -69,34 +70,61 @@ static void surface_params(const kf_shot *shot, kf_vdb_surface_params *p, const 
     p->name = name;
 }
 
+/* The groups a frame is surfaced in (surface.group): per material, or per
+ * shot object. Group g of particle i, the number of groups, and their names. */
+static int group_count(const kf_shot *shot) {
+    return shot->surface_group ? (shot->nobjects > 0 ? shot->nobjects : 1) : (shot->nmaterials > 0 ? shot->nmaterials : 1);
+}
+
+static const char *group_name(const kf_shot *shot, int g) {
+    if (shot->surface_group) return g < shot->nobjects ? shot->objects[g].name : "object";
+    return g < shot->nmaterials ? shot->materials[g].mat.name : "material";
+}
+
 int kf_stage_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
                      size_t errlen) {
     kf_checkpoint_info info;
     if (kf_checkpoint_read(fp->checkpoint, sc->model, sc->state, &info, err, errlen)) return -1;
     kf_particles_view pv = kf_state_particles_read(sc->state);
-    int nmat = shot->nmaterials, ngrids = 0, rc = -1;
+    const int ng = group_count(shot);
+    int ngrids = 0, rc = -1;
     kf_vdb_grid *grids[KF_VDB_MAX_GRIDS] = {0};
+    /* particles gathered group by group (a counting sort): group g is
+     * x[3 * at[g] ...] up to at[g + 1] */
     float *x = malloc(sizeof(float) * 3 * (pv.n + 1)), *v = malloc(sizeof(float) * 3 * (pv.n + 1));
-    if (!x || !v) {
+    size_t *at = calloc((size_t)ng + 2, sizeof *at), *fill = calloc((size_t)ng + 1, sizeof *fill);
+    if (!x || !v || !at || !fill) {
         snprintf(err, errlen, "out of memory surfacing %zu particles", pv.n);
         goto done;
     }
-    /* group 0: every particle, named "surface"; then one per material */
-    for (int group = -1; group < nmat && ngrids < KF_VDB_MAX_GRIDS; group++) {
-        if (group >= 0 && nmat < 2) break;
-        size_t n = 0;
-        for (size_t i = 0; i < pv.n; i++) {
-            if (group >= 0 && pv.mat[i] != group) continue;
-            for (int a = 0; a < 3; a++) x[3 * n + a] = (float)pv.x[a][i], v[3 * n + a] = (float)pv.v[a][i];
-            n++;
-        }
+    for (size_t i = 0; i < pv.n; i++) {
+        int g = shot->surface_group ? pv.obj[i] : pv.mat[i];
+        at[(g < ng ? g : ng - 1) + 1]++;
+    }
+    int used = 0;
+    for (int g = 0; g < ng; g++) used += at[g + 1] > 0, at[g + 1] += at[g];
+    if (used > KF_VDB_MAX_GRIDS / 2) {
+        snprintf(err, errlen, "%d %ss hold particles; a .vdb takes at most %d level sets (surface.group)", used,
+                 shot->surface_group ? "object" : "material", KF_VDB_MAX_GRIDS / 2);
+        goto done;
+    }
+    memcpy(fill, at, sizeof *fill * (size_t)ng);
+    for (size_t i = 0; i < pv.n; i++) {
+        int g = shot->surface_group ? pv.obj[i] : pv.mat[i];
+        size_t k = fill[g < ng ? g : ng - 1]++;
+        for (int a = 0; a < 3; a++) x[3 * k + a] = (float)pv.x[a][i], v[3 * k + a] = (float)pv.v[a][i];
+    }
+    /* one level set per group that holds particles: `surface` when there is
+     * one, else `surface_<name>`; each with its velocity grid */
+    for (int g = 0; g < ng; g++) {
+        size_t n = at[g + 1] - at[g];
         if (n == 0) continue;
         char name[128];
-        if (group < 0) snprintf(name, sizeof name, "surface");
-        else snprintf(name, sizeof name, "surface.%s", shot->materials[group].mat.name);
+        if (used == 1) snprintf(name, sizeof name, "surface");
+        else snprintf(name, sizeof name, "surface_%s", group_name(shot, g));
         kf_vdb_surface_params p;
         surface_params(shot, &p, name);
-        if (kf_vdb_levelset_from_particles(n, NULL, x, NULL, group < 0 ? v : NULL, &p, &grids[ngrids], NULL, err,
+        if (kf_vdb_levelset_from_particles(n, NULL, x + 3 * at[g], NULL, v + 3 * at[g], &p, &grids[ngrids], NULL, err,
                                            errlen))
             goto done;
         ngrids++;
@@ -116,6 +144,8 @@ done:
     for (int g = 0; g < ngrids; g++) kf_vdb_free(grids[g]);
     free(x);
     free(v);
+    free(at);
+    free(fill);
     return rc;
 }
 
@@ -167,11 +197,19 @@ kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc) {
     for (int a = 0; a < 3; a++) ext = hi[a] - lo[a] > ext ? hi[a] - lo[a] : ext;
     for (int a = 0; a < 3; a += 2) lo[a] -= 0.5f * ext, hi[a] += 0.5f * ext;
     if (shot->sim.walls) {
-        /* the floor is in the picture; nothing beyond the walls is */
+        /* the floor is in the picture; nothing beyond the walls is. Material
+         * that starts against a side wall is held by the walls and flows
+         * along them (a dam break runs to the far wall): frame the whole
+         * floor then. */
+        const float near = 2 * (float)shot->sim.dx;
+        int held = 0;
+        for (int a = 0; a < 3; a += 2)
+            held |= lo[a] + 0.5f * ext < (float)shot->sim.domain_min[a] + near ||
+                    hi[a] - 0.5f * ext > (float)shot->sim.domain_max[a] - near;
         lo[1] = (float)shot->sim.domain_min[1];
         for (int a = 0; a < 3; a++) {
-            if (lo[a] < shot->sim.domain_min[a]) lo[a] = (float)shot->sim.domain_min[a];
-            if (hi[a] > shot->sim.domain_max[a]) hi[a] = (float)shot->sim.domain_max[a];
+            if (lo[a] < shot->sim.domain_min[a] || (held && a != 1)) lo[a] = (float)shot->sim.domain_min[a];
+            if (hi[a] > shot->sim.domain_max[a] || (held && a != 1)) hi[a] = (float)shot->sim.domain_max[a];
         }
     }
     for (int a = 0; a < 3; a++) o.lo[a] = lo[a], o.hi[a] = hi[a];
@@ -288,21 +326,62 @@ static int collider_mesh(const kf_shot_collider *sc, double t, tri_soup *s, char
 static const float palette[6][3] = {{0.80f, 0.62f, 0.38f}, {0.85f, 0.25f, 0.30f}, {0.25f, 0.55f, 0.85f},
                                     {0.45f, 0.75f, 0.40f}, {0.85f, 0.80f, 0.70f}, {0.60f, 0.45f, 0.75f}};
 
-/* what a material looks like: by what it is (water blue, sand tan, snow
- * white, ...), else the palette by its place in the file */
-static void material_colour(const kf_shot *shot, int i, float rgb[3]) {
-    static const struct { const char *preset; float rgb[3]; } known[] = {
-        {"water", {0.25f, 0.50f, 0.85f}}, {"sand", {0.80f, 0.65f, 0.42f}}, {"wet_sand", {0.55f, 0.43f, 0.30f}},
-        {"snow", {0.92f, 0.94f, 0.97f}},  {"jello", {0.85f, 0.25f, 0.30f}}, {"rubber", {0.25f, 0.55f, 0.85f}},
-        {"goo", {0.45f, 0.75f, 0.40f}},    {"cheese", {0.95f, 0.80f, 0.35f}}, {"metal", {0.70f, 0.72f, 0.75f}}};
-    memcpy(rgb, palette[i % 6], 3 * sizeof *rgb);
+/* what a material looks like: by what it is (water blue and glossy, sand
+ * tan and matte, snow white, ...), else the palette by its place in the
+ * file; colour, specular and roughness given in the shot win */
+static void material_look(const kf_shot *shot, int i, kf_render_material *m) {
+    static const struct { const char *preset; float rgb[3], spec, rough; } known[] = {
+        {"water", {0.25f, 0.50f, 0.85f}, 0.60f, 0.15f},  {"sand", {0.80f, 0.65f, 0.42f}, 0.05f, 0.90f},
+        {"wet_sand", {0.55f, 0.43f, 0.30f}, 0.15f, 0.60f}, {"snow", {0.92f, 0.94f, 0.97f}, 0.15f, 0.70f},
+        {"jello", {0.85f, 0.25f, 0.30f}, 0.50f, 0.25f},  {"rubber", {0.25f, 0.55f, 0.85f}, 0.30f, 0.45f},
+        {"goo", {0.45f, 0.75f, 0.40f}, 0.50f, 0.20f},    {"cheese", {0.95f, 0.80f, 0.35f}, 0.20f, 0.50f},
+        {"metal", {0.70f, 0.72f, 0.75f}, 0.80f, 0.30f}};
+    memcpy(m->diffuse, palette[(i < 0 ? 0 : i) % 6], sizeof m->diffuse);
+    m->specular = 0.3f;
+    m->roughness = 0.5f;
     if (i < 0 || i >= shot->nmaterials) return;
-    if (shot->materials[i].color[0] >= 0) {
-        for (int a = 0; a < 3; a++) rgb[a] = (float)shot->materials[i].color[a];
+    const kf_shot_material *sm = &shot->materials[i];
+    for (size_t k = 0; k < sizeof known / sizeof *known; k++)
+        if (!strcmp(sm->preset, known[k].preset)) {
+            memcpy(m->diffuse, known[k].rgb, sizeof m->diffuse);
+            m->specular = known[k].spec;
+            m->roughness = known[k].rough;
+        }
+    if (sm->color[0] >= 0)
+        for (int a = 0; a < 3; a++) m->diffuse[a] = (float)sm->color[a];
+    if (sm->specular >= 0) m->specular = (float)sm->specular;
+    if (sm->roughness > 0) m->roughness = (float)sm->roughness;
+}
+
+/* what a surfaced object looks like: its material's look; when objects of
+ * one material without a colour of its own are told apart, each takes the
+ * palette colour of its place in the file */
+static void object_look(const kf_shot *shot, int o, kf_render_material *m) {
+    if (o < 0 || o >= shot->nobjects) {
+        material_look(shot, -1, m);
         return;
     }
-    for (size_t k = 0; k < sizeof known / sizeof *known; k++)
-        if (!strcmp(shot->materials[i].preset, known[k].preset)) memcpy(rgb, known[k].rgb, 3 * sizeof *rgb);
+    int mat = shot->objects[o].material, sharing = 0;
+    material_look(shot, mat, m);
+    for (int k = 0; k < shot->nobjects; k++) sharing += shot->objects[k].material == mat;
+    if (sharing > 1 && shot->materials[mat].color[0] < 0) memcpy(m->diffuse, palette[o % 6], sizeof m->diffuse);
+}
+
+/* the look of a level set in the .vdb: `surface` alone is the first
+ * object's (or its material's), `surface_<name>` the group of that name */
+static void surface_look(const kf_shot *shot, const char *grid, kf_render_material *m) {
+    const char *name = strncmp(grid, "surface_", 8) == 0 || strncmp(grid, "surface.", 8) == 0 ? grid + 8 : NULL;
+    if (shot->surface_group) {
+        int o = shot->nobjects > 0 ? 0 : -1;
+        for (int k = 0; name && k < shot->nobjects; k++)
+            if (!strcmp(name, shot->objects[k].name)) o = k;
+        object_look(shot, o, m);
+        return;
+    }
+    int mat = shot->nobjects > 0 ? shot->objects[0].material : 0;
+    for (int k = 0; name && k < shot->nmaterials; k++)
+        if (!strcmp(name, shot->materials[k].mat.name)) mat = k;
+    material_look(shot, mat, m);
 }
 
 int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
@@ -310,16 +389,19 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
     (void)sc;
     kf_vdb_file_info info;
     if (kf_vdb_info(vdb, &info, err, errlen)) return -1;
-    /* per-material surfaces when the file has them, else the union */
+    /* the group surfaces (surface_<name>) when the file has them, else `surface`
+     * (files of kerf 0.1 held `surface` and `surface.<material>` both) */
     int use_groups = 0;
-    for (int g = 0; g < info.ngrids; g++) use_groups |= strncmp(info.grids[g].name, "surface.", 8) == 0;
+    for (int g = 0; g < info.ngrids; g++)
+        use_groups |= strncmp(info.grids[g].name, "surface_", 8) == 0 || strncmp(info.grids[g].name, "surface.", 8) == 0;
     kf_vdb_trimesh meshes[KF_VDB_MAX_GRIDS];
     kf_render_mesh rm[KF_VDB_MAX_GRIDS];
     int nm = 0, rc = -1;
     tri_soup soup = {0};
+    kf_rigid_drawing rigids = {0};
     for (int g = 0; g < info.ngrids && nm < KF_VDB_MAX_GRIDS; g++) {
         const char *name = info.grids[g].name;
-        int group = strncmp(name, "surface.", 8) == 0;
+        int group = strncmp(name, "surface_", 8) == 0 || strncmp(name, "surface.", 8) == 0;
         if (strcmp(info.grids[g].cls, "level set") != 0 || (use_groups ? !group : strcmp(name, "surface") != 0))
             continue;
         kf_vdb_grid *ls;
@@ -327,19 +409,13 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
         int mesh_rc = kf_vdb_mesh(ls, 0, 0, &meshes[nm], err, errlen);
         kf_vdb_free(ls);
         if (mesh_rc) goto done;
-        int colour = 0;
-        for (int i = 0; group && i < shot->nmaterials; i++)
-            if (!strcmp(name + 8, shot->materials[i].mat.name)) colour = i;
-        if (!group && shot->nmaterials > 0) colour = 0;
         memset(&rm[nm], 0, sizeof rm[nm]);
         rm[nm].positions = meshes[nm].verts;
         rm[nm].normals = meshes[nm].normals;
         rm[nm].nverts = meshes[nm].nverts;
         rm[nm].tris = meshes[nm].tris;
         rm[nm].ntris = meshes[nm].ntris;
-        material_colour(shot, colour, rm[nm].mat.diffuse);
-        rm[nm].mat.specular = 0.3f;
-        rm[nm].mat.roughness = 0.5f;
+        surface_look(shot, name, &rm[nm].mat);
         nm++;
     }
     /* the colliders at their pose for this frame, each in its colour: one
@@ -362,9 +438,12 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
         r->tris = soup.tri + 3 * first_tri[i];
         r->ntris = first_tri[i + 1] - first_tri[i];
         for (int a = 0; a < 3; a++) r->mat.diffuse[a] = (float)shot->colliders[i].color[a];
-        r->mat.specular = 0.2f;
-        r->mat.roughness = 0.6f;
+        r->mat.specular = (float)shot->colliders[i].specular;
+        r->mat.roughness = (float)shot->colliders[i].roughness;
     }
+    /* the rigid bodies at their pose of this frame (rigid_draw.c) */
+    if (kf_rigid_drawing_make(shot, sc, vdb, frame, &rigids, err, errlen)) goto done;
+    nscene += kf_rigid_drawing_meshes(shot, &rigids, rm + nscene, KF_VDB_MAX_GRIDS - nscene);
     kf_render_scene scene = kf_render_scene_default();
     scene.meshes = rm;
     scene.nmeshes = nscene;
@@ -405,5 +484,6 @@ done:
     for (int i = 0; i < nm; i++) kf_vdb_mesh_free(&meshes[i]);
     free(soup.pos);
     free(soup.tri);
+    kf_rigid_drawing_free(&rigids);
     return rc;
 }

@@ -28,9 +28,11 @@ int kf_ensure_parent(const char *path);
 /* 1 when `output` exists and is at least as new as `input` */
 int kf_output_current(const char *output, const char *input);
 
-/* Checkpoint → particles grouped by material → level sets: `surface` (all
- * material) and `surface.<material>` per material when there are several →
- * .vdb. Returns 0, or -1 with a message. */
+/* Checkpoint → particles grouped by material or by shot object
+ * (surface.group) → one level set per group that holds particles, with its
+ * velocity grid: `surface` (and `vel`) when there is one group, else
+ * `surface_<name>` (and `surface_<name>_vel`) each → .vdb. Returns 0, or -1
+ * with a message. */
 int kf_stage_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
                      size_t errlen);
 
@@ -48,7 +50,7 @@ int kf_stage_points(const kf_shot *shot, const kf_state *s, const char *path, in
  * (widened, since material spreads), clipped to the domain when walled. */
 kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc);
 
-/* .vdb → meshes (per material when present) → PNG at `png`. */
+/* .vdb → a mesh per group surface, each in its group's colour and shading → PNG at `png`. */
 int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
                     const kf_render_opts *ro, char *err, size_t errlen);
 

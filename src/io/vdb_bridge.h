@@ -17,10 +17,16 @@
  *   erode by r - spacing/2 (the `erode` field) to put it on the boundary.
  *   The staircase leaves bumps of about +/- spacing/2 (tests/test_vdb.c
  *   measures them); smoothing (dilate, smooth, erode) flattens them.
- *   OpenVDB silently skips spheres under 1.5 voxels; the bridge never does:
- *   by default such particles are an error (message gives the count and the
- *   smallest radius); with clamp_small they are raised to 1.5 voxels and
- *   counted in stats.n_small.
+ *   Spheres under 1.5 voxels can miss every voxel centre (OpenVDB's own
+ *   rasteriser silently skips them): by default such particles are an error
+ *   (message gives the count and the smallest radius); with clamp_small they
+ *   are raised to 1.5 voxels and counted in stats.n_small.
+ *   The spheres are rasterised by the bridge (io/vdb/sphere_raster.cpp: leaf
+ *   bins, tbb, exact distances near the surface), re-distanced by fast
+ *   sweeping to a true signed distance in a band of half_width voxels, and
+ *   only then filtered: the filters walk the band, never the interior
+ *   (dilate and erode within the band are one exact shift of the distance
+ *   and one re-normalisation; smoothing re-normalises once per step).
  *
  * Files: the level set grid is written as class "level set" under its name
  * (default "surface"); a particle-velocity grid "vel" (vec3s, closest
@@ -77,6 +83,8 @@ typedef struct kf_vdb_surface_stats {
     double r_min;      /* smallest radius used, m */
     size_t active_voxels;
     double seconds;    /* wall time: rasterise + filter */
+    double seconds_raster, seconds_filter; /* wall time of its two parts */
+    double cpu_sort, cpu_splat, cpu_redistance, cpu_filter; /* process CPU seconds of each phase */
 } kf_vdb_surface_stats;
 
 /* File / grid metadata. */

@@ -50,6 +50,9 @@ double kf_imp_energy_psi(const kf_mat *m, const double F[9], const kf_real ps[2]
 
 /* ---- the workspace of one substep ------------------------------------------- */
 
+/* doubles per node in grid vectors: (x, y, z, 0), one 256-bit register */
+#define KF_IMP_NV 4
+
 typedef struct kf_implicit {
     const kf_model *m;
     kf_state *s;
@@ -60,7 +63,7 @@ typedef struct kf_implicit {
     int32_t *idx;      /* (np × K) flat node of each stencil entry */
     double *gam;       /* (np × K × 3) γ_ip */
     double *mass;      /* (nnode) m_i */
-    double *vstar;     /* (3 nnode) v*_i, 0 where m_i = 0 */
+    double *vstar;     /* (4 nnode) v*_i, 0 where m_i = 0 */
     double *Fn;        /* (9 np) F_pⁿ */
     double *F;         /* (9 np) F_p(v) at the last linearisation */
     double *Kp;        /* (81 np) Δt² V⁰ Tᵀ (∂²Ψ/∂F²) T, T: G ↦ G Fⁿ: the per-particle Hessian of E in G */
@@ -75,7 +78,7 @@ typedef struct kf_implicit {
     double *con_slide; /* (ncon) Coulomb friction budget μ |v*_n| of separate boundaries, m/s (0 = none) */
     double *con_n;     /* (3 ncon) the separate boundary's normal */
     double *con_vc;    /* (3 ncon) the boundary's velocity */
-    /* solver vectors (3 nnode each) */
+    /* solver vectors (KF_IMP_NV nnode each; the 4th entry of a node stays 0) */
     double *v, *g, *d, *r, *z, *p, *q, *vt, *diag;
     double *bsum;      /* (nblocks) partial sums, summed in block order (deterministic) */
     /* what the last solve did */
@@ -113,7 +116,7 @@ double kf_imp_dot(kf_implicit *w, const double *x, const double *y);
 /* ---- boundary conditions (implicit_boundary.c) --------------------------------- */
 
 /* Walls and colliders at the substep's end: which nodes are constrained,
- * and v (3 nnode) set to v* projected (sticky: the boundary's velocity; slip
+ * and v (4 nnode) set to v* projected (sticky: the boundary's velocity; slip
  * and separate approaching: the normal part; separate leaving: free).
  * Returns 0 or -1 (out of memory). */
 int kf_imp_constraints(kf_implicit *w, double *v);

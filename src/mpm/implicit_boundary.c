@@ -74,7 +74,7 @@ int kf_imp_constraints(kf_implicit *w, double *v) {
     const kf_sim_def *sd = &m->sim;
     const kf_grid *g = &w->s->g;
     const double dx = sd->dx, t1 = w->s->time + w->dt;
-    memcpy(v, w->vstar, 3 * w->nnode * sizeof *v);
+    memcpy(v, w->vstar, KF_IMP_NV * w->nnode * sizeof *v);
     kf_collider_frame frame[KF_MAX_COLLIDERS];
     for (int c = 0; c < m->ncol; c++) kf_collider_frame_at(&m->col[c], t1, &frame[c]);
     size_t cap = 0, cap1 = 0, cap2 = 0, cap3 = 0, cap4 = 0;
@@ -94,7 +94,7 @@ int kf_imp_constraints(kf_implicit *w, double *v) {
                            (bc[2] * KF_BLOCK + (l & 3)) * dx};
             node_con c;
             memset(&c, 0, sizeof c);
-            for (int a = 0; a < 3; a++) c.v[a] = v[3 * node + a];
+            for (int a = 0; a < 3; a++) c.v[a] = v[KF_IMP_NV * node + a];
             int touched = 0;
             if (sd->walls) {
                 const double zero[3] = {0, 0, 0};
@@ -117,7 +117,7 @@ int kf_imp_constraints(kf_implicit *w, double *v) {
                 touched = 1;
             }
             if (!touched) continue;
-            for (int a = 0; a < 3; a++) v[3 * node + a] = c.v[a];
+            for (int a = 0; a < 3; a++) v[KF_IMP_NV * node + a] = c.v[a];
             if (c.nq == 0) continue;
             size_t k = w->ncon;
             if (grow((void **)&w->con_node, sizeof *w->con_node, &cap, k + 1) ||
@@ -144,7 +144,7 @@ int kf_imp_constraints(kf_implicit *w, double *v) {
 
 void kf_imp_project(const kf_implicit *w, double *x) {
     for (size_t k = 0; k < w->ncon; k++) {
-        double *xi = x + 3 * (size_t)w->con_node[k];
+        double *xi = x + KF_IMP_NV * (size_t)w->con_node[k];
         const double *P = w->con_P + 9 * k;
         double y[3];
         for (int a = 0; a < 3; a++) y[a] = P[3 * a] * xi[0] + P[3 * a + 1] * xi[1] + P[3 * a + 2] * xi[2];
@@ -156,7 +156,7 @@ void kf_imp_friction(const kf_implicit *w, double *v) {
     for (size_t k = 0; k < w->ncon; k++) {
         double slide = w->con_slide[k];
         if (!(slide > 0)) continue;
-        double *vi = v + 3 * (size_t)w->con_node[k];
+        double *vi = v + KF_IMP_NV * (size_t)w->con_node[k];
         const double *n = w->con_n + 3 * k, *vc = w->con_vc + 3 * k;
         double rel[3] = {vi[0] - vc[0], vi[1] - vc[1], vi[2] - vc[2]};
         double vn = rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2];

@@ -28,7 +28,7 @@ double kf_imp_dot(kf_implicit *w, const double *x, const double *y) {
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t b = 0; b < nb; b++) {
         double t = 0;
-        for (size_t k = 3 * b * KF_BLOCK_NODES; k < 3 * (b + 1) * KF_BLOCK_NODES; k++) t += x[k] * y[k];
+        for (size_t k = KF_IMP_NV * b * KF_BLOCK_NODES; k < KF_IMP_NV * (b + 1) * KF_BLOCK_NODES; k++) t += x[k] * y[k];
         w->bsum[b] = t;
     }
     double s = 0;
@@ -43,7 +43,7 @@ static double norm_minv(kf_implicit *w, const double *x) {
     for (size_t b = 0; b < nb; b++) {
         double t = 0;
         for (size_t i = b * KF_BLOCK_NODES; i < (b + 1) * KF_BLOCK_NODES; i++)
-            if (w->mass[i] > 0) t += (x[3 * i] * x[3 * i] + x[3 * i + 1] * x[3 * i + 1] + x[3 * i + 2] * x[3 * i + 2]) / w->mass[i];
+            if (w->mass[i] > 0) t += (x[KF_IMP_NV * i] * x[KF_IMP_NV * i] + x[KF_IMP_NV * i + 1] * x[KF_IMP_NV * i + 1] + x[KF_IMP_NV * i + 2] * x[KF_IMP_NV * i + 2]) / w->mass[i];
         w->bsum[b] = t;
     }
     double s = 0;
@@ -53,7 +53,9 @@ static double norm_minv(kf_implicit *w, const double *x) {
 
 /* ---- the potential ------------------------------------------------------------- */
 
-double kf_imp_linearize(kf_implicit *w, const double *v, int project) {
+/* F(v), Ψ and the gradient's S for every particle, and the Hessian blocks
+ * when hessian is set (the line search needs only E and S) */
+static double evaluate(kf_implicit *w, const double *v, int hessian, int project) {
     const kf_model *m = w->m;
     const kf_particles *p = &w->s->p;
     const double dt = w->dt;
@@ -70,7 +72,7 @@ double kf_imp_linearize(kf_implicit *w, const double *v, int project) {
         kf_imp_energy e;
         const kf_real ps[2] = {p->ps[0][i], p->ps[1][i]};
         const double vol = p->vol0[i];
-        if (kf_imp_energy_eval(&m->mat[p->mat[i]], F, ps, 1, project, &e) || !isfinite(e.psi)) {
+        if (kf_imp_energy_eval(&m->mat[p->mat[i]], F, ps, hessian, project, &e) || !isfinite(e.psi)) {
             bad = 1;
             continue;
         }
@@ -80,6 +82,7 @@ double kf_imp_linearize(kf_implicit *w, const double *v, int project) {
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
                 S[3 * a + b] = dt * vol * (e.P[3 * a] * Fn[3 * b] + e.P[3 * a + 1] * Fn[3 * b + 1] + e.P[3 * a + 2] * Fn[3 * b + 2]);
+        if (!hessian) continue;
         /* Kp = Δt² V⁰ Tᵀ H T with T: G ↦ G Fⁿ, i.e.
          * Kp[(a,b),(a',b')] = Δt² V⁰ Σ_cc' Fⁿ_bc H[(a,c),(a',c')] Fⁿ_b'c' */
         double X[81], *Kp = w->Kp + 81 * i, s2 = dt * dt * vol;
@@ -108,7 +111,7 @@ double kf_imp_linearize(kf_implicit *w, const double *v, int project) {
         double t = 0;
         for (size_t i = b * KF_BLOCK_NODES; i < (b + 1) * KF_BLOCK_NODES; i++)
             for (int a = 0; a < 3; a++) {
-                double d = v[3 * i + a] - w->vstar[3 * i + a];
+                double d = v[KF_IMP_NV * i + a] - w->vstar[KF_IMP_NV * i + a];
                 t += 0.5 * w->mass[i] * d * d;
             }
         w->bsum[b] = t;
@@ -119,10 +122,12 @@ double kf_imp_linearize(kf_implicit *w, const double *v, int project) {
     return E;
 }
 
+double kf_imp_linearize(kf_implicit *w, const double *v, int project) { return evaluate(w, v, 1, project); }
+
 void kf_imp_gradient(kf_implicit *w, const double *v, double *g) {
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t i = 0; i < w->nnode; i++)
-        for (int a = 0; a < 3; a++) g[3 * i + a] = w->mass[i] * (v[3 * i + a] - w->vstar[3 * i + a]);
+        for (int a = 0; a < KF_IMP_NV; a++) g[KF_IMP_NV * i + a] = w->mass[i] * (v[KF_IMP_NV * i + a] - w->vstar[KF_IMP_NV * i + a]);
     kf_imp_scatter(w, w->S, g);
 }
 
@@ -140,7 +145,7 @@ void kf_imp_hessian_action(kf_implicit *w, const double *x, double *y) {
     }
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t i = 0; i < w->nnode; i++)
-        for (int a = 0; a < 3; a++) y[3 * i + a] = w->mass[i] * x[3 * i + a];
+        for (int a = 0; a < KF_IMP_NV; a++) y[KF_IMP_NV * i + a] = a < 3 ? w->mass[i] * x[KF_IMP_NV * i + a] : 0.0;
     kf_imp_scatter(w, w->Y, y);
 }
 
@@ -149,19 +154,19 @@ void kf_imp_hessian_action(kf_implicit *w, const double *x, double *y) {
 /* z = P D⁻¹ r: the Jacobi preconditioner restricted to the free directions */
 static void precondition(kf_implicit *w, const double *r, double *z) {
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
-    for (size_t k = 0; k < 3 * w->nnode; k++) z[k] = w->diag[k] > 0 ? r[k] / w->diag[k] : 0.0;
+    for (size_t k = 0; k < KF_IMP_NV * w->nnode; k++) z[k] = w->diag[k] > 0 ? r[k] / w->diag[k] : 0.0;
     kf_imp_project(w, z);
 }
 
 /* CG on (P H P) d = −P g from d = 0; returns the iterations taken */
 static int pcg(kf_implicit *w, double tol, int kmax) {
-    const size_t n3 = 3 * w->nnode;
+    const size_t n3 = KF_IMP_NV * w->nnode;
     double *d = w->d, *r = w->r, *z = w->z, *p = w->p, *q = w->q;
     memset(d, 0, n3 * sizeof *d);
     for (size_t k = 0; k < n3; k++) r[k] = -w->g[k];
     /* the diagonal of the Hessian: mass plus the particles' stiffness */
     for (size_t i = 0; i < w->nnode; i++)
-        for (int a = 0; a < 3; a++) w->diag[3 * i + a] = w->mass[i];
+        for (int a = 0; a < 3; a++) w->diag[KF_IMP_NV * i + a] = w->mass[i];
     kf_imp_scatter_diag(w, w->diag);
     precondition(w, r, z);
     memcpy(p, z, n3 * sizeof *p);
@@ -190,12 +195,12 @@ int kf_imp_solve(kf_implicit *w, double *v) {
     const int nmax = sd->newton_max > 0 ? sd->newton_max : DEF_NEWTON_MAX;
     const double ktol = sd->krylov_tol > 0 ? sd->krylov_tol : DEF_KRYLOV_TOL;
     const int kmax = sd->krylov_max > 0 ? sd->krylov_max : DEF_KRYLOV_MAX;
-    const size_t n3 = 3 * w->nnode;
+    const size_t n3 = KF_IMP_NV * w->nnode;
 
     /* the momentum scale: √M times the RMS speed of v* (at least what gravity adds in a substep) */
     double M = 0, mv2 = 0;
     for (size_t i = 0; i < w->nnode; i++) {
-        const double *vs = w->vstar + 3 * i;
+        const double *vs = w->vstar + KF_IMP_NV * i;
         M += w->mass[i];
         mv2 += w->mass[i] * (vs[0] * vs[0] + vs[1] * vs[1] + vs[2] * vs[2]);
     }
@@ -207,18 +212,35 @@ int kf_imp_solve(kf_implicit *w, double *v) {
 
     w->newton_iterations = w->krylov_iterations = 0;
     w->converged = 0;
-    double E = kf_imp_linearize(w, v, 1);
+    /* start from the explicit step when it lowers E: v + P Δt f(Fⁿ)/m. Its
+     * slow part (a body resting or bending under gravity) is what Jacobi-CG
+     * resolves slowest; the fast part it overshoots at large steps is what
+     * CG removes in a few iterations (and the comparison catches a blow-up). */
+    memset(w->vt, 0, n3 * sizeof *w->vt);
+    if (!isfinite(evaluate(w, w->vt, 0, 1))) return -1; /* G = 0: F = Fⁿ, S = Δt V⁰ P(Fⁿ) Fⁿᵀ */
+    memset(w->r, 0, n3 * sizeof *w->r);
+    kf_imp_scatter(w, w->S, w->r);
+    for (size_t i = 0; i < w->nnode; i++)
+        for (int a = 0; a < 3; a++) w->d[KF_IMP_NV * i + a] = w->mass[i] > 0 ? -w->r[KF_IMP_NV * i + a] / w->mass[i] : 0.0;
+    kf_imp_project(w, w->d);
+    for (size_t k = 0; k < n3; k++) w->vt[k] = v[k] + w->d[k];
+    double E_star = evaluate(w, v, 0, 1), E_exp = evaluate(w, w->vt, 0, 1);
+    if (isfinite(E_exp) && E_exp < E_star) memcpy(v, w->vt, n3 * sizeof *v);
+    double E = evaluate(w, v, 1, 1);
+    int have_hessian = 1;
     if (!isfinite(E)) return -1;
     kf_imp_gradient(w, v, w->g);
     kf_imp_project(w, w->g);
     double res = scale > 0 ? norm_minv(w, w->g) / scale : 0;
     while (res > tol && w->newton_iterations < nmax) {
+        if (!have_hessian) evaluate(w, v, 1, 1);
+        have_hessian = 1;
         w->krylov_iterations += pcg(w, ktol, kmax);
         double slope = kf_imp_dot(w, w->g, w->d);
         if (!(slope < 0)) {
             /* CG found no descent (round-off at convergence): steepest descent in the mass metric */
             for (size_t i = 0; i < w->nnode; i++)
-                for (int a = 0; a < 3; a++) w->d[3 * i + a] = w->mass[i] > 0 ? -w->g[3 * i + a] / w->mass[i] : 0.0;
+                for (int a = 0; a < 3; a++) w->d[KF_IMP_NV * i + a] = w->mass[i] > 0 ? -w->g[KF_IMP_NV * i + a] / w->mass[i] : 0.0;
             slope = kf_imp_dot(w, w->g, w->d);
         }
         /* backtracking (Armijo) on E; the slack is E's round-off */
@@ -226,7 +248,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
         int ok = 0;
         for (int ls = 0; ls < 30; ls++) {
             for (size_t k = 0; k < n3; k++) w->vt[k] = v[k] + alpha * w->d[k];
-            Et = kf_imp_linearize(w, w->vt, 1);
+            Et = evaluate(w, w->vt, 0, 1);
             if (isfinite(Et) && Et <= E + 1e-4 * alpha * slope + 1e-13 * fabs(E)) {
                 ok = 1;
                 break;
@@ -236,11 +258,12 @@ int kf_imp_solve(kf_implicit *w, double *v) {
         w->newton_iterations++;
         if (!ok) {
             /* no decrease to round-off: v is as good as it gets */
-            kf_imp_linearize(w, v, 1);
+            evaluate(w, v, 0, 1);
             break;
         }
         memcpy(v, w->vt, n3 * sizeof *v);
         E = Et;
+        have_hessian = 0;
         kf_imp_gradient(w, v, w->g);
         kf_imp_project(w, w->g);
         res = norm_minv(w, w->g) / scale;
@@ -282,8 +305,8 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
     for (size_t i = 0; i < w.nnode; i++) {
         double mi = w.mass[i];
         if (mi > 0)
-            g->node[i] = (kf_v4){(kf_real)(mi * (w.v[3 * i] - gdt[0])), (kf_real)(mi * (w.v[3 * i + 1] - gdt[1])),
-                                 (kf_real)(mi * (w.v[3 * i + 2] - gdt[2])), (kf_real)mi};
+            g->node[i] = (kf_v4){(kf_real)(mi * (w.v[KF_IMP_NV * i] - gdt[0])), (kf_real)(mi * (w.v[KF_IMP_NV * i + 1] - gdt[1])),
+                                 (kf_real)(mi * (w.v[KF_IMP_NV * i + 2] - gdt[2])), (kf_real)mi};
         else
             g->node[i] = (kf_v4){0, 0, 0, 0};
     }

@@ -86,7 +86,7 @@ static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
                     /* APIC: m w (v + C (x_i − x_p)) */
                     w->mass[node] += wabc * mp;
                     for (int k = 0; k < 3; k++)
-                        mom[3 * (size_t)node + k] +=
+                        mom[KF_IMP_NV * (size_t)node + k] +=
                             wabc * mp * (vp[k] + C[3 * k] * dd[0] + C[3 * k + 1] * dd[1] + C[3 * k + 2] * dd[2]);
                 }
         for (int k = 0; k < 9; k++) w->Fn[9 * i + k] = p->F[k][i];
@@ -110,7 +110,7 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
     w->nnode = g->nblocks * KF_BLOCK_NODES;
     w->np = s->p.n;
     w->K = m->sim.kernel == KF_KERNEL_CUBIC ? 64 : 27;
-    size_t n3 = 3 * w->nnode, np = w->np ? w->np : 1, K = (size_t)w->K;
+    size_t n3 = KF_IMP_NV * w->nnode, np = w->np ? w->np : 1, K = (size_t)w->K;
     w->idx = malloc(np * K * sizeof *w->idx);
     w->gam = malloc(np * K * 3 * sizeof *w->gam);
     w->mass = calloc(w->nnode + 1, sizeof *w->mass);
@@ -141,24 +141,28 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
     for (size_t i = 0; i < w->nnode; i++) {
         double mi = w->mass[i];
-        for (int k = 0; k < 3; k++) mom[3 * i + k] = mi > 0 ? mom[3 * i + k] / mi + gdt[k] : 0.0;
+        for (int k = 0; k < 3; k++) mom[KF_IMP_NV * i + k] = mi > 0 ? mom[KF_IMP_NV * i + k] / mi + gdt[k] : 0.0;
     }
     return 0;
 }
+
+/* a node's (x, y, z, 0) as one vector; grid vectors are only 8-byte aligned */
+typedef double v4d __attribute__((vector_size(32), aligned(8)));
 
 void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9]) {
     const int K = w->K;
     const int32_t *id = w->idx + (size_t)K * p;
     const double *ga = w->gam + (size_t)3 * K * p;
-    for (int k = 0; k < 9; k++) G[k] = 0;
+    /* the columns of G: G_{·j} = Σ_i x_i γ_ij */
+    v4d c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
     for (int e = 0; e < K; e++) {
-        const double *xi = x + 3 * (size_t)id[e], *ge = ga + 3 * e;
-        for (int a = 0; a < 3; a++) {
-            G[3 * a] += xi[a] * ge[0];
-            G[3 * a + 1] += xi[a] * ge[1];
-            G[3 * a + 2] += xi[a] * ge[2];
-        }
+        const v4d xi = *(const v4d *)(x + KF_IMP_NV * (size_t)id[e]);
+        const double *ge = ga + 3 * e;
+        c0 += xi * ge[0];
+        c1 += xi * ge[1];
+        c2 += xi * ge[2];
     }
+    for (int a = 0; a < 3; a++) G[3 * a] = c0[a], G[3 * a + 1] = c1[a], G[3 * a + 2] = c2[a];
 }
 
 void kf_imp_scatter(const kf_implicit *w, const double *Y, double *out) {
@@ -172,12 +176,11 @@ void kf_imp_scatter(const kf_implicit *w, const double *Y, double *out) {
             for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
                 const double *y = Y + 9 * i, *ga = w->gam + (size_t)3 * K * i;
                 const int32_t *id = w->idx + (size_t)K * i;
+                const v4d y0 = {y[0], y[3], y[6], 0}, y1 = {y[1], y[4], y[7], 0}, y2 = {y[2], y[5], y[8], 0};
                 for (int e = 0; e < K; e++) {
-                    double *o = out + 3 * (size_t)id[e];
+                    v4d *o = (v4d *)(out + KF_IMP_NV * (size_t)id[e]);
                     const double *ge = ga + 3 * e;
-                    o[0] += y[0] * ge[0] + y[1] * ge[1] + y[2] * ge[2];
-                    o[1] += y[3] * ge[0] + y[4] * ge[1] + y[5] * ge[2];
-                    o[2] += y[6] * ge[0] + y[7] * ge[1] + y[8] * ge[2];
+                    *o += y0 * ge[0] + y1 * ge[1] + y2 * ge[2];
                 }
             }
         }
@@ -196,7 +199,7 @@ void kf_imp_scatter_diag(const kf_implicit *w, double *out) {
                 const double *Kp = w->Kp + 81 * i, *ga = w->gam + (size_t)3 * K * i;
                 const int32_t *id = w->idx + (size_t)K * i;
                 for (int e = 0; e < K; e++) {
-                    double *o = out + 3 * (size_t)id[e];
+                    double *o = out + KF_IMP_NV * (size_t)id[e];
                     const double *ge = ga + 3 * e;
                     for (int a = 0; a < 3; a++) {
                         const double *row = Kp + 9 * (3 * a);

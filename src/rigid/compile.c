@@ -8,6 +8,7 @@
 
 #include "mass.h"
 #include "rigid.h"
+#include "thin.h"
 
 static int fail(char *err, size_t errlen, const char *fmt, ...) {
     if (err && errlen) {
@@ -78,7 +79,8 @@ static int check(const kf_rigid_def *d, double dx, char *err, size_t errlen) {
     if (!nondegenerate) return fail(err, errlen, "rigid %s: every triangle is degenerate (zero area)", nm);
     if (!finite3(d->center) || !finite3(d->position) || !finite3(d->rotate) || !finite3(d->velocity) ||
         !finite3(d->angular_velocity))
-        return fail(err, errlen, "rigid %s: center, position, rotate, velocity and angular_velocity must be finite", nm);
+        return fail(err, errlen, "rigid %s: center, position, rotate, velocity and angular_velocity must be finite",
+                    nm);
     if (!isfinite(d->friction) || d->friction < 0) return fail(err, errlen, "rigid %s: friction must be >= 0", nm);
     if (!isfinite(d->penalty) || d->penalty < 0) return fail(err, errlen, "rigid %s: penalty must be >= 0", nm);
     if (!isfinite(d->push) || d->push < 0) return fail(err, errlen, "rigid %s: push must be >= 0", nm);
@@ -120,6 +122,12 @@ int kf_rigid_compile(kf_rigid_body *b, const kf_rigid_def *d, double dx, char *e
     memcpy(b->tri, d->triangles, sizeof(int) * 3 * (size_t)b->ntri);
     b->def.vertices = b->vert;
     b->def.triangles = b->tri;
+    /* a closed thin body (a blade with two faces) gets one front and one back */
+    if (d->thin && closed_mesh(b->tri, b->ntri, b->nvert) &&
+        kf_rigid_orient_thin(b->vert, b->nvert, b->tri, b->ntri, dx, nm, err, errlen)) {
+        kf_rigid_body_free(b);
+        return -1;
+    }
 
     if (d->motion == KF_RIGID_DYNAMIC) {
         kf_mass_props mp;
@@ -142,8 +150,22 @@ int kf_rigid_compile(kf_rigid_body *b, const kf_rigid_def *d, double dx, char *e
         memcpy(b->com, d->center, sizeof b->com);
     }
 
-    /* rigid particles at half the grid spacing (paper §5.2.1: finer than dx) */
-    b->nseed = kf_rigid_seed_surface(b->vert, b->nvert, b->tri, b->ntri, 0.5 * dx, &b->seed, &b->seed_tri);
+    /* rigid particles at half the grid spacing (paper §5.2.1: finer than dx);
+     * about 3.5 per spacing² of area (the lattice's three axes) plus one per
+     * small triangle: refuse a surface that would need more than 2e7 (a mesh
+     * in the wrong units, most likely) rather than run out of memory */
+    const double spacing = 0.5 * dx;
+    double area = 0;
+    for (int t = 0; t < b->ntri; t++) area += 0.5 * tri_area2(b->vert, b->tri + 3 * t);
+    double estimate = 3.5 * area / (spacing * spacing) + b->ntri;
+    if (estimate > 2e7) {
+        kf_rigid_body_free(b);
+        return fail(err, errlen,
+                    "rigid %s: its surface (%.3g m²) would need about %.2g rigid particles at dx = %g (at most 2e7): "
+                    "is the mesh in metres?",
+                    nm, area, estimate, dx);
+    }
+    b->nseed = kf_rigid_seed_surface(b->vert, b->nvert, b->tri, b->ntri, spacing, &b->seed, &b->seed_tri);
     if (!b->nseed) {
         kf_rigid_body_free(b);
         return fail(err, errlen, "rigid %s: could not seed the surface", nm);

@@ -1,8 +1,9 @@
 /* mjcf.h — the MuJoCo model (MJCF text) of a set of rigid bodies: one free
  * body per dynamic body with its origin at the centre of mass and axes of
- * the mesh frame, one mocap body per static or kinematic body (origin and
- * axes of the mesh frame), planes for the domain walls, hinges from the
- * joints. Bodies are named "b<index>". */
+ * the mesh frame, named "b<index>"; one body "b<index>_0" per static (a
+ * mocap body) or kinematic body (a very heavy free body whose pose and
+ * velocity the solver sets), origin and axes of the mesh frame; planes for
+ * the domain walls; hinges from the joints. */
 #ifndef KF_RIGID_MJCF_H
 #define KF_RIGID_MJCF_H
 

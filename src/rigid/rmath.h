@@ -18,8 +18,7 @@ static inline void rm_mtv(const double A[9], const double x[3], double y[3]) {
 /* C = A B */
 static inline void rm_mm(const double A[9], const double B[9], double C[9]) {
     for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+        for (int j = 0; j < 3; j++) C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
 }
 
 static inline void rm_cross(const double a[3], const double b[3], double c[3]) {

@@ -1,9 +1,10 @@
-/* sim.c — the rigid solver (paper §5.6): static bodies stay, kinematic
- * bodies follow their keys, dynamic bodies move in a MuJoCo world built
- * from the bodies (mjcf.c): gravity, the material's impulses as a force
- * and torque over the substep, contacts with each other, the static and
- * kinematic bodies (mocap bodies placed every substep) and the walls, and
- * hinges. Without a dynamic body there is no MuJoCo world at all. */
+/* sim.c — the rigid solver (paper §5.1, §5.6): static bodies stay,
+ * kinematic bodies follow their keys, dynamic bodies move in a MuJoCo world
+ * built from the bodies (mjcf.c): gravity, the material's impulses as a
+ * force and torque over the substep, contacts with each other, the static
+ * bodies (mocap), the kinematic bodies (heavy free bodies given their keyed
+ * pose and velocity every substep) and the walls, and hinges. Without a
+ * dynamic body there is no MuJoCo world at all. */
 #include <mujoco/mujoco.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -20,8 +21,10 @@ struct kf_rigid_sim {
     double com_mesh[KF_MAX_RIGIDS][3]; /* MuJoCo body origin of a dynamic body, mesh frame */
     mjModel *m;                        /* NULL: no dynamic body */
     mjData *d;
-    int bid[KF_MAX_RIGIDS];            /* MuJoCo body id */
-    int mocap[KF_MAX_RIGIDS];          /* mocap index, -1 for dynamic bodies */
+    int bid[KF_MAX_RIGIDS];  /* MuJoCo body id of a dynamic body */
+    int *mocap_body;         /* (nmocap) the rigid body each mocap body belongs to */
+    int kjnt[KF_MAX_RIGIDS]; /* a kinematic body's free joint, else -1 */
+    void *before;            /* the state before the substep (see kf_rigid_sim_step) */
 };
 
 static void set_err(char *err, size_t errlen, const char *msg) {
@@ -91,6 +94,7 @@ kf_rigid_sim *kf_rigid_sim_create(const kf_rigid_body *bodies, int nbodies, cons
     }
     sim->nbodies = nbodies;
     int ndyn = 0;
+    for (int r = 0; r < KF_MAX_RIGIDS; r++) sim->bid[r] = sim->kjnt[r] = -1;
     for (int r = 0; r < nbodies; r++) {
         sim->motion[r] = bodies[r].def.motion;
         memcpy(sim->com_mesh[r], bodies[r].com, sizeof bodies[r].com);
@@ -122,9 +126,9 @@ kf_rigid_sim *kf_rigid_sim_create(const kf_rigid_body *bodies, int nbodies, cons
     }
     kf_mj_guard(&jb);
     sim->m = load(xml, err, errlen);
-    free(xml);
     if (sim->m) sim->d = mj_makeData(sim->m);
     kf_mj_guard(NULL);
+    free(xml);
     if (!sim->m || !sim->d) {
         if (sim->m && !sim->d) set_err(err, errlen, "rigid solver: out of memory");
         kf_rigid_sim_destroy(sim);
@@ -133,8 +137,35 @@ kf_rigid_sim *kf_rigid_sim_create(const kf_rigid_body *bodies, int nbodies, cons
     for (int r = 0; r < nbodies; r++) {
         char name[16];
         snprintf(name, sizeof name, "b%d", r);
-        sim->bid[r] = mj_name2id(sim->m, mjOBJ_BODY, name);
-        sim->mocap[r] = sim->m->body_mocapid[sim->bid[r]];
+        sim->bid[r] = sim->motion[r] == KF_RIGID_DYNAMIC ? mj_name2id(sim->m, mjOBJ_BODY, name) : -1;
+        snprintf(name, sizeof name, "b%d_0", r);
+        int kb = sim->motion[r] == KF_RIGID_KINEMATIC ? mj_name2id(sim->m, mjOBJ_BODY, name) : -1;
+        sim->kjnt[r] = kb >= 0 && sim->m->body_jntnum[kb] == 1 ? sim->m->body_jntadr[kb] : -1;
+    }
+    /* the mocap bodies' owners, from their names b<r>_<k> */
+    sim->mocap_body = calloc((size_t)(sim->m->nmocap ? sim->m->nmocap : 1), sizeof(int));
+    if (!sim->mocap_body) {
+        set_err(err, errlen, "rigid solver: out of memory");
+        kf_rigid_sim_destroy(sim);
+        return NULL;
+    }
+    for (int b = 0; b < sim->m->nbody; b++) {
+        int mc = sim->m->body_mocapid[b], r = -1, k;
+        const char *name = mj_id2name(sim->m, mjOBJ_BODY, b);
+        if (mc >= 0) {
+            if (!name || sscanf(name, "b%d_%d", &r, &k) != 2 || r < 0 || r >= nbodies) {
+                set_err(err, errlen, "rigid solver: a MuJoCo mocap body without an owner");
+                kf_rigid_sim_destroy(sim);
+                return NULL;
+            }
+            sim->mocap_body[mc] = r;
+        }
+    }
+    sim->before = malloc(kf_rigid_sim_state_size(sim));
+    if (!sim->before) {
+        set_err(err, errlen, "rigid solver: out of memory");
+        kf_rigid_sim_destroy(sim);
+        return NULL;
     }
     mj_kinematics(sim->m, sim->d);
     initial_velocity(sim, bodies);
@@ -145,6 +176,8 @@ void kf_rigid_sim_destroy(kf_rigid_sim *sim) {
     if (!sim) return;
     if (sim->d) mj_deleteData(sim->d);
     if (sim->m) mj_deleteModel(sim->m);
+    free(sim->mocap_body);
+    free(sim->before);
     free(sim);
 }
 
@@ -152,11 +185,23 @@ kf_rigid_sim *kf_rigid_sim_clone(const kf_rigid_sim *sim) {
     kf_rigid_sim *volatile c = malloc(sizeof *c); /* volatile: read after a longjmp */
     if (!c) return NULL;
     *c = *sim;
-    c->m = NULL, c->d = NULL;
+    c->m = NULL, c->d = NULL, c->mocap_body = NULL, c->before = NULL;
     if (!sim->m) return c;
+    size_t nm = (size_t)(sim->m->nmocap ? sim->m->nmocap : 1);
+    c->mocap_body = malloc(sizeof(int) * nm);
+    c->before = malloc(kf_rigid_sim_state_size(sim));
+    if (!c->mocap_body || !c->before) {
+        free(c->mocap_body);
+        free(c->before);
+        free(c);
+        return NULL;
+    }
+    memcpy(c->mocap_body, sim->mocap_body, sizeof(int) * nm);
     jmp_buf jb;
     if (setjmp(jb)) {
         kf_mj_guard(NULL);
+        free(c->mocap_body);
+        free(c->before);
         free(c);
         return NULL;
     }
@@ -184,41 +229,83 @@ static void read_body(const kf_rigid_sim *sim, int r, kf_rigid_state *st) {
     memcpy(st->v, vel + 3, 3 * sizeof(double));
 }
 
+/* MuJoCo's count of the warnings after which it resets the world */
+static int bad_count(const mjData *d) {
+    return d->warning[mjWARN_BADQPOS].number + d->warning[mjWARN_BADQVEL].number + d->warning[mjWARN_BADQACC].number;
+}
+
+/* back to the state before the substep, at rest, a substep later */
+static void stop(kf_rigid_sim *sim, double dt) {
+    kf_rigid_sim_load(sim, sim->before, kf_rigid_sim_state_size(sim));
+    sim->d->time += dt;
+    mju_zero(sim->d->qvel, sim->m->nv);
+    mju_zero(sim->d->qacc_warmstart, sim->m->nv);
+}
+
 void kf_rigid_sim_step(kf_rigid_sim *sim, const kf_rigid_body *bodies, int nbodies, kf_rigid_state *st, double t,
                        double dt, const double (*impulse)[6]) {
     for (int r = 0; r < nbodies; r++)
         if (bodies[r].def.motion != KF_RIGID_DYNAMIC) kf_rigid_state_at(&bodies[r], t + dt, &st[r]);
     if (!sim->m || !(dt > 0)) return;
     mjData *d = sim->d;
+    /* kinematic bodies where they are at the start of the substep, moving as
+     * their keys say */
     for (int r = 0; r < nbodies; r++) {
-        int mc = sim->mocap[r];
-        if (mc >= 0) {
-            /* where the body is at the end of the substep */
-            memcpy(d->mocap_pos + 3 * mc, st[r].t, 3 * sizeof(double));
-            rm_mat_to_quat(st[r].R, d->mocap_quat + 4 * mc);
-        } else if (impulse) {
-            /* the substep's impulses as a constant force and torque at the com */
-            for (int k = 0; k < 6; k++) d->xfrc_applied[6 * sim->bid[r] + k] = impulse[r][k] / dt;
+        if (sim->kjnt[r] < 0) continue;
+        kf_rigid_state k;
+        kf_rigid_state_at(&bodies[r], t, &k);
+        const int qa = sim->m->jnt_qposadr[sim->kjnt[r]], da = sim->m->jnt_dofadr[sim->kjnt[r]];
+        /* the free joint moves the mesh-frame origin t: v + ω × (t - pivot); ω in the body frame */
+        double rel[3] = {k.t[0] - k.com[0], k.t[1] - k.com[1], k.t[2] - k.com[2]}, wx[3], wl[3];
+        rm_cross(k.w, rel, wx);
+        rm_mtv(k.R, k.w, wl);
+        for (int a = 0; a < 3; a++) {
+            d->qpos[qa + a] = k.t[a];
+            d->qvel[da + a] = k.v[a] + wx[a];
+            d->qvel[da + 3 + a] = wl[a];
         }
+        rm_mat_to_quat(k.R, d->qpos + qa + 3);
+        /* and weightless: a force cancels gravity on it */
+        const int kb = sim->m->jnt_bodyid[sim->kjnt[r]];
+        for (int a = 0; a < 3; a++) d->xfrc_applied[6 * kb + a] = -sim->m->body_mass[kb] * sim->m->opt.gravity[a];
     }
+    /* static bodies (mocap) where they are */
+    for (int mc = 0; mc < sim->m->nmocap; mc++) {
+        const kf_rigid_state *s = &st[sim->mocap_body[mc]];
+        memcpy(d->mocap_pos + 3 * mc, s->t, 3 * sizeof(double));
+        rm_mat_to_quat(s->R, d->mocap_quat + 4 * mc);
+    }
+    /* the substep's impulses as a constant force and torque at the com */
+    if (impulse)
+        for (int r = 0; r < nbodies; r++)
+            if (sim->bid[r] >= 0)
+                for (int k = 0; k < 6; k++) d->xfrc_applied[6 * sim->bid[r] + k] = impulse[r][k] / dt;
     sim->m->opt.timestep = dt;
+    /* MuJoCo answers a non-finite or huge acceleration by resetting the whole
+     * world to its initial pose, and an engine error leaves it half-stepped;
+     * kerf keeps the bodies where they were and stops them instead (the
+     * message is in kf_mj_message) */
+    kf_rigid_sim_save(sim, sim->before);
+    const int bad0 = bad_count(d);
+    const double t1 = d->time + dt; /* as mj_step advances it */
     jmp_buf jb;
     if (setjmp(jb)) {
-        /* an engine error: keep the bodies where they were */
         kf_mj_guard(NULL);
-        mju_zero(d->xfrc_applied, 6 * sim->m->nbody);
-        return;
+        stop(sim, dt);
+    } else {
+        kf_mj_guard(&jb);
+        mj_step(sim->m, d);
+        kf_mj_guard(NULL);
+        /* a reset shows in the counts (it clears them, then counts one) or the time */
+        if (bad_count(d) != bad0 || d->time != t1) stop(sim, dt);
     }
-    kf_mj_guard(&jb);
-    mj_step(sim->m, d);
     mju_zero(d->xfrc_applied, 6 * sim->m->nbody);
     /* positions and velocities of the new state */
     mj_kinematics(sim->m, d);
     mj_comPos(sim->m, d);
     mj_comVel(sim->m, d);
-    kf_mj_guard(NULL);
     for (int r = 0; r < nbodies; r++)
-        if (sim->mocap[r] < 0 && bodies[r].def.motion == KF_RIGID_DYNAMIC) read_body(sim, r, &st[r]);
+        if (sim->bid[r] >= 0) read_body(sim, r, &st[r]);
 }
 
 /* ---- checkpoints: everything mj_step reads that is not in the model ------ */
@@ -246,10 +333,10 @@ void kf_rigid_sim_save(const kf_rigid_sim *sim, void *buf) {
     char *p = buf;
     memcpy(p, &h, sizeof h);
     p += sizeof h;
-#define PUT(src, n)                                  \
-    do {                                             \
-        memcpy(p, (src), sizeof(double) * (size_t)(n)); \
-        p += sizeof(double) * (size_t)(n);           \
+#define PUT(src, n)                                                                                                    \
+    do {                                                                                                               \
+        memcpy(p, (src), sizeof(double) * (size_t)(n));                                                                \
+        p += sizeof(double) * (size_t)(n);                                                                             \
     } while (0)
     PUT(&d->time, 1);
     PUT(d->qpos, m->nq);
@@ -273,10 +360,10 @@ int kf_rigid_sim_load(kf_rigid_sim *sim, const void *buf, size_t size) {
         h.nmocap != (uint32_t)m->nmocap)
         return -1;
     const char *p = (const char *)buf + sizeof h;
-#define GET(dst, n)                                  \
-    do {                                             \
-        memcpy((dst), p, sizeof(double) * (size_t)(n)); \
-        p += sizeof(double) * (size_t)(n);           \
+#define GET(dst, n)                                                                                                    \
+    do {                                                                                                               \
+        memcpy((dst), p, sizeof(double) * (size_t)(n));                                                                \
+        p += sizeof(double) * (size_t)(n);                                                                             \
     } while (0)
     GET(&d->time, 1);
     GET(d->qpos, m->nq);

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "../core/timer.h"
+#include "build_rigid.h"
 #include "mesh_sdf.h"
 #include "sample.h"
 
@@ -78,6 +79,7 @@ int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_
         }
         kf_mesh_sdf_free(&sdf); /* the model keeps its own copy */
     }
+    if (kf_scene_add_rigids(shot, sc->model, diag)) bad = 1; /* rigid bodies and joints (build_rigid.c) */
     sc->state = kf_state_create(sc->model);
     if (bad || !sc->state) goto fail;
 
@@ -107,9 +109,16 @@ int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_
         if (pts.n == 0)
             kf_shot_report(diag, &o->at, KF_DIAG_WARNING, "object '%s' holds no particles at dx %g (thinner than the lattice)",
                            o->name, sd.dx);
-        else if (kf_state_add_particles(sc->state, sc->model, pts.n, pts.x, pts.v, NULL, o->material, pts.volume) < 0) {
-            kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name, pts.n);
-            bad = 1;
+        else {
+            long first = kf_state_add_particles(sc->state, sc->model, pts.n, pts.x, pts.v, NULL, o->material, pts.volume);
+            if (first < 0) {
+                kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name, pts.n);
+                bad = 1;
+            } else {
+                /* remember the object each particle came from (surface.group: object) */
+                kf_particles_view view = kf_state_particles(sc->state);
+                for (size_t k = 0; k < pts.n; k++) view.obj[(size_t)first + k] = (uint16_t)i;
+            }
         }
         if (stats && i < 256) stats->particles_per_object[i] = pts.n;
         kf_points_free(&pts);
@@ -160,6 +169,7 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
                     s->kernel, s->force, s->transfer, s->walls, s->domain_min[0], s->domain_min[1],
                     s->domain_min[2], s->domain_max[0], s->domain_max[1], s->domain_max[2], s->wall_boundary,
                     s->wall_friction, s->max_retries, s->j_min, s->j_max, s->max_cells_per_step,
+                    s->integrator, s->newton_tol, s->newton_max, s->krylov_tol, s->krylov_max,
                     shot->ppc, shot->jitter, shot->seed, shot->fps, shot->frame_start, sizeof(kf_real)};
     hash_vals(&h, sim, (int)(sizeof sim / sizeof *sim));
     for (int i = 0; i < shot->nmaterials; i++) {
@@ -202,5 +212,5 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
             hash_file(&h, sc->mesh_path);
         }
     }
-    return h;
+    return kf_shot_rigids_hash(shot, h); /* bodies, joints and their mesh bytes */
 }

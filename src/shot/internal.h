@@ -95,7 +95,7 @@ typedef enum kf_ktype {
 } kf_ktype;
 
 /* which struct a key's offset is into */
-typedef enum kf_scope { KS_TOP = 0, KS_MATERIAL, KS_OBJECT, KS_COLLIDER, KS_KEY, KS_COUNT } kf_scope;
+typedef enum kf_scope { KS_TOP = 0, KS_MATERIAL, KS_OBJECT, KS_COLLIDER, KS_KEY, KS_RIGID, KS_JOINT, KS_COUNT } kf_scope;
 
 enum {
     KB_LO = 1,      /* has a lower bound */

@@ -20,6 +20,8 @@
 #define OBJ(m) KS_OBJECT, F(kf_shot_object, m)
 #define COL(m) KS_COLLIDER, F(kf_shot_collider, m)
 #define KEY(m) KS_KEY, F(kf_rawkey, m)
+#define RIG(m) KS_RIGID, F(kf_shot_rigid, m)
+#define JNT(m) KS_JOINT, F(kf_shot_joint, m)
 #define NOFIELD 0, 0
 
 #define ANY 0, 0.0, 0.0
@@ -72,6 +74,18 @@ const kf_keydef kf_keys[] = {
     {"sim.seed", KT_INT, TOP(s.seed), CC(1, 2147483647), NULL, "1", NULL, NULL, 0, "Random seed of the jitter."},
     {"sim.threads", KT_INT, TOP(s.sim.threads), CC(0, 1024), NULL, "0", NULL, NULL, 0,
      "Worker threads (0 = OMP_NUM_THREADS or every core)."},
+    {"sim.integrator", KT_ENUM, TOP(s.sim.integrator), ANY, "explicit|implicit", "explicit", NULL, NULL, 0,
+     "Time integration: explicit (symplectic Euler, substep limited by the elastic wave speed) or implicit "
+     "(backward Euler by Newton-Krylov: substeps limited by advection alone, for stiff solids). Implicit covers "
+     "corotated, von_mises, sand and snow; water and rigid bodies need explicit."},
+    {"sim.newton_tol", KT_NUM, TOP(s.sim.newton_tol), GT(0), NULL, "1e-3", NULL, "integrator=implicit", KF_SOFT,
+     "Newton stops when the residual, relative to the momentum scale, is below this."},
+    {"sim.newton_max", KT_INT, TOP(s.sim.newton_max), CC(1, 1000), NULL, "20", NULL, "integrator=implicit", KF_SOFT,
+     "Most Newton iterations per substep."},
+    {"sim.krylov_tol", KT_NUM, TOP(s.sim.krylov_tol), OO(0, 1), NULL, "1e-2", NULL, "integrator=implicit", KF_SOFT,
+     "Conjugate gradients stop when the residual has fallen by this factor."},
+    {"sim.krylov_max", KT_INT, TOP(s.sim.krylov_max), CC(1, 100000), NULL, "200", NULL, "integrator=implicit",
+     KF_SOFT, "Most conjugate-gradient iterations per Newton iteration."},
 
     {"domain", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0, "The simulation box."},
     {"domain.min", KT_VEC3, TOP(s.sim.domain_min), ANY, NULL, "[0, 0, 0]", "m", NULL, 0, "Lower corner."},
@@ -88,6 +102,10 @@ const kf_keydef kf_keys[] = {
      "Preset to start from (see the list below)."},
     {"materials.*.color", KT_VEC3, MAT(color), CC(0, 1), NULL, "(by kind: water blue, sand tan, ...)", "sRGB", NULL,
      KF_BROADCAST, "Colour of this material's surface in renders."},
+    {"materials.*.specular", KT_NUM, MAT(specular), CC(0, 1), NULL, "(by kind: water 0.6, sand 0.05, ...)", NULL,
+     NULL, 0, "Strength of the highlights in renders (0 = matte)."},
+    {"materials.*.roughness", KT_NUM, MAT(roughness), CC(0.03, 1), NULL, "(by kind: water 0.15, sand 0.9, ...)",
+     NULL, NULL, 0, "Width of the highlights in renders: small is glossy, 1 a broad sheen."},
     {"materials.*.model", KT_ENUM, MAT(mat.model), ANY, "corotated|water|von_mises|sand|snow", PRESET_DEF, NULL,
      NULL, 0, "Constitutive model; required when there is no preset."},
     {"materials.*.density", KT_NUM, MAT(mat.density), GT(0), NULL, PRESET_DEF, "kg/m^3", NULL, 0, "Rest density."},
@@ -194,6 +212,10 @@ const kf_keydef kf_keys[] = {
      "Coulomb friction."},
     {"colliders[].color", KT_VEC3, COL(color), CC(0, 1), NULL, "0.55", "sRGB", NULL, KF_BROADCAST,
      "Colour of the collider in renders."},
+    {"colliders[].specular", KT_NUM, COL(specular), CC(0, 1), NULL, "0.2", NULL, NULL, 0,
+     "Strength of the collider's highlights in renders (0 = matte)."},
+    {"colliders[].roughness", KT_NUM, COL(roughness), CC(0.03, 1), NULL, "0.6", NULL, NULL, 0,
+     "Width of the collider's highlights in renders: small is glossy, 1 a broad sheen."},
     {"colliders[].velocity", KT_VEC3, COL(col.velocity), ANY, NULL, "[0, 0, 0]", "m/s", NULL, 0,
      "Constant velocity (without keys)."},
     {"colliders[].interpolation", KT_ENUM, COL(col.interp), ANY, "linear|smooth", "linear", NULL, NULL, 0,
@@ -217,6 +239,80 @@ const kf_keydef kf_keys[] = {
      "channel, so 0 to 720 is two turns."},
     {"colliders[].keys[].scale", KT_VEC3, KEY(scale), GT(0), NULL, "1", NULL, NULL, KF_BROADCAST,
      "Scale along x, y, z about the pivot (one number: uniform)."},
+
+    /* rigid bodies and their joints (CPIC, paper section 5) */
+    {"rigids", KT_LIST, KS_RIGID, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
+     "Rigid bodies that material cannot cross, however thin (at most 14): thin cutters and shells, or closed "
+     "solids; static, kinematic (keys or a constant velocity) or dynamic (pushed by the material, pushing back, "
+     "colliding with each other). The pivot is put at center and the body turned about it by rotate."},
+    {"rigids[].name", KT_STR, RIG(def.name), ANY, NULL, "(shape and position, e.g. mesh0)", NULL, NULL, KF_IDENT,
+     "Name, for messages, joints and --set rigids.NAME.key=value."},
+    {"rigids[].shape", KT_ENUM, RIG(shape), ANY, "box|mesh", NULL, NULL, NULL, KF_REQ,
+     "A box (triangulated), or a triangle mesh file."},
+    {"rigids[].mesh", KT_STR, RIG(mesh), ANY, NULL, NULL, NULL, "shape=mesh", KF_REQ,
+     "Triangle mesh, relative to the shot file's directory: any surface when thin, a closed one when solid."},
+    {"rigids[].scale", KT_VEC3, RIG(scale), GT(0), NULL, "1", NULL, "shape=mesh", KF_BROADCAST,
+     "Scale of the mesh about its own origin (one number: uniform)."},
+    {"rigids[].pivot", KT_VEC3, RIG(pivot), ANY, NULL, "(the scaled mesh's bounding-box centre)", "m", "shape=mesh", 0,
+     "The point of the scaled mesh, in its own coordinates, that is put at center; rotate and keys turn about it."},
+    {"rigids[].size", KT_VEC3, RIG(size), GT(0), NULL, NULL, "m", "shape=box", KF_REQ | KF_BROADCAST,
+     "Edge lengths (one number: a cube)."},
+    {"rigids[].center", KT_VEC3, RIG(def.position), ANY, NULL, NULL, "m", NULL, KF_REQ,
+     "Where the pivot (a box: its centre) is at the first frame."},
+    {"rigids[].rotate", KT_VEC3, RIG(def.rotate), CC(-1e6, 1e6), NULL, "[0, 0, 0]", "deg", NULL, 0,
+     "Orientation at the first frame: rotation about x, then y, then z (fixed axes), about the pivot."},
+    {"rigids[].thin", KT_BOOL, RIG(def.thin), ANY, NULL, "false", NULL, NULL, 0,
+     "true: an infinitely thin shell or cutter (open or not; material on its two sides moves independently); "
+     "false: a closed solid."},
+    {"rigids[].motion", KT_ENUM, RIG(def.motion), ANY, "static|kinematic|dynamic", "static", NULL, NULL, 0,
+     "static: stays put; kinematic: follows its keys (or a constant velocity) whatever pushes it; dynamic: moved "
+     "by gravity, the material, other bodies and joints."},
+    {"rigids[].keys", KT_LIST, KS_KEY, NOFIELD, ANY, NULL, NULL, NULL, "motion=kinematic", 0,
+     "Keyframed motion about the pivot: rotated, then moved by translate; held before the first key and after "
+     "the last; frames increase."},
+    {"rigids[].keys[].frame", KT_NUM, KEY(frame), CC(-9999999, 9999999), NULL, NULL, NULL, NULL, KF_REQ,
+     "Frame of the key (may be fractional)."},
+    {"rigids[].keys[].translate", KT_VEC3, KEY(translate), ANY, NULL, "[0, 0, 0]", "m", NULL, 0,
+     "Offset of the pivot from center at that frame."},
+    {"rigids[].keys[].rotate", KT_VEC3, KEY(rotate), CC(-1e6, 1e6), NULL, "[0, 0, 0]", "deg", NULL, 0,
+     "Rotation about x, then y, then z (fixed axes) on top of rotate, about the pivot; angles interpolate per "
+     "channel, so 0 to 720 is two turns."},
+    {"rigids[].interpolation", KT_ENUM, RIG(def.interp), ANY, "linear|smooth", "linear", NULL, "motion=kinematic", 0,
+     "Between keys, per channel: linear, or smooth (cubic Hermite, easing in and out at the first and last key)."},
+    {"rigids[].velocity", KT_VEC3, RIG(def.velocity), ANY, NULL, "[0, 0, 0]", "m/s", "motion=kinematic|dynamic", 0,
+     "dynamic: initial velocity; kinematic without keys: constant velocity."},
+    {"rigids[].angular_velocity", KT_VEC3, RIG(def.angular_velocity), ANY, NULL, "[0, 0, 0]", "rad/s",
+     "motion=kinematic|dynamic", 0,
+     "dynamic: initial spin; kinematic without keys: constant spin about the pivot (world axes)."},
+    {"rigids[].density", KT_NUM, RIG(def.density), GT(0), NULL, NULL, "kg/m^3 (thin: kg/m^2)", "motion=dynamic",
+     KF_REQ, "Mass per volume of a solid, or per area of a thin shell; mass and inertia follow from the mesh."},
+    {"rigids[].boundary", KT_ENUM, RIG(def.boundary), ANY, "sticky|slip|separate", "separate", NULL, NULL, 0,
+     "How material meets the body: sticky, slip (frictionless), separate (can lift off, with friction)."},
+    {"rigids[].friction", KT_NUM, RIG(def.friction), GE(0), NULL, "0.3", NULL, "boundary=separate", KF_SOFT,
+     "Coulomb friction between the material and the body."},
+    {"rigids[].penalty", KT_NUM, RIG(def.penalty), GE(0), NULL, "0", "1/s", NULL, 0,
+     "Stiffness pushing slightly penetrated particles back out (paper Eq. 22); 0 = off."},
+    {"rigids[].push", KT_NUM, RIG(def.push), GE(0), NULL, "0", "m/s^2", NULL, 0,
+     "Extra acceleration of colliding material away from the surface (paper section 5.5); 0 = none."},
+    {"rigids[].color", KT_VEC3, RIG(color), CC(0, 1), NULL, "0.55", "sRGB", NULL, KF_BROADCAST,
+     "Colour of the body in renders."},
+
+    {"joints", KT_LIST, KS_JOINT, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
+     "Joints between dynamic rigid bodies, or a dynamic body and the world (a wheel on its axle)."},
+    {"joints[].name", KT_STR, JNT(name), ANY, NULL, "(type and position, e.g. hinge0)", NULL, NULL, KF_IDENT,
+     "Name, for messages and --set joints.NAME.key=value."},
+    {"joints[].type", KT_ENUM, JNT(type), ANY, "hinge", "hinge", NULL, NULL, 0,
+     "hinge: the bodies keep a common axis and turn about it."},
+    {"joints[].body", KT_STR, JNT(body), ANY, NULL, NULL, NULL, NULL, KF_REQ | KF_IDENT,
+     "A dynamic rigid body, by name."},
+    {"joints[].to", KT_STR, JNT(to), ANY, NULL, "world", NULL, NULL, KF_IDENT,
+     "The other dynamic body, by name, or world (fixed in space)."},
+    {"joints[].anchor", KT_VEC3, JNT(def.anchor), ANY, NULL, NULL, "m", NULL, KF_REQ,
+     "A point on the hinge axis at the first frame."},
+    {"joints[].axis", KT_VEC3, JNT(def.axis), ANY, NULL, NULL, NULL, NULL, KF_REQ | KF_NONZERO,
+     "Direction of the hinge axis at the first frame (normalised)."},
+    {"joints[].damping", KT_NUM, JNT(def.damping), GE(0), NULL, "0", "N m s/rad", NULL, 0,
+     "Rotational damping of the hinge."},
 
     {"output", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0, "Where results go."},
     {"output.dir", KT_STR, TOP(s.output_dir), ANY, NULL, "out/{shot}/v{version:03d}", NULL, NULL, KF_TEMPLATE,
@@ -248,6 +344,8 @@ const kf_keydef kf_keys[] = {
      "Grow the surface before smoothing (fills small gaps)."},
     {"surface.erode", KT_NUM, TOP(s.surface_erode), GE(-1), NULL, "-1", "m", NULL, 0,
      "Shrink it after smoothing; -1 = back onto the material (radius - half a spacing, plus dilate)."},
+    {"surface.group", KT_ENUM, TOP(s.surface_group), ANY, "material|object", "material", NULL, NULL, 0,
+     "One level set (and render colour) per material, or per object (objects of one material stay apart)."},
 
     {"render", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
      "How frames are rendered (changing these never re-simulates)."},

@@ -13,6 +13,7 @@
 #include <sys/stat.h>
 
 #include "../mpm/model.h" /* KF_MAX_MATERIALS, KF_MAX_COLLIDERS */
+#include "../rigid/rigid.h" /* KF_MAX_JOINTS */
 #include "internal.h"
 
 #define KF_PI 3.14159265358979323846
@@ -45,7 +46,8 @@ typedef struct loader {
 } loader;
 
 static const size_t scope_size[KS_COUNT] = {sizeof(kf_top), sizeof(kf_shot_material), sizeof(kf_shot_object),
-                                            sizeof(kf_shot_collider), sizeof(kf_rawkey)};
+                                            sizeof(kf_shot_collider), sizeof(kf_rawkey), sizeof(kf_shot_rigid),
+                                            sizeof(kf_shot_joint)};
 
 static int is_leaf(const kf_keydef *k) { return k->type != KT_SECTION && k->type != KT_DICT && k->type != KT_LIST; }
 
@@ -266,6 +268,9 @@ static void check_presence(loader *L, inst *I) {
     for (int e = 0; e < kf_nkeys; e++) {
         const kf_keydef *k = &kf_keys[e];
         if (k->scope != I->scope || k->type == KT_DICT || k->type == KT_LIST) continue;
+        /* keys share a scope (colliders' and rigids' keys): only this instance's rows */
+        size_t pl = strlen(I->prefix);
+        if (pl && (strncmp(k->path, I->prefix, pl) != 0 || k->path[pl] != '.')) continue;
         char val[64], what[160], cond[64];
         int holds = only_holds(I, k, val, sizeof val);
         what_of(I, k, what, sizeof what);
@@ -339,6 +344,7 @@ static void resolve_material(loader *L, inst *I, kf_shot *s, kf_shot_material *o
     char msg[512];
     memset(out, 0, sizeof *out);
     out->color[0] = out->color[1] = out->color[2] = -1; /* by kind unless given */
+    out->specular = out->roughness = -1;                /* likewise */
     int based = 0;
     if (I->at[pk]) {
         based = I->ok[pk] && kf_material_preset(raw->preset, &out->mat) == 0;
@@ -571,6 +577,129 @@ static void resolve_collider(loader *L, int ii, int index, kf_shot *s, int times
     c->col.nkeys = nk; /* one key: held there */
 }
 
+/* A rigid body: its mesh must exist, keys belong to kinematic bodies only,
+ * and a kinematic body moves by keys or by a velocity, not both. */
+static void resolve_rigid(loader *L, int ii, int index, kf_shot *s, int times_ok, kf_shot_rigid *r) {
+    inst *I = &L->v[ii];
+    char msg[512], motion[32];
+    *r = *(const kf_shot_rigid *)I->base;
+    r->at = loc_of(L, s, I->map);
+    check_presence(L, I);
+    if (!I->at[K("rigids[].name")]) {
+        char name[64];
+        default_name(name, sizeof name, I, "rigids[].shape", index);
+        snprintf(r->def.name, sizeof r->def.name, "%.31s", name);
+    }
+    int meshk = K("rigids[].mesh");
+    if (r->shape == 1 && I->ok[meshk])
+        resolve_mesh_path(L, I, s, "rigids[].mesh", r->mesh, r->mesh_path, sizeof r->mesh_path);
+    if (I->at[meshk]) r->mesh_at = loc_of(L, s, I->at[meshk]);
+    r->pivot_set = I->at[K("rigids[].pivot")] != NULL;
+    kf_key_choice(&kf_keys[K("rigids[].motion")], (int)r->def.motion, motion, sizeof motion);
+    int nk = 0;
+    double prev = 0;
+    for (int j = 0; j < L->n; j++) {
+        inst *KI = &L->v[j];
+        if (KI->scope != KS_KEY || KI->parent != ii) continue;
+        check_presence(L, KI);
+        const kf_rawkey *rk = KI->base;
+        int fk = K("rigids[].keys[].frame");
+        if (nk == KF_MAX_KEYS) {
+            snprintf(msg, sizeof msg, "%s: too many keys (at most %d)", I->label, KF_MAX_KEYS);
+            report_inst(L, KI, "rigids[].keys[].frame", KF_DIAG_ERROR, msg);
+            break;
+        }
+        if (KI->ok[fk] && nk > 0 && !(rk->frame > prev)) {
+            snprintf(msg, sizeof msg, "%s.frame must come after the previous key's frame %g, got %g", KI->label, prev,
+                     rk->frame);
+            report_inst(L, KI, "rigids[].keys[].frame", KF_DIAG_ERROR, msg);
+        }
+        if (KI->ok[fk]) prev = rk->frame;
+        kf_key *key = &r->def.keys[nk];
+        if (times_ok) key->time = (rk->frame - s->frame_start) / s->fps;
+        for (int a = 0; a < 3; a++) {
+            key->position[a] = r->def.position[a] + rk->translate[a];
+            key->rotate[a] = rk->rotate[a];
+            key->scale[a] = 1;
+        }
+        nk++;
+    }
+    int keysk = K("rigids[].keys");
+    if (I->at[keysk] && r->def.motion != KF_RIGID_KINEMATIC) {
+        snprintf(msg, sizeof msg, "%s.keys: only a kinematic body follows keys (this one is %s; add motion: kinematic)",
+                 I->label, motion);
+        report_inst(L, I, "rigids[].keys", KF_DIAG_ERROR, msg);
+    }
+    if (nk > 0 && (I->at[K("rigids[].velocity")] || I->at[K("rigids[].angular_velocity")])) {
+        snprintf(msg, sizeof msg, "%s: give velocities or keys, not both (keys define the motion)", I->label);
+        report_inst(L, I, I->at[K("rigids[].velocity")] ? "rigids[].velocity" : "rigids[].angular_velocity",
+                    KF_DIAG_ERROR, msg);
+    }
+    if (nk < 2 && I->at[K("rigids[].interpolation")] && r->def.motion == KF_RIGID_KINEMATIC) {
+        snprintf(msg, sizeof msg, "%s.interpolation has no effect with %s", I->label,
+                 nk ? "one key (the body is held there)" : "no keys");
+        report_inst(L, I, "rigids[].interpolation", KF_DIAG_WARNING, msg);
+    }
+    r->def.nkeys = r->def.motion == KF_RIGID_KINEMATIC ? nk : 0;
+}
+
+/* A joint names its bodies: each must be a dynamic rigid body of the shot
+ * (or the world for `to`), and not the same one twice. */
+static int joint_body(loader *L, inst *I, const kf_shot *s, const char *path, const char *name, int world_ok) {
+    char msg[900];
+    const char *names[KF_MAX_RIGIDS + 64] = {0};
+    int n = 0, found = -1;
+    for (int i = 0; i < s->nrigids && n < (int)(sizeof names / sizeof *names) - 1; i++) {
+        if (!strcmp(s->rigids[i].def.name, name)) found = i;
+        names[n++] = s->rigids[i].def.name;
+    }
+    if (world_ok && !strcmp(name, "world")) return -1;
+    if (found < 0) {
+        const char *near = kf_suggest(name, names, n);
+        char list[600] = "";
+        for (int i = 0; i < n; i++) {
+            size_t l = strlen(list);
+            snprintf(list + l, sizeof list - l, "%s%s", i ? ", " : "", names[i]);
+        }
+        if (near) snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined (did you mean '%s'?)", I->label, name, near);
+        else if (n) snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined; rigid bodies: %s%s", I->label, name,
+                             list, world_ok ? " (or world)" : "");
+        else snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined (the shot has no rigids:)", I->label, name);
+        report_inst(L, I, path, KF_DIAG_ERROR, msg);
+        return -2;
+    }
+    if (s->rigids[found].def.motion != KF_RIGID_DYNAMIC) {
+        char motion[32];
+        kf_key_choice(&kf_keys[K("rigids[].motion")], (int)s->rigids[found].def.motion, motion, sizeof motion);
+        snprintf(msg, sizeof msg, "%s: rigid body '%s' is %s; joints connect dynamic bodies (and the world)", I->label,
+                 name, motion);
+        report_inst(L, I, path, KF_DIAG_ERROR, msg);
+        return -2;
+    }
+    return found;
+}
+
+static void resolve_joint(loader *L, inst *I, int index, kf_shot *s, kf_shot_joint *j) {
+    char msg[256];
+    *j = *(const kf_shot_joint *)I->base;
+    j->at = loc_of(L, s, I->map);
+    check_presence(L, I);
+    if (!I->at[K("joints[].name")]) default_name(j->name, sizeof j->name, I, "joints[].type", index);
+    int bk = K("joints[].body"), tk = K("joints[].to");
+    int a = I->ok[bk] ? joint_body(L, I, s, "joints[].body", j->body, 0) : -2;
+    int b = !I->at[tk] || I->ok[tk] ? joint_body(L, I, s, "joints[].to", j->to, 1) : -2;
+    if (a >= 0 && a == b) {
+        snprintf(msg, sizeof msg, "%s: a joint connects two different bodies ('%s' twice; use to: world for an axle)",
+                 I->label, j->body);
+        report_inst(L, I, "joints[].to", KF_DIAG_ERROR, msg);
+    }
+    j->def.body_a = a;
+    j->def.body_b = b;
+    double len = sqrt(j->def.axis[0] * j->def.axis[0] + j->def.axis[1] * j->def.axis[1] + j->def.axis[2] * j->def.axis[2]);
+    if (len > 0)
+        for (int k = 0; k < 3; k++) j->def.axis[k] /= len;
+}
+
 /* two objects (or colliders) must not share a name: --set addresses by it */
 static void check_unique(loader *L, kf_scope scope, const char *path, const char *names, size_t stride, int n) {
     for (int i = 0, ii = 0; ii < L->n; ii++) {
@@ -708,12 +837,17 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
                    (!T->at[K("frames.fps")] || T->ok[K("frames.fps")]);
 
     /* count, allocate, resolve each kind in file order */
-    int nm = 0, no = 0, nc = 0;
+    int nm = 0, no = 0, nc = 0, nr = 0, nj = 0;
     for (int i = 0; i < L.n; i++) {
         nm += L.v[i].scope == KS_MATERIAL;
         no += L.v[i].scope == KS_OBJECT;
         nc += L.v[i].scope == KS_COLLIDER;
+        nr += L.v[i].scope == KS_RIGID;
+        nj += L.v[i].scope == KS_JOINT;
     }
+    s->rigids = calloc((size_t)nr + 1, sizeof *s->rigids);
+    s->joints = calloc((size_t)nj + 1, sizeof *s->joints);
+    if (!s->rigids || !s->joints) goto done;
     s->materials = calloc((size_t)nm + 1, sizeof *s->materials);
     s->objects = calloc((size_t)no + 1, sizeof *s->objects);
     s->colliders = calloc((size_t)nc + 1, sizeof *s->colliders);
@@ -726,8 +860,24 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
         } else if (L.v[i].scope == KS_COLLIDER) {
             resolve_collider(&L, i, s->ncolliders, s, times_ok, &s->colliders[s->ncolliders]);
             s->ncolliders++;
+        } else if (L.v[i].scope == KS_RIGID) {
+            resolve_rigid(&L, i, s->nrigids, s, times_ok, &s->rigids[s->nrigids]);
+            s->nrigids++;
         }
     }
+    for (int i = 0; i < L.n; i++) /* joints name bodies, wherever they are in the file */
+        if (L.v[i].scope == KS_JOINT) {
+            resolve_joint(&L, &L.v[i], s->njoints, s, &s->joints[s->njoints]);
+            s->njoints++;
+        }
+    check_unique(&L, KS_RIGID, "rigids[].name", s->rigids[0].def.name, sizeof *s->rigids, nr);
+    check_unique(&L, KS_JOINT, "joints[].name", s->joints[0].name, sizeof *s->joints, nj);
+    for (int i = 0, r = 0; i < L.n && nr > KF_MAX_RIGIDS; i++) /* reported at the first body over the limit */
+        if (L.v[i].scope == KS_RIGID && r++ == KF_MAX_RIGIDS)
+            kf_report_at(d, &L.srcs, L.v[i].map, KF_DIAG_ERROR,
+                         "%s: too many rigid bodies: %d (at most %d: a grid node holds 2 bits per body in one 32-bit "
+                         "word)", L.v[i].label, nr, KF_MAX_RIGIDS);
+    if (nj > KF_MAX_JOINTS) report_inst(&L, T, "joints", KF_DIAG_ERROR, "too many joints (at most 32)");
     check_unique(&L, KS_OBJECT, "objects[].name", s->objects[0].name, sizeof *s->objects, no);
     check_unique(&L, KS_COLLIDER, "colliders[].name", s->colliders[0].name, sizeof *s->colliders, nc);
     if (no == 0)
@@ -778,6 +928,8 @@ void kf_shot_free(kf_shot *s) {
     free(s->materials);
     free(s->objects);
     free(s->colliders);
+    free(s->rigids);
+    free(s->joints);
     for (int i = 0; i < s->nstrings; i++) free(s->strings[i]);
     free(s->strings);
     free(s);

@@ -51,6 +51,7 @@ typedef struct kf_shot_material {
     kf_material mat;  /* ready for kf_model_add_material; mat.name is the shot's name for it */
     char preset[32];  /* the preset it started from, "" when none */
     double color[3];  /* sRGB render colour; negative: by kind (unset) */
+    double specular, roughness; /* render shading, [0, 1]; negative: by kind (unset) */
     kf_loc at;        /* its name under materials: */
 } kf_shot_material;
 
@@ -93,6 +94,7 @@ typedef struct kf_shot_object {
 typedef struct kf_shot_collider {
     char name[64];
     double color[3];  /* sRGB render colour */
+    double specular, roughness; /* render shading, [0, 1] */
     kf_collider col;  /* ready for kf_model_add_collider except a mesh's col.sdf: box half = size/2, plane
                          normal unit, col.rotate the box's rest orientation (a mesh's is in place) */
     double size[3];   /* box: full edge lengths as written, m */
@@ -109,6 +111,39 @@ typedef struct kf_shot_collider {
     kf_loc at;              /* the collider's entry */
     kf_loc mesh_at;         /* its mesh: value (mesh colliders) */
 } kf_shot_collider;
+
+/* A rigid body (CPIC). `def` is ready for kf_model_add_rigid except its
+ * surface, which the builder makes (scene/build_rigid.c): a box of `size`
+ * centred on the origin, or the mesh file scaled by `scale` about its origin
+ * with `pivot` (default: its bounding-box centre) moved to the origin; then
+ * turned by `rotate`, which is baked into the surface like a collider's rest
+ * orientation, so def.rotate and def.center stay zero and keys turn on top
+ * of it. def.position is the shot's `center`. Keys: seconds since
+ * frames.start, absolute pivot positions (center + translate), rotate as
+ * written, scale 1. */
+typedef struct kf_shot_rigid {
+    kf_rigid_def def;       /* name, thin, motion, pose, keys, velocities, density, boundary, ... */
+    int shape;              /* 0 box, 1 mesh (the order of rigids[].shape's choices) */
+    double size[3];         /* box: edge lengths, m */
+    char mesh[256];         /* mesh: the path as written */
+    char mesh_path[1024];   /* mesh: resolved against the shot file's directory (exists) */
+    double scale[3];        /* mesh: factors about the mesh's origin */
+    double pivot[3];        /* mesh: in the scaled mesh's coordinates, when pivot_set */
+    int pivot_set;
+    double color[3];        /* sRGB render colour */
+    kf_loc at;              /* the body's entry */
+    kf_loc mesh_at;         /* its mesh: value (mesh bodies) */
+} kf_shot_rigid;
+
+/* A hinge: def.body_a / body_b are indices into kf_shot.rigids (-1 world),
+ * def.axis is unit. */
+typedef struct kf_shot_joint {
+    char name[64];
+    int type;               /* 0 hinge */
+    char body[32], to[32];  /* as written ("world" for the world) */
+    kf_joint_def def;
+    kf_loc at;
+} kf_shot_joint;
 
 typedef struct kf_shot {
     char name[64];               /* {shot}: `shot:` or the file's stem */
@@ -135,6 +170,10 @@ typedef struct kf_shot {
     int nobjects;
     kf_shot_collider *colliders; /* (ncolliders), in file order */
     int ncolliders;
+    kf_shot_rigid *rigids;       /* (nrigids <= KF_MAX_RIGIDS), in file order = model indices */
+    int nrigids;
+    kf_shot_joint *joints;       /* (njoints), in file order */
+    int njoints;
 
     char output_dir[512];        /* template: {shot}, {version:03d}, {frame:04d} */
     char output_name[256];       /* template of a frame's file stem (no extension) */
@@ -149,6 +188,7 @@ typedef struct kf_shot {
     int surface_smooth;              /* 0 none, 1 mean curvature, 2 gaussian, 3 laplacian */
     int surface_iterations;
     double surface_dilate, surface_erode; /* m; erode < 0: automatic */
+    int surface_group;               /* 0: a level set per material, 1: per object */
 
     int render_width, render_height; /* pixels, quality applied */
     int render_samples;              /* anti-aliasing samples (1 in preview) */

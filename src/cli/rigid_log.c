@@ -1,0 +1,29 @@
+/* rigid_log.c — rigid bodies in kerf info and the frame log (see rigid_log.h). */
+#include "rigid_log.h"
+
+static const char *const motion_name[] = {"static", "kinematic", "dynamic"};
+
+void kf_rigid_log_info(FILE *f, const kf_shot *shot, const kf_model *m) {
+    if (shot->nrigids == 0) return;
+    fprintf(f, "rigids    %d bodies, %d joints\n", shot->nrigids, shot->njoints);
+    for (int i = 0; i < shot->nrigids && i < kf_model_rigid_count(m); i++) {
+        const kf_rigid_def *d = &shot->rigids[i].def;
+        fprintf(f, "  %-16s %s %s %s, %zu seeds", d->name, d->thin ? "thin" : "solid", motion_name[d->motion % 3],
+                shot->rigids[i].shape ? "mesh" : "box", kf_model_rigid_seeds(m, i));
+        if (d->motion == KF_RIGID_DYNAMIC) fprintf(f, ", %.4g kg", kf_model_rigid_mass(m, i));
+        fputc('\n', f);
+    }
+    for (int i = 0; i < shot->njoints; i++) {
+        const kf_shot_joint *j = &shot->joints[i];
+        fprintf(f, "  %-16s hinge %s to %s\n", j->name, j->body, j->to);
+    }
+}
+
+void kf_rigid_log_frame(FILE *f, const kf_shot *shot, const kf_state *s) {
+    for (int i = 0; i < shot->nrigids; i++) {
+        kf_rigid_pose p = kf_state_rigid(s, i);
+        fprintf(f, "  rigid %s: at [%.3f, %.3f, %.3f] m, v [%.3f, %.3f, %.3f] m/s, w [%.2f, %.2f, %.2f] rad/s\n",
+                shot->rigids[i].def.name, p.com[0], p.com[1], p.com[2], p.v[0], p.v[1], p.v[2], p.omega[0],
+                p.omega[1], p.omega[2]);
+    }
+}

@@ -1,0 +1,13 @@
+/* thin.h — closed thin bodies as one-sided sheets for CPIC (thin.c). */
+#ifndef KF_RIGID_THIN_H
+#define KF_RIGID_THIN_H
+
+#include <stddef.h>
+
+/* Turn every triangle of a closed, flat body to face along its thinnest
+ * axis. Returns 0, or -1 with a message when the body is not flat (thicker
+ * than 2 dx along every axis). */
+int kf_rigid_orient_thin(double *vert, int nvert, int *tri, int ntri, double dx, const char *name, char *err,
+                         size_t errlen);
+
+#endif
