@@ -4,9 +4,9 @@
 
 #include <stddef.h>
 
-/* Turn every triangle of a closed, flat body to face along its thinnest
- * axis. Returns 0, or -1 with a message when the body is not flat (thicker
- * than 2 dx along every axis). */
+/* Turn every triangle of a closed blade or plate to face along its thinnest
+ * axis. Returns 0, or -1 with a message when more than a quarter of its area
+ * faces sideways (no front and back). */
 int kf_rigid_orient_thin(double *vert, int nvert, int *tri, int ntri, double dx, const char *name, char *err,
                          size_t errlen);
 
