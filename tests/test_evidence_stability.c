@@ -4,7 +4,8 @@
  *   - the default CFL number sits safely below the blow-up threshold for
  *     every material preset: each is stable at 1.5x the default with the
  *     default kernel and both forces (measured thresholds, quadratic kernel:
- *     0.83–1.14 for jello and rubber, see tools/evidence/REPORT.md);
+ *     0.83 (water, classic) to 3.09 (snow, classic), 0.86–1.14 for the elastic
+ *     and von Mises presets; see tools/evidence/REPORT.md);
  *   - the detector is not blind: at CFL 2.0 (above every measured
  *     threshold) the same jello block is reported unstable;
  *   - an injected NaN is caught by kf_step;

@@ -217,7 +217,7 @@ int main(int argc, char **argv) {
         const problem *pr = &probs[p];
         fprintf(md, "### %s\n\nΔx sweep at CFL 0.3 (%s = ", pr->title, pr->res_name);
         for (int k = 0; k < pr->nres; k++) fprintf(md, "%s%g", k ? ", " : "", pr->res[k]);
-        fprintf(md, "):\n\n| variant | %s | particles | steps | CPU s | ns/p-step | error %s | |\n|---|---|---|---|---|---|---|---|\n",
+        fprintf(md, "):\n\n| variant | %s | particles | steps | CPU s | ns/p-step | %s | |\n|---|---|---|---|---|---|---|---|\n",
                 pr->res_name, pr->error_name);
         for (int i = 0; i < nrows; i++) {
             const row *w = &rows[i];

@@ -1,6 +1,6 @@
 # implicit_sweep.gp — CPU time per frame against error, explicit against
 # implicit, one colour per stiffness (issue 7). Run in the sweep's output
-# directory: gnuplot -e "dir='tools/evidence/results/implicit'" tools/evidence/implicit_sweep.gp
+# directory: gnuplot -e "dir='tools/evidence/implicit_results'" tools/evidence/implicit_sweep.gp
 if (!exists("dir")) dir = "."
 set terminal pngcairo size 1000,700 font "sans,11"
 set output dir."/implicit_sweep.png"

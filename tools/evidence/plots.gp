@@ -13,7 +13,9 @@ ptitle(p) = p eq "bar" ? "V4 axial bar: period error" : (p eq "mms" ? "V5 manufa
 set output dir."/pareto.png"
 set multiplot layout 1,3 title "Error against cost (process CPU seconds inside the solver step, 1 thread; Δx sweep at CFL 0.3, plus the CFL sweep)"
 set logscale xy
-set offsets graph 0.05, graph 0.05, graph 0.05, graph 0.05
+set offsets graph 0.05, graph 0.05, graph 0.08, graph 0.08
+set autoscale xfix
+set autoscale yfix
 set format y "%.0e"
 set xlabel "CPU seconds"
 set ylabel "relative error"
@@ -44,8 +46,9 @@ unset multiplot
 set output dir."/cfl.png"
 set multiplot layout 1,3 title "Error against the CFL number at a fixed Δx (MLS force, 8 particles per cell)"
 set xlabel "CFL number C = Δt (c + |v|) / Δx"
-unset logscale x
-set logscale y
+# linear axes: each curve spans less than a factor of 3
+unset logscale
+set format y "%.1e"
 do for [p in probs] {
   set title ptitle(p)
   files = system("ls ".dir."/cfl_".p."_*.dat")
@@ -56,7 +59,10 @@ unset multiplot
 # the stability map: largest stable CFL per material and variant
 set terminal pngcairo size 1400,600 font "sans,11"
 set offsets 0, 0, 0, 0
+set autoscale
+
 set output dir."/stability_map.png"
+set termoption noenhanced
 unset logscale
 set format y "%g"
 set title "Largest stable CFL number (free block, bisection) against the default"
@@ -73,6 +79,7 @@ plot for [c=2:5] dir."/stability_map.dat" using c:xtic(1), default+0 with lines 
 # Fig. 17: energy curves
 set terminal pngcairo size 1400,520 font "sans,11"
 set output dir."/energy.png"
+set termoption enhanced
 set style data lines
 set yrange [*:*]
 set multiplot layout 1,2 title "Total energy (kinetic + elastic) / initial, MLS-MPM against MPM with the classic force (paper Fig. 17)"

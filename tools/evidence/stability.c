@@ -348,7 +348,6 @@ int main(int argc, char **argv) {
     fprintf(csv, "material,kernel,force,threshold_cfl,default_cfl,margin,first_unstable\n");
     fprintf(map, "material quad-mls quad-classic cubic-mls cubic-classic\n");
     double thr[16][4], worst = 1e300;
-    char why[16][4][96];
     for (int k = 0; k < nmat; k++) {
         fprintf(map, "%s", names[k]);
         for (int v = 0; v < 4; v++) {
@@ -358,7 +357,6 @@ int main(int argc, char **argv) {
             ev_stab first = {0};
             double c0 = ev_cpu_s();
             thr[k][v] = ev_cfl_threshold(ker, frc, names[k], 0.1, 4.0, quick ? 0.1 : 0.03, steps, &lo_bad, &first);
-            snprintf(why[k][v], sizeof why[k][v], "%s", first.why);
             worst = fmin(worst, thr[k][v]);
             fprintf(stderr, "  %-9s %-9s %-8s largest stable CFL %.3f%s (default %.2f, margin %.2fx); above it: %s "
                     "[%.1f s]\n", names[k], v < 2 ? "quadratic" : "cubic", v % 2 ? "classic" : "mls", thr[k][v],
