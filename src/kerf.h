@@ -219,6 +219,10 @@ typedef struct kf_sim_def {
     int newton_max;       /* Newton iterations per substep (0 = default) */
     double krylov_tol;    /* CG relative residual (0 = default) */
     int krylov_max;       /* CG iterations per Newton step (0 = default) */
+    /* testing the recovery path: at this substep count (kf_state's substeps
+     * since creation) one particle's velocity becomes NaN, once per state; the
+     * step must catch it and kf_advance retry the interval (0 = never) */
+    long fault_substep;
 } kf_sim_def;
 
 kf_sim_def kf_default_sim_def(void);

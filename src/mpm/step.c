@@ -50,6 +50,12 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     t1 = kf_now_ms();
     if (st) st->ms[KF_STAGE_SORT] += t1 - t0;
 
+    /* testing the recovery path: one particle's velocity goes bad, once */
+    if (m->sim.fault_substep > 0 && s->substep == m->sim.fault_substep && !s->fault_done && s->p.n) {
+        s->fault_done = 1;
+        s->p.v[0][0] = (kf_real)NAN;
+    }
+
     /* CPIC: the grid colored distance field of this substep's rigid poses */
     if (m->nrigid) {
         if (kf_cpic_splat(m, s, dt)) {
