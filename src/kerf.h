@@ -165,7 +165,8 @@ typedef struct kf_rigid_def {
     double density;          /* dynamic: kg/m³ for a solid, kg/m² for a thin shell */
     kf_boundary boundary;    /* how material meets it (Eq. 25) */
     double friction;         /* Coulomb μ for slip and separate */
-    double penalty;          /* k, 1/s: pushes slightly penetrated particles back out (Eq. 22); 0 = off */
+    double penalty;          /* k, 1/s: a slightly penetrated particle is pushed back out at k x its depth,
+                                never faster than closing it within one substep (Eq. 22); 0 = off */
     double push;             /* c, m/s²: the collided velocity's push away from the surface (Eq. 27) */
 } kf_rigid_def;
 

@@ -349,9 +349,13 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
          * kernel (1 cell for a thin body, 2 inside a solid) the fit is not trusted */
         double depth = m->rigid[r].def.thin ? dx : 2 * dx;
         if (k <= 0 || !(d < 0 && d > -depth)) continue;
+        /* the penetration closes at rate k, but never faster than within this
+         * substep: k Δt <= 1 (a larger kick would overshoot and, repeated
+         * every substep, blow up) */
+        double rate = k * c->dt < 1 ? k : 1 / c->dt;
         double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, J[3];
         for (int a = 0; a < 3; a++) {
-            double dv = -k * d * c->pn[3 * i + a];
+            double dv = -rate * d * c->pn[3 * i + a];
             p->v[a][i] += (kf_real)dv;
             J[a] = -p->mass[i] * dv;
         }

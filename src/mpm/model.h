@@ -57,6 +57,14 @@ static inline double kf_model_dfactor(const kf_model *m) {
     return m->sim.kernel == KF_KERNEL_CUBIC ? dx * dx / 3.0 : dx * dx / 4.0;
 }
 
+/* 1/Δx in kf_real, for every caller of kf_base_node: binning (step.c) and
+ * the transfers (transfer.c) must use the same bits. 1/(float)Δx is not
+ * (float)(1/Δx) for many Δx (0.016: 62.499996 vs 62.5), and a particle
+ * within an ulp of a block face then had its stencil base one node outside
+ * its owner block: P2G wrote and G2P read outside the node cache (stack
+ * garbage, run-to-run and thread-count dependent results, NaN blow-ups). */
+static inline kf_real kf_model_inv_dx(const kf_model *m) { return (kf_real)(1.0 / m->sim.dx); }
+
 /* the stages of a substep (transfer.c, grid_update.c) */
 typedef struct kf_g2p_result {
     kf_trouble trouble; /* first (lowest id) particle in trouble */

@@ -38,7 +38,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
 
     /* sort: particles into owner blocks (cheap when nobody changed block) */
     size_t bad = 0;
-    int rc = kf_grid_bin(&s->g, &s->p, (kf_real)(1.0 / m->sim.dx), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad);
+    int rc = kf_grid_bin(&s->g, &s->p, kf_model_inv_dx(m), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad);
     if (rc == -2) {
         set_trouble(trouble, s, bad, "position NaN or out of range", s->p.x[0][bad]);
         return 1;

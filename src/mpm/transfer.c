@@ -35,7 +35,8 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const int CD = 3 + KW;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
-    const kf_real dx = (kf_real)m->sim.dx, inv_dx = 1 / dx;
+    /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
+    const kf_real dx = (kf_real)m->sim.dx, inv_dx = kf_model_inv_dx(m);
     const kf_real minv = (kf_real)(1.0 / kf_model_dfactor(m));
     const int apic = m->sim.transfer == KF_TRANSFER_APIC;
     const int32_t *bc = &g->bcoord[3 * r];
@@ -144,7 +145,8 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const int CD = 3 + KW;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
-    const kf_real dx = (kf_real)m->sim.dx, inv_dx = 1 / dx;
+    /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
+    const kf_real dx = (kf_real)m->sim.dx, inv_dx = kf_model_inv_dx(m);
     const kf_real minv = (kf_real)(1.0 / kf_model_dfactor(m));
     const int32_t *bc = &g->bcoord[3 * r];
     const kf_real jmin = (kf_real)m->sim.j_min, jmax = (kf_real)m->sim.j_max;

@@ -100,7 +100,7 @@ static int check(const kf_rigid_def *d, double dx, char *err, size_t errlen) {
             return fail(err, errlen, "rigid %s: a dynamic body needs density > 0", nm);
         if (!d->thin && !closed_mesh(d->triangles, d->ntriangles, d->nvertices))
             return fail(err, errlen,
-                        "rigid %s: a dynamic solid must be a closed, consistently wound mesh (or set thin: 1)", nm);
+                        "rigid %s: a dynamic solid must be a closed, consistently wound mesh (or make it thin: true)", nm);
     }
     return 0;
 }

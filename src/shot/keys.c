@@ -291,7 +291,8 @@ const kf_keydef kf_keys[] = {
     {"rigids[].friction", KT_NUM, RIG(def.friction), GE(0), NULL, "0.3", NULL, "boundary=separate", KF_SOFT,
      "Coulomb friction between the material and the body."},
     {"rigids[].penalty", KT_NUM, RIG(def.penalty), GE(0), NULL, "0", "1/s", NULL, 0,
-     "Stiffness pushing slightly penetrated particles back out (paper Eq. 22); 0 = off."},
+     "Pushes slightly penetrated particles back out (paper Eq. 22): the penetration closes at this rate "
+     "(velocity penalty x depth along the surface normal), never faster than within one substep; 0 = off."},
     {"rigids[].push", KT_NUM, RIG(def.push), GE(0), NULL, "0", "m/s^2", NULL, 0,
      "Extra acceleration of colliding material away from the surface (paper section 5.5); 0 = none."},
     {"rigids[].color", KT_VEC3, RIG(color), CC(0, 1), NULL, "0.55", "sRGB", NULL, KF_BROADCAST,
