@@ -32,16 +32,7 @@
 #include "../src/io/vdb_bridge.h"
 #include "../src/kerf.h"
 #include "../src/scene/builtin.h"
-
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n) {
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+#include "median.h"
 
 static double peak_rss_mb(void) {
     struct rusage ru;
@@ -82,11 +73,11 @@ static int bench_cube(int cells, kf_force force, int threads, int runs, cube_res
     out->threads = threads;
     out->force = force == KF_FORCE_MLS ? "mls" : "classic";
     out->particles = n;
-    out->p2g_ns = median(p2g, runs) * 1e6 / (double)n;
-    out->g2p_ns = median(g2p, runs) * 1e6 / (double)n;
-    out->stress_ns = median(stress, runs) * 1e6 / (double)n;
-    out->grid_ms = median(grid, runs);
-    out->step_ms = median(step, runs);
+    out->p2g_ns = kf_median(p2g, runs) * 1e6 / (double)n;
+    out->g2p_ns = kf_median(g2p, runs) * 1e6 / (double)n;
+    out->stress_ns = kf_median(stress, runs) * 1e6 / (double)n;
+    out->grid_ms = kf_median(grid, runs);
+    out->step_ms = kf_median(step, runs);
     out->mpsteps = (double)n / (out->step_ms * 1e3);
     kf_scene_free(&sc);
     return 0;

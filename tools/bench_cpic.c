@@ -17,16 +17,7 @@
 
 #include "cpic/cpic.h"
 #include "kerf.h"
-
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n) {
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+#include "median.h"
 
 typedef struct result {
     double ms[KF_STAGE_COUNT]; /* per substep */
@@ -120,8 +111,8 @@ int main(int argc, char **argv) {
             tot[k] = r.total_ms;
         }
         med[mode] = r;
-        for (int e = 0; e < KF_STAGE_COUNT; e++) med[mode].ms[e] = median(ms[e], runs);
-        med[mode].total_ms = median(tot, runs);
+        for (int e = 0; e < KF_STAGE_COUNT; e++) med[mode].ms[e] = kf_median(ms[e], runs);
+        med[mode].total_ms = kf_median(tot, runs);
         med[mode].mpsteps = r.particles / (med[mode].total_ms * 1e3);
     }
     if (json) printf("{\"cells\":%d,\"steps\":%d,\"runs\":%d", cells, steps, runs);

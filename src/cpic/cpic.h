@@ -90,11 +90,19 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt);
 /* CPIC transfers of one owner block in the band (cpic_transfer.c). The
  * chunk's stencil, q, mv (and t for classic) are computed by the caller as
  * in the ordinary path; these replace the scatter and the gather. */
+/* The CDF of one owner's 2x2x2 block neighbourhood, laid out like the
+ * transfer's node cache; made once per owner block and read by each chunk. */
+typedef struct kf_cpic_owner {
+    uint32_t col[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
+    float dist[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
+} kf_cpic_owner;
+void kf_cpic_owner_cdf(const kf_state *s, size_t owner, kf_cpic_owner *oc);
+
 struct chunk;
-void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, struct chunk *ck, size_t i0, void *cache,
-                       int classic);
-void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, struct chunk *ck, size_t i0, const void *cache,
-                       int classic);
+void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, struct chunk *ck,
+                       size_t i0, void *cache, int classic);
+void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, struct chunk *ck,
+                       size_t i0, const void *cache, int classic);
 /* after G2P's advection: the penalty on slightly penetrated particles (Eq. 22) */
 void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, int n);
 

@@ -13,46 +13,33 @@
 #include <math.h>
 
 #include "../mpm/transfer_chunk.h"
+#include "../mpm/collider.h"
 #include "cpic.h"
 
 #define NB KF_CPIC_NB
 #define AFF KF_CPIC_AFFINITY
 
-/* the CDF of the owner's 2x2x2 block neighbourhood, as the transfer cache lays it out */
-static void cdf_cache(const kf_cpic *c, const kf_grid *g, size_t owner, uint32_t *col, float *dist) {
-    const int32_t *nb = g->nb[owner];
+void kf_cpic_owner_cdf(const kf_state *s, size_t owner, kf_cpic_owner *oc) {
+    const kf_cpic *c = s->cpic;
+    const int32_t *nb = s->g.nb[owner];
     for (int a = 0; a < NB; a++)
         for (int b = 0; b < NB; b++)
             for (int k = 0; k < NB; k++) {
                 int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (k >> 2)];
                 size_t node = 64 * (size_t)blk + (size_t)((a & 3) << 4 | (b & 3) << 2 | (k & 3));
                 int valid = c->stamp[blk] == c->epoch;
-                col[(a * NB + b) * NB + k] = valid ? c->node_c[node] : 0;
-                dist[(a * NB + b) * NB + k] = valid ? c->node_d[node] : 0;
+                oc->col[(a * NB + b) * NB + k] = valid ? c->node_c[node] : 0;
+                oc->dist[(a * NB + b) * NB + k] = valid ? c->node_d[node] : 0;
             }
 }
 
 #define compatible kf_cpic_compatible
 
-/* Eq. 25 on v relative to the body, normal n (zero when unknown) */
+/* Eq. 25 on v relative to the body; without a normal (the fit failed) only
+ * a sticky body constrains v */
 static void project(double v[3], const double n[3], kf_boundary type, double mu) {
-    if (type == KF_BOUNDARY_STICKY) {
-        v[0] = v[1] = v[2] = 0;
-        return;
-    }
-    double nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-    if (nn == 0) return; /* no normal: nothing to project against */
-    double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
-    if (type == KF_BOUNDARY_SEPARATE && vn > 0) return;
-    double vt[3] = {v[0] - vn * n[0], v[1] - vn * n[1], v[2] - vn * n[2]};
-    if (type == KF_BOUNDARY_SLIP) {
-        for (int a = 0; a < 3; a++) v[a] = vt[a];
-        return;
-    }
-    double t = sqrt(vt[0] * vt[0] + vt[1] * vt[1] + vt[2] * vt[2]);
-    double zeta = t + mu * vn;
-    double scale = zeta > 0 && t > 0 ? zeta / t : 0;
-    for (int a = 0; a < 3; a++) v[a] = scale * vt[a];
+    if (type != KF_BOUNDARY_STICKY && n[0] * n[0] + n[1] * n[1] + n[2] * n[2] == 0) return;
+    kf_project_velocity(v, n, type, mu);
 }
 
 /* u = V_r(x_i) + Proj(v_p + gΔt − V_r(x_i)): what the particle keeps at an incompatible node */
@@ -111,6 +98,18 @@ static double solve4(double M[4][4], double y[4], double c[4]) {
     return det;
 }
 
+/* One node of the linear MLS fit of §5.3.2: weight w, value at the node, and
+ * P = [z / Δx; 1] with z the node minus the particle. Solving M c = y gives
+ * c = [∇ (grid units); the value at the particle]. */
+static inline void fit_add(double M[4][4], double y[4], double w, double value, const chunk *ck, int j, int a, int b,
+                           int k, double inv_dx) {
+    const double P[4] = {ck->d[0][a][j] * inv_dx, ck->d[1][b][j] * inv_dx, ck->d[2][k][j] * inv_dx, 1};
+    for (int r = 0; r < 4; r++) {
+        y[r] += w * value * P[r];
+        for (int c = 0; c < 4; c++) M[r][c] += w * P[r] * P[c];
+    }
+}
+
 /* The side of body r (bit = 2r + 1) a particle newly near it is on: 1
  * negative, 0 positive, -1 undecided (retry next substep).
  * Eq. 21 votes with the nodes' tags weighted by N_i d_i. d_i is the distance
@@ -133,12 +132,7 @@ static int acquire_side(const chunk *ck, int j, const uint32_t *col, const float
                 double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
                 vote[neg] += w * dist[q];
                 if (col[q] >> KF_CPIC_RSTAR_SHIFT != rstar) continue;
-                double P[4] = {ck->d[0][a][j] / dx, ck->d[1][b][j] / dx, ck->d[2][k][j] / dx, 1};
-                double sgn = neg ? -dist[q] : dist[q];
-                for (int r = 0; r < 4; r++) {
-                    y[r] += w * sgn * P[r];
-                    for (int c = 0; c < 4; c++) M[r][c] += w * P[r] * P[c];
-                }
+                fit_add(M, y, w, neg ? -dist[q] : dist[q], ck, j, a, b, k, 1 / dx);
                 own++;
             }
     if (own >= 4 && fabs(solve4(M, y, coef)) > 1e-6 && fabs(coef[3]) > 1e-6) return coef[3] < 0;
@@ -185,12 +179,7 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
                 if (flips > 1) continue;
                 double sgn = flips ? -dist[q] : dist[q];
                 double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
-                double P[4] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j], 0};
-                P[0] *= inv_dx, P[1] *= inv_dx, P[2] *= inv_dx, P[3] = 1;
-                for (int r = 0; r < 4; r++) {
-                    y[r] += w * sgn * P[r];
-                    for (int s2 = 0; s2 < 4; s2++) M[r][s2] += w * P[r] * P[s2];
-                }
+                fit_add(M, y, w, sgn, ck, j, a, b, k, inv_dx);
                 if (dist[q] < closest) closest = dist[q], rstar = (int)(cn >> KF_CPIC_RSTAR_SHIFT) - 1;
             }
     double det = solve4(M, y, coef);
@@ -204,15 +193,14 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     }
 }
 
-void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, chunk *ck, size_t i0, void *cache_v,
-                       int classic) {
+void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck,
+                       size_t i0, void *cache_v, int classic) {
     kf_cpic *c = s->cpic;
     kf_particles *p = &s->p;
     const kf_grid *g = &s->g;
     kf_v4 *cache = cache_v;
-    uint32_t col[NB * NB * NB];
-    float dist[NB * NB * NB];
-    cdf_cache(c, g, owner, col, dist);
+    const uint32_t *col = oc->col;
+    const float *dist = oc->dist;
     double *imp = &c->imp[c->slot[owner]][0][0];
     const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx;
@@ -266,15 +254,13 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, chunk *ck, 
     }
 }
 
-void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, chunk *ck, size_t i0, const void *cache_v,
-                       int classic) {
+void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck,
+                       size_t i0, const void *cache_v, int classic) {
     kf_cpic *c = s->cpic;
     kf_particles *p = &s->p;
     const kf_grid *g = &s->g;
     const kf_v4 *cache = cache_v;
-    uint32_t col[NB * NB * NB];
-    float dist[NB * NB * NB];
-    cdf_cache(c, g, owner, col, dist);
+    const uint32_t *col = oc->col;
     double *imp = &c->imp[c->slot[owner]][0][0];
     const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx, dt = c->dt;

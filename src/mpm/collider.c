@@ -242,3 +242,12 @@ void kf_collider_velocity(const kf_collider_frame *f, const double x[3], double 
     double r[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]};
     for (int i = 0; i < 3; i++) v[i] = f->pose.dp[i] + L[3 * i] * r[0] + L[3 * i + 1] * r[1] + L[3 * i + 2] * r[2];
 }
+
+int kf_colliders_near_block(const kf_collider_frame *frame, int ncol, const int32_t bc[3], double dx, int near[]) {
+    double blo[3], bhi[3];
+    for (int a = 0; a < 3; a++) blo[a] = bc[a] * KF_BLOCK * dx, bhi[a] = (bc[a] * KF_BLOCK + KF_BLOCK - 1) * dx;
+    int n = 0;
+    for (int c = 0; c < ncol; c++)
+        if (kf_collider_may_touch(&frame[c], blo, bhi)) near[n++] = c;
+    return n;
+}

@@ -24,6 +24,9 @@
 #ifndef KF_COLLIDER_H
 #define KF_COLLIDER_H
 
+#include <math.h>
+#include <stdint.h>
+
 #include "../core/euler.h"
 #include "../kerf.h"
 
@@ -67,6 +70,32 @@ double kf_collider_sdf(const kf_collider_frame *f, const double x[3], double n[3
 void kf_collider_velocity(const kf_collider_frame *f, const double x[3], double v[3]);
 
 /* Whether the block of nodes spanning [lo, hi] may hold a node with φ <= 0. */
+/* Eq. 25: project v (relative to the boundary) for outward normal n: the
+ * one rule for walls and colliders (grid_update.c, implicit_boundary.c) and
+ * CPIC's rigid bodies (cpic_transfer.c) */
+static inline void kf_project_velocity(double v[3], const double n[3], kf_boundary type, double mu) {
+    if (type == KF_BOUNDARY_STICKY) {
+        v[0] = v[1] = v[2] = 0;
+        return;
+    }
+    double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+    if (type == KF_BOUNDARY_SEPARATE && vn > 0) return; /* leaving: free */
+    double vt[3] = {v[0] - vn * n[0], v[1] - vn * n[1], v[2] - vn * n[2]};
+    if (type == KF_BOUNDARY_SLIP) {
+        for (int a = 0; a < 3; a++) v[a] = vt[a];
+        return;
+    }
+    /* separate, approaching: tangential velocity reduced by friction μ|vn| */
+    double t = sqrt(vt[0] * vt[0] + vt[1] * vt[1] + vt[2] * vt[2]);
+    double zeta = t + mu * vn; /* vn <= 0 */
+    double scale = (zeta > 0 && t > 0) ? zeta / t : 0;
+    for (int a = 0; a < 3; a++) v[a] = scale * vt[a];
+}
+
+/* The colliders (indices into frame) the nodes of the grid block with block
+ * coordinate bc may be inside of; returns their count. */
+int kf_colliders_near_block(const kf_collider_frame *frame, int ncol, const int32_t bc[3], double dx, int near[]);
+
 int kf_collider_may_touch(const kf_collider_frame *f, const double lo[3], const double hi[3]);
 
 #endif

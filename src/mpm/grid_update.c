@@ -17,26 +17,6 @@
 #include "collider.h"
 #include "model.h"
 
-/* Eq. 25: project v (relative to the boundary) for outward normal n */
-static void project_velocity(double v[3], const double n[3], kf_boundary type, double mu) {
-    if (type == KF_BOUNDARY_STICKY) {
-        v[0] = v[1] = v[2] = 0;
-        return;
-    }
-    double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
-    if (type == KF_BOUNDARY_SEPARATE && vn > 0) return; /* leaving: free */
-    double vt[3] = {v[0] - vn * n[0], v[1] - vn * n[1], v[2] - vn * n[2]};
-    if (type == KF_BOUNDARY_SLIP) {
-        for (int a = 0; a < 3; a++) v[a] = vt[a];
-        return;
-    }
-    /* separate, approaching: tangential velocity reduced by friction μ|vn| */
-    double t = sqrt(vt[0] * vt[0] + vt[1] * vt[1] + vt[2] * vt[2]);
-    double zeta = t + mu * vn; /* vn <= 0 */
-    double scale = (zeta > 0 && t > 0) ? zeta / t : 0;
-    for (int a = 0; a < 3; a++) v[a] = scale * vt[a];
-}
-
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
     kf_grid *g = &s->g;
     const kf_sim_def *sd = &m->sim;
@@ -54,11 +34,7 @@ void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
         kf_v4 *node = &g->node[b * KF_BLOCK_NODES];
         const int32_t *bc = &g->bcoord[3 * b];
         /* the colliders this block's nodes may be inside of */
-        int near[KF_MAX_COLLIDERS], nnear = 0;
-        double blo[3], bhi[3];
-        for (int a = 0; a < 3; a++) blo[a] = bc[a] * KF_BLOCK * dx, bhi[a] = (bc[a] * KF_BLOCK + KF_BLOCK - 1) * dx;
-        for (int c = 0; c < m->ncol; c++)
-            if (kf_collider_may_touch(&frame[c], blo, bhi)) near[nnear++] = c;
+        int near[KF_MAX_COLLIDERS], nnear = kf_colliders_near_block(frame, m->ncol, bc, dx, near);
         for (int l = 0; l < KF_BLOCK_NODES; l++) {
             kf_real mass = node[l][3];
             if (mass <= 0) {
@@ -77,7 +53,7 @@ void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
                         if (x[a] <= sd->domain_min[a]) n[a] = 1;
                         else if (x[a] >= sd->domain_max[a]) n[a] = -1;
                         else continue;
-                        project_velocity(vd, n, sd->wall_boundary, sd->wall_friction);
+                        kf_project_velocity(vd, n, sd->wall_boundary, sd->wall_friction);
                     }
                 }
                 for (int i = 0; i < nnear; i++) {
@@ -87,7 +63,7 @@ void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
                     kf_collider_sdf(f, x, n); /* constrained: now its normal */
                     kf_collider_velocity(f, x, vc);
                     double rel[3] = {vd[0] - vc[0], vd[1] - vc[1], vd[2] - vc[2]};
-                    project_velocity(rel, n, f->c->boundary, f->c->friction);
+                    kf_project_velocity(rel, n, f->c->boundary, f->c->friction);
                     for (int a = 0; a < 3; a++) vd[a] = rel[a] + vc[a];
                 }
                 v = (kf_v4){(kf_real)vd[0], (kf_real)vd[1], (kf_real)vd[2], mass};

@@ -81,11 +81,7 @@ int kf_imp_constraints(kf_implicit *w, double *v) {
     w->ncon = 0;
     for (size_t b = 0; b < g->nblocks; b++) {
         const int32_t *bc = &g->bcoord[3 * b];
-        int near[KF_MAX_COLLIDERS], nnear = 0;
-        double blo[3], bhi[3];
-        for (int a = 0; a < 3; a++) blo[a] = bc[a] * KF_BLOCK * dx, bhi[a] = (bc[a] * KF_BLOCK + KF_BLOCK - 1) * dx;
-        for (int c = 0; c < m->ncol; c++)
-            if (kf_collider_may_touch(&frame[c], blo, bhi)) near[nnear++] = c;
+        int near[KF_MAX_COLLIDERS], nnear = kf_colliders_near_block(frame, m->ncol, bc, dx, near);
         if (!sd->walls && !nnear) continue;
         for (int l = 0; l < KF_BLOCK_NODES; l++) {
             size_t node = b * KF_BLOCK_NODES + (size_t)l;

@@ -139,23 +139,13 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     return 0;
 }
 
-/* the fastest point of any rigid body's surface now: |v| + |ω| (farthest vertex) */
+/* the fastest point of any rigid body's surface now: |v| + |ω| reach */
 static double rigid_max_speed(const kf_model *m, const kf_state *s) {
     double best = 0;
     for (int r = 0; r < m->nrigid; r++) {
-        const kf_rigid_body *b = &m->rigid[r];
         const kf_rigid_state *st = &s->rigid[r];
-        double reach = 0;
-        for (int k = 0; k < b->nvert; k++) {
-            const double *x = &b->vert[3 * k];
-            double w[3];
-            for (int a = 0; a < 3; a++)
-                w[a] = st->R[3 * a] * x[0] + st->R[3 * a + 1] * x[1] + st->R[3 * a + 2] * x[2] + st->t[a] - st->com[a];
-            double d2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-            if (d2 > reach) reach = d2;
-        }
         double v = sqrt(st->v[0] * st->v[0] + st->v[1] * st->v[1] + st->v[2] * st->v[2]) +
-                   sqrt(st->w[0] * st->w[0] + st->w[1] * st->w[1] + st->w[2] * st->w[2]) * sqrt(reach);
+                   sqrt(st->w[0] * st->w[0] + st->w[1] * st->w[1] + st->w[2] * st->w[2]) * m->rigid[r].reach;
         if (v > best) best = v;
     }
     return best;

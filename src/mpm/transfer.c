@@ -41,6 +41,8 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const int apic = m->sim.transfer == KF_TRANSFER_APIC;
     const int32_t *bc = &g->bcoord[3 * r];
     const int band = kf_cpic_band(s, r);
+    kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
+    if (band) kf_cpic_owner_cdf(s, r, &oc);
     memset(cache, 0, sizeof(kf_v4) * CD * CD * CD);
 
     for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
@@ -84,7 +86,7 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
 
         /* near a rigid surface: compatible nodes only, impulses on the bodies */
         if (band) {
-            kf_cpic_p2g_chunk(m, s, r, ck, i0, cache, CLASSIC);
+            kf_cpic_p2g_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
             continue;
         }
 
@@ -151,6 +153,8 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const int32_t *bc = &g->bcoord[3 * r];
     const kf_real jmin = (kf_real)m->sim.j_min, jmax = (kf_real)m->sim.j_max;
     const int band = kf_cpic_band(s, r);
+    kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
+    if (band) kf_cpic_owner_cdf(s, r, &oc);
     kf_real max_v2 = 0;
 
     /* gather the neighbourhood's velocities */
@@ -169,7 +173,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
 
         /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
          * near a rigid surface, ghost velocities on incompatible nodes */
-        if (band) kf_cpic_g2p_chunk(m, s, r, ck, i0, cache, CLASSIC);
+        if (band) kf_cpic_g2p_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
         for (int j = 0; j < (band ? 0 : n); j++) gather_one(KW, CLASSIC, ck, j, cache);
 
         /* C = D⁻¹ B; velocity gradient L = C (MLS) or Σ v_i ∇wᵀ (classic) */

@@ -150,6 +150,13 @@ int kf_rigid_compile(kf_rigid_body *b, const kf_rigid_def *d, double dx, char *e
         memcpy(b->com, d->center, sizeof b->com);
     }
 
+    for (int v = 0; v < b->nvert; v++) {
+        const double *x = &b->vert[3 * v];
+        double d2 = (x[0] - b->com[0]) * (x[0] - b->com[0]) + (x[1] - b->com[1]) * (x[1] - b->com[1]) +
+                    (x[2] - b->com[2]) * (x[2] - b->com[2]);
+        if (d2 > b->reach * b->reach) b->reach = sqrt(d2);
+    }
+
     /* rigid particles at half the grid spacing (paper §5.2.1: finer than dx);
      * about 3.5 per spacing² of area (the lattice's three axes) plus one per
      * small triangle: refuse a surface that would need more than 2e7 (a mesh

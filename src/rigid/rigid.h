@@ -32,6 +32,7 @@ typedef struct kf_rigid_body {
     double mass;        /* kg; dynamic bodies only (0 otherwise) */
     double com[3];      /* centre of mass in the mesh frame (dynamic), else the pivot def.center */
     double inertia[9];  /* about com, mesh-frame axes, kg·m², row-major; dynamic only */
+    double reach;       /* farthest vertex from com, m: |ω| reach bounds the surface's spin speed */
     /* rigid particles on the surface, mesh frame (§5.2.1): every triangle holds
      * at least one, and every point of the surface is within spacing of one */
     size_t nseed;

@@ -23,6 +23,7 @@
 #include <string.h>
 
 #include "problems.h"
+#include "../median.h"
 
 typedef ev_run (*ev_problem_fn)(double res, const ev_variant *v);
 
@@ -46,11 +47,6 @@ typedef struct row {
 static row rows[1024];
 static int nrows;
 
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
 /* one point: repeated (at most 3 runs) when short, median CPU time */
 static ev_run measure(const problem *p, double res, const ev_variant *v) {
     ev_run r = p->run(res, v);
@@ -61,8 +57,7 @@ static ev_run measure(const problem *p, double res, const ev_variant *v) {
             c[k] = again.cpu_s;
             if (again.error != r.error) fprintf(stderr, "accuracy: %s repeat gave a different error\n", p->name);
         }
-        qsort(c, 3, sizeof *c, cmp_double);
-        r.cpu_s = c[1];
+        r.cpu_s = kf_median(c, 3);
     }
     return r;
 }

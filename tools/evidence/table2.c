@@ -14,16 +14,7 @@
 
 #include "problems.h"
 #include "scene/builtin.h"
-
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n) {
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+#include "../median.h"
 
 typedef struct t2 {
     int cells, threads;
@@ -50,8 +41,8 @@ static int measure(int cells, kf_force force, int threads, int runs, t2 *out) {
         step[r] = 0;
         for (int k = 0; k < KF_STAGE_COUNT; k++) step[r] += st.ms[k];
     }
-    *out = (t2){cells, threads, force, kf_state_count(sc.state), median(p2g, runs), median(g2p, runs),
-                median(stress, runs), median(step, runs), median(cpu, runs)};
+    *out = (t2){cells, threads, force, kf_state_count(sc.state), kf_median(p2g, runs), kf_median(g2p, runs),
+                kf_median(stress, runs), kf_median(step, runs), kf_median(cpu, runs)};
     kf_scene_free(&sc);
     return 0;
 }
