@@ -102,6 +102,13 @@ typedef struct kf_render_ctx kf_render_ctx;
 kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t errlen);
 void kf_render_destroy(kf_render_ctx *r);
 
+/* The key light's shadow map, texels a side (by default about the image's
+ * long side, 512..2048). The preview preset (render.quality: preview) uses
+ * KF_RENDER_PREVIEW_SHADOW. -1 + err when the GL cannot make it. */
+#define KF_RENDER_PREVIEW_SHADOW 1024
+int kf_render_set_shadow_size(kf_render_ctx *r, int texels, char *err, size_t errlen);
+int kf_render_shadow_size(const kf_render_ctx *r);
+
 /* The sample count actually used (after clamping), and the GL renderer string. */
 int kf_render_samples(const kf_render_ctx *r);
 const char *kf_render_gl_renderer(const kf_render_ctx *r);

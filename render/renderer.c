@@ -331,6 +331,27 @@ void kf_render_destroy(kf_render_ctx *r) {
     free(r);
 }
 
+/* a new size re-allocates the depth texture; its framebuffer follows it */
+int kf_render_set_shadow_size(kf_render_ctx *r, int texels, char *err, size_t errlen) {
+    GLint max_tex = 0;
+    if (kf_gl_context_make_current(r->glc, err, errlen) != 0) return -1;
+    r->gl.GetIntegerv(GL_MAX_TEXTURE_SIZE, &max_tex);
+    if (texels < 16 || texels > max_tex) {
+        snprintf(err, errlen, "render: shadow map of %d texels outside 16..%d", texels, (int)max_tex);
+        return -1;
+    }
+    r->shadow_size = texels;
+    r->gl.BindTexture(GL_TEXTURE_2D, r->tex_shadow);
+    r->gl.TexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, texels, texels, 0, GL_DEPTH_COMPONENT, GL_FLOAT, NULL);
+    GLenum e = r->gl.GetError();
+    if (e != GL_NO_ERROR) {
+        snprintf(err, errlen, "render: GL error 0x%x making a %d-texel shadow map", e, texels);
+        return -1;
+    }
+    return 0;
+}
+
+int kf_render_shadow_size(const kf_render_ctx *r) { return r->shadow_size; }
 int kf_render_samples(const kf_render_ctx *r) { return r->samples; }
 const char *kf_render_backend(const kf_render_ctx *r) { return r ? kf_gl_context_backend(r->glc) : ""; }
 

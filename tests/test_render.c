@@ -524,6 +524,45 @@ static void test_backends(void) {
     free(img[1]);
 }
 
+/* The shadow map's size (the preview preset makes it smaller): a bad size
+ * is refused with a message; a smaller map draws the same shadows, softer
+ * at their edges, so the picture moves far less than it does without
+ * shadows at all. */
+static void test_shadow_size(void) {
+    const int W = 160, H = 120;
+    char err[256] = "";
+    kf_render_ctx *r = kf_render_create(W, H, 1, err, sizeof err);
+    KT_CHECK(r != NULL, "%s", err);
+    if (!r) return;
+    KT_CHECK(kf_render_shadow_size(r) == 512, "automatic size for 160x120: %d (512..2048)", kf_render_shadow_size(r));
+    KT_CHECK(kf_render_set_shadow_size(r, 8, err, sizeof err) == -1 && strstr(err, "shadow map"), "8 texels: '%s'",
+             err);
+    KT_CHECK(kf_render_set_shadow_size(r, 1 << 30, err, sizeof err) == -1, "2^30 texels refused");
+    KT_CHECK(kf_render_shadow_size(r) == 512, "a refused size changes nothing");
+    two_objects t;
+    two_objects_init(&t);
+    float lo[3], hi[3];
+    kf_render_scene_bounds(&t.sc, lo, hi);
+    kf_camera cam = kf_camera_turntable(lo, hi, 1, 8, 25, 35);
+    size_t n = (size_t)W * H * 4;
+    uint8_t *big = malloc(n), *small = malloc(n), *none = malloc(n);
+    KT_CHECK(kf_render_frame(r, &t.sc, &cam, big, err, sizeof err) == 0, "%s", err);
+    KT_CHECK(kf_render_set_shadow_size(r, 128, err, sizeof err) == 0, "%s", err);
+    KT_CHECK(kf_render_shadow_size(r) == 128, "size now %d", kf_render_shadow_size(r));
+    KT_CHECK(kf_render_frame(r, &t.sc, &cam, small, err, sizeof err) == 0, "%s", err);
+    t.sc.shadows = 0;
+    KT_CHECK(kf_render_frame(r, &t.sc, &cam, none, err, sizeof err) == 0, "%s", err);
+    double d_small = mean_abs_diff(big, small, n), d_none = mean_abs_diff(big, none, n);
+    printf("  shadow map 512 vs 128 texels: mean |diff| %.3f; vs no shadows %.3f (of 255)\n", d_small, d_none);
+    KT_CHECK(d_none > 0.5, "the scene casts visible shadows (%.3f)", d_none);
+    KT_CHECK(d_small < d_none / 3, "a smaller map keeps the shadows: %.3f vs %.3f without", d_small, d_none);
+    free(big);
+    free(small);
+    free(none);
+    two_objects_free(&t);
+    kf_render_destroy(r);
+}
+
 int main(int argc, char **argv) {
     KT_RUN(test_silhouette_and_upright, argc, argv);
     KT_RUN(test_golden, argc, argv);
@@ -532,5 +571,6 @@ int main(int argc, char **argv) {
     KT_RUN(test_turntable_loop, argc, argv);
     KT_RUN(test_errors, argc, argv);
     KT_RUN(test_preview_and_timing, argc, argv);
+    KT_RUN(test_shadow_size, argc, argv);
     return KT_EXIT();
 }

@@ -13,11 +13,19 @@
  * block: a fixed-corotated block of ~1M particles falling onto the floor
  *        (sorting and grid allocation exercised), CFL-adaptive frames:
  *        particle-steps per second, ms per stage, peak memory.
- * frame: surfacing (level set: sort, splat, re-distance, filters; mesh; .vdb
- *        write) and rendering (OSMesa, 1920x1080, 4x MSAA) of the falling
- *        block's ~1M particles after one frame with the shot's surface
- *        defaults, seconds per stage (wall and process CPU), beside the cost
- *        of simulating that frame at preview quality (2x dx, 1/8 the particles).
+ * frame: one frame of the falling block's ~1M particles surfaced (level
+ *        set: sort, splat, re-distance, filters; mesh; .vdb write) and
+ *        rendered (OSMesa, 1920x1080) at final quality (the shot's defaults:
+ *        voxel 0.75 spacings, 3 mean-curvature passes, 4x MSAA) and at
+ *        preview quality (surface.quality and render.quality preview: voxel
+ *        1.5 spacings, one pass, no MSAA, a 1024-texel shadow map), seconds
+ *        per stage (wall and process CPU), beside the cost of simulating that
+ *        frame at preview quality (2x dx, 1/8 the particles). KERF_BENCH_PNG=dir
+ *        writes both pictures there. Process CPU seconds are the honest figure
+ *        on a shared machine only when idle OpenMP threads sleep: libgomp's
+ *        default spins (measured: 4.3 CPU s instead of 0.5 for the preview
+ *        frame on 2 busy cores), so `--only frame` re-runs itself with
+ *        OMP_WAIT_POLICY=passive unless it is set.
  * --quick shrinks them (24³ and 16³ cubes, a 100k-particle block) for a smoke run. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -85,14 +93,36 @@ static int bench_cube(int cells, kf_force force, int threads, int runs, cube_res
 
 /* the frame benchmark's stages, each timed in wall and process CPU seconds
  * (CPU time stays honest when other work shares the machine) */
-enum { FS_SIM_PREVIEW, FS_SORT, FS_SPLAT, FS_REDISTANCE, FS_FILTER, FS_MESH, FS_WRITE, FS_RENDER, FS_COUNT };
-static const char *const frame_stage_name[FS_COUNT] = {"simulate_preview", "sort", "splat", "redistance",
-                                                       "filter", "mesh", "write_vdb", "render_1080p"};
+enum { FS_SORT, FS_SPLAT, FS_REDISTANCE, FS_FILTER, FS_MESH, FS_WRITE, FS_RENDER, FS_COUNT };
+static const char *const frame_stage_name[FS_COUNT] = {"sort", "splat", "redistance", "filter",
+                                                       "mesh", "write_vdb", "render_1080p"};
 
-typedef struct frame_result {
-    size_t particles, triangles, active_voxels;
+/* the settings a frame is surfaced and rendered with: the shot's defaults
+ * (src/shot/keys.c) and its `quality: preview` presets (src/shot/shot.c) */
+typedef struct frame_quality {
+    const char *name;
+    double voxel, radius; /* particle spacings */
+    int iterations;       /* mean-curvature passes */
+    int samples, shadow;  /* MSAA samples; shadow map texels (0: automatic) */
+} frame_quality;
+enum { FQ_FINAL, FQ_PREVIEW, FQ_COUNT };
+static const frame_quality frame_qualities[FQ_COUNT] = {
+    {"final", 0.75, 1.2, 3, 4, 0},
+    {"preview", KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, KF_VDB_PREVIEW_ITERATIONS, 1,
+     KF_RENDER_PREVIEW_SHADOW},
+};
+
+typedef struct frame_post_result {
+    size_t triangles, active_voxels;
     double wall[FS_COUNT], cpu[FS_COUNT];
     double vdb_mb;
+} frame_post_result;
+
+typedef struct frame_result {
+    size_t particles, preview_particles;
+    long preview_substeps;
+    double sim_wall, sim_cpu; /* simulating the frame at preview quality */
+    frame_post_result q[FQ_COUNT];
 } frame_result;
 
 static double cpu_s(void) {
@@ -101,57 +131,38 @@ static double cpu_s(void) {
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
-/* surface, write and render one frame of ~n particles with the shot
- * defaults (voxel 0.75 spacings, radius 1.2 spacings, 3 mean-curvature
- * passes, erosion back onto the material, 1920x1080 with 4x MSAA); simulate
- * the same frame at preview quality (dx doubled, 1/8 the particles) */
-static int bench_frame(long n, frame_result *out) {
-    char err[512], msg[512];
-    kf_scene sc, pv;
-    if (kf_scene_falling_block(&sc, n, 0, err, sizeof err) || kf_scene_falling_block(&pv, n / 8, 0, err, sizeof err)) {
-        fprintf(stderr, "bench: %s\n", err);
-        return -1;
-    }
-    double t0 = kf_now_ms(), c0 = cpu_s();
-    if (kf_advance(pv.model, pv.state, 1.0 / 24, NULL, msg, sizeof msg)) fprintf(stderr, "bench: %s\n", msg);
-    out->wall[FS_SIM_PREVIEW] = (kf_now_ms() - t0) / 1e3, out->cpu[FS_SIM_PREVIEW] = cpu_s() - c0;
-    kf_advance(sc.model, sc.state, 1.0 / 24, NULL, msg, sizeof msg);
-    kf_particles_view p = kf_state_particles_read(sc.state);
-    float *x = malloc(sizeof(float) * 3 * p.n);
-    for (size_t i = 0; i < p.n; i++)
-        for (int a = 0; a < 3; a++) x[3 * i + a] = (float)p.x[a][i];
+/* surface, write and render n particles x (spacing apart) with quality q:
+ * erosion back onto the material, 1920x1080 */
+static int frame_post(size_t n, const float *x, double spacing, double dx, const frame_quality *q,
+                      frame_post_result *out) {
+    char err[512] = "";
     kf_vdb_surface_params sp;
     kf_vdb_surface_params_default(&sp);
-    sp.spacing = kf_model_sim(sc.model)->dx / 2; /* the block is seeded at 8 particles per cell */
-    sp.voxel = 0.75 * sp.spacing;
-    sp.radius = 1.2 * sp.spacing;
+    sp.spacing = spacing;
+    sp.voxel = q->voxel * spacing;
+    sp.radius = q->radius * spacing;
     sp.smooth = KF_VDB_OP_MEAN_CURVATURE;
-    sp.smooth_iterations = 3;
-    sp.erode = (1.2 - 0.5) * sp.spacing;
+    sp.smooth_iterations = q->iterations;
+    sp.erode = (q->radius - 0.5) * spacing;
     sp.clamp_small = 1;
     kf_vdb_grid *g = NULL;
     kf_vdb_trimesh mesh = {0};
     kf_vdb_surface_stats st = {0};
-    t0 = kf_now_ms();
-    int rc = kf_vdb_levelset_from_particles(p.n, NULL, x, NULL, NULL, &sp, &g, &st, err, sizeof err);
-    /* the bridge times its phases in process CPU seconds; wall: the raster
-     * phases share the raster's wall time in proportion to their CPU time */
+    int rc = kf_vdb_levelset_from_particles(n, NULL, x, NULL, NULL, &sp, &g, &st, err, sizeof err);
+    /* the bridge times its phases in process CPU seconds; wall: the phases
+     * share the level set's wall time in proportion to their CPU time */
     out->cpu[FS_SORT] = st.cpu_sort, out->cpu[FS_SPLAT] = st.cpu_splat;
     out->cpu[FS_REDISTANCE] = st.cpu_redistance, out->cpu[FS_FILTER] = st.cpu_filter;
-    double craster = st.cpu_sort + st.cpu_splat + st.cpu_redistance;
-    for (int k = FS_SORT; k <= FS_REDISTANCE; k++)
-        out->wall[k] = craster > 0 ? st.seconds_raster * out->cpu[k] / craster : 0;
-    out->wall[FS_FILTER] = st.seconds_filter;
-    (void)t0;
+    double cls = st.cpu_sort + st.cpu_splat + st.cpu_redistance + st.cpu_filter;
+    for (int k = FS_SORT; k <= FS_FILTER; k++) out->wall[k] = cls > 0 ? st.seconds * out->cpu[k] / cls : 0;
     out->active_voxels = st.active_voxels;
-    t0 = kf_now_ms(), c0 = cpu_s();
+    double t0 = kf_now_ms(), c0 = cpu_s();
     if (!rc) rc = kf_vdb_mesh(g, 0, 0, &mesh, err, sizeof err);
     out->wall[FS_MESH] = (kf_now_ms() - t0) / 1e3, out->cpu[FS_MESH] = cpu_s() - c0;
-    out->particles = p.n;
     out->triangles = mesh.ntris;
     char path[256];
     snprintf(path, sizeof path, "/tmp/kerf_bench_frame_%d.vdb", (int)getpid());
-    kf_vdb_meta meta = {.frame = 1, .dx = kf_model_sim(sc.model)->dx};
+    kf_vdb_meta meta = {.frame = 1, .dx = dx};
     snprintf(meta.shot, sizeof meta.shot, "bench");
     t0 = kf_now_ms(), c0 = cpu_s();
     if (!rc) rc = kf_vdb_write(path, &g, 1, &meta, err, sizeof err);
@@ -160,7 +171,9 @@ static int bench_frame(long n, frame_result *out) {
     if (!rc && stat(path, &fs) == 0) out->vdb_mb = (double)fs.st_size / 1e6;
     unlink(path);
     if (!rc) {
-        kf_render_ctx *ctx = kf_render_create(1920, 1080, 4, err, sizeof err);
+        /* the context is made outside the timing: a sequence renders many frames with one */
+        kf_render_ctx *ctx = kf_render_create(1920, 1080, q->samples, err, sizeof err);
+        if (ctx && q->shadow && kf_render_set_shadow_size(ctx, q->shadow, err, sizeof err)) rc = -1;
         uint8_t *rgba = malloc((size_t)1920 * 1080 * 4);
         kf_render_mesh rm = {mesh.verts, mesh.normals, mesh.nverts, mesh.tris, mesh.ntris, {{0.8f, 0.3f, 0.3f}, 0.3f, 0.5f}};
         kf_render_scene scene = kf_render_scene_default();
@@ -170,25 +183,58 @@ static int bench_frame(long n, frame_result *out) {
         float lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, view[3] = {-0.55f, -0.45f, -1.0f};
         kf_camera cam = kf_camera_frame_bounds(lo, hi, view, 35.0f);
         t0 = kf_now_ms(), c0 = cpu_s();
-        if (!ctx || kf_render_frame(ctx, &scene, &cam, rgba, err, sizeof err)) rc = -1;
+        if (!ctx || !rgba || rc || kf_render_frame(ctx, &scene, &cam, rgba, err, sizeof err)) rc = -1;
         out->wall[FS_RENDER] = (kf_now_ms() - t0) / 1e3, out->cpu[FS_RENDER] = cpu_s() - c0;
+        const char *png = getenv("KERF_BENCH_PNG"); /* a look at the picture: KERF_BENCH_PNG=dir */
+        if (!rc && png) {
+            char pp[512];
+            snprintf(pp, sizeof pp, "%s/bench_frame_%s.png", png, q->name);
+            if (kf_png_write(pp, rgba, 1920, 1080, NULL, 0, err, sizeof err)) rc = -1;
+        }
         free(rgba);
         if (ctx) kf_render_destroy(ctx);
     }
-    if (rc) fprintf(stderr, "bench: frame: %s\n", err);
+    if (rc) fprintf(stderr, "bench: frame (%s): %s\n", q->name, err);
     kf_vdb_mesh_free(&mesh);
     if (g) kf_vdb_free(g);
+    return rc;
+}
+
+/* one frame of the falling block's ~n particles, surfaced and rendered at
+ * final and at preview quality; beside it, the cost of simulating that
+ * frame at preview quality (dx doubled, 1/8 the particles) */
+static int bench_frame(long n, frame_result *out) {
+    char err[512], msg[512];
+    kf_scene sc, pv;
+    if (kf_scene_falling_block(&sc, n, 0, err, sizeof err) || kf_scene_falling_block(&pv, n / 8, 0, err, sizeof err)) {
+        fprintf(stderr, "bench: %s\n", err);
+        return -1;
+    }
+    kf_step_stats pst = {0};
+    double t0 = kf_now_ms(), c0 = cpu_s();
+    if (kf_advance(pv.model, pv.state, 1.0 / 24, &pst, msg, sizeof msg)) fprintf(stderr, "bench: %s\n", msg);
+    out->sim_wall = (kf_now_ms() - t0) / 1e3, out->sim_cpu = cpu_s() - c0;
+    out->preview_substeps = pst.substeps, out->preview_particles = kf_state_count(pv.state);
+    kf_advance(sc.model, sc.state, 1.0 / 24, NULL, msg, sizeof msg);
+    kf_particles_view p = kf_state_particles_read(sc.state);
+    out->particles = p.n;
+    float *x = malloc(sizeof(float) * 3 * p.n);
+    for (size_t i = 0; i < p.n; i++)
+        for (int a = 0; a < 3; a++) x[3 * i + a] = (float)p.x[a][i];
+    const double dx = kf_model_sim(sc.model)->dx;
+    int rc = 0;
+    for (int k = 0; k < FQ_COUNT && !rc; k++)
+        rc = frame_post(p.n, x, dx / 2 /* 8 particles per cell */, dx, &frame_qualities[k], &out->q[k]);
     free(x);
     kf_scene_free(&sc);
     kf_scene_free(&pv);
     return rc;
 }
 
-/* surfacing + rendering (every stage after simulation) */
-static double frame_post(const frame_result *fr, const double *t) {
-    (void)fr;
+/* surfacing + rendering: every stage after simulation */
+static double frame_total(const double *t) {
     double s = 0;
-    for (int k = FS_SORT; k < FS_COUNT; k++) s += t[k];
+    for (int k = 0; k < FS_COUNT; k++) s += t[k];
     return s;
 }
 
@@ -238,6 +284,11 @@ int main(int argc, char **argv) {
         }
     }
     if (runs < 1) runs = 1;
+    /* the frame figures are CPU seconds: idle OpenMP threads must sleep, not spin */
+    if (only && !strcmp(only, "frame") && !getenv("OMP_WAIT_POLICY")) {
+        setenv("OMP_WAIT_POLICY", "passive", 1);
+        execv("/proc/self/exe", argv);
+    }
 
     /* the falling block first, so its peak memory is its own */
     block_result blk = {0};
@@ -285,22 +336,46 @@ int main(int argc, char **argv) {
             printf("}}");
         }
         if (have_frame) {
-            printf(",\"frame\":{\"particles\":%zu,\"triangles\":%zu,\"active_voxels\":%zu,\"vdb_mb\":%.2f,",
-                   fr.particles, fr.triangles, fr.active_voxels, fr.vdb_mb);
-            for (int k = 0; k < FS_COUNT; k++)
-                printf("\"%s_s\":%.3f,\"%s_cpu_s\":%.3f,", frame_stage_name[k], fr.wall[k], frame_stage_name[k], fr.cpu[k]);
-            printf("\"surface_and_render_s\":%.3f,\"surface_and_render_cpu_s\":%.3f}", frame_post(&fr, fr.wall),
-                   frame_post(&fr, fr.cpu));
+            printf(",\"frame\":{\"particles\":%zu,\"simulate_preview_s\":%.3f,\"simulate_preview_cpu_s\":%.3f,"
+                   "\"preview_particles\":%zu,\"preview_substeps\":%ld",
+                   fr.particles, fr.sim_wall, fr.sim_cpu, fr.preview_particles, fr.preview_substeps);
+            for (int q = 0; q < FQ_COUNT; q++) {
+                const frame_post_result *r = &fr.q[q];
+                printf(",\"%s\":{\"triangles\":%zu,\"active_voxels\":%zu,\"vdb_mb\":%.2f,", frame_qualities[q].name,
+                       r->triangles, r->active_voxels, r->vdb_mb);
+                for (int k = 0; k < FS_COUNT; k++)
+                    printf("\"%s_s\":%.3f,\"%s_cpu_s\":%.3f,", frame_stage_name[k], r->wall[k], frame_stage_name[k],
+                           r->cpu[k]);
+                printf("\"surface_and_render_s\":%.3f,\"surface_and_render_cpu_s\":%.3f}", frame_total(r->wall),
+                       frame_total(r->cpu));
+            }
+            printf("}");
         }
         printf("}\n");
     } else {
         if (have_frame) {
-            printf("frame of %zu particles (%zu active voxels, %zu triangles, %.1f MB .vdb), seconds wall (CPU):\n",
-                   fr.particles, fr.active_voxels, fr.triangles, fr.vdb_mb);
-            for (int k = 1; k < FS_COUNT; k++) printf("  %-18s %7.3f (%7.3f)\n", frame_stage_name[k], fr.wall[k], fr.cpu[k]);
-            printf("  %-18s %7.3f (%7.3f)\n  %-18s %7.3f (%7.3f)   [simulating that frame at preview quality]\n",
-                   "surface + render", frame_post(&fr, fr.wall), frame_post(&fr, fr.cpu), frame_stage_name[0],
-                   fr.wall[0], fr.cpu[0]);
+            printf("frame of %zu particles, seconds wall (CPU), 1920x1080:\n  %-18s", fr.particles, "");
+            for (int q = 0; q < FQ_COUNT; q++) printf(" %19s", frame_qualities[q].name);
+            printf("\n");
+            for (int k = 0; k < FS_COUNT; k++) {
+                printf("  %-18s", frame_stage_name[k]);
+                for (int q = 0; q < FQ_COUNT; q++) printf("    %7.3f (%7.3f)", fr.q[q].wall[k], fr.q[q].cpu[k]);
+                printf("\n");
+            }
+            printf("  %-18s", "surface + render");
+            for (int q = 0; q < FQ_COUNT; q++) printf("    %7.3f (%7.3f)", frame_total(fr.q[q].wall), frame_total(fr.q[q].cpu));
+            printf("\n  %-18s", "active voxels");
+            for (int q = 0; q < FQ_COUNT; q++) printf(" %19zu", fr.q[q].active_voxels);
+            printf("\n  %-18s", "triangles");
+            for (int q = 0; q < FQ_COUNT; q++) printf(" %19zu", fr.q[q].triangles);
+            printf("\n  %-18s", ".vdb MB");
+            for (int q = 0; q < FQ_COUNT; q++) printf(" %19.1f", fr.q[q].vdb_mb);
+            printf("\n  %-18s    %7.3f (%7.3f)   [simulating that frame at preview quality: %zu particles, %ld substeps]\n",
+                   "simulate_preview", fr.sim_wall, fr.sim_cpu, fr.preview_particles, fr.preview_substeps);
+            const char *wp = getenv("OMP_WAIT_POLICY");
+            if (!wp || strcmp(wp, "passive"))
+                printf("  (OMP_WAIT_POLICY is not passive: idle OpenMP threads spin and inflate simulate_preview's CPU "
+                       "seconds; run --only frame)\n");
         }
         if (have_block) {
             printf("falling block: %zu particles, %d frames, %ld substeps, %.2f s, %.2f M particle-steps/s, peak %.0f MB\n",

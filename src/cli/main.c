@@ -30,7 +30,8 @@ void kf_cli_usage(FILE *f, const char *cmd) {
             !strcmp(cmd, "turntable") ? " --frame N --frames K" : "");
     fprintf(f, "  --set KEY=VALUE     override a shot value, checked like the file (repeatable):\n"
                "                      --set materials.jelly.E=2e3 --set objects.cube.velocity=[0,-2,0]\n"
-               "  --quality Q         final (as written) or preview (dx doubled, images at half size)\n"
+               "  --quality Q         final (as written) or preview (dx doubled, images at half size,\n"
+               "                      render.quality preview: no anti-aliasing, a smaller shadow map)\n"
                "  --frames A-B        only these frames of the shot's range (or one frame: --frames 1010)\n"
                "  --threads N         worker threads (default: all cores)\n");
     if (strcmp(cmd, "check") && strcmp(cmd, "info"))

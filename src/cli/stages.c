@@ -182,7 +182,7 @@ int kf_stage_points(const kf_shot *shot, const kf_state *s, const char *path, in
 kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc) {
     /* the shot's size and sampling, with --quality already applied */
     kf_render_opts o = {shot->render_width, shot->render_height, shot->render_samples, 0, 0, {0, 0, 0}, {1, 1, 1},
-                        shot->render_ground};
+                        shot->render_ground, shot->render_shadow};
     kf_particles_view p = kf_state_particles_read(sc->state);
     float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
     for (size_t i = 0; i < p.n; i++)
@@ -465,6 +465,12 @@ int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, co
     }
     kf_render_ctx *ctx = kf_render_create(ro->width, ro->height, ro->samples, err, errlen);
     if (!ctx) goto done;
+    /* the preview's shadow map is at most ro->shadow (small images already have smaller ones) */
+    if (ro->shadow > 0 && ro->shadow < kf_render_shadow_size(ctx) &&
+        kf_render_set_shadow_size(ctx, ro->shadow, err, errlen)) {
+        kf_render_destroy(ctx);
+        goto done;
+    }
     uint8_t *rgba = malloc((size_t)ro->width * ro->height * 4);
     if (!rgba) {
         snprintf(err, errlen, "out of memory for a %dx%d image", ro->width, ro->height);

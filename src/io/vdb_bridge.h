@@ -22,11 +22,19 @@
  *   (message gives the count and the smallest radius); with clamp_small they
  *   are raised to 1.5 voxels and counted in stats.n_small.
  *   The spheres are rasterised by the bridge (io/vdb/sphere_raster.cpp: leaf
- *   bins, tbb, exact distances near the surface), re-distanced by fast
- *   sweeping to a true signed distance in a band of half_width voxels, and
- *   only then filtered: the filters walk the band, never the interior
- *   (dilate and erode within the band are one exact shift of the distance
- *   and one re-normalisation; smoothing re-normalises once per step).
+ *   bins, tbb, exact distances within a voxel outside the union), made a
+ *   true signed distance in a band of half_width voxels (at most 6) from
+ *   the spheres' closest points and crease points (io/vdb/band_distance.h;
+ *   no fast sweeping, no iteration), and filtered on that band before it
+ *   becomes a tree: dilate and erode are exact shifts, mean-curvature steps
+ *   are OpenVDB's scheme and time step without its per-step re-normalising
+ *   and re-banding (io/vdb/band_smooth.h). Gaussian or Laplacian smoothing,
+ *   and shifts that leave no room in 6 voxels, go through OpenVDB's
+ *   LevelSetFilter afterwards. Where particles are denser than the voxels
+ *   (a voxel or more each), those buried deeper than their splat reaches
+ *   are given only their nearest voxel (io/vdb/buried_particles.h): the
+ *   level set is the same; the velocity of a voxel deep inside may then
+ *   come from a particle near it rather than the nearest one.
  *
  * Files: the level set grid is written as class "level set" under its name
  * (default "surface"); a particle-velocity grid "vel" (vec3s, closest
@@ -48,6 +56,14 @@ extern "C" {
 #define KF_VDB_RMIN_VOXELS 1.5   /* OpenVDB's smallest rasterised radius, voxels */
 #define KF_VDB_MAX_GRIDS 32
 
+/* The preview surfacing preset (a shot's surface.quality: preview): voxel and
+ * radius in particle spacings, twice the final defaults (0.75 and 1.2), so the
+ * sphere is the same 1.6 voxels and the grid has 1/8 the voxels; one
+ * mean-curvature pass instead of three. */
+#define KF_VDB_PREVIEW_VOXEL 1.5
+#define KF_VDB_PREVIEW_RADIUS 2.4
+#define KF_VDB_PREVIEW_ITERATIONS 1
+
 /* An opaque float level set (plus an optional velocity grid). */
 typedef struct kf_vdb_grid kf_vdb_grid;
 
@@ -67,7 +83,7 @@ typedef struct kf_vdb_surface_params {
     double spacing;       /* particle spacing, m (required unless every radius is given) */
     double radius;        /* one radius for all particles, m (default factor x spacing) */
     double radius_factor; /* radius / spacing (default KF_VDB_RADIUS_FACTOR) */
-    double half_width;    /* narrow-band half width, voxels (default 3) */
+    double half_width;    /* narrow-band half width, voxels (default 3, at most 6) */
     double dilate;        /* m, applied first (0: none) */
     kf_vdb_op smooth;     /* KF_VDB_OP_MEAN_CURVATURE / _GAUSSIAN / _LAPLACIAN or NONE */
     int smooth_iterations;
@@ -83,7 +99,7 @@ typedef struct kf_vdb_surface_stats {
     double r_min;      /* smallest radius used, m */
     size_t active_voxels;
     double seconds;    /* wall time: rasterise + filter */
-    double seconds_raster, seconds_filter; /* wall time of its two parts */
+    double seconds_raster, seconds_filter; /* wall time of its two parts (filters run on the band count in the first) */
     double cpu_sort, cpu_splat, cpu_redistance, cpu_filter; /* process CPU seconds of each phase */
 } kf_vdb_surface_stats;
 

@@ -86,6 +86,11 @@ const kf_keydef kf_keys[] = {
      "Conjugate gradients stop when the residual has fallen by this factor."},
     {"sim.krylov_max", KT_INT, TOP(s.sim.krylov_max), CC(1, 100000), NULL, "200", NULL, "integrator=implicit",
      KF_SOFT, "Most conjugate-gradient iterations per Newton iteration."},
+    {"sim.precond", KT_ENUM, TOP(s.sim.precond), ANY, "multigrid|jacobi", "multigrid", NULL, "integrator=implicit",
+     KF_SOFT,
+     "Conjugate-gradient preconditioner: multigrid (coarse grids of 2, 4, 8... x dx; fewer iterations, growing "
+     "more slowly with the step: faster from ~20x the explicit step) or jacobi (the Hessian's diagonal; cheaper "
+     "to set up: faster at small steps)."},
 
     {"domain", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0, "The simulation box."},
     {"domain.min", KT_VEC3, TOP(s.sim.domain_min), ANY, NULL, "[0, 0, 0]", "m", NULL, 0, "Lower corner."},
@@ -345,6 +350,9 @@ const kf_keydef kf_keys[] = {
      "Grow the surface before smoothing (fills small gaps)."},
     {"surface.erode", KT_NUM, TOP(s.surface_erode), GE(-1), NULL, "-1", "m", NULL, 0,
      "Shrink it after smoothing; -1 = back onto the material (radius - half a spacing, plus dilate)."},
+    {"surface.quality", KT_ENUM, TOP(s.surface_quality), ANY, "final|preview", "final", NULL, NULL, 0,
+     "Preset: preview doubles voxel and radius (1.5 and 2.4 spacings: 1/8 the voxels) and smooths once; "
+     "surface keys the shot sets itself win."},
     {"surface.group", KT_ENUM, TOP(s.surface_group), ANY, "material|object", "material", NULL, NULL, 0,
      "One level set (and render colour) per material, or per object (objects of one material stay apart)."},
 
@@ -354,6 +362,9 @@ const kf_keydef kf_keys[] = {
      "Image width; --quality preview halves it."},
     {"render.height", KT_INT, TOP(s.render_height), CC(16, 16384), NULL, "720", "pixels", NULL, 0,
      "Image height; --quality preview halves it."},
+    {"render.quality", KT_ENUM, TOP(s.render_quality), ANY, "final|preview", "final", NULL, NULL, 0,
+     "Preset: preview renders without anti-aliasing and with a shadow map of at most 1024 texels (--quality preview sets it); "
+     "render.samples set in the shot wins."},
     {"render.samples", KT_INT, TOP(s.render_samples), CC(1, 16), NULL, "4", NULL, NULL, 0,
      "Anti-aliasing samples per pixel (1 = none; preview uses 1)."},
     {"render.eye", KT_VEC3, TOP(s.render_eye), ANY, NULL, "(framed to the first frame)", "m", NULL, 0,

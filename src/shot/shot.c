@@ -4,6 +4,8 @@
  * kf_shot. Every problem is reported and the walk goes on, so one run shows
  * them all; nothing is returned unless there were none. */
 #include "../core/euler.h"
+#include "../io/vdb_bridge.h"
+#include "../../render/render.h"
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
@@ -903,6 +905,18 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
         s->render_width = s->render_width / 2 > 16 ? s->render_width / 2 : 16;
         s->render_height = s->render_height / 2 > 16 ? s->render_height / 2 : 16;
         s->render_samples = 1;
+        s->render_quality = 1;
+    }
+    /* the preview presets (surface.quality, render.quality): what the shot
+     * sets itself wins; the numbers live beside the code they drive */
+    if (s->surface_quality == 1) {
+        if (!T->at[K("surface.voxel")]) s->surface_voxel = KF_VDB_PREVIEW_VOXEL;
+        if (!T->at[K("surface.radius")]) s->surface_radius = KF_VDB_PREVIEW_RADIUS;
+        if (!T->at[K("surface.iterations")]) s->surface_iterations = KF_VDB_PREVIEW_ITERATIONS;
+    }
+    if (s->render_quality == 1) {
+        if (!T->at[K("render.samples")] || s->quality == KF_QUALITY_PREVIEW) s->render_samples = 1;
+        s->render_shadow = KF_RENDER_PREVIEW_SHADOW;
     }
     s->first = s->frame_start;
     s->last = s->frame_end;

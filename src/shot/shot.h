@@ -189,9 +189,12 @@ typedef struct kf_shot {
     int surface_iterations;
     double surface_dilate, surface_erode; /* m; erode < 0: automatic */
     int surface_group;               /* 0: a level set per material, 1: per object */
+    int surface_quality;             /* 0 final, 1 preview (preset applied to the fields above) */
 
     int render_width, render_height; /* pixels, quality applied */
     int render_samples;              /* anti-aliasing samples (1 in preview) */
+    int render_quality;              /* 0 final, 1 preview (preset applied) */
+    int render_shadow;               /* shadow map texels a side; 0: automatic */
     double render_eye[3], render_target[3]; /* m, when render_eye_set / render_target_set */
     int render_eye_set, render_target_set;
     double render_fov;               /* vertical, degrees */

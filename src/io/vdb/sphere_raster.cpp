@@ -1,12 +1,11 @@
 // sphere_raster.cpp — particles to a narrow-band level set (see sphere_raster.h).
 #include "sphere_raster.h"
 
-#include <openvdb/tools/ChangeBackground.h>
-#include <openvdb/tools/FastSweeping.h>
-#include <openvdb/tools/Morphology.h>
-#include <openvdb/tools/Prune.h>
+#include "band_distance.h"
+#include "band_smooth.h"
+#include "buried_particles.h"
+
 #include <openvdb/tools/SignedFloodFill.h>
-#include <openvdb/tree/LeafManager.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -16,6 +15,7 @@
 #include <ctime>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -31,11 +31,11 @@ using openvdb::Vec3s;
 using openvdb::Vec3SGrid;
 using Leaf = FloatTree::LeafNodeType;
 using VelLeaf = Vec3SGrid::TreeType::LeafNodeType;
-using MaskLeaf = openvdb::MaskTree::LeafNodeType;
 
-constexpr int LOG2 = Leaf::LOG2DIM; // 3: 8^3-voxel leaves
-constexpr int DIM = Leaf::DIM;
-constexpr int64_t BIAS = int64_t(1) << 20; // leaf coordinates in +/- 2^20 pack into 21 bits
+constexpr int LOG2 = LEAF_LOG2; // 8^3-voxel leaves
+constexpr int DIM = LEAF_DIM;
+constexpr int64_t BIAS = LEAF_BIAS;
+static_assert(Leaf::LOG2DIM == LEAF_LOG2, "OpenVDB's leaves are 8^3");
 
 // process CPU seconds (all threads): honest when other work shares the machine
 double cpu_now()
@@ -45,16 +45,8 @@ double cpu_now()
     return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
-uint64_t pack(int64_t lx, int64_t ly, int64_t lz)
-{
-    return (uint64_t(lx + BIAS) << 42) | (uint64_t(ly + BIAS) << 21) | uint64_t(lz + BIAS);
-}
-
-Coord unpack(uint64_t k)
-{
-    const uint64_t m = (uint64_t(1) << 21) - 1;
-    return Coord(int(int64_t((k >> 42) & m) - BIAS), int(int64_t((k >> 21) & m) - BIAS), int(int64_t(k & m) - BIAS));
-}
+uint64_t pack(int64_t lx, int64_t ly, int64_t lz) { return leaf_key(lx, ly, lz); }
+Coord unpack(uint64_t k) { return leaf_coord(k); }
 
 // particles in leaf-bin order, in index space (voxel units), structure of arrays
 struct sorted_particles {
@@ -64,13 +56,24 @@ struct sorted_particles {
     std::vector<uint32_t> bin_at;  // (nbins + 1) first particle of each bin
     float rmax = 0;
 
-    // [first, last) of the bin with this key, or an empty range
-    std::pair<uint32_t, uint32_t> bin(uint64_t key) const
+    std::vector<uint32_t> bin_mid; // (nbins) first buried particle of each bin (buried_particles.h)
+
+    // the particles splatted as spheres in the bin with this key, and the
+    // buried ones after them, [first, last) (empty when there is no bin)
+    std::pair<uint32_t, uint32_t> spheres(uint64_t key) const
+    {
+        const long b = find(key);
+        return b < 0 ? std::make_pair(0u, 0u) : std::make_pair(bin_at[size_t(b)], bin_mid[size_t(b)]);
+    }
+    std::pair<uint32_t, uint32_t> buried(uint64_t key) const
+    {
+        const long b = find(key);
+        return b < 0 ? std::make_pair(0u, 0u) : std::make_pair(bin_mid[size_t(b)], bin_at[size_t(b) + 1]);
+    }
+    long find(uint64_t key) const
     {
         auto it = std::lower_bound(bin_key.begin(), bin_key.end(), key);
-        if (it == bin_key.end() || *it != key) return {0, 0};
-        size_t b = size_t(it - bin_key.begin());
-        return {bin_at[b], bin_at[b + 1]};
+        return it == bin_key.end() || *it != key ? -1 : long(it - bin_key.begin());
     }
 };
 
@@ -115,7 +118,38 @@ sorted_particles sort_particles(const sphere_set &s, double h)
         p.rmax = std::max(p.rmax, p.r[k]);
     }
     p.bin_at.push_back(uint32_t(n));
+    p.bin_mid.assign(p.bin_at.begin() + 1, p.bin_at.end());
     return p;
+}
+
+// put each bin's buried particles last (bin_mid), so the splat gives them
+// only their nearest voxel: that keeps every voxel they reach inside, as
+// all those voxels hold particles (buried_particles.h)
+void mark_buried(sorted_particles &p, int M)
+{
+    const std::vector<uint8_t> buried = buried_particles(p.x.data(), p.y.data(), p.z.data(), p.bin_key, p.bin_at, M);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, p.bin_key.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
+        std::vector<uint32_t> order;
+        std::vector<float> t;
+        std::vector<uint32_t> ts;
+        for (size_t b = rg.begin(); b != rg.end(); b++) {
+            const uint32_t first = p.bin_at[b], last = p.bin_at[b + 1];
+            order.clear();
+            for (uint32_t k = first; k < last; k++)
+                if (!buried[k]) order.push_back(k);
+            p.bin_mid[b] = first + uint32_t(order.size());
+            for (uint32_t k = first; k < last; k++)
+                if (buried[k]) order.push_back(k);
+            for (std::vector<float> *a : {&p.x, &p.y, &p.z, &p.r}) {
+                t.assign(order.size(), 0);
+                for (size_t k = 0; k < order.size(); k++) t[k] = (*a)[order[k]];
+                std::copy(t.begin(), t.end(), a->begin() + first);
+            }
+            ts.assign(order.size(), 0);
+            for (size_t k = 0; k < order.size(); k++) ts[k] = p.src[order[k]];
+            std::copy(ts.begin(), ts.end(), p.src.begin() + first);
+        }
+    });
 }
 
 // one output leaf: the union-of-spheres distance (voxel units, clamped to
@@ -130,12 +164,17 @@ void splat_leaf(const sorted_particles &p, Coord leaf, int reach, float w, bool 
     std::fill(b.d, b.d + Leaf::SIZE, w);
     if (track) std::fill(b.who, b.who + Leaf::SIZE, -1);
     const int ox = leaf.x() << LOG2, oy = leaf.y() << LOG2, oz = leaf.z() << LOG2;
+    const float fox = float(ox), foy = float(oy), foz = float(oz);
     for (int i = -reach; i <= reach; i++)
         for (int j = -reach; j <= reach; j++)
             for (int k = -reach; k <= reach; k++) {
-                auto rg = p.bin(pack(leaf.x() + i, leaf.y() + j, leaf.z() + k));
+                auto rg = p.spheres(pack(leaf.x() + i, leaf.y() + j, leaf.z() + k));
                 for (uint32_t q = rg.first; q < rg.second; q++) {
                     const float px = p.x[q], py = p.y[q], pz = p.z[q], R = p.r[q], ext = R + w, ext2 = ext * ext;
+                    // most particles of the bins around miss this leaf: say so cheaply
+                    if (px + ext < fox || px - ext > fox + (DIM - 1) || py + ext < foy || py - ext > foy + (DIM - 1) ||
+                        pz + ext < foz || pz - ext > foz + (DIM - 1))
+                        continue;
                     const int x0 = std::max(ox, int(std::ceil(px - ext))), x1 = std::min(ox + DIM - 1, int(std::floor(px + ext)));
                     const int y0 = std::max(oy, int(std::ceil(py - ext))), y1 = std::min(oy + DIM - 1, int(std::floor(py + ext)));
                     const int z0 = std::max(oz, int(std::ceil(pz - ext))), z1 = std::min(oz + DIM - 1, int(std::floor(pz + ext)));
@@ -167,19 +206,105 @@ void splat_leaf(const sorted_particles &p, Coord leaf, int reach, float w, bool 
                     }
                 }
             }
+    // buried particles: their nearest voxel only (from this leaf's bin and
+    // the bins below, whose particles may round into it)
+    for (int i = -1; i <= 0; i++)
+        for (int j = -1; j <= 0; j++)
+            for (int k = -1; k <= 0; k++) {
+                auto rg = p.buried(pack(leaf.x() + i, leaf.y() + j, leaf.z() + k));
+                for (uint32_t q = rg.first; q < rg.second; q++) {
+                    const int x = int(std::floor(p.x[q] + 0.5f)) - ox, y = int(std::floor(p.y[q] + 0.5f)) - oy,
+                              z = int(std::floor(p.z[q] + 0.5f)) - oz;
+                    if (x < 0 || y < 0 || z < 0 || x >= DIM || y >= DIM || z >= DIM) continue;
+                    const float fx = float(ox + x) - p.x[q], fy = float(oy + y) - p.y[q], fz = float(oz + z) - p.z[q];
+                    const float dist = std::sqrt(fx * fx + fy * fy + fz * fz) - p.r[q];
+                    const int v = (x << 6) + (y << 3) + z;
+                    if (dist < b.d[v]) {
+                        b.d[v] = dist;
+                        if (track) b.who[v] = int32_t(q);
+                    }
+                }
+            }
 }
+
+// the point of the circle where spheres q and u meet nearest to (vx, vy, vz)
+void crease_point(const sorted_particles &p, uint32_t q, uint32_t u, float vx, float vy, float vz, std::vector<float> &out)
+{
+    const float ex = p.x[u] - p.x[q], ey = p.y[u] - p.y[q], ez = p.z[u] - p.z[q], L = std::sqrt(ex * ex + ey * ey + ez * ez);
+    const float R = p.r[q], S = p.r[u];
+    if (!(L > std::fabs(R - S) && L < R + S)) return; // no circle
+    const float t = (L * L + R * R - S * S) / (2 * L), rc = std::sqrt(std::max(R * R - t * t, 0.f));
+    const float nx = ex / L, ny = ey / L, nz = ez / L;
+    const float cx = p.x[q] + t * nx, cy = p.y[q] + t * ny, cz = p.z[q] + t * nz;
+    const float wx = vx - cx, wy = vy - cy, wz = vz - cz, along = wx * nx + wy * ny + wz * nz;
+    const float ux = wx - along * nx, uy = wy - along * ny, uz = wz - along * nz, ul = std::sqrt(ux * ux + uy * uy + uz * uz);
+    if (!(ul > 1e-6f)) return;
+    out.push_back(cx + rc * ux / ul);
+    out.push_back(cy + rc * uy / ul);
+    out.push_back(cz + rc * uz / ul);
+}
+
+// a leaf's closest points on the spheres, from its voxels just outside
+// (0 <= d < 1): on the closest sphere, which outside the union is exact
+void closest_points(const sorted_particles &p, openvdb::Coord lc, const leaf_buffer &b, std::vector<float> &out)
+{
+    const int ox = lc.x() << LOG2, oy = lc.y() << LOG2, oz = lc.z() << LOG2;
+    for (int v = 0; v < LEAF_SIZE; v++) {
+        const float d = b.d[v];
+        if (!(d >= 0 && d < 1) || b.who[v] < 0) continue;
+        const uint32_t q = uint32_t(b.who[v]);
+        const float vx = float(ox + (v >> 6)) - p.x[q], vy = float(oy + ((v >> 3) & 7)) - p.y[q],
+                    vz = float(oz + (v & 7)) - p.z[q];
+        const float k = p.r[q] / (d + p.r[q]); // |voxel - centre| = d + R
+        out.push_back(p.x[q] + k * vx);
+        out.push_back(p.y[q] + k * vy);
+        out.push_back(p.z[q] + k * vz);
+        // where a face neighbour in this leaf is inside another sphere, a
+        // crease runs between them: its nearest point on the two spheres'
+        // circle, which the projections alone sample thinly (a concave
+        // crease is nobody's closest point from outside)
+        for (int a = 0; a < 3; a++)
+            for (int sgn = -1; sgn <= 1; sgn += 2) {
+                const int c = a == 0 ? (v >> 6) : (a == 1 ? (v >> 3) & 7 : v & 7);
+                if (c + sgn < 0 || c + sgn >= DIM) continue;
+                const int w = v + sgn * (a == 0 ? 64 : (a == 1 ? 8 : 1));
+                if (!(b.d[w] < 0) || b.who[w] < 0 || b.who[w] == b.who[v]) continue;
+                crease_point(p, q, uint32_t(b.who[w]), float(ox + (v >> 6)), float(oy + ((v >> 3) & 7)),
+                             float(oz + (v & 7)), out);
+            }
+    }
+}
+
+// a splatted leaf kept for the band: values, closest particles, surface points
+struct splat_leaf_out {
+    std::unique_ptr<float[]> d;
+    std::unique_ptr<int32_t[]> who;
+    std::vector<float> pts;
+};
 
 } // namespace
 
-FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, Vec3SGrid::Ptr *vel, raster_timing *timing)
+FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, const band_filter *f, Vec3SGrid::Ptr *vel,
+                                 raster_timing *timing)
 {
     double t0 = cpu_now();
     const float bg = float(hw * h);
     // Spheres are splatted only SPLAT voxels beyond their radius: exact
-    // distances near the zero crossing and the right sign everywhere inside
-    // is all the re-distancing below needs (wider splats cost the cube).
-    const float ws = float(std::min(hw, 1.5));
+    // distances near the zero crossing, their closest points and the right
+    // sign everywhere inside is all the distance below needs (wider splats
+    // cost the cube).
+    const float ws = 1.0f;
+    // the band is computed this wide (voxels): the final half width, a voxel
+    // more for the stencils at its edge, and room for the shifts
+    const float W = float(hw + 1 + (f ? f->dilate / h + f->erode / h : 0.0));
+    if (W > 7) throw std::runtime_error("half width + dilate + erode must stay within 6 voxels");
     sorted_particles p = sort_particles(s, h);
+    // dense particles (a voxel or more each): the buried ones change
+    // nothing within the band but the sign (buried_particles.h)
+    // (every voxel a sphere reaches, or beside one inside it, lies within
+    // Chebyshev distance R + ws + 1/2 of its centre's nearest voxel)
+    const int M = int(std::ceil(p.rmax + ws + 0.5f));
+    if (M <= 8 && double(s.n) >= double(LEAF_SIZE) * double(p.bin_key.size())) mark_buried(p, M);
     if (timing) timing->sort_s = cpu_now() - t0;
 
     // every leaf within reach of an occupied bin may hold band voxels
@@ -197,91 +322,131 @@ FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, Vec3S
     targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
 
     // fill each target leaf in its own buffer (no two tasks share anything);
-    // mark the outside voxels within a voxel of the zero crossing in `near`
-    // (inside ones will not do: between particles the union's distance
-    // never falls below -r, so |d| < 1 would take in the whole interior)
-    const bool track = s.vel != nullptr;
-    std::vector<Leaf *> leaves(targets.size(), nullptr);
-    std::vector<MaskLeaf *> near(targets.size(), nullptr);
-    std::vector<VelLeaf *> vleaves(track ? targets.size() : 0, nullptr);
+    // keep those with a voxel inside or near the surface
+    std::vector<splat_leaf_out> kept(targets.size());
     tbb::parallel_for(tbb::blocked_range<size_t>(0, targets.size(), 4), [&](const tbb::blocked_range<size_t> &rg) {
         std::unique_ptr<leaf_buffer> b(new leaf_buffer);
         for (size_t t = rg.begin(); t != rg.end(); t++) {
             const Coord lc = unpack(targets[t]);
-            splat_leaf(p, lc, reach, ws, track, *b);
+            splat_leaf(p, lc, reach, ws, true, *b);
             bool any = false;
-            for (int v = 0; v < Leaf::SIZE && !any; v++) any = b->d[v] < ws;
-            if (!any) continue; // entirely outside: background
+            for (int v = 0; v < LEAF_SIZE && !any; v++) any = b->d[v] < ws;
+            if (!any) continue; // entirely outside
+            auto &k = kept[t];
+            k.d.reset(new float[Leaf::SIZE]);
+            k.who.reset(new int32_t[Leaf::SIZE]);
+            std::copy(b->d, b->d + Leaf::SIZE, k.d.get());
+            std::copy(b->who, b->who + Leaf::SIZE, k.who.get());
+            closest_points(p, lc, *b, k.pts);
+        }
+    });
+    if (timing) timing->splat_s = cpu_now() - t0;
+
+    // The band: the kept leaves and, around every leaf with surface points,
+    // its 26 neighbours (the band reaches under 8 voxels beyond a point);
+    // a neighbour that was not kept lies outside (+ws). Then the distance.
+    t0 = cpu_now();
+    dense_band band;
+    for (size_t t = 0; t < targets.size(); t++) {
+        if (!kept[t].d) continue;
+        band.key.push_back(targets[t]);
+        if (kept[t].pts.empty()) continue;
+        const Coord c = unpack(targets[t]);
+        for (int i = -1; i <= 1; i++)
+            for (int j = -1; j <= 1; j++)
+                for (int k = -1; k <= 1; k++)
+                    if (i || j || k) band.key.push_back(pack(c.x() + i, c.y() + j, c.z() + k));
+    }
+    tbb::parallel_sort(band.key.begin(), band.key.end());
+    band.key.erase(std::unique(band.key.begin(), band.key.end()), band.key.end());
+    const size_t nl = band.size();
+    band.phi.resize(nl * Leaf::SIZE);
+    std::vector<int32_t> who(nl * Leaf::SIZE);
+    std::vector<long> from(nl); // the target each band leaf was kept as, -1: none
+    surface_points sp;
+    sp.at.assign(nl + 1, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 64), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            auto it = std::lower_bound(targets.begin(), targets.end(), band.key[i]);
+            const long t = it != targets.end() && *it == band.key[i] && kept[size_t(it - targets.begin())].d
+                               ? long(it - targets.begin()) : -1;
+            from[i] = t;
+            float *phi = band.leaf(i);
+            int32_t *w = who.data() + i * Leaf::SIZE;
+            if (t < 0) {
+                std::fill(phi, phi + Leaf::SIZE, ws);
+                std::fill(w, w + Leaf::SIZE, -1);
+            } else {
+                std::copy(kept[size_t(t)].d.get(), kept[size_t(t)].d.get() + Leaf::SIZE, phi);
+                std::copy(kept[size_t(t)].who.get(), kept[size_t(t)].who.get() + Leaf::SIZE, w);
+            }
+            sp.at[i + 1] = t < 0 ? 0 : uint32_t(kept[size_t(t)].pts.size() / 3);
+        }
+    });
+    for (size_t i = 0; i < nl; i++) sp.at[i + 1] += sp.at[i];
+    sp.x.resize(sp.at[nl]), sp.y.resize(sp.at[nl]), sp.z.resize(sp.at[nl]);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 64), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            if (from[i] < 0) continue;
+            auto &pts = kept[size_t(from[i])].pts;
+            for (size_t k = 0; 3 * k < pts.size(); k++)
+                sp.x[sp.at[i] + k] = pts[3 * k], sp.y[sp.at[i] + k] = pts[3 * k + 1], sp.z[sp.at[i] + k] = pts[3 * k + 2];
+        }
+    });
+    kept.clear();
+    kept.shrink_to_fit();
+    band.link();
+    band_distance(band, sp, ws, W);
+    if (timing) timing->redistance_s = cpu_now() - t0;
+
+    // dilate, smooth and erode in place; then the tree, once: |phi| < hw active
+    t0 = cpu_now();
+    if (f) band_smooth(band, W, float(f->dilate / h), f->mc_iterations, float(f->erode / h));
+    const bool track = s.vel != nullptr && vel;
+    const float hwv = float(hw);
+    std::vector<Leaf *> leaves(nl, nullptr);
+    std::vector<VelLeaf *> vleaves(track ? nl : 0, nullptr);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 16), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            const float *phi = band.leaf(i);
+            bool any = false;
+            for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < hwv;
+            if (!any) continue;
+            const Coord lc = unpack(band.key[i]);
             const Coord origin(lc.x() << LOG2, lc.y() << LOG2, lc.z() << LOG2);
             auto *leaf = new Leaf(origin, bg, false);
-            auto *mask = new MaskLeaf(origin, false, false);
             VelLeaf *vl = track ? new VelLeaf(origin, Vec3s(0.f), false) : nullptr;
-            for (int v = 0; v < Leaf::SIZE; v++) {
-                const float d = b->d[v];
-                if (d >= ws) continue;
-                leaf->setValueOn(v, d <= -ws ? -bg : d * float(h));
-                if (d >= 0 && d < 1) mask->setValueOn(v); // just outside: a crossing is within a voxel
-                if (vl && b->who[v] >= 0) {
-                    const size_t i = p.src[size_t(b->who[v])];
-                    vl->setValueOn(v, Vec3s(s.vel[3 * i], s.vel[3 * i + 1], s.vel[3 * i + 2]));
+            const int32_t *w = who.data() + i * Leaf::SIZE;
+            for (int v = 0; v < LEAF_SIZE; v++) {
+                const float d = phi[v];
+                if (!(std::fabs(d) < hwv)) {
+                    leaf->setValueOnly(v, d < 0 ? -bg : bg);
+                    continue;
+                }
+                leaf->setValueOn(v, d * float(h));
+                if (vl && w[v] >= 0) {
+                    const size_t k = p.src[size_t(w[v])];
+                    vl->setValueOn(v, Vec3s(s.vel[3 * k], s.vel[3 * k + 1], s.vel[3 * k + 2]));
                 }
             }
-            leaves[t] = leaf;
-            if (mask->isEmpty()) delete mask;
-            else near[t] = mask;
-            if (vl) vleaves[t] = vl;
+            leaves[i] = leaf;
+            if (vl && vl->isEmpty()) delete vl;
+            else if (vl) vleaves[i] = vl;
         }
     });
     auto grid = openvdb::createLevelSet<FloatGrid>(h, float(hw));
-    auto &tree = grid->tree();
     for (Leaf *l : leaves)
-        if (l) tree.addLeaf(l);
-    openvdb::MaskTree band(false);
-    for (MaskLeaf *l : near)
-        if (l) band.addLeaf(l);
-    if (timing) timing->splat_s = cpu_now() - t0;
-
-    // Inside, the union of spheres of radius under the band is no distance
-    // (it never falls below -r): re-distance by fast sweeping from the zero
-    // crossing over the voxels within the band of it, then keep |phi| < band.
-    t0 = cpu_now();
-    openvdb::tools::dilateActiveValues(band, int(std::ceil(hw)) + 1, openvdb::tools::NN_FACE_EDGE_VERTEX,
-                                       openvdb::tools::IGNORE_TILES);
-    openvdb::tools::signedFloodFill(tree); // inactive values get their side's sign
-    tree.topologyUnion(band);
-    tree.topologyIntersection(band);
-    FloatGrid::Ptr sdf = openvdb::tools::sdfToSdf(*grid, 0.0f, 1);
-    sdf->setTransform(grid->transform().copy());
-    sdf->setGridClass(openvdb::GRID_LEVEL_SET);
-    {
-        openvdb::tree::LeafManager<FloatTree> lm(sdf->tree());
-        lm.foreach([bg](Leaf &leaf, size_t) {
-            for (auto it = leaf.beginValueOn(); it; ++it) {
-                const float v = *it;
-                if (!std::isfinite(v)) it.setValueOff(), it.setValue(v > 0 ? bg : -bg);
-                else if (v >= bg) it.setValueOff(), it.setValue(bg);
-                else if (v <= -bg) it.setValueOff(), it.setValue(-bg);
-            }
-        });
-    }
-    // fast sweeping leaves its own (wider) background; the filters' band follows it
-    openvdb::tools::changeLevelSetBackground(sdf->tree(), bg);
-    openvdb::tools::signedFloodFill(sdf->tree());
-    openvdb::tools::pruneLevelSet(sdf->tree());
-    if (timing) timing->redistance_s = cpu_now() - t0;
-
-    if (track && vel) {
+        if (l) grid->tree().addLeaf(l);
+    openvdb::tools::signedFloodFill(grid->tree()); // the interior's tiles and inactive values get their sign
+    if (track) {
         auto vg = Vec3SGrid::create(Vec3s(0.f));
         vg->setTransform(grid->transform().copy());
         for (VelLeaf *l : vleaves)
             if (l) vg->tree().addLeaf(l);
-        vg->tree().topologyIntersection(sdf->tree());
-        openvdb::tools::prune(vg->tree());
         *vel = vg;
-    } else {
-        for (VelLeaf *l : vleaves) delete l;
     }
-    return sdf;
+    if (timing) timing->filter_s = cpu_now() - t0;
+    return grid;
 }
 
 } // namespace kf_vdb

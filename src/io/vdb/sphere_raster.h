@@ -6,10 +6,14 @@
 // band's half width) every interior voxel stays active, so the filters that
 // follow walk the whole volume. Here particles are sorted into 8^3-voxel leaf
 // bins, each output leaf is filled in a dense local buffer from the bins
-// around it (tbb::parallel_for, no sharing), and the result is re-distanced
-// with fast sweeping and cut back to a true narrow band.
+// around it (tbb::parallel_for, no sharing); the band is made a true signed
+// distance from the spheres' closest points (band_distance.h), dilated,
+// smoothed and eroded in place when asked (band_smooth.h), and only then
+// becomes an OpenVDB tree.
 #ifndef KF_VDB_SPHERE_RASTER_H
 #define KF_VDB_SPHERE_RASTER_H
+
+#include "dense_band.h"
 
 #include <openvdb/openvdb.h>
 
@@ -30,16 +34,26 @@ struct sphere_set {
 };
 
 struct raster_timing {
-    double sort_s, splat_s, redistance_s; // process CPU seconds of each phase
+    double sort_s, splat_s, redistance_s, filter_s; // process CPU seconds of each phase
+};
+
+// the filters applied on the band before it becomes a tree (world units):
+// dilate, mean-curvature steps, erode; (dilate + erode) / h + half width
+// must stay within 6 voxels
+struct band_filter {
+    double dilate, erode;
+    int mc_iterations;
 };
 
 // The union of the spheres as a level set of voxel size h and half width hw
-// voxels: exact distance to the union near its surface, re-distanced to a
-// true signed distance inside the band, interior beyond the band inactive
-// (negative background). When s.vel is set, *vel gets a Vec3s grid on the
-// same active voxels holding the velocity of the closest particle.
-openvdb::FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, openvdb::Vec3SGrid::Ptr *vel,
-                                          raster_timing *timing);
+// voxels (at most 6): a signed distance in the band (exact outside within
+// 1.5 voxels and inside within one, from the closest points beyond),
+// filtered by f when given, interior beyond the band inactive (negative
+// background). When s.vel is set, *vel gets a Vec3s grid on the active
+// voxels within the spheres' reach, holding the velocity of the closest
+// particle.
+openvdb::FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, const band_filter *f,
+                                          openvdb::Vec3SGrid::Ptr *vel, raster_timing *timing);
 
 } // namespace kf_vdb
 

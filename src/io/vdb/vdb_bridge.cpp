@@ -374,7 +374,15 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
         std::unique_ptr<kf_vdb_grid> hold(h);
         kf_vdb::sphere_set ss{n, xd, xf, radii, r, nsmall ? rmin : 0.0, vel};
         kf_vdb::raster_timing rt{};
-        h->ls = kf_vdb::rasterise_spheres(ss, voxel, hw, vel ? &h->vel : nullptr, &rt);
+        if (hw > 6) throw bridge_error(fmt("half width %g voxels must be <= 6", hw));
+        // dilate, mean-curvature smoothing and erode run on the band before
+        // it becomes a tree when the band has room for the shifts (within 6
+        // voxels); other filters, and larger shifts, through LevelSetFilter
+        const bool amounts_ok = std::isfinite(p.dilate) && std::isfinite(p.erode) && p.dilate >= 0 && p.erode >= 0;
+        const bool on_band = amounts_ok && (p.smooth == KF_VDB_OP_NONE || p.smooth == KF_VDB_OP_MEAN_CURVATURE) &&
+                             p.smooth_iterations >= 0 && hw + (p.dilate + p.erode) / voxel <= 6;
+        kf_vdb::band_filter bf{p.dilate, p.erode, p.smooth == KF_VDB_OP_MEAN_CURVATURE ? p.smooth_iterations : 0};
+        h->ls = kf_vdb::rasterise_spheres(ss, voxel, hw, on_band ? &bf : nullptr, vel ? &h->vel : nullptr, &rt);
         h->ls->setName(p.name && *p.name ? p.name : "surface");
         if (h->vel) {
             h->vel->setName(h->ls->getName() == "surface" ? std::string("vel") : h->ls->getName() + "_vel");
@@ -384,9 +392,12 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
         auto t1 = std::chrono::steady_clock::now();
         const double c1 = cpu_seconds();
 
-        apply_filter(*h->ls, KF_VDB_OP_DILATE, p.dilate, 0);
-        apply_filter(*h->ls, p.smooth, 0, p.smooth_iterations);
-        apply_filter(*h->ls, KF_VDB_OP_ERODE, p.erode, 0);
+        if (!on_band) {
+            apply_filter(*h->ls, KF_VDB_OP_DILATE, p.dilate, 0);
+            apply_filter(*h->ls, p.smooth, 0, p.smooth_iterations);
+            apply_filter(*h->ls, KF_VDB_OP_ERODE, p.erode, 0);
+            if (h->vel) h->vel->tree().topologyIntersection(h->ls->tree()); // the filters moved the band
+        }
 
         if (stats) {
             stats->n_in = n;
@@ -400,7 +411,7 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
             stats->cpu_sort = rt.sort_s;
             stats->cpu_splat = rt.splat_s;
             stats->cpu_redistance = rt.redistance_s;
-            stats->cpu_filter = cpu_seconds() - c1;
+            stats->cpu_filter = rt.filter_s + cpu_seconds() - c1;
         }
         *out = hold.release();
     });

@@ -1,0 +1,63 @@
+// dense_band.h — a narrow band as dense 8^3-voxel leaves in index space
+// (internal to the bridge; C++ only, never included from C).
+//
+// Why dense leaves and not an OpenVDB tree while surfacing: the splat, the
+// distance and the smoothing each touch every band voxel a few times with
+// a 3x3x3 stencil; flat arrays and one neighbour table cost less than tree
+// accessors, topology dilation and pruning at every step. The tree is built
+// once, at the end (sphere_raster.cpp).
+#ifndef KF_VDB_DENSE_BAND_H
+#define KF_VDB_DENSE_BAND_H
+
+#include <openvdb/openvdb.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace kf_vdb {
+
+// OpenVDB's leaf layout: 8^3 voxels, offset (x << 6) + (y << 3) + z
+constexpr int LEAF_LOG2 = 3;
+constexpr int LEAF_DIM = 1 << LEAF_LOG2;
+constexpr int LEAF_SIZE = LEAF_DIM * LEAF_DIM * LEAF_DIM;
+constexpr int64_t LEAF_BIAS = int64_t(1) << 20; // leaf coordinates in +/- 2^20 pack into 21 bits
+
+inline uint64_t leaf_key(int64_t lx, int64_t ly, int64_t lz)
+{
+    return (uint64_t(lx + LEAF_BIAS) << 42) | (uint64_t(ly + LEAF_BIAS) << 21) | uint64_t(lz + LEAF_BIAS);
+}
+
+// leaf coordinates (voxel origin >> 3) of a key
+inline openvdb::Coord leaf_coord(uint64_t k)
+{
+    const uint64_t m = (uint64_t(1) << 21) - 1;
+    return openvdb::Coord(int(int64_t((k >> 42) & m) - LEAF_BIAS), int(int64_t((k >> 21) & m) - LEAF_BIAS),
+                          int(int64_t(k & m) - LEAF_BIAS));
+}
+
+// the leaves of a band: values in voxel units, negative inside. A leaf
+// that is not listed lies wholly outside (every inside voxel's leaf is).
+struct dense_band {
+    std::vector<uint64_t> key; // ascending
+    std::vector<float> phi;    // key.size() x LEAF_SIZE
+    std::vector<int32_t> nbr;  // key.size() x 27: index of the leaf at (dx, dy, dz), -1 absent
+
+    size_t size() const { return key.size(); }
+    float *leaf(size_t i) { return phi.data() + i * LEAF_SIZE; }
+    const float *leaf(size_t i) const { return phi.data() + i * LEAF_SIZE; }
+    static int nbr_slot(int dx, int dy, int dz) { return (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1); }
+
+    long find(uint64_t k) const
+    {
+        auto it = std::lower_bound(key.begin(), key.end(), k);
+        return it != key.end() && *it == k ? long(it - key.begin()) : -1;
+    }
+    // fill nbr from key
+    void link();
+};
+
+} // namespace kf_vdb
+
+#endif
