@@ -1,9 +1,8 @@
 /* test_rigid.c — rigid bodies for CPIC (src/rigid): mass properties against
- * analytic values and a Monte-Carlo estimate, surface seeding of real meshes
- * (every triangle seeded, every surface point within the spacing of a seed),
- * kinematic velocities against finite differences of the pose, and the
- * MuJoCo-backed solver: free fall, impulses, hinges, resting contact and
- * bit-identical resume from a saved state. */
+ * analytic values and a Monte-Carlo estimate, kinematic velocities against
+ * finite differences of the pose, and the MuJoCo-backed solver: free fall,
+ * impulses, hinges, resting contact and bit-identical resume from a saved
+ * state. Surface seeding has its own test_seed.c. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -285,187 +284,6 @@ static void test_compile_errors(void) {
     kf_rigid_def huge = box_def((double[3]){0, 0, 0}, (double[3]){1000, 1000, 1000}, big, KF_RIGID_STATIC);
     err[0] = 0;
     KT_CHECK(kf_rigid_compile(&b, &huge, 0.01, err, sizeof err) == -1 && strstr(err, "in metres"), "%s", err);
-}
-
-/* ---- seeding -------------------------------------------------------------- */
-
-/* brute-force-free nearest-seed check: a uniform grid of the seeds */
-typedef struct seed_grid {
-    double lo[3], cell;
-    int n[3];
-    int *start, *idx;
-    const float *seed;
-} seed_grid;
-
-static void seed_grid_build(seed_grid *g, const float *seed, size_t ns, double cell) {
-    g->seed = seed, g->cell = cell;
-    double hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (int a = 0; a < 3; a++) g->lo[a] = INFINITY;
-    for (size_t i = 0; i < ns; i++)
-        for (int a = 0; a < 3; a++) g->lo[a] = fmin(g->lo[a], seed[3 * i + a]), hi[a] = fmax(hi[a], seed[3 * i + a]);
-    for (int a = 0; a < 3; a++) g->lo[a] -= cell, g->n[a] = (int)((hi[a] - g->lo[a]) / cell) + 2;
-    size_t nc = (size_t)g->n[0] * g->n[1] * g->n[2];
-    g->start = calloc(nc + 1, sizeof(int));
-    g->idx = malloc(sizeof(int) * ns);
-    int *cellof = malloc(sizeof(int) * ns);
-    for (size_t i = 0; i < ns; i++) {
-        int c[3];
-        for (int a = 0; a < 3; a++) c[a] = (int)((seed[3 * i + a] - g->lo[a]) / cell);
-        cellof[i] = (c[0] * g->n[1] + c[1]) * g->n[2] + c[2];
-        g->start[cellof[i] + 1]++;
-    }
-    for (size_t c = 0; c < nc; c++) g->start[c + 1] += g->start[c];
-    int *fill = calloc(nc, sizeof(int));
-    for (size_t i = 0; i < ns; i++) g->idx[g->start[cellof[i]] + fill[cellof[i]]++] = (int)i;
-    free(fill);
-    free(cellof);
-}
-
-/* distance from p to the nearest seed, or INFINITY beyond one cell */
-static double seed_grid_nearest(const seed_grid *g, const double p[3]) {
-    int c[3];
-    for (int a = 0; a < 3; a++) c[a] = (int)floor((p[a] - g->lo[a]) / g->cell);
-    double best = INFINITY;
-    for (int i = c[0] - 1; i <= c[0] + 1; i++)
-        for (int j = c[1] - 1; j <= c[1] + 1; j++)
-            for (int k = c[2] - 1; k <= c[2] + 1; k++) {
-                if (i < 0 || j < 0 || k < 0 || i >= g->n[0] || j >= g->n[1] || k >= g->n[2]) continue;
-                int cc = (i * g->n[1] + j) * g->n[2] + k;
-                for (int q = g->start[cc]; q < g->start[cc + 1]; q++) {
-                    const float *x = g->seed + 3 * g->idx[q];
-                    double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]};
-                    best = fmin(best, sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
-                }
-            }
-    return best;
-}
-
-/* every triangle holds a seed; every seed lies on its triangle; random
- * points of every triangle (and its corners) are within spacing of a seed.
- * Returns the seed count. */
-static size_t check_seeding(const char *what, const double *vert, int nvert, const int *tri, int ntri, double spacing,
-                            int samples_per_tri) {
-    float *seed;
-    int32_t *seed_tri;
-    size_t ns = kf_rigid_seed_surface(vert, nvert, tri, ntri, spacing, &seed, &seed_tri);
-    KT_CHECK(ns > 0, "%s: seeded", what);
-    if (!ns) return 0;
-    int *count = calloc((size_t)ntri, sizeof(int));
-    double worst_off = 0, scale = 0;
-    for (int i = 0; i < 3 * nvert; i++) scale = fmax(scale, fabs(vert[i]));
-    for (size_t i = 0; i < ns; i++) {
-        int t = seed_tri[i];
-        if (t < 0 || t >= ntri) {
-            KT_CHECK(0, "%s: seed %zu on triangle %d", what, i, t);
-            continue;
-        }
-        count[t]++;
-        /* distance to the triangle's plane */
-        const double *a = vert + 3 * tri[3 * t], *b = vert + 3 * tri[3 * t + 1], *c = vert + 3 * tri[3 * t + 2];
-        double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-        double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-        double ln = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        if (ln > 0) {
-            double off =
-                fabs((seed[3 * i] - a[0]) * n[0] + (seed[3 * i + 1] - a[1]) * n[1] + (seed[3 * i + 2] - a[2]) * n[2]) /
-                ln;
-            worst_off = fmax(worst_off, off);
-        }
-    }
-    int empty = 0;
-    double area = 0;
-    for (int t = 0; t < ntri; t++) {
-        empty += count[t] == 0;
-        const double *a = vert + 3 * tri[3 * t], *b = vert + 3 * tri[3 * t + 1], *c = vert + 3 * tri[3 * t + 2];
-        double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-        double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-        area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    }
-    KT_CHECK(empty == 0, "%s: %d of %d triangles hold no seed", what, empty, ntri);
-    KT_CHECK(worst_off <= 1e-6 * scale, "%s: a seed lies %g off its triangle's plane (float: 1e-6 of the extent %g)",
-             what, worst_off, scale);
-    seed_grid g;
-    seed_grid_build(&g, seed, ns, spacing);
-    double worst = 0;
-    long checked = 0;
-    for (int t = 0; t < ntri; t++) {
-        const double *a = vert + 3 * tri[3 * t], *b = vert + 3 * tri[3 * t + 1], *c = vert + 3 * tri[3 * t + 2];
-        for (int k = 0; k < samples_per_tri + 3; k++) {
-            double u = urand(), v = urand();
-            if (k >= samples_per_tri) u = k == samples_per_tri, v = k == samples_per_tri + 1; /* the corners */
-            if (u + v > 1) u = 1 - u, v = 1 - v;
-            double p[3];
-            for (int q = 0; q < 3; q++) p[q] = a[q] + u * (b[q] - a[q]) + v * (c[q] - a[q]);
-            worst = fmax(worst, seed_grid_nearest(&g, p));
-            checked++;
-        }
-    }
-    /* the float seeds move by up to 6e-8 of the extent */
-    KT_CHECK(worst <= spacing * (1 + 1e-6) + 1e-7 * scale,
-             "%s: a surface point is %g from the nearest seed (spacing %g)", what, worst, spacing);
-    printf("  %-16s %6d triangles, spacing %.4g: %7zu seeds (%.2f per spacing² of area), farthest point %.3f spacing "
-           "(%ld points)\n",
-           what, ntri, spacing, ns, ns / (area / (spacing * spacing)), worst / spacing, checked);
-    free(g.start);
-    free(g.idx);
-    free(count);
-    free(seed);
-    free(seed_tri);
-    return ns;
-}
-
-static void test_seed_meshes(void) {
-    const char *files[3] = {"assets/knife_wavy.obj", "assets/plate_thin.obj", "assets/bunny.off"};
-    for (int f = 0; f < 3; f++) {
-        loaded L;
-        if (load_mesh(files[f], &L)) continue;
-        double ext = 0;
-        for (int a = 0; a < 3; a++) ext = fmax(ext, L.m.hi[a] - L.m.lo[a]);
-        /* a spacing of 1/60 of the mesh's size: the scale of dx/2 on a typical shot */
-        check_seeding(files[f] + 7, L.m.vert, (int)L.m.nvert, L.tri, (int)L.m.ntri, ext / 60, 8);
-        free_mesh(&L);
-    }
-}
-
-/* a long thin triangle (1 m by 2 mm) and a tiny one, far below the lattice */
-static void test_seed_slivers(void) {
-    const double v[18] = {0, 0, 0, 1, 0, 0, 0.5, 0.002, 0.001, 2, 2, 2, 2.001, 2, 2, 2, 2.001, 2.0005};
-    const int t[6] = {0, 1, 2, 3, 4, 5};
-    size_t n = check_seeding("sliver + speck", v, 6, t, 2, 0.05, 2000);
-    /* a line of seeds, not an area's worth: the sliver needs about 1 m / spacing */
-    KT_CHECK(n < 4 * 1.0 / 0.05, "%zu seeds for a 1 m sliver at spacing 0.05", n);
-}
-
-/* the same flat square cut into 2 and into 2 x 8² triangles gets nearly the
- * same number of seeds (the lattice crossings are the surface's, the hole
- * fill differs only along the inner edges) */
-static void test_seed_triangulation_independent(void) {
-    int cuts[2] = {1, 8};
-    size_t count[2];
-    for (int c = 0; c < 2; c++) {
-        int m = cuts[c], nv = (m + 1) * (m + 1), nt = 2 * m * m;
-        double *v = malloc(sizeof(double) * 3 * nv);
-        int *t = malloc(sizeof(int) * 3 * nt);
-        for (int i = 0; i <= m; i++)
-            for (int j = 0; j <= m; j++) {
-                double *p = v + 3 * (i * (m + 1) + j);
-                /* tilted so every axis crosses it */
-                double x = (double)i / m, y = (double)j / m;
-                p[0] = x, p[1] = 0.3 * x + 0.5 * y, p[2] = y;
-            }
-        int k = 0;
-        for (int i = 0; i < m; i++)
-            for (int j = 0; j < m; j++) {
-                int a = i * (m + 1) + j, b = a + 1, cc = a + m + 1, d = cc + 1;
-                t[k++] = a, t[k++] = cc, t[k++] = d, t[k++] = a, t[k++] = d, t[k++] = b;
-            }
-        char what[32];
-        snprintf(what, sizeof what, "square / %d tris", nt);
-        count[c] = check_seeding(what, v, nv, t, nt, 0.02, 50);
-        free(v);
-        free(t);
-    }
-    KT_NEAR((double)count[1] / count[0], 1, 0.05, "the seeds of a flat square do not depend on its triangulation (5%)");
 }
 
 /* y = R x + t */
@@ -1013,9 +831,6 @@ int main(int argc, char **argv) {
     KT_RUN(test_mass_tetra_monte_carlo, argc, argv);
     KT_RUN(test_mass_shell_plate, argc, argv);
     KT_RUN(test_compile_errors, argc, argv);
-    KT_RUN(test_seed_meshes, argc, argv);
-    KT_RUN(test_seed_slivers, argc, argv);
-    KT_RUN(test_seed_triangulation_independent, argc, argv);
     KT_RUN(test_kinematic, argc, argv);
     KT_RUN(test_free_fall, argc, argv);
     KT_RUN(test_impulse, argc, argv);

@@ -9,15 +9,25 @@
  * overhead against `none`.
  *
  *   kerf_bench_cpic [--cells N] [--steps N] [--runs N] [--json]
- * N cells across the slab's width (default 128: ~1M particles). */
+ * N cells across the slab's width (default 128: ~1M particles).
+ *
+ *   kerf_bench_cpic --seeding [--runs N]
+ * instead times the rigid-particle seeding (§5.2.1) of meshes of different
+ * sizes: pass 1's lattice crossings by Embree rays (the product) and by the
+ * rasteriser it replaced, and the whole seeding (crossings + hole pass). */
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "cpic/cpic.h"
 #include "kerf.h"
 #include "median.h"
+#include "rigid/rigid.h"
+#include "rigid/seed_crossings.h"
+#include "scene/mesh.h"
 
 typedef struct result {
     double ms[KF_STAGE_COUNT]; /* per substep */
@@ -88,15 +98,111 @@ static int run(int mode, int cells, int steps, result *out) {
     return 0;
 }
 
+/* ---- seeding ------------------------------------------------------------ */
+
+/* a path under the repository root (found from this file's own path) */
+static const char *repo_path(const char *rel) {
+    static char buf[1024];
+    const char *me = __FILE__, *cut = strstr(me, "tools/bench_cpic.c");
+    snprintf(buf, sizeof buf, "%.*s%s", cut ? (int)(cut - me) : 0, me, rel);
+    return buf;
+}
+
+static double wall_s(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
+static double cpu_s(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
+/* what = 0: crossings by rays, 1: by rasterising, 2: the whole seeding.
+ * Median wall and process-CPU ms of runs; *count the crossings or seeds. */
+static int time_seeding(int what, const kf_mesh *m, const int *tri, double spacing, int runs, double *wall_ms,
+                        double *cpu_ms, long *count) {
+    double w[16], c[16];
+    kf_seed_lattice L;
+    kf_seed_lattice_for(m->lo, m->hi, 0.7 * spacing, &L);
+    for (int k = 0; k < runs && k < 16; k++) {
+        double w0 = wall_s(), c0 = cpu_s();
+        char err[256] = "";
+        if (what < 2) {
+            kf_seed_crossing *x;
+            *count = (what ? kf_seed_crossings_raster : kf_seed_crossings_rays)(m->vert, (int)m->nvert, tri,
+                                                                                (int)m->ntri, &L, &x, err, sizeof err);
+            free(x);
+        } else {
+            float *seed;
+            int32_t *st;
+            *count = (long)kf_rigid_seed_surface(m->vert, (int)m->nvert, tri, (int)m->ntri, spacing, &seed, &st);
+            free(seed);
+            free(st);
+            if (!*count) *count = -1, snprintf(err, sizeof err, "seeding failed");
+        }
+        if (*count < 0) {
+            fprintf(stderr, "%s: %s\n", m->path, err);
+            return -1;
+        }
+        w[k] = 1e3 * (wall_s() - w0), c[k] = 1e3 * (cpu_s() - c0);
+    }
+    *wall_ms = kf_median(w, runs < 16 ? runs : 16), *cpu_ms = kf_median(c, runs < 16 ? runs : 16);
+    return 0;
+}
+
+/* meshes from 4k to 75k triangles, each at two spacings (1/60 and 1/240 of
+ * its size: dx/2 on a preview and on a finer shot) */
+static int bench_seeding(int runs) {
+    static const char *files[4] = {"assets/sphere.obj", "assets/knife_wavy.obj", "assets/armadillo.off",
+                                   "assets/bunny.off"};
+    printf("seeding, %d threads, median of %d runs: ms wall (ms process CPU)\n", omp_get_max_threads(), runs);
+    printf("%-16s %7s %7s %9s | %20s %20s %6s | %20s %8s\n", "mesh", "tris", "1/spc", "crossings", "rays",
+           "rasteriser", "ratio", "whole seeding", "seeds");
+    for (int f = 0; f < 4; f++) {
+        kf_mesh m;
+        char err[256];
+        if (kf_mesh_load(repo_path(files[f]), &m, err, sizeof err)) {
+            fprintf(stderr, "%s\n", err);
+            return 1;
+        }
+        int *tri = malloc(sizeof(int) * 3 * m.ntri);
+        for (size_t i = 0; i < 3 * m.ntri; i++) tri[i] = (int)m.tri[i];
+        double ext = fmax(m.hi[0] - m.lo[0], fmax(m.hi[1] - m.lo[1], m.hi[2] - m.lo[2]));
+        for (int s = 0; s < 2; s++) {
+            const double per = s ? 240 : 60, spacing = ext / per;
+            double w[3], c[3];
+            long n[3];
+            for (int what = 0; what < 3; what++)
+                if (time_seeding(what, &m, tri, spacing, runs, &w[what], &c[what], &n[what])) return 1;
+            printf("%-16s %7zu %7.0f %9ld | %9.1f (%8.1f) %9.1f (%8.1f) %5.2fx | %9.1f (%8.1f) %8ld\n",
+                   strrchr(files[f], '/') + 1, m.ntri, per, n[0], w[0], c[0], w[1], c[1], w[1] / w[0], w[2], c[2],
+                   n[2]);
+            if (n[0] != n[1]) printf("  (the crossing counts differ: %ld by rays, %ld by rasterising)\n", n[0], n[1]);
+        }
+        free(tri);
+        kf_mesh_free(&m);
+    }
+    return 0;
+}
+
 int main(int argc, char **argv) {
     int cells = 128, steps = 20, runs = 3, json = 0;
+    for (int i = 1; i < argc; i++)
+        if (!strcmp(argv[i], "--seeding")) {
+            for (int k = 1; k < argc; k++)
+                if (!strcmp(argv[k], "--runs") && k + 1 < argc) runs = atoi(argv[k + 1]);
+            return bench_seeding(runs < 1 ? 1 : runs);
+        }
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--cells") && i + 1 < argc) cells = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--steps") && i + 1 < argc) steps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--json")) json = 1;
         else {
-            fprintf(stderr, "usage: %s [--cells N] [--steps N] [--runs N] [--json]\n", argv[0]);
+            fprintf(stderr, "usage: %s [--cells N] [--steps N] [--runs N] [--json] | --seeding [--runs N]\n", argv[0]);
             return 2;
         }
     }

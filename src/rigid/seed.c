@@ -1,17 +1,18 @@
 /* seed.c — rigid particles on a surface (paper §5.2.1).
  *
- * Two passes, both deterministic:
+ * Two passes, both deterministic (the same seeds for any thread count):
  *
  * 1. Lattice crossings. The lines of an axis-aligned lattice of step
  *    h = 0.7 spacing, along each of the three axes, cross the surface; each
- *    crossing is a seed on the triangle it crosses. The crossings are a
+ *    crossing is a seed on the triangle it crosses. Embree rays along the
+ *    lines find every crossing, not only the first on a line
+ *    (seed_rays.c), sorted into one order with the repeats at shared
+ *    edges and vertices removed (seed_order.c). The crossings are a
  *    property of the surface, not of its triangulation, so a flat region
- *    gets the same seeds however it is cut into triangles. Every crossing is
- *    found (not only the first along a line), by rasterising each triangle
- *    into the lines of each axis row by row. On the lines of the axis most
- *    normal to a triangle, the crossings form a lattice whose cells have
- *    diagonals of at most h√3, so no interior point is farther than h from
- *    one (the circumradius bound h√3/√3).
+ *    gets the same seeds however it is cut into triangles. On the lines of
+ *    the axis most normal to a triangle, the crossings form a lattice whose
+ *    cells have diagonals of at most h√3, so no interior point is farther
+ *    than h from one (the circumradius bound h√3/√3).
  *
  * 2. Holes. Near a triangle's edges, on triangles smaller than the lattice
  *    and on slivers, crossings can be missing. Every triangle is checked on
@@ -19,10 +20,10 @@
  *    and its three edges); any check point farther than spacing − 1.5δ from
  *    every seed becomes a seed. Any point of a triangle is within δ√2/2 of a
  *    check point, so afterwards within spacing of a seed. A triangle no
- *    crossing hit gets a seed at its centroid first.
- *
- * (Embree's rays would find the same crossings but only the first along a
- * ray; the rasteriser finds all of them and needs no scene.) */
+ *    crossing hit gets a seed at its centroid first. The check points are
+ *    what costs: a point is first tried against the previous point's
+ *    seed, and the points that seed is sure to cover are skipped (the
+ *    same seeds as checking every point, at about a third of the checks). */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -30,6 +31,7 @@
 
 #include "rigid.h"
 #include "rmath.h"
+#include "seed_crossings.h"
 
 typedef struct seeds {
     double *x;    /* (n x 3) */
@@ -56,50 +58,23 @@ static void push(seeds *s, const double p[3], int t) {
     s->tri[s->n++] = t;
 }
 
-/* ---- pass 1: lattice crossings ------------------------------------------- */
+/* ---- a hash grid over the seeds (cell = 2 spacing) ----------------------- */
 
-/* the lines along axis a through (o_b + i h, o_c + j h) that cross triangle t */
-static void crossings(seeds *s, const double *P[3], int t, int a, const double o[3], double h) {
-    const int b = (a + 1) % 3, c = (a + 2) % 3;
-    /* 2D triangle in (b, c) and its signed doubled area */
-    double u[3] = {P[0][b], P[1][b], P[2][b]}, w[3] = {P[0][c], P[1][c], P[2][c]};
-    double area = (u[1] - u[0]) * (w[2] - w[0]) - (u[2] - u[0]) * (w[1] - w[0]);
-    double ext = fmax(fmax(fabs(u[1] - u[0]), fabs(u[2] - u[0])), fmax(fabs(w[1] - w[0]), fabs(w[2] - w[0])));
-    if (!(fabs(area) > 1e-12 * ext * ext)) return; /* parallel to the lines */
-    double wlo = fmin(w[0], fmin(w[1], w[2])), whi = fmax(w[0], fmax(w[1], w[2]));
-    long j0 = (long)ceil((wlo - o[c]) / h), j1 = (long)floor((whi - o[c]) / h);
-    for (long j = j0; j <= j1; j++) {
-        double wy = o[c] + j * h;
-        /* the row's span: where the row crosses the three edges */
-        double xl = INFINITY, xr = -INFINITY;
-        for (int e = 0; e < 3; e++) {
-            int e1 = (e + 1) % 3;
-            double w0 = w[e], w1 = w[e1];
-            if ((wy < w0 && wy < w1) || (wy > w0 && wy > w1) || w0 == w1) continue;
-            double x = u[e] + (u[e1] - u[e]) * (wy - w0) / (w1 - w0);
-            xl = fmin(xl, x), xr = fmax(xr, x);
-        }
-        if (!(xl <= xr)) continue;
-        long i0 = (long)ceil((xl - o[b]) / h), i1 = (long)floor((xr - o[b]) / h);
-        for (long i = i0; i <= i1; i++) {
-            double ux = o[b] + i * h;
-            /* barycentric coordinates of (ux, wy), clamped onto the triangle against round-off */
-            double l1 = ((ux - u[0]) * (w[2] - w[0]) - (u[2] - u[0]) * (wy - w[0])) / area;
-            double l2 = ((u[1] - u[0]) * (wy - w[0]) - (ux - u[0]) * (w[1] - w[0])) / area;
-            l1 = fmin(fmax(l1, 0), 1), l2 = fmin(fmax(l2, 0), 1 - l1);
-            double l0 = 1 - l1 - l2, p[3];
-            for (int k = 0; k < 3; k++) p[k] = l0 * P[0][k] + l1 * P[1][k] + l2 * P[2][k];
-            push(s, p, t);
-        }
-    }
-}
-
-/* ---- a hash grid over the seeds (cell = spacing) ------------------------- */
+/* Pass 1's seeds are laid out bucket by bucket with their positions (one
+ * contiguous run per bucket: a lookup reads a bucket's seeds without
+ * following links through the seed array); the few seeds pass 2 adds go on
+ * per-bucket chains. */
+typedef struct hg_entry {
+    double x[3];
+    int64_t idx;
+} hg_entry;
 
 typedef struct hgrid {
     double cell, o[3];
     uint32_t mask;
-    int64_t *head, *next; /* chains of seed indices, -1 ends */
+    size_t *start;        /* (buckets + 1) bucket b's pass-1 seeds are run[start[b] .. start[b+1]) */
+    hg_entry *run;        /* (pass-1 seeds) */
+    int64_t *head, *next; /* chains of the seeds added later, -1 ends */
     size_t cap;
 } hgrid;
 
@@ -110,6 +85,41 @@ static uint32_t hash3(int64_t i, int64_t j, int64_t k, uint32_t mask) {
 
 static int64_t cellof(const hgrid *g, const double *x, int a) { return (int64_t)floor((x[a] - g->o[a]) / g->cell); }
 
+static uint32_t bucket(const hgrid *g, const double *x) {
+    return hash3(cellof(g, x, 0), cellof(g, x, 1), cellof(g, x, 2), g->mask);
+}
+
+/* the grid of seeds 0 .. n-1 (a counting sort by bucket) */
+static int hg_build(hgrid *g, const seeds *s, double cell, const double o[3]) {
+    g->cell = cell;
+    memcpy(g->o, o, sizeof g->o);
+    size_t tab = 1024;
+    while (tab < 2 * s->n) tab *= 2;
+    g->mask = (uint32_t)(tab - 1);
+    g->start = calloc(tab + 1, sizeof *g->start);
+    g->run = malloc(sizeof *g->run * (s->n ? s->n : 1));
+    g->head = malloc(sizeof *g->head * tab);
+    uint32_t *bk = malloc(sizeof *bk * (s->n ? s->n : 1));
+    if (!g->start || !g->run || !g->head || !bk) {
+        free(bk);
+        return -1;
+    }
+    for (size_t i = 0; i < tab; i++) g->head[i] = -1;
+    for (size_t i = 0; i < s->n; i++) g->start[(bk[i] = bucket(g, s->x + 3 * i)) + 1]++;
+    for (size_t b = 0; b < tab; b++) g->start[b + 1] += g->start[b];
+    for (size_t i = 0; i < s->n; i++) {
+        hg_entry *e = &g->run[g->start[bk[i]]++];
+        memcpy(e->x, s->x + 3 * i, sizeof e->x);
+        e->idx = (int64_t)i;
+    }
+    /* the fill moved each start to the next bucket's: shift back */
+    for (size_t b = tab; b > 0; b--) g->start[b] = g->start[b - 1];
+    g->start[0] = 0;
+    free(bk);
+    return 0;
+}
+
+/* a seed added after the build: on its bucket's chain */
 static int hg_insert(hgrid *g, const seeds *s, size_t idx) {
     if (idx >= g->cap) {
         size_t cap = g->cap ? 2 * g->cap : 4096;
@@ -118,36 +128,97 @@ static int hg_insert(hgrid *g, const seeds *s, size_t idx) {
         if (!nx) return -1;
         g->next = nx, g->cap = cap;
     }
-    const double *x = s->x + 3 * idx;
-    uint32_t h = hash3(cellof(g, x, 0), cellof(g, x, 1), cellof(g, x, 2), g->mask);
+    uint32_t h = bucket(g, s->x + 3 * idx);
     g->next[idx] = g->head[h];
     g->head[h] = (int64_t)idx;
     return 0;
 }
 
-/* is some seed within r of p (r <= cell) */
-static int hg_near(const hgrid *g, const seeds *s, const double p[3], double r) {
-    int64_t ci = cellof(g, p, 0), cj = cellof(g, p, 1), ck = cellof(g, p, 2);
-    double r2 = r * r;
-    for (int di = -1; di <= 1; di++)
-        for (int dj = -1; dj <= 1; dj++)
-            for (int dk = -1; dk <= 1; dk++)
-                for (int64_t q = g->head[hash3(ci + di, cj + dj, ck + dk, g->mask)]; q >= 0; q = g->next[q]) {
-                    const double *x = s->x + 3 * q;
-                    double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]};
-                    if (rm_dot(d, d) <= r2) return 1;
+static void hg_free(hgrid *g) {
+    free(g->start);
+    free(g->run);
+    free(g->head);
+    free(g->next);
+    g->start = NULL, g->run = NULL, g->head = NULL, g->next = NULL;
+}
+
+/* the index of the seed nearest to p within r, or -1. Only the cells the
+ * ball's bounding box overlaps are visited: with r < spacing and cells of
+ * 2 spacing, 1 or 2 along each axis, about 6 cells in all (cells of one
+ * spacing: 2 or 3 along each axis, about 18 cells for the same seeds). */
+static int64_t hg_nearest(const hgrid *g, const seeds *s, const double p[3], double r) {
+    int64_t lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = (int64_t)floor((p[a] - r - g->o[a]) / g->cell);
+        hi[a] = (int64_t)floor((p[a] + r - g->o[a]) / g->cell);
+    }
+    double best = r * r;
+    int64_t found = -1;
+    for (int64_t i = lo[0]; i <= hi[0]; i++)
+        for (int64_t j = lo[1]; j <= hi[1]; j++)
+            for (int64_t k = lo[2]; k <= hi[2]; k++) {
+                uint32_t h = hash3(i, j, k, g->mask);
+                for (size_t q = g->start[h]; q < g->start[h + 1]; q++) {
+                    const hg_entry *e = &g->run[q];
+                    double d[3] = {e->x[0] - p[0], e->x[1] - p[1], e->x[2] - p[2]}, d2 = rm_dot(d, d);
+                    if (d2 < best || (d2 == best && found < 0)) best = d2, found = e->idx;
                 }
-    return 0;
+                for (int64_t q = g->head[h]; q >= 0; q = g->next[q]) {
+                    const double *x = s->x + 3 * q;
+                    double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]}, d2 = rm_dot(d, d);
+                    if (d2 < best || (d2 == best && found < 0)) best = d2, found = q;
+                }
+            }
+    return found;
 }
 
 /* ---- pass 2: holes ------------------------------------------------------- */
 
-/* check point p of triangle t: a seed there if none is within r */
-static int check(hgrid *g, seeds *s, const double p[3], int t, double r) {
-    if (hg_near(g, s, p, r)) return 0;
+/* check point p of triangle t: a seed there if none is within r. The
+ * nearest seed of the previous check point (*last) is tried first: the
+ * check points come δ apart, so it usually still covers p, and a seed
+ * within r is all the check asks for (the same answer as a grid search).
+ * *dist: how far the covering seed is from p (0 for a new seed). */
+static int check(hgrid *g, seeds *s, const double p[3], int t, double r, int64_t *last, double *dist) {
+    if (*last >= 0) {
+        const double *x = s->x + 3 * *last;
+        double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]}, d2 = rm_dot(d, d);
+        if (d2 <= r * r) {
+            *dist = sqrt(d2);
+            return 0;
+        }
+    }
+    *last = hg_nearest(g, s, p, r);
+    if (*last >= 0) {
+        const double *x = s->x + 3 * *last;
+        double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]};
+        *dist = sqrt(rm_dot(d, d));
+        return 0;
+    }
+    *dist = 0;
     push(s, p, t);
     if (s->oom) return -1;
+    *last = (int64_t)s->n - 1;
     return hg_insert(g, s, s->n - 1);
+}
+
+/* the check points p0 + (i/n) d, i = i0..i1, of a row or an edge. A point
+ * whose covering seed is dist from it covers the next m points too, while
+ * m steps (each |d|/n) stay within r - dist: those are skipped (with a
+ * relative margin of 1e-9 against the round-off of the points' positions) */
+static int check_row(hgrid *g, seeds *s, const double p0[3], const double d[3], int n, int i0, int i1, int t, double r,
+                     int64_t *last) {
+    const double step = n ? sqrt(rm_dot(d, d)) / n : 0;
+    for (int i = i0; i <= i1; i++) {
+        double f = n ? (double)i / n : 0, p[3], dist;
+        for (int a = 0; a < 3; a++) p[a] = p0[a] + f * d[a];
+        if (check(g, s, p, t, r, last, &dist)) return -1;
+        if (step > 0) {
+            double m = floor((r - dist) * (1 - 1e-9) / step);
+            if (m > 0) i += m < i1 - i ? (int)m : i1 - i;
+        }
+    }
+    return 0;
 }
 
 static int fill_holes(hgrid *g, seeds *s, const double *P[3], int t, double delta, double r) {
@@ -162,7 +233,9 @@ static int fill_holes(hgrid *g, seeds *s, const double *P[3], int t, double delt
     const double *A = P[k], *B = P[(k + 1) % 3], *C = P[(k + 2) % 3];
     double ab[3] = {B[0] - A[0], B[1] - A[1], B[2] - A[2]}, ac[3] = {C[0] - A[0], C[1] - A[1], C[2] - A[2]};
     double L = sqrt(rm_dot(ab, ab));
-    if (!(L > 0)) return check(g, s, A, t, r);
+    int64_t last = -1;
+    double dist;
+    if (!(L > 0)) return check(g, s, A, t, r, &last, &dist);
     double ux = rm_dot(ac, ab) / L; /* C's position along AB, in [0, L] */
     double hv[3];
     for (int a = 0; a < 3; a++) hv[a] = ac[a] - ux * ab[a] / L;
@@ -176,22 +249,14 @@ static int fill_holes(hgrid *g, seeds *s, const double *P[3], int t, double delt
         for (int a = 0; a < 3; a++) p0[a] = A[a] + f * ac[a], p1[a] = B[a] + f * (C[a] - B[a]);
         double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
         int nx = (int)ceil(sqrt(rm_dot(d, d)) / delta);
-        for (int i = 0; i <= nx; i++) {
-            double g2 = nx ? (double)i / nx : 0, p[3];
-            for (int a = 0; a < 3; a++) p[a] = p0[a] + g2 * d[a];
-            if (check(g, s, p, t, r)) return -1;
-        }
+        if (check_row(g, s, p0, d, nx, 0, nx, t, r, &last)) return -1;
     }
     /* the two other edges, δ apart (the rows' ends may be far apart on a sliver) */
     const double *E[2][2] = {{A, C}, {B, C}};
     for (int e = 0; e < 2; e++) {
         double d[3] = {E[e][1][0] - E[e][0][0], E[e][1][1] - E[e][0][1], E[e][1][2] - E[e][0][2]};
         int n = (int)ceil(sqrt(rm_dot(d, d)) / delta);
-        for (int i = 1; i < n; i++) {
-            double p[3];
-            for (int a = 0; a < 3; a++) p[a] = E[e][0][a] + (double)i / n * d[a];
-            if (check(g, s, p, t, r)) return -1;
-        }
+        if (check_row(g, s, E[e][0], d, n, 1, n - 1, t, r, &last)) return -1;
     }
     return 0;
 }
@@ -200,47 +265,43 @@ size_t kf_rigid_seed_surface(const double *vert, int nvert, const int *tri, int 
                              int32_t **seed_tri) {
     *seed = NULL, *seed_tri = NULL;
     if (!(spacing > 0) || !isfinite(spacing) || ntri < 1 || nvert < 3) return 0;
-    double lo[3] = {INFINITY, INFINITY, INFINITY};
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int i = 0; i < nvert; i++)
-        for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], vert[3 * i + a]);
-    /* the lattice: step 0.7 spacing, offset from the mesh's corner by
-     * irrational-looking fractions so faces on round coordinates do not
-     * contain lattice lines */
-    const double h = 0.7 * spacing, frac[3] = {0.3719, 0.5227, 0.6811};
-    double o[3];
-    for (int a = 0; a < 3; a++) o[a] = lo[a] - frac[a] * h;
+        for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], vert[3 * i + a]), hi[a] = fmax(hi[a], vert[3 * i + a]);
+    /* pass 1: the lattice (step 0.7 spacing) and its crossings, by Embree */
+    kf_seed_lattice L;
+    kf_seed_lattice_for(lo, hi, 0.7 * spacing, &L);
+    kf_seed_crossing *cx;
+    char err[256];
+    long ncx = kf_seed_crossings_rays(vert, nvert, tri, ntri, &L, &cx, err, sizeof err);
+    if (ncx < 0) return 0;
     seeds s = {0};
     hgrid g = {0};
-    for (int t = 0; t < ntri && !s.oom; t++) {
-        const double *P[3] = {vert + 3 * tri[3 * t], vert + 3 * tri[3 * t + 1], vert + 3 * tri[3 * t + 2]};
-        size_t before = s.n;
-        for (int a = 0; a < 3; a++) crossings(&s, P, t, a, o, h);
-        if (s.n == before) {
-            double c[3];
-            for (int a = 0; a < 3; a++) c[a] = (P[0][a] + P[1][a] + P[2][a]) / 3;
-            push(&s, c, t);
-        }
+    uint8_t *hit = calloc((size_t)ntri, 1);
+    for (long k = 0; k < ncx && hit; k++) {
+        push(&s, cx[k].x, cx[k].tri);
+        hit[cx[k].tri] = 1;
     }
+    free(cx);
+    if (!hit) goto fail;
+    /* a triangle no line crossed: a seed at its centroid */
+    for (int t = 0; t < ntri; t++) {
+        if (hit[t]) continue;
+        const double *P[3] = {vert + 3 * tri[3 * t], vert + 3 * tri[3 * t + 1], vert + 3 * tri[3 * t + 2]};
+        double c[3];
+        for (int a = 0; a < 3; a++) c[a] = (P[0][a] + P[1][a] + P[2][a]) / 3;
+        push(&s, c, t);
+    }
+    free(hit);
     if (s.oom) goto fail;
-    /* the hash grid of pass 1's seeds */
-    g.cell = spacing;
-    memcpy(g.o, o, sizeof o);
-    size_t tab = 1024;
-    while (tab < 2 * s.n) tab *= 2;
-    g.mask = (uint32_t)(tab - 1);
-    g.head = malloc(sizeof(int64_t) * tab);
-    if (!g.head) goto fail;
-    for (size_t i = 0; i < tab; i++) g.head[i] = -1;
-    for (size_t i = 0; i < s.n; i++)
-        if (hg_insert(&g, &s, i)) goto fail;
+    /* pass 2: the hash grid of pass 1's seeds, every triangle's check points */
+    if (hg_build(&g, &s, 2 * spacing, L.o)) goto fail;
     const double delta = spacing / 8;
     for (int t = 0; t < ntri; t++) {
         const double *P[3] = {vert + 3 * tri[3 * t], vert + 3 * tri[3 * t + 1], vert + 3 * tri[3 * t + 2]};
         if (fill_holes(&g, &s, P, t, delta, spacing - 1.5 * delta)) goto fail;
     }
-    free(g.head);
-    free(g.next);
-    g.head = g.next = NULL;
+    hg_free(&g);
     /* out as floats */
     *seed = malloc(sizeof(float) * 3 * (s.n ? s.n : 1));
     *seed_tri = s.tri;
@@ -253,8 +314,7 @@ size_t kf_rigid_seed_surface(const double *vert, int nvert, const int *tri, int 
     free(s.x);
     return s.n;
 fail:
-    free(g.head);
-    free(g.next);
+    hg_free(&g);
     free(s.x);
     free(s.tri);
     free(*seed);
