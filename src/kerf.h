@@ -196,6 +196,8 @@ typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC } kf_transfer;
 /* How the grid velocities advance (issue 7): explicit symplectic Euler, or
  * backward Euler solved by Newton-Krylov on the incremental potential. */
 typedef enum kf_integrator { KF_INTEGRATOR_EXPLICIT = 0, KF_INTEGRATOR_IMPLICIT } kf_integrator;
+/* The implicit solve's CG preconditioner: a multigrid V-cycle, or Jacobi. */
+typedef enum kf_precond { KF_PRECOND_MULTIGRID = 0, KF_PRECOND_JACOBI } kf_precond;
 
 typedef struct kf_sim_def {
     double dx;            /* grid spacing, m */
@@ -220,6 +222,7 @@ typedef struct kf_sim_def {
     int newton_max;       /* Newton iterations per substep (0 = default) */
     double krylov_tol;    /* CG relative residual (0 = default) */
     int krylov_max;       /* CG iterations per Newton step (0 = default) */
+    kf_precond precond;   /* CG preconditioner */
     /* testing the recovery path: at this substep count (kf_state's substeps
      * since creation) one particle's velocity becomes NaN, once per state; the
      * step must catch it and kf_advance retry the interval (0 = never) */

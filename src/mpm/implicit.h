@@ -81,6 +81,8 @@ typedef struct kf_implicit {
     /* solver vectors (KF_IMP_NV nnode each; the 4th entry of a node stays 0) */
     double *v, *g, *d, *r, *z, *p, *q, *vt, *diag;
     double *bsum;      /* (nblocks) partial sums, summed in block order (deterministic) */
+    /* the multigrid preconditioner's levels (implicit_mg_*.c), built on first use */
+    struct kf_imp_mg *mg;
     /* what the last solve did */
     int newton_iterations, krylov_iterations, converged;
     double residual;
@@ -126,6 +128,61 @@ void kf_imp_project(const kf_implicit *w, double *x);
  * velocity relative to the boundary shrinks by μ times the normal velocity
  * the solve removed. */
 void kf_imp_friction(const kf_implicit *w, double *v);
+
+/* ---- the multigrid preconditioner (implicit_mg_build.c, implicit_mg_cycle.c) ----
+ * In the style of HOT (Wang et al. 2020): level 0 is the solve's grid and
+ * operator (matrix-free, boundary-projected); level l >= 1 re-discretises
+ * the same energy on a grid of spacing 2^l Δx, with the particles' masses
+ * re-transferred to its nodes and their per-particle Hessian blocks Kp
+ * summed into one quadrature point per cell of the level (the particles'
+ * centroid), so a coarse product costs a fraction of a fine one. Levels are
+ * joined by trilinear prolongation P and restriction Pᵀ, each level's
+ * boundary projection applied after P and before Pᵀ (coarse levels inherit
+ * their children's fixed directions). Coarse levels run a symmetric
+ * V(1,1)-cycle of damped Jacobi (ω from a power-iteration estimate of
+ * λmax(D⁻¹A), the coarsest level a fixed number of sweeps); the fine level
+ * adds its Jacobi step and the coarse correction (no fine smoothing, so no
+ * fine Hessian product per application). The whole is a symmetric
+ * positive-definite operator, as CG needs. */
+#define KF_MG_MAX_LEVELS 6
+typedef struct kf_mg_level {
+    double h;             /* node spacing, m */
+    size_t nn;            /* nodes (level 0: the solve's nnode) */
+    int32_t *coord;       /* (3 nn) integer node coordinates (coarse levels) */
+    double *mass;         /* (nn) coarse levels: the particles' masses re-transferred */
+    double *diag;         /* (KF_IMP_NV nn) the operator's diagonal (level 0: the solve's) */
+    double omega;         /* Jacobi damping: OMEGA / λmax(D⁻¹A), estimated (coarse levels) */
+    size_t nq;            /* quadrature points (coarse levels): one per cell of the level */
+    int32_t *q_of_p;      /* (np) each particle's point */
+    double *qx;           /* (3 nq) the point's position (its particles' mass centroid) */
+    int32_t *idx;         /* (27 nq) stencil nodes */
+    double *gam;          /* (81 nq) MLS γ of each stencil node at spacing h */
+    double *K;            /* (81 nq) Σ Kp of the point's particles */
+    int32_t *par;         /* (8 per node of the finer level) parents on this level, -1 none */
+    double *pw;           /* (8 per node of the finer level) trilinear weights */
+    double *b, *x, *t;    /* (KF_IMP_NV nn, coarse levels) right-hand side, iterate, scratch */
+    size_t ncon;          /* coarse levels: constrained nodes and their projections (level 0: the solve's) */
+    int32_t *con_node;
+    double *con_P;        /* (9 ncon) */
+} kf_mg_level;
+typedef struct kf_imp_mg {
+    int nlev;
+    int estimated;        /* the coarse dampings were estimated (once per substep) */
+    kf_mg_level lev[KF_MG_MAX_LEVELS];
+} kf_imp_mg;
+/* the levels for w's particles (0 on success, -1 out of memory); the
+ * geometry is built once per substep, the operators by kf_imp_mg_refresh */
+int kf_imp_mg_create(kf_implicit *w);
+void kf_imp_mg_free(kf_imp_mg *mg);
+/* the coarse operators and every level's smoother from the current Kp */
+void kf_imp_mg_refresh(kf_implicit *w);
+/* x ← P_l x: level l's boundary projection (level 0: kf_imp_project) */
+void kf_imp_mg_project(const kf_implicit *w, int level, double *x);
+/* z = B r, B the V-cycle (z and r: KF_IMP_NV nnode; z projected) */
+void kf_imp_mg_apply(kf_implicit *w, const double *r, double *z);
+/* levels built (1 = only the fine grid) and the node count of level l */
+int kf_imp_mg_levels(const kf_implicit *w);
+size_t kf_imp_mg_nodes(const kf_implicit *w, int level);
 
 /* ---- the solve ---------------------------------------------------------------- */
 

@@ -124,7 +124,12 @@ int kf_imp_energy_eval(const kf_mat *m, const double F[9], const kf_real ps[2], 
         pa[q] = 0.5 * (st + tw);
         pb[q] = 0.5 * (st - tw);
     }
-    if (project) {
+    /* a positive-definite block (leading minors > 0, the usual case) is its
+     * own projection: the eigen-decomposition is only for the others */
+    double m2 = pr.A[0] * pr.A[4] - pr.A[1] * pr.A[3];
+    double det = pr.A[0] * (pr.A[4] * pr.A[8] - pr.A[5] * pr.A[7]) - pr.A[1] * (pr.A[3] * pr.A[8] - pr.A[5] * pr.A[6]) +
+                 pr.A[2] * (pr.A[3] * pr.A[7] - pr.A[4] * pr.A[6]);
+    if (project && !(pr.A[0] > 0 && m2 > 0 && det > 0)) {
         double w[3], Q[9];
         kf_imp_sym_eig3(pr.A, w, Q);
         for (int k = 0; k < 3; k++) w[k] = w[k] > 0 ? w[k] : 0;

@@ -1,7 +1,8 @@
 /* implicit_solve.c — backward Euler on the grid velocities: Newton's method
- * on the incremental potential E(v) (implicit.h), each step solved by
- * Jacobi-preconditioned CG on the projected (positive semi-definite)
- * Hessian, then a backtracking line search on E.
+ * on the incremental potential E(v) (implicit.h), each step solved by CG
+ * on the projected (positive semi-definite) Hessian, preconditioned by the
+ * multigrid cycle (implicit_mg_cycle.c, the default) or by Jacobi
+ * (sim.precond), then a backtracking line search on E.
  *
  * The Hessian is never assembled: its action is a gather of G_p from the
  * increment, the per-particle 9x9 block Kp (the energy's projected second
@@ -151,8 +152,13 @@ void kf_imp_hessian_action(kf_implicit *w, const double *x, double *y) {
 
 /* ---- Newton–Krylov ------------------------------------------------------------ */
 
-/* z = P D⁻¹ r: the Jacobi preconditioner restricted to the free directions */
+/* z = P D⁻¹ r: the Jacobi preconditioner restricted to the free directions;
+ * or the multigrid V-cycle (implicit_mg_cycle.c) */
 static void precondition(kf_implicit *w, const double *r, double *z) {
+    if (w->mg) {
+        kf_imp_mg_apply(w, r, z);
+        return;
+    }
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t k = 0; k < KF_IMP_NV * w->nnode; k++) z[k] = w->diag[k] > 0 ? r[k] / w->diag[k] : 0.0;
     kf_imp_project(w, z);
@@ -168,6 +174,14 @@ static int pcg(kf_implicit *w, double tol, int kmax) {
     for (size_t i = 0; i < w->nnode; i++)
         for (int a = 0; a < 3; a++) w->diag[KF_IMP_NV * i + a] = w->mass[i];
     kf_imp_scatter_diag(w, w->diag);
+    if (w->m->sim.precond == KF_PRECOND_MULTIGRID) {
+        /* the levels once per substep, their operators at every Newton iteration */
+        if (!w->mg && kf_imp_mg_create(w)) {
+            kf_imp_mg_free(w->mg); /* out of memory: Jacobi instead */
+            w->mg = NULL;
+        }
+        if (w->mg) kf_imp_mg_refresh(w);
+    }
     precondition(w, r, z);
     memcpy(p, z, n3 * sizeof *p);
     double rz = kf_imp_dot(w, r, z), r0 = norm_minv(w, r);

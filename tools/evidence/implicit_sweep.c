@@ -2,6 +2,7 @@
  * integration, over a range of stiffnesses (issue 7's evidence).
  *
  *   kf_evid_implicit_sweep --out DIR [--quick] [--E 1e6,3e6,1e7,3e7]
+ *   kf_evid_implicit_sweep --out DIR --E 1e6 --only-k 20 [--jacobi]   (one run, for profiling)
  *
  * The problem: a stiff elastic (fixed corotated) cantilever, ρ = 1000 kg/m³,
  * ν = 0.3, 0.4 m long, 8 x 12 cm section, clamped by sticky walls at x = 0
@@ -14,7 +15,8 @@
  *
  * Explicit runs at CFL 0.4 (kerf's default) and 0.8; implicit at fixed
  * steps k × Δt_explicit, Δt_explicit = 0.4 Δx / c the step explicit takes,
- * for k in {5, 10, 20, 50}. Cost: process CPU seconds per frame on 1 thread
+ * for k in {5, 10, 20, 50}, with CG preconditioned by multigrid (the
+ * default) and by Jacobi. Cost: process CPU seconds per frame on 1 thread
  * (CLOCK_PROCESS_CPUTIME_ID), so other load on the machine does not
  * inflate it. Writes DIR/implicit_sweep.csv (every run), DIR/implicit_sweep.md
  * (tables and the verdict at E = 1e6, k = 20) and DIR/implicit_<E>_<integrator>.dat
@@ -34,6 +36,7 @@ typedef struct run {
     double dt;         /* fixed step (0 = CFL) */
     double cfl;
     int implicit;
+    kf_precond precond; /* implicit: CG's preconditioner */
     int ok;
     double cpu_per_frame, rms, maxerr;
     long substeps, newton, krylov;
@@ -49,11 +52,15 @@ static double g_dx = 0.025;
 /* the implicit solve's settings (0 = kerf's defaults) */
 static double g_newton_tol, g_krylov_tol;
 static int g_krylov_max, g_newton_max;
+/* profiling: run only the implicit step k = g_only_k (0 = the whole sweep) */
+static int g_only_k;
+static kf_precond g_only_precond = KF_PRECOND_MULTIGRID;
 
 /* simulate; x receives positions by stable id (3 n) */
-static run simulate(double E, int implicit, double cfl, double dt_fixed, double *x, size_t *n_out) {
+static run simulate(double E, int implicit, kf_precond pc, double cfl, double dt_fixed, double *x, size_t *n_out) {
     run r = {0};
     r.implicit = implicit;
+    r.precond = pc;
     r.cfl = cfl;
     r.dt = dt_fixed;
     kf_sim_def sd = kf_default_sim_def();
@@ -65,6 +72,7 @@ static run simulate(double E, int implicit, double cfl, double dt_fixed, double 
     sd.dt_fixed = dt_fixed;
     sd.max_retries = 0;
     sd.integrator = implicit ? KF_INTEGRATOR_IMPLICIT : KF_INTEGRATOR_EXPLICIT;
+    sd.precond = pc;
     if (g_newton_tol > 0) sd.newton_tol = g_newton_tol;
     if (g_krylov_tol > 0) sd.krylov_tol = g_krylov_tol;
     if (g_krylov_max > 0) sd.krylov_max = g_krylov_max;
@@ -121,6 +129,8 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--newton-max") && i + 1 < argc) g_newton_max = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--krylov-tol") && i + 1 < argc) g_krylov_tol = atof(argv[++i]);
         else if (!strcmp(argv[i], "--krylov-max") && i + 1 < argc) g_krylov_max = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--only-k") && i + 1 < argc) g_only_k = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--jacobi")) g_only_precond = KF_PRECOND_JACOBI;
         else if (!strcmp(argv[i], "--E") && i + 1 < argc) {
             nE = 0;
             for (char *t = strtok(argv[++i], ","); t && nE < 8; t = strtok(NULL, ",")) Es[nE++] = atof(t);
@@ -150,6 +160,10 @@ int main(int argc, char **argv) {
                 "position difference to explicit at CFL 0.1 at the end. k = implicit step / explicit step "
                 "(0.4 dx / c).\n\n",
                 g_dx, FRAMES);
+    if (g_newton_tol > 0 || g_krylov_tol > 0 || g_newton_max > 0 || g_krylov_max > 0)
+        fprintf(md, "Solver settings other than kerf's defaults: newton_tol %g, krylov_tol %g, newton_max %d, "
+                    "krylov_max %d (0 = default).\n\n",
+                g_newton_tol, g_krylov_tol, g_newton_max, g_krylov_max);
     const int ks[4] = {5, 10, 20, 50};
     const double cfls[2] = {0.4, 0.8};
     for (int e = 0; e < nE; e++) {
@@ -159,49 +173,70 @@ int main(int argc, char **argv) {
         double c = sqrt((la + 2 * mu) / 1000), dt_exp = 0.4 * g_dx / c;
         size_t n = 0;
         double *ref = malloc(sizeof(double) * 3 * 200000), *x = malloc(sizeof(double) * 3 * 200000);
-        run rr = simulate(E, 0, 0.1, 0, ref, &n);
+        if (g_only_k > 0) {
+            /* profiling: one implicit run, no reference */
+            run r = simulate(E, 1, g_only_precond, 0.4, g_only_k * dt_exp, x, &n);
+            fprintf(stderr, "E %.0e k %d: %.4f CPU s/frame, substeps %ld newton %ld cg %ld\n", E, g_only_k,
+                    r.cpu_per_frame, r.substeps, r.newton, r.krylov);
+            free(ref);
+            free(x);
+            continue;
+        }
+        run rr = simulate(E, 0, KF_PRECOND_MULTIGRID, 0.1, 0, ref, &n);
         fprintf(stderr, "E %.0e: reference %s, %.2f s/frame, %zu particles\n", E, rr.ok ? "ok" : "FAILED",
                 rr.cpu_per_frame, n);
         fprintf(md, "## E = %.0e Pa (c = %.1f m/s, explicit step %.3g s, reference %.2f CPU s/frame)\n\n"
                     "| integrator | step | CPU s/frame | RMS error (m) | substeps | Newton | CG |\n"
                     "|---|---|---|---|---|---|---|\n",
                 E, c, dt_exp, rr.cpu_per_frame);
-        run rows[6];
-        int nr = 0;
-        for (int k = 0; k < 2; k++) rows[nr++] = simulate(E, 0, cfls[k], 0, x, &n), compare(&rows[nr - 1], x, ref, n);
-        for (int k = 0; k < 4; k++)
-            rows[nr++] = simulate(E, 1, 0.4, ks[k] * dt_exp, x, &n), compare(&rows[nr - 1], x, ref, n);
+        /* explicit at two CFL numbers, then implicit at each k with the
+         * multigrid preconditioner (the default) and with Jacobi */
+        run rows[10];
+        int nr = 0, kof[10] = {0};
+        for (int k = 0; k < 2; k++)
+            rows[nr++] = simulate(E, 0, KF_PRECOND_MULTIGRID, cfls[k], 0, x, &n), compare(&rows[nr - 1], x, ref, n);
+        for (int pc = 0; pc < 2; pc++)
+            for (int k = 0; k < 4; k++) {
+                kof[nr] = ks[k];
+                rows[nr++] = simulate(E, 1, pc ? KF_PRECOND_JACOBI : KF_PRECOND_MULTIGRID, 0.4, ks[k] * dt_exp, x, &n);
+                compare(&rows[nr - 1], x, ref, n);
+            }
         for (int j = 0; j < nr; j++) {
             run *r = &rows[j];
-            int k = r->implicit ? ks[j - 2] : 0;
-            fprintf(csv, "%g,%s,%g,%g,%d,%d,%.6g,%.6g,%.6g,%ld,%ld,%ld\n", E, r->implicit ? "implicit" : "explicit",
+            int k = kof[j];
+            const char *name = !r->implicit ? "explicit" : r->precond == KF_PRECOND_JACOBI ? "implicit jacobi" : "implicit multigrid";
+            fprintf(csv, "%g,%s,%g,%g,%d,%d,%.6g,%.6g,%.6g,%ld,%ld,%ld\n", E, name,
                     r->cfl, r->dt, k, r->ok, r->cpu_per_frame, r->rms, r->maxerr, r->substeps, r->newton, r->krylov);
             char step[64];
             if (r->implicit) snprintf(step, sizeof step, "%d x (%.3g s)", k, r->dt);
             else snprintf(step, sizeof step, "CFL %.1f", r->cfl);
-            fprintf(md, "| %s | %s | %.4f | %s%.3g | %ld | %ld | %ld |\n", r->implicit ? "implicit" : "explicit", step,
+            fprintf(md, "| %s | %s | %.4f | %s%.3g | %ld | %ld | %ld |\n", name, step,
                     r->cpu_per_frame, r->ok ? "" : "failed ", r->rms, r->substeps, r->newton, r->krylov);
-            fprintf(stderr, "  %-8s %-18s %.4f s/frame  rms %.3g m  substeps %ld newton %ld cg %ld\n",
-                    r->implicit ? "implicit" : "explicit", step, r->cpu_per_frame, r->rms, r->substeps, r->newton,
+            fprintf(stderr, "  %-18s %-18s %.4f s/frame  rms %.3g m  substeps %ld newton %ld cg %ld\n", name, step, r->cpu_per_frame, r->rms, r->substeps, r->newton,
                     r->krylov);
         }
         fprintf(md, "\n");
         /* the plot's data: cost against error per integrator */
-        for (int imp = 0; imp < 2; imp++) {
-            snprintf(path, sizeof path, "%s/implicit_%.0e_%s.dat", out, E, imp ? "implicit" : "explicit");
+        /* (implicit_<E>_implicit.dat: multigrid, _jacobi.dat: Jacobi) */
+        for (int kind = 0; kind < 3; kind++) {
+            const char *tag = kind == 0 ? "explicit" : kind == 1 ? "implicit" : "jacobi";
+            snprintf(path, sizeof path, "%s/implicit_%.0e_%s.dat", out, E, tag);
             FILE *d = fopen(path, "w");
             if (!d) continue;
-            fprintf(d, "# cpu_s_per_frame rms_error_m (E = %.0e, %s)\n", E, imp ? "implicit" : "explicit");
-            for (int j = 0; j < nr; j++)
-                if (rows[j].implicit == imp && rows[j].ok) fprintf(d, "%.6g %.6g\n", rows[j].cpu_per_frame, rows[j].rms);
+            fprintf(d, "# cpu_s_per_frame rms_error_m (E = %.0e, %s)\n", E, tag);
+            for (int j = 0; j < nr; j++) {
+                int rk = !rows[j].implicit ? 0 : rows[j].precond == KF_PRECOND_JACOBI ? 2 : 1;
+                if (rk == kind && rows[j].ok) fprintf(d, "%.6g %.6g\n", rows[j].cpu_per_frame, rows[j].rms);
+            }
             fclose(d);
         }
         /* the issue's target: E = 1e6 at k = 20 against explicit at its own step (CFL 0.4) */
         if (E == 1e6) {
-            run *ex = &rows[0], *im = &rows[2 + 2];
-            fprintf(md, "Target (E = 1e6, k = 20): implicit %.4f CPU s/frame at RMS error %.3g m; explicit at CFL 0.4 "
-                        "%.4f CPU s/frame at RMS error %.3g m: implicit is %s (%.2fx).\n\n",
-                    im->cpu_per_frame, im->rms, ex->cpu_per_frame, ex->rms,
+            run *ex = &rows[0], *im = &rows[2 + 2], *ja = &rows[6 + 2];
+            fprintf(md, "Target (E = 1e6, k = 20): implicit (multigrid) %.4f CPU s/frame at RMS error %.3g m (Jacobi: "
+                        "%.4f s, %ld CG); explicit at CFL 0.4 %.4f CPU s/frame at RMS error %.3g m: implicit is %s "
+                        "(%.2fx).\n\n",
+                    im->cpu_per_frame, im->rms, ja->cpu_per_frame, ja->krylov, ex->cpu_per_frame, ex->rms,
                     im->cpu_per_frame < ex->cpu_per_frame ? "faster" : "slower", ex->cpu_per_frame / im->cpu_per_frame);
         }
         free(ref);
