@@ -1,7 +1,8 @@
 /* test_implicit.c — backward Euler by Newton–Krylov (issue 7).
  *
  * The solve's derivatives are checked against finite differences (stress
- * and Hessian per material; the grid force differential of Eq. 19 to second
+ * and Hessian per material, the corotated stress by the polar decomposition
+ * against the SVD's; the grid force differential of Eq. 19 to second
  * order in the step h), the Hessian action for symmetry and, projected, for
  * positive semi-definiteness; whole substeps converge to the explicit ones
  * at first order as Δt shrinks, a stress-free body falls exactly as the
@@ -64,6 +65,48 @@ static void energy_derivatives(void) {
             if (errP / scale > 1e-8 || errH / scale > 1e-7) fprintf(stderr, "  material %s trial %d\n", presets[k], trial);
         }
     }
+}
+
+/* the corotated stress by the polar decomposition (implicit_energy.c) is the
+ * SVD's P = U diag(∂ψ/∂σ) Vᵀ and Ψ = ψ(σ), for strong deformations, and an
+ * inverted F (which takes the SVD path) keeps its signed-SVD stress */
+static void corotated_polar_matches_svd(void) {
+    kf_material def;
+    kf_material_preset("jello", &def);
+    kf_mat mat;
+    kf_mat_compile(&mat, &def);
+    const kf_real ps[2] = {1, 0};
+    const double mu = mat.mu, la = mat.lambda;
+    unsigned seed = 31;
+    double errP = 0, errpsi = 0;
+    int inverted = 0;
+    for (int trial = 0; trial < 200; trial++) {
+        double F[9], U[9], sg[3], V[9];
+        for (int i = 0; i < 9; i++) F[i] = (i % 4 == 0) + 0.6 * urand(&seed);
+        if (trial % 4 == 3) /* a reflected, inverted F */
+            for (int i = 6; i < 9; i++) F[i] = -F[i];
+        kf_imp_energy e;
+        KT_CHECK(kf_imp_energy_eval(&mat, F, ps, 0, 0, &e) == 0, "evaluated");
+        kf_imp_svd(F, U, sg, V);
+        double J = sg[0] * sg[1] * sg[2], d[3], psi = 0.5 * la * (J - 1) * (J - 1);
+        inverted += J < 0;
+        for (int k = 0; k < 3; k++) {
+            d[k] = 2 * mu * (sg[k] - 1) + la * (J - 1) * sg[(k + 1) % 3] * sg[(k + 2) % 3];
+            psi += mu * (sg[k] - 1) * (sg[k] - 1);
+        }
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++) {
+                double P = U[3 * a] * d[0] * V[3 * b] + U[3 * a + 1] * d[1] * V[3 * b + 1] + U[3 * a + 2] * d[2] * V[3 * b + 2];
+                errP = fmax(errP, fabs(P - e.P[3 * a + b]) / (mu + la));
+            }
+        errpsi = fmax(errpsi, fabs(psi - e.psi) / (mu + la));
+        KT_NEAR(kf_imp_energy_psi(&mat, F, ps), e.psi, 0, "psi alone is the same function of F");
+    }
+    printf("  corotated polar vs SVD: max |dP| %.3g, |dpsi| %.3g (of mu + lambda); %d of 200 inverted\n", errP, errpsi,
+           inverted);
+    KT_CHECK(inverted > 0, "some random F are inverted (the SVD path)");
+    KT_NEAR(errP, 0, 1e-13, "P by the polar decomposition = P by the SVD");
+    KT_NEAR(errpsi, 0, 1e-13, "psi by the polar decomposition = psi by the SVD");
 }
 
 /* ---- a small deformed block on the grid ------------------------------------------- */
@@ -504,6 +547,7 @@ static void rejects_water(void) {
 
 int main(int argc, char **argv) {
     KT_RUN(energy_derivatives, argc, argv);
+    KT_RUN(corotated_polar_matches_svd, argc, argv);
     KT_RUN(force_differential, argc, argv);
     KT_RUN(hessian_symmetric_psd, argc, argv);
     KT_RUN(free_fall_matches_explicit, argc, argv);

@@ -187,7 +187,8 @@ static double cantilever_cg_per_newton(kf_precond pc, int k) {
 
 /* Measured on the evidence cantilever over its first half frame on 2
  * threads: multigrid 6.6 CG iterations per Newton iteration at 5x and 17.9
- * at 20x; Jacobi 8.4 and 28.9. The bound 24 at 20x is the measurement with
+ * at 20x; Jacobi 8.4 and 28.9 (since CG stops at half the Newton tolerance,
+ * implicit_solve.c: multigrid 4.6 and 11.1, Jacobi 6.1 and 20.9). The bound 24 at 20x is the measurement with
  * a third of headroom (jitter, thread count and build move it by an
  * iteration or two). Jacobi's iterations grow like Δt c / Δx (3.4x from 5x
  * to 20x here); multigrid's grow too but slower (2.7x), asserted below 3x. */

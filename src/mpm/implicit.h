@@ -33,7 +33,11 @@ void kf_imp_sym_eig3(const double A[9], double w[3], double Q[9]);
  * splits into the 3x3 block ∂²ψ/∂σ² on the diagonal entries and one 2x2
  * block per pair (i, j) acting on (δF̂_ij, δF̂_ji), whose eigenvalues are
  * (ψ_i − ψ_j)/(σ_i − σ_j) (stretch) and (ψ_i + ψ_j)/(σ_i + σ_j) (twist).
- * Projecting to positive semi-definite clamps those eigenvalues at 0. */
+ * Projecting to positive semi-definite clamps those eigenvalues at 0.
+ * Ψ and P of the corotated models (fixed corotated, snow) come from the
+ * polar decomposition F = R S instead (a few Newton steps, several times
+ * cheaper than the SVD), unless F is inverted; the SVD is then needed only
+ * for the Hessian. */
 typedef struct kf_imp_energy {
     double psi;        /* Ψ, J/m³ */
     double P[9];       /* first Piola–Kirchhoff stress ∂Ψ/∂F, row-major */
@@ -45,6 +49,11 @@ typedef struct kf_imp_energy {
  * zero. Water is not supported (returns -1); 0 otherwise. */
 int kf_imp_energy_eval(const kf_mat *m, const double F[9], const kf_real ps[2], int want_hessian, int project,
                        kf_imp_energy *out);
+/* The same, except that with Fn given, H is the Hessian in G of
+ * Ψ((I + G) Fn) at G = 0, i.e. Tᵀ (∂²Ψ/∂F²) T with T: G ↦ G Fn (what the
+ * solve's per-particle blocks need), at the cost of H itself. */
+int kf_imp_energy_eval_in(const kf_mat *m, const double F[9], const kf_real ps[2], const double *Fn, int want_hessian,
+                          int project, kf_imp_energy *out);
 /* Ψ alone (the line search's energy). */
 double kf_imp_energy_psi(const kf_mat *m, const double F[9], const kf_real ps[2]);
 
@@ -68,7 +77,6 @@ typedef struct kf_implicit {
     double *F;         /* (9 np) F_p(v) at the last linearisation */
     double *Kp;        /* (81 np) Δt² V⁰ Tᵀ (∂²Ψ/∂F²) T, T: G ↦ G Fⁿ: the per-particle Hessian of E in G */
     double *S;         /* (9 np) Δt V⁰ P Fⁿᵀ: what a particle scatters into the gradient */
-    double *Y;         /* (9 np) scratch: per-particle matrix to scatter */
     double *psi;       /* (np) V⁰ Ψ at the last linearisation */
     /* boundary conditions (implicit_boundary.c): constrained nodes, each with
      * the orthogonal projection onto its free directions */
@@ -99,6 +107,9 @@ void kf_imp_free(kf_implicit *w);
 void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9]);
 /* out_i += Σ_p Y_p γ_ip (race-free in the owner colours, deterministic). */
 void kf_imp_scatter(const kf_implicit *w, const double *Y, double *out);
+/* out_i += Σ_p (Kp G_p(x)) γ_ip: the particles' part of the Hessian action,
+ * each particle's gather, block product and scatter in one pass. */
+void kf_imp_scatter_product(const kf_implicit *w, const double *x, double *out);
 /* out_ia += Σ_p Σ_bc Kp[(a,b),(a,c)] γ_ipb γ_ipc: the particles' part of the
  * Hessian's diagonal (the Jacobi preconditioner). */
 void kf_imp_scatter_diag(const kf_implicit *w, double *out);

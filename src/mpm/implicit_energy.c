@@ -92,9 +92,88 @@ static int principal_of(const kf_mat *m, const double s[3], const kf_real ps[2],
     }
 }
 
+/* ---- the corotated stress by the polar decomposition -------------------------
+ * Ψ and P of the corotated models need only the rotation R of F = R S:
+ *     Ψ = μ |F − R|² + ½ λ (J − 1)²,   P = 2μ (F − R) + λ (J − 1) cof F,
+ * and Newton's iteration X ← ½ (X + X⁻ᵀ) from X = F finds R to round-off in
+ * three to five steps for strains up to tens of per cent (the error squares
+ * each step), several times cheaper than the SVD's Jacobi eigen-solve. The
+ * line search and the gradient need only Ψ and P; the SVD is left to the
+ * Hessian. An inverted or degenerate F (det F <= 0: the SVD's signed
+ * rotation is then not the polar factor) takes the SVD path. */
+
+#define POLAR_MAX_STEPS 30
+#define POLAR_SCALED_UNTIL 0.1  /* Higham's norm scaling after a step that moved X by more than this */
+#define POLAR_DONE 1e-8         /* a step this small leaves an error below its square: round-off */
+
+/* cof X (rows: products of the other two rows); returns det X */
+static double cofactor(const double X[9], double C[9]) {
+    for (int i = 0; i < 3; i++) {
+        const double *a = X + 3 * ((i + 1) % 3), *b = X + 3 * ((i + 2) % 3);
+        C[3 * i] = a[1] * b[2] - a[2] * b[1];
+        C[3 * i + 1] = a[2] * b[0] - a[0] * b[2];
+        C[3 * i + 2] = a[0] * b[1] - a[1] * b[0];
+    }
+    return X[0] * C[0] + X[1] * C[1] + X[2] * C[2];
+}
+
+/* R of F = R S for det F > 0; -1 when F is inverted, degenerate or the iteration stalls */
+static int polar_rotation(const double F[9], double R[9]) {
+    double X[9], C[9];
+    memcpy(X, F, sizeof X);
+    for (int step = 0, scaled = 0; step < POLAR_MAX_STEPS; step++) {
+        double det = cofactor(X, C);
+        if (!(det > 0)) return -1;
+        /* X⁻ᵀ = C / det; the scaling γ = √(|X⁻¹| / |X|) speeds up large stretches */
+        double g = 1;
+        if (scaled) {
+            double x2 = 0, c2 = 0;
+            for (int k = 0; k < 9; k++) x2 += X[k] * X[k], c2 += C[k] * C[k];
+            g = sqrt(sqrt(c2 / x2) / det);
+        }
+        const double gx = 0.5 * g, gc = 0.5 / (g * det);
+        double d2 = 0;
+        for (int k = 0; k < 9; k++) {
+            double y = gx * X[k] + gc * C[k];
+            d2 += (y - X[k]) * (y - X[k]);
+            X[k] = y;
+        }
+        scaled = d2 > POLAR_SCALED_UNTIL * POLAR_SCALED_UNTIL;
+        if (d2 <= POLAR_DONE * POLAR_DONE) {
+            memcpy(R, X, sizeof X);
+            return 0;
+        }
+    }
+    return -1;
+}
+
+/* μ and λ of a corotated model (snow: hardened by its plastic J); 0 for the others */
+static int corotated_moduli(const kf_mat *m, const kf_real ps[2], double *mu, double *la) {
+    double h = 1;
+    if (m->model == KF_MAT_SNOW) h = exp((double)m->xi * (1.0 - (double)ps[0]));
+    else if (m->model != KF_MAT_COROTATED) return 0;
+    *mu = h * m->mu, *la = h * m->lambda;
+    return 1;
+}
+
+/* Ψ and P of a corotated model from the polar decomposition; -1: use the SVD */
+static int corotated_by_polar(const kf_mat *m, const double F[9], const kf_real ps[2], double *psi, double P[9]) {
+    double mu, la, R[9], C[9];
+    if (!corotated_moduli(m, ps, &mu, &la) || polar_rotation(F, R)) return -1;
+    double J = cofactor(F, C), fr2 = 0;
+    for (int k = 0; k < 9; k++) {
+        double e = F[k] - R[k];
+        fr2 += e * e;
+        if (P) P[k] = 2 * mu * e + la * (J - 1) * C[k];
+    }
+    *psi = mu * fr2 + 0.5 * la * (J - 1) * (J - 1);
+    return 0;
+}
+
 double kf_imp_energy_psi(const kf_mat *m, const double F[9], const kf_real ps[2]) {
-    double U[9], s[3], V[9];
+    double U[9], s[3], V[9], psi;
     principal pr;
+    if (!corotated_by_polar(m, F, ps, &psi, NULL)) return psi;
     kf_imp_svd(F, U, s, V);
     if (principal_of(m, s, ps, &pr)) return NAN;
     return pr.psi;
@@ -102,16 +181,27 @@ double kf_imp_energy_psi(const kf_mat *m, const double F[9], const kf_real ps[2]
 
 int kf_imp_energy_eval(const kf_mat *m, const double F[9], const kf_real ps[2], int want_hessian, int project,
                        kf_imp_energy *out) {
+    return kf_imp_energy_eval_in(m, F, ps, NULL, want_hessian, project, out);
+}
+
+int kf_imp_energy_eval_in(const kf_mat *m, const double F[9], const kf_real ps[2], const double *Fn, int want_hessian,
+                          int project, kf_imp_energy *out) {
     double U[9], s[3], V[9];
     principal pr;
+    /* Ψ and P: by the polar decomposition where it applies (the same
+     * function of F whether or not the Hessian is wanted) */
+    int polar = !corotated_by_polar(m, F, ps, &out->psi, out->P);
+    if (polar && !want_hessian) return 0;
     kf_imp_svd(F, U, s, V);
     if (principal_of(m, s, ps, &pr)) return -1;
-    out->psi = pr.psi;
-    /* P = U diag(ψ_i) Vᵀ */
-    for (int a = 0; a < 3; a++)
-        for (int b = 0; b < 3; b++)
-            out->P[3 * a + b] = U[3 * a] * pr.d[0] * V[3 * b] + U[3 * a + 1] * pr.d[1] * V[3 * b + 1] +
-                                U[3 * a + 2] * pr.d[2] * V[3 * b + 2];
+    if (!polar) {
+        out->psi = pr.psi;
+        /* P = U diag(ψ_i) Vᵀ */
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++)
+                out->P[3 * a + b] = U[3 * a] * pr.d[0] * V[3 * b] + U[3 * a + 1] * pr.d[1] * V[3 * b + 1] +
+                                    U[3 * a + 2] * pr.d[2] * V[3 * b + 2];
+    }
     if (!want_hessian) return 0;
 
     /* the principal blocks, projected to PSD when asked */
@@ -139,12 +229,19 @@ int kf_imp_energy_eval(const kf_mat *m, const double F[9], const kf_real ps[2], 
                                Q[3 * i + 2] * w[2] * Q[3 * j + 2];
     }
 
-    /* column (c, d) of ∂P/∂F: δF = e_c e_dᵀ, δF̂ = Uᵀ δF V, δP = U Ĥ(δF̂) Vᵀ */
+    /* In G (F = (I + G) Fⁿ) the Hessian is Tᵀ H T, T: G ↦ G Fⁿ, and since
+     * Uᵀ (G Fⁿ) V = Uᵀ G W with W = Fⁿ V, it is the same congruence as H
+     * with W in place of V: no 9x9 products afterwards. */
+    double W[9];
+    for (int b = 0; b < 3; b++)
+        for (int l = 0; l < 3; l++)
+            W[3 * b + l] = Fn ? Fn[3 * b] * V[l] + Fn[3 * b + 1] * V[3 + l] + Fn[3 * b + 2] * V[6 + l] : V[3 * b + l];
+    /* column (c, d) of ∂P/∂F: δF = e_c e_dᵀ, δF̂ = Uᵀ δF W, δP = U Ĥ(δF̂) Wᵀ */
     for (int c = 0; c < 3; c++)
         for (int dd = 0; dd < 3; dd++) {
             double M[9], R[9], T[9];
             for (int k = 0; k < 3; k++)
-                for (int l = 0; l < 3; l++) M[3 * k + l] = U[3 * c + k] * V[3 * dd + l];
+                for (int l = 0; l < 3; l++) M[3 * k + l] = U[3 * c + k] * W[3 * dd + l];
             for (int i = 0; i < 3; i++) R[4 * i] = A[3 * i] * M[0] + A[3 * i + 1] * M[4] + A[3 * i + 2] * M[8];
             for (int q = 0; q < 3; q++) {
                 int i = PAIR[q][0], j = PAIR[q][1];
@@ -152,10 +249,10 @@ int kf_imp_energy_eval(const kf_mat *m, const double F[9], const kf_real ps[2], 
                 R[3 * i + j] = pa[q] * mij + pb[q] * mji;
                 R[3 * j + i] = pb[q] * mij + pa[q] * mji;
             }
-            /* T = R Vᵀ, δP = U T */
+            /* T = R Wᵀ, δP = U T */
             for (int i = 0; i < 3; i++)
                 for (int j = 0; j < 3; j++)
-                    T[3 * i + j] = R[3 * i] * V[3 * j] + R[3 * i + 1] * V[3 * j + 1] + R[3 * i + 2] * V[3 * j + 2];
+                    T[3 * i + j] = R[3 * i] * W[3 * j] + R[3 * i + 1] * W[3 * j + 1] + R[3 * i + 2] * W[3 * j + 2];
             for (int a = 0; a < 3; a++)
                 for (int b = 0; b < 3; b++)
                     out->H[9 * (3 * a + b) + 3 * c + dd] =

@@ -21,6 +21,11 @@
 #define DEF_NEWTON_MAX 20
 #define DEF_KRYLOV_TOL 1e-2
 #define DEF_KRYLOV_MAX 200
+/* CG need not solve a Newton step more accurately than the Newton
+ * tolerance asks: its relative residual target is at most FORCING ×
+ * newton_tol / (the current Newton residual), so a Newton iteration that
+ * starts near convergence stops CG early (an inexact Newton forcing term) */
+#define FORCING 0.5
 
 /* ---- vectors over the grid nodes (3 per node), block-ordered sums -------- */
 
@@ -73,7 +78,7 @@ static double evaluate(kf_implicit *w, const double *v, int hessian, int project
         kf_imp_energy e;
         const kf_real ps[2] = {p->ps[0][i], p->ps[1][i]};
         const double vol = p->vol0[i];
-        if (kf_imp_energy_eval(&m->mat[p->mat[i]], F, ps, hessian, project, &e) || !isfinite(e.psi)) {
+        if (kf_imp_energy_eval_in(&m->mat[p->mat[i]], F, ps, Fn, hessian, project, &e) || !isfinite(e.psi)) {
             bad = 1;
             continue;
         }
@@ -84,25 +89,9 @@ static double evaluate(kf_implicit *w, const double *v, int hessian, int project
             for (int b = 0; b < 3; b++)
                 S[3 * a + b] = dt * vol * (e.P[3 * a] * Fn[3 * b] + e.P[3 * a + 1] * Fn[3 * b + 1] + e.P[3 * a + 2] * Fn[3 * b + 2]);
         if (!hessian) continue;
-        /* Kp = Δt² V⁰ Tᵀ H T with T: G ↦ G Fⁿ, i.e.
-         * Kp[(a,b),(a',b')] = Δt² V⁰ Σ_cc' Fⁿ_bc H[(a,c),(a',c')] Fⁿ_b'c' */
-        double X[81], *Kp = w->Kp + 81 * i, s2 = dt * dt * vol;
-        for (int r = 0; r < 9; r++)
-            for (int a2 = 0; a2 < 3; a2++)
-                for (int b2 = 0; b2 < 3; b2++) {
-                    const double *h = e.H + 9 * r + 3 * a2;
-                    X[9 * r + 3 * a2 + b2] = h[0] * Fn[3 * b2] + h[1] * Fn[3 * b2 + 1] + h[2] * Fn[3 * b2 + 2];
-                }
-        for (int a = 0; a < 3; a++)
-            for (int b = 0; b < 3; b++)
-                for (int col = 0; col < 9; col++)
-                    Kp[9 * (3 * a + b) + col] = s2 * (Fn[3 * b] * X[9 * (3 * a) + col] + Fn[3 * b + 1] * X[9 * (3 * a + 1) + col] +
-                                                      Fn[3 * b + 2] * X[9 * (3 * a + 2) + col]);
-        for (int r = 0; r < 9; r++)
-            for (int c = r + 1; c < 9; c++) {
-                double k = 0.5 * (Kp[9 * r + c] + Kp[9 * c + r]);
-                Kp[9 * r + c] = Kp[9 * c + r] = k;
-            }
+        /* Kp = Δt² V⁰ Tᵀ H T with T: G ↦ G Fⁿ (e.H is already Tᵀ H T, exactly symmetric) */
+        double *Kp = w->Kp + 81 * i, s2 = dt * dt * vol;
+        for (int r = 0; r < 81; r++) Kp[r] = s2 * e.H[r];
     }
     if (bad) return NAN;
     /* E = ½ Σ m |v − v*|² + Σ V⁰ Ψ, summed in a fixed order */
@@ -134,20 +123,9 @@ void kf_imp_gradient(kf_implicit *w, const double *v, double *g) {
 
 void kf_imp_hessian_action(kf_implicit *w, const double *x, double *y) {
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
-    for (size_t i = 0; i < w->np; i++) {
-        double G[9], *Y = w->Y + 9 * i;
-        const double *Kp = w->Kp + 81 * i;
-        kf_imp_gather(w, x, i, G);
-        for (int r = 0; r < 9; r++) {
-            const double *k = Kp + 9 * r;
-            Y[r] = k[0] * G[0] + k[1] * G[1] + k[2] * G[2] + k[3] * G[3] + k[4] * G[4] + k[5] * G[5] + k[6] * G[6] +
-                   k[7] * G[7] + k[8] * G[8];
-        }
-    }
-#pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t i = 0; i < w->nnode; i++)
         for (int a = 0; a < KF_IMP_NV; a++) y[KF_IMP_NV * i + a] = a < 3 ? w->mass[i] * x[KF_IMP_NV * i + a] : 0.0;
-    kf_imp_scatter(w, w->Y, y);
+    kf_imp_scatter_product(w, x, y);
 }
 
 /* ---- Newton–Krylov ------------------------------------------------------------ */
@@ -249,7 +227,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
     while (res > tol && w->newton_iterations < nmax) {
         if (!have_hessian) evaluate(w, v, 1, 1);
         have_hessian = 1;
-        w->krylov_iterations += pcg(w, ktol, kmax);
+        w->krylov_iterations += pcg(w, fmax(ktol, FORCING * tol / res), kmax);
         double slope = kf_imp_dot(w, w->g, w->d);
         if (!(slope < 0)) {
             /* CG found no descent (round-off at convergence): steepest descent in the mass metric */

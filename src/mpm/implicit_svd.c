@@ -25,7 +25,9 @@ void kf_imp_sym_eig3(const double A[9], double w[3], double Q[9]) {
         for (int p = 0; p < 2; p++)
             for (int q = p + 1; q < 3; q++) {
                 double apq = S[3 * p + q];
-                if (apq == 0) continue;
+                /* an entry already below the stopping threshold (a third of it)
+                 * needs no rotation: in a converging sweep often two of three */
+                if (apq * apq <= 3e-35 * diag) continue;
                 double app = S[3 * p + p], aqq = S[3 * q + q];
                 /* the rotation angle that zeroes S_pq (Golub & Van Loan 8.4) */
                 double theta = (aqq - app) / (2 * apq);

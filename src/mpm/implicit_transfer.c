@@ -94,7 +94,7 @@ static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
 }
 
 void kf_imp_free(kf_implicit *w) {
-    void *all[] = {w->idx, w->gam, w->mass, w->vstar, w->Fn, w->F, w->S, w->Kp, w->Y,       w->psi,   w->con_node,
+    void *all[] = {w->idx, w->gam, w->mass, w->vstar, w->Fn, w->F, w->S, w->Kp, w->psi,   w->con_node,
                    w->con_P, w->con_slide, w->con_n, w->con_vc, w->v, w->g, w->d, w->r, w->z, w->p,
                    w->q, w->vt, w->diag, w->bsum};
     for (size_t k = 0; k < sizeof all / sizeof *all; k++) free(all[k]);
@@ -119,14 +119,13 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
     w->Fn = malloc(np * 9 * sizeof *w->Fn);
     w->F = malloc(np * 9 * sizeof *w->F);
     w->Kp = malloc(np * 81 * sizeof *w->Kp);
-    w->Y = malloc(np * 9 * sizeof *w->Y);
     w->S = malloc(np * 9 * sizeof *w->S);
     w->psi = malloc(np * sizeof *w->psi);
     w->bsum = malloc((g->nblocks + 1) * sizeof *w->bsum);
     double **vec[] = {&w->v, &w->g, &w->d, &w->r, &w->z, &w->p, &w->q, &w->vt, &w->diag};
     int bad = 0;
     for (size_t k = 0; k < sizeof vec / sizeof *vec; k++) bad |= !(*vec[k] = calloc(n3 + 1, sizeof(double)));
-    if (bad || !w->idx || !w->gam || !w->mass || !w->vstar || !w->Fn || !w->F || !w->Kp || !w->Y || !w->S || !w->psi ||
+    if (bad || !w->idx || !w->gam || !w->mass || !w->vstar || !w->Fn || !w->F || !w->Kp || !w->S || !w->psi ||
         !w->bsum) {
         kf_imp_free(w);
         return -1;
@@ -150,7 +149,7 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
 /* a node's (x, y, z, 0) as one vector; grid vectors are only 8-byte aligned */
 typedef double v4d __attribute__((vector_size(32), aligned(8)));
 
-void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9]) {
+static inline void gather(const kf_implicit *w, const double *x, size_t p, double G[9]) {
     const int K = w->K;
     const int32_t *id = w->idx + (size_t)K * p;
     const double *ga = w->gam + (size_t)3 * K * p;
@@ -181,24 +180,55 @@ void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9])
     for (int a = 0; a < 3; a++) G[3 * a] = c0[a], G[3 * a + 1] = c1[a], G[3 * a + 2] = c2[a];
 }
 
-void kf_imp_scatter(const kf_implicit *w, const double *Y, double *out) {
-    const kf_grid *g = &w->s->g;
+void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9]) { gather(w, x, p, G); }
+
+/* out_i += Σ_e Y γ_e over particle p's stencil */
+static inline void scatter_one(const kf_implicit *w, const double Y[9], size_t p, double *out) {
     const int K = w->K;
+    const double *ga = w->gam + (size_t)3 * K * p;
+    const int32_t *id = w->idx + (size_t)K * p;
+    const v4d y0 = {Y[0], Y[3], Y[6], 0}, y1 = {Y[1], Y[4], Y[7], 0}, y2 = {Y[2], Y[5], Y[8], 0};
+    for (int e = 0; e < K; e++) {
+        v4d *o = (v4d *)(out + KF_IMP_NV * (size_t)id[e]);
+        const double *ge = ga + 3 * e;
+        *o += y0 * ge[0] + y1 * ge[1] + y2 * ge[2];
+    }
+}
+
+/* One pass per particle instead of a gather pass and a scatter pass: the
+ * stencil (γ and node indices) is read once while it is in cache, and no
+ * per-particle Y is stored and read back. Reading x while writing out in
+ * owner colours is race-free (x and out are different vectors). */
+void kf_imp_scatter_product(const kf_implicit *w, const double *x, double *out) {
+    const kf_grid *g = &w->s->g;
 #pragma omp parallel num_threads(w->m->nthreads)
     for (int c = 0; c < 8; c++) {
 #pragma omp for schedule(dynamic, 4)
         for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
             size_t r = (size_t)g->owner[k];
             for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
-                const double *y = Y + 9 * i, *ga = w->gam + (size_t)3 * K * i;
-                const int32_t *id = w->idx + (size_t)K * i;
-                const v4d y0 = {y[0], y[3], y[6], 0}, y1 = {y[1], y[4], y[7], 0}, y2 = {y[2], y[5], y[8], 0};
-                for (int e = 0; e < K; e++) {
-                    v4d *o = (v4d *)(out + KF_IMP_NV * (size_t)id[e]);
-                    const double *ge = ga + 3 * e;
-                    *o += y0 * ge[0] + y1 * ge[1] + y2 * ge[2];
+                double G[9], Y[9];
+                const double *Kp = w->Kp + 81 * i;
+                gather(w, x, i, G);
+                for (int row = 0; row < 9; row++) {
+                    const double *kr = Kp + 9 * row;
+                    Y[row] = kr[0] * G[0] + kr[1] * G[1] + kr[2] * G[2] + kr[3] * G[3] + kr[4] * G[4] + kr[5] * G[5] +
+                             kr[6] * G[6] + kr[7] * G[7] + kr[8] * G[8];
                 }
+                scatter_one(w, Y, i, out);
             }
+        }
+    }
+}
+
+void kf_imp_scatter(const kf_implicit *w, const double *Y, double *out) {
+    const kf_grid *g = &w->s->g;
+#pragma omp parallel num_threads(w->m->nthreads)
+    for (int c = 0; c < 8; c++) {
+#pragma omp for schedule(dynamic, 4)
+        for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
+            size_t r = (size_t)g->owner[k];
+            for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) scatter_one(w, Y + 9 * i, i, out);
         }
     }
 }
@@ -214,17 +244,19 @@ void kf_imp_scatter_diag(const kf_implicit *w, double *out) {
             for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
                 const double *Kp = w->Kp + 81 * i, *ga = w->gam + (size_t)3 * K * i;
                 const int32_t *id = w->idx + (size_t)K * i;
+                /* the diagonal entry (a, a) of node e is γᵀ K_a γ, K_a[b][c] =
+                 * Kp[(a,b),(a,c)]: with the three a in the lanes of one vector
+                 * (kbc) and the symmetric pairs summed, 6 vector FMAs a node */
+                v4d kbc[3][3];
+                for (int b = 0; b < 3; b++)
+                    for (int bc = 0; bc < 3; bc++)
+                        kbc[b][bc] = (v4d){Kp[9 * b + bc], Kp[9 * (3 + b) + 3 + bc], Kp[9 * (6 + b) + 6 + bc], 0};
+                const v4d k01 = kbc[0][1] + kbc[1][0], k02 = kbc[0][2] + kbc[2][0], k12 = kbc[1][2] + kbc[2][1];
                 for (int e = 0; e < K; e++) {
-                    double *o = out + KF_IMP_NV * (size_t)id[e];
+                    v4d *o = (v4d *)(out + KF_IMP_NV * (size_t)id[e]);
                     const double *ge = ga + 3 * e;
-                    for (int a = 0; a < 3; a++) {
-                        const double *row = Kp + 9 * (3 * a);
-                        double t = 0;
-                        for (int b = 0; b < 3; b++)
-                            t += ge[b] * (row[9 * b + 3 * a] * ge[0] + row[9 * b + 3 * a + 1] * ge[1] +
-                                          row[9 * b + 3 * a + 2] * ge[2]);
-                        o[a] += t;
-                    }
+                    *o += kbc[0][0] * (ge[0] * ge[0]) + kbc[1][1] * (ge[1] * ge[1]) + kbc[2][2] * (ge[2] * ge[2]) +
+                          k01 * (ge[0] * ge[1]) + k02 * (ge[0] * ge[2]) + k12 * (ge[1] * ge[2]);
                 }
             }
         }
