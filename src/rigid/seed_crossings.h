@@ -21,6 +21,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdlib.h>
 
 typedef struct kf_seed_lattice {
     double o[3];  /* origin, metres (mesh frame) */
@@ -34,6 +35,28 @@ typedef struct kf_seed_crossing {
     int8_t axis;   /* the line runs along this axis ... */
     int32_t i, j;  /* ... through (o_b + i h, o_c + j h) */
 } kf_seed_crossing;
+
+/* A growing list of crossings, as both finders collect them; after a
+ * failed allocation it stops growing and says so (oom). */
+typedef struct kf_seed_xbuf {
+    kf_seed_crossing *c;
+    size_t n, cap;
+    int oom;
+} kf_seed_xbuf;
+
+static inline void kf_seed_xpush(kf_seed_xbuf *s, const kf_seed_crossing *x) {
+    if (s->oom) return;
+    if (s->n == s->cap) {
+        size_t cap = s->cap ? 2 * s->cap : 4096;
+        kf_seed_crossing *c = realloc(s->c, sizeof *c * cap);
+        if (!c) {
+            s->oom = 1;
+            return;
+        }
+        s->c = c, s->cap = cap;
+    }
+    s->c[s->n++] = *x;
+}
 
 /* two crossings of one line this close (relative to the lattice's extent)
  * on triangles sharing a corner are one crossing, found twice: well above

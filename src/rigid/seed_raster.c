@@ -10,31 +10,11 @@
 
 #include "seed_crossings.h"
 
-typedef struct xbuf {
-    kf_seed_crossing *c;
-    size_t n, cap;
-    int oom;
-} xbuf;
-
-static void xpush(xbuf *s, const kf_seed_crossing *x) {
-    if (s->oom) return;
-    if (s->n == s->cap) {
-        size_t cap = s->cap ? 2 * s->cap : 4096;
-        kf_seed_crossing *c = realloc(s->c, sizeof *c * cap);
-        if (!c) {
-            s->oom = 1;
-            return;
-        }
-        s->c = c, s->cap = cap;
-    }
-    s->c[s->n++] = *x;
-}
-
 /* the lines along axis a that cross triangle t: for each lattice row j in
  * the triangle's c-range, the span of b where the row is inside the
  * triangle (from its crossings with the three edges), and the lattice
  * points i in that span */
-static void raster_axis(xbuf *s, const double *P[3], int t, int a, const kf_seed_lattice *L) {
+static void raster_axis(kf_seed_xbuf *s, const double *P[3], int t, int a, const kf_seed_lattice *L) {
     const int b = (a + 1) % 3, c = (a + 2) % 3;
     const double h = L->h;
     double u[3] = {P[0][b], P[1][b], P[2][b]}, w[3] = {P[0][c], P[1][c], P[2][c]};
@@ -61,7 +41,7 @@ static void raster_axis(xbuf *s, const double *P[3], int t, int a, const kf_seed
         if (i1 > L->n[b] - 1) i1 = L->n[b] - 1;
         for (long i = i0; i <= i1; i++) {
             kf_seed_crossing x = {.tri = t, .axis = (int8_t)a, .i = (int32_t)i, .j = (int32_t)j};
-            if (kf_seed_point_on_line(P, a, L->o[b] + i * h, wy, x.x) == 0) xpush(s, &x);
+            if (kf_seed_point_on_line(P, a, L->o[b] + i * h, wy, x.x) == 0) kf_seed_xpush(s, &x);
         }
     }
 }
@@ -69,7 +49,7 @@ static void raster_axis(xbuf *s, const double *P[3], int t, int a, const kf_seed
 long kf_seed_crossings_raster(const double *vert, int nvert, const int *tri, int ntri, const kf_seed_lattice *L,
                               kf_seed_crossing **out, char *err, size_t errlen) {
     (void)nvert;
-    xbuf s = {0};
+    kf_seed_xbuf s = {0};
     for (int t = 0; t < ntri && !s.oom; t++) {
         const double *P[3] = {vert + 3 * (size_t)tri[3 * t], vert + 3 * (size_t)tri[3 * t + 1],
                               vert + 3 * (size_t)tri[3 * t + 2]};

@@ -150,30 +150,10 @@ static int scene_build(scene *s, const double *vert, int nvert, const int *tri, 
     return 0;
 }
 
-typedef struct xbuf {
-    kf_seed_crossing *c;
-    size_t n, cap;
-    int oom;
-} xbuf;
-
-static void xpush(xbuf *s, const kf_seed_crossing *x) {
-    if (s->oom) return;
-    if (s->n == s->cap) {
-        size_t cap = s->cap ? 2 * s->cap : 4096;
-        kf_seed_crossing *c = realloc(s->c, sizeof *c * cap);
-        if (!c) {
-            s->oom = 1;
-            return;
-        }
-        s->c = c, s->cap = cap;
-    }
-    s->c[s->n++] = *x;
-}
-
 /* the lines along axis a through lattice points (i0 .. i0 + 15, j) of one
  * row: every triangle each hits between lo_a - h and hi_a + h, each a
  * crossing computed in double, each line's crossings in order */
-static void cast_packet(const scene *s, ray_ctx *r, xbuf *out, const double *vert, const int *tri,
+static void cast_packet(const scene *s, ray_ctx *r, kf_seed_xbuf *out, const double *vert, const int *tri,
                         const kf_seed_lattice *L, const double lo[3], const double hi[3], int a, int32_t i0, int32_t j,
                         double tol) {
     const int b = (a + 1) % 3, c = (a + 2) % 3;
@@ -215,7 +195,7 @@ static void cast_packet(const scene *s, ray_ctx *r, xbuf *out, const double *ver
                 double u = r->hit[k][q].u, v = r->hit[k][q].v;
                 for (int d = 0; d < 3; d++) x.x[d] = (1 - u - v) * P[0][d] + u * P[1][d] + v * P[2][d];
             }
-            xpush(out, &x);
+            kf_seed_xpush(out, &x);
         }
         if (!out->oom) out->n = first + kf_seed_crossings_order(out->c + first, out->n - first, vert, tri, tol);
     }
@@ -242,7 +222,7 @@ long kf_seed_crossings_rays(const double *vert, int nvert, const int *tri, int n
     for (int a = 0; a < 3; a++) ext = fmax(ext, L->n[a] * L->h);
     const double tol = KF_SEED_SAME_POINT * ext;
     int nt = omp_get_max_threads();
-    xbuf *part = calloc((size_t)nt, sizeof *part);
+    kf_seed_xbuf *part = calloc((size_t)nt, sizeof *part);
     size_t *row_at = malloc(sizeof *row_at * (size_t)(rows + 1)), *row_n = malloc(sizeof *row_n * (size_t)(rows + 1));
     int *row_by = malloc(sizeof *row_by * (size_t)(rows + 1));
     int oom = !part || !row_at || !row_n || !row_by;
@@ -254,7 +234,7 @@ long kf_seed_crossings_rays(const double *vert, int nvert, const int *tri, int n
             _mm_setcsr(csr | 0x8040); /* per thread: FTZ | DAZ, as Embree asks */
 #endif
             const int me = omp_get_thread_num();
-            xbuf *mine = &part[me];
+            kf_seed_xbuf *mine = &part[me];
             ray_ctx r;
             memset(&r, 0, sizeof r);
             rtcInitIntersectContext(&r.ctx);
