@@ -196,10 +196,6 @@ typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC } kf_transfer;
 /* How the grid velocities advance (issue 7): explicit symplectic Euler, or
  * backward Euler solved by Newton-Krylov on the incremental potential. */
 typedef enum kf_integrator { KF_INTEGRATOR_EXPLICIT = 0, KF_INTEGRATOR_IMPLICIT } kf_integrator;
-/* Water's volume ratio J: each particle's own, updated by the velocity
- * divergence (the paper's), or averaged on the grid every substep and held
- * to the particles' packing there (water_volume.c). */
-typedef enum kf_water_volume { KF_WATER_VOLUME_PARTICLE = 0, KF_WATER_VOLUME_GRID } kf_water_volume;
 /* The implicit solve's CG preconditioner: a multigrid V-cycle, or Jacobi. */
 typedef enum kf_precond { KF_PRECOND_MULTIGRID = 0, KF_PRECOND_JACOBI } kf_precond;
 
@@ -227,7 +223,6 @@ typedef struct kf_sim_def {
     double krylov_tol;    /* CG relative residual (0 = default) */
     int krylov_max;       /* CG iterations per Newton step (0 = default) */
     kf_precond precond;   /* CG preconditioner */
-    kf_water_volume water_volume; /* how water tracks its volume ratio J (water_volume.c) */
     /* testing the recovery path: at this substep count (kf_state's substeps
      * since creation) one particle's velocity becomes NaN, once per state; the
      * step must catch it and kf_advance retry the interval (0 = never) */

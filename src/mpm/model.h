@@ -49,10 +49,6 @@ struct kf_state {
     size_t snapshot_rsim_size;
     int fault_done;    /* the testing fault (kf_sim_def.fault_substep) has happened */
     struct kf_cpic *cpic; /* CPIC scratch (grid colored distance field, particle distances), src/cpic */
-    /* water's J on the grid this substep (water_volume.c): per node (J_i, water mass) */
-    kf_real *water_j;
-    size_t water_j_cap;
-    int water_j_valid;
 };
 
 /* MLS inertia-like tensor D_p = d I: d = Δx²/4 (quadratic), Δx²/3 (cubic) */
@@ -68,12 +64,6 @@ static inline double kf_model_dfactor(const kf_model *m) {
  * its owner block: P2G wrote and G2P read outside the node cache (stack
  * garbage, run-to-run and thread-count dependent results, NaN blow-ups). */
 static inline kf_real kf_model_inv_dx(const kf_model *m) { return (kf_real)(1.0 / m->sim.dx); }
-
-/* Water's J on the grid (sim.water_volume: grid, water_volume.c): after
- * P2G, each node's mass-weighted J of the water, capped at the packing
- * (0, or -1 out of memory); G2P then starts each water particle's J from
- * its stencil's average. Does nothing in particle mode. */
-int kf_water_volume_scatter(const kf_model *m, kf_state *s);
 
 /* the stages of a substep (transfer.c, grid_update.c) */
 typedef struct kf_g2p_result {

@@ -35,7 +35,6 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     memset(trouble, 0, sizeof *trouble);
     const kf_real rdt = (kf_real)dt;
     double t0 = kf_now_ms(), t1;
-    s->water_j_valid = 0; /* set by this substep's grid J, if any */
 
     /* sort: particles into owner blocks (cheap when nobody changed block) */
     size_t bad = 0;
@@ -84,10 +83,6 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     } else {
         kf_trouble p2g_trouble;
         kf_p2g(m, s, rdt, &p2g_trouble);
-        if (!p2g_trouble.found && kf_water_volume_scatter(m, s)) {
-            set_trouble(trouble, s, 0, "out of memory putting the water's J on the grid", 0);
-            return 1;
-        }
         t0 = kf_now_ms();
         if (st) st->ms[KF_STAGE_P2G] += t0 - t1;
         if (p2g_trouble.found) {

@@ -156,8 +156,6 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     kf_real max_v2 = 0;
-    kf_real jc[CD_MAX * CD_MAX * CD_MAX];
-    int jc_filled = 0;
 
     /* gather the neighbourhood's velocities */
     const int32_t *nb = g->nb[r];
@@ -229,13 +227,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
             for (int j = 0; j < n; j++) {
                 size_t i = i0 + (size_t)j;
                 if (m->mat[p->mat[i]].model != KF_MAT_WATER) continue;
-                kf_real J0 = p->ps[0][i];
-                if (s->water_j_valid) {
-                    /* the grid's J (sim.water_volume: grid), read in once per owner */
-                    if (!jc_filled) kf_water_volume_owner(KW, s, r, jc), jc_filled = 1;
-                    J0 = water_j_at(KW, ck, j, jc);
-                }
-                J[j] = J0 * (1 + dt * (L[0][j] + L[4][j] + L[8][j]));
+                J[j] = p->ps[0][i] * (1 + dt * (L[0][j] + L[4][j] + L[8][j]));
                 p->ps[0][i] = J[j];
                 for (int k = 0; k < 9; k++) p->F[k][i] = (kf_real)(k % 4 == 0);
             }

@@ -97,22 +97,6 @@ static inline void note_trouble(step_acc *acc, const kf_particles *p, size_t i, 
     acc->trouble.substep = substep;
 }
 
-/* water_volume.c: owner r's neighbourhood of the grid's water J (edge 3 + KW) */
-void kf_water_volume_owner(int KW, const kf_state *s, size_t r, kf_real *jc);
-
-/* Σ_i w_ip J_i over particle j's stencil, from the owner's neighbourhood jc */
-KF_INLINE kf_real water_j_at(int KW, const chunk *ck, int j, const kf_real *jc) {
-    const int CD = 3 + KW;
-    kf_real sum = 0;
-    for (int a = 0; a < KW; a++)
-        for (int b = 0; b < KW; b++) {
-            const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
-            const kf_real *row = &jc[((ck->l[0][j] + a) * CD + ck->l[1][j] + b) * CD + ck->l[2][j]];
-            for (int c = 0; c < KW; c++) sum += wab * ck->w[2][c][j] * row[c];
-        }
-    return sum;
-}
-
 /* one particle's P2G contribution to the owner's node cache (edge 3 + KW) */
 KF_INLINE void scatter_one(int KW, int CLASSIC, const chunk *ck, int j, kf_v4 *cache) {
     const int CD = 3 + KW;

@@ -69,10 +69,6 @@ const kf_keydef kf_keys[] = {
      "Particle-grid transfer: APIC keeps rotation, PIC damps it."},
     {"sim.max_retries", KT_INT, TOP(s.sim.max_retries), CC(0, 16), NULL, "4", NULL, NULL, 0,
      "Times a frame is retried at half the CFL number after numerical trouble."},
-    {"sim.water_volume", KT_ENUM, TOP(s.sim.water_volume), ANY, "particle|grid", "particle", NULL, NULL, 0,
-     "Water's volume ratio J: particle (each particle's own, as in the paper: water at rest drifts into layered "
-     "pressure and packs tighter than its J says, so a tank slowly loses volume) or grid (averaged on the grid each "
-     "substep and held to the particles' packing: smooth hydrostatic pressure, volume kept)."},
     {"sim.jitter", KT_BOOL, TOP(s.jitter), ANY, NULL, "true", NULL, NULL, 0,
      "Jitter the seeding lattice so no grid pattern shows."},
     {"sim.seed", KT_INT, TOP(s.seed), CC(1, 2147483647), NULL, "1", NULL, NULL, 0, "Random seed of the jitter."},
