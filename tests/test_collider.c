@@ -15,6 +15,7 @@
 
 #include "kerf.h"
 #include "kt.h"
+#include "mesh_util.h"
 #include "mpm/collider.h"
 #include "mpm/model.h"
 #include "mpm/sdf_grid.h"
@@ -27,23 +28,13 @@
 
 static const double PI = 3.14159265358979323846;
 
-/* a path under the repository root (found from this file's own path) */
-static const char *src(const char *rel) {
-    static char buf[8][1024];
-    static int k = 0;
-    char *b = buf[k++ % 8];
-    const char *me = __FILE__, *cut = strstr(me, "tests/test_collider.c");
-    snprintf(b, 1024, "%.*s%s", cut ? (int)(cut - me) : 0, me, rel);
-    return b;
-}
-
 static double uniform(unsigned *s, double lo, double hi) { return lo + (hi - lo) * tu_uniform(s); }
 
 /* a mesh from a file, placed by kf_sample_placement (fit to size at c) */
 static void placed_mesh(const char *rel, const double c[3], double size, const double rotate[3],
                         const double scale[3], kf_mesh *m) {
     char err[512];
-    if (kf_mesh_load(src(rel), m, err, sizeof err)) {
+    if (kf_mesh_load(tu_repo_path(rel), m, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         exit(99);
     }
@@ -917,7 +908,7 @@ static uint64_t hash_of(const char *path, const char *const *sets, int nsets) {
 static void shot_builds_colliders(void) {
     kf_diag d;
     kf_diag_init(&d);
-    const char *path = src("tests/shots/colliders.yaml");
+    const char *path = tu_repo_path("tests/shots/colliders.yaml");
     kf_shot *shot = kf_shot_load(path, NULL, 0, NULL, NULL, &d);
     KT_CHECK(shot != NULL, "colliders.yaml loads");
     if (!shot) return kf_diag_print(stderr, &d), kf_diag_free(&d);
@@ -975,15 +966,15 @@ static void shot_builds_colliders(void) {
     snprintf(p1, sizeof p1, "%s/colliders.yaml", dir);
     copy_file(path, p1, NULL);
     snprintf(p2, sizeof p2, "%s/assets/cube.off", dir);
-    copy_file(src("tests/shots/assets/cube.off"), p2, NULL);
+    copy_file(tu_repo_path("tests/shots/assets/cube.off"), p2, NULL);
     uint64_t ha = hash_of(p1, NULL, 0);
-    copy_file(src("tests/shots/assets/cube.off"), p2, "\n");
+    copy_file(tu_repo_path("tests/shots/assets/cube.off"), p2, "\n");
     KT_CHECK(hash_of(p1, NULL, 0) != ha, "an edited mesh file changes the hash");
 
     /* an open mesh: reported at its mesh: line by the builder */
     snprintf(p1, sizeof p1, "%s/open.yaml", dir);
     char open_mesh[PATH_MAX];
-    KT_CHECK(realpath(src("tests/meshes/cube_open.obj"), open_mesh) != NULL, "the open mesh exists");
+    KT_CHECK(realpath(tu_repo_path("tests/meshes/cube_open.obj"), open_mesh) != NULL, "the open mesh exists");
     FILE *y = fopen(p1, "w");
     fprintf(y, "frames: {end: 1002}\n"
                "materials: {goo: {preset: goo}}\n"

@@ -18,14 +18,13 @@
 #include "kt.h"
 #include "mpm/implicit.h"
 #include "scene_util.h"
+#include "implicit_util.h"
 
 #ifdef KF_DOUBLE
 #define ROUNDOFF DBL_EPSILON
 #else
 #define ROUNDOFF FLT_EPSILON
 #endif
-
-static double urand(unsigned *s) { return 2 * tu_uniform(s) - 1; }
 
 /* ---- per-material derivatives ------------------------------------------------ */
 
@@ -111,12 +110,6 @@ static void corotated_polar_matches_svd(void) {
 
 /* ---- a small deformed block on the grid ------------------------------------------- */
 
-typedef struct scene {
-    kf_model *m;
-    kf_state *s;
-    int mat;
-} scene;
-
 /* a block of the preset, with a random smooth deformation in F (so the
  * Hessian is not the rest one) and a random velocity field */
 static scene deformed_block(const char *preset, kf_force force, kf_kernel kernel, double amp, unsigned seed) {
@@ -137,20 +130,6 @@ static scene deformed_block(const char *preset, kf_force force, kf_kernel kernel
         for (int a = 0; a < 3; a++) pv.v[a][i] = (kf_real)(0.5 * urand(&seed));
     }
     return sc;
-}
-
-static void scene_free(scene *sc) {
-    kf_state_destroy(sc->s);
-    kf_model_destroy(sc->m);
-}
-
-/* the workspace of a substep of dt from the scene's state */
-static void workspace(scene *sc, double dt, kf_implicit *w) {
-    size_t bad;
-    int rc = kf_grid_bin(&sc->s->g, &sc->s->p, (kf_real)(1.0 / sc->m->sim.dx), sc->m->sim.kernel == KF_KERNEL_CUBIC,
-                         2, &bad);
-    KT_CHECK(rc == 0, "bin %d", rc);
-    KT_CHECK(kf_imp_create(w, sc->m, sc->s, dt) == 0, "workspace");
 }
 
 /* a random vector on the nodes that carry mass */
@@ -175,7 +154,7 @@ static void force_differential(void) {
         scene sc = deformed_block(variant == 0 ? "jello" : "metal", force, kernel, 0.15, 11 + variant);
         const double dt = 2e-3;
         kf_implicit w;
-        workspace(&sc, dt, &w);
+        workspace_create(&sc, dt, &w);
         size_t n3 = KF_IMP_NV * w.nnode;
         double *v = malloc(n3 * sizeof *v), *dv = malloc(n3 * sizeof *dv), *Hd = malloc(n3 * sizeof *Hd);
         double *gp = malloc(n3 * sizeof *gp), *gm = malloc(n3 * sizeof *gm);
@@ -215,7 +194,7 @@ static void force_differential(void) {
 static void hessian_symmetric_psd(void) {
     scene sc = deformed_block("jello", KF_FORCE_MLS, KF_KERNEL_QUADRATIC, 0.45, 21);
     kf_implicit w;
-    workspace(&sc, 2e-3, &w);
+    workspace_create(&sc, 2e-3, &w);
     size_t n3 = KF_IMP_NV * w.nnode;
     double *v = calloc(n3, sizeof *v), *x = malloc(n3 * sizeof *x), *y = malloc(n3 * sizeof *y);
     double *Hx = malloc(n3 * sizeof *Hx), *Hy = malloc(n3 * sizeof *Hy);

@@ -15,13 +15,7 @@
 #include "kt.h"
 #include "mpm/implicit.h"
 #include "scene_util.h"
-
-static double urand(unsigned *s) { return 2 * tu_uniform(s) - 1; }
-
-typedef struct scene {
-    kf_model *m;
-    kf_state *s;
-} scene;
+#include "implicit_util.h"
 
 /* a jello block resting on a slip floor against sticky side walls at
  * x = 0, with a random smooth deformation and velocity */
@@ -34,11 +28,10 @@ static scene floor_block(kf_precond pc) {
     sd.walls = 1;
     sd.wall_boundary = KF_BOUNDARY_SLIP;
     sd.threads = 2;
-    int mat;
-    sc.m = tu_model(&sd, "jello", 1e5, 0.3, 1000, &mat);
+    sc.m = tu_model(&sd, "jello", 1e5, 0.3, 1000, &sc.mat);
     sc.s = kf_state_create(sc.m);
     double lo[3] = {0.02, 0.01, 0.3}, hi[3] = {0.5, 0.2, 0.55};
-    kf_state_fill_box(sc.s, sc.m, lo, hi, mat, NULL, 2, 3);
+    kf_state_fill_box(sc.s, sc.m, lo, hi, sc.mat, NULL, 2, 3);
     kf_particles_view pv = kf_state_particles(sc.s);
     unsigned seed = 17;
     for (size_t i = 0; i < pv.n; i++) {
@@ -48,17 +41,9 @@ static scene floor_block(kf_precond pc) {
     return sc;
 }
 
-static void scene_free(scene *sc) {
-    kf_state_destroy(sc->s);
-    kf_model_destroy(sc->m);
-}
-
 /* the workspace of a substep: stencils, constraints, linearised at v* */
 static void workspace(scene *sc, double dt, kf_implicit *w) {
-    size_t bad;
-    int rc = kf_grid_bin(&sc->s->g, &sc->s->p, (kf_real)(1.0 / sc->m->sim.dx), 0, 2, &bad);
-    KT_CHECK(rc == 0, "bin %d", rc);
-    KT_CHECK(kf_imp_create(w, sc->m, sc->s, dt) == 0, "workspace");
+    workspace_create(sc, dt, w);
     KT_CHECK(kf_imp_constraints(w, w->v) == 0, "constraints");
     KT_CHECK(isfinite(kf_imp_linearize(w, w->v, 1)), "linearised");
 }

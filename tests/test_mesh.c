@@ -12,22 +12,13 @@
 
 #include "kerf.h"
 #include "kt.h"
+#include "mesh_util.h"
 #include "scene/inside.h"
 #include "scene/mesh.h"
 #include "scene/sample.h"
 #include "scene_util.h"
 
 static const double PI = 3.14159265358979323846;
-
-/* a path under the repository root (found from this file's own path) */
-static const char *src(const char *rel) {
-    static char buf[8][1024];
-    static int k = 0;
-    char *b = buf[k++ % 8];
-    const char *me = __FILE__, *cut = strstr(me, "tests/test_mesh.c");
-    snprintf(b, 1024, "%.*s%s", cut ? (int)(cut - me) : 0, me, rel);
-    return b;
-}
 
 static char tmpdir[256];
 
@@ -93,7 +84,7 @@ static long sample_count(const kf_sample_def *d) {
  * analytic box gives the same points in the same order, and so does
  * kf_state_fill_box (the same lattice convention). */
 static void test_cube_exact_count(void) {
-    const char *cube = src("tests/meshes/cube.obj");
+    const char *cube = tu_repo_path("tests/meshes/cube.obj");
     const int ppcs[4] = {1, 8, 27, 64};
     const double dx = 0.1;
     for (int k = 0; k < 4; k++) {
@@ -149,7 +140,7 @@ static void test_cube_exact_count(void) {
  * ~0.05 % (one Bernoulli per boundary sub-cell, ~1.3e4 of them). So: within
  * 0.4 % of the mesh volume and 1 % of the sphere's. */
 static void test_sphere_volume(void) {
-    const char *path = src("assets/sphere.obj");
+    const char *path = tu_repo_path("assets/sphere.obj");
     char err[512];
     kf_mesh m;
     KT_CHECK(kf_mesh_load(path, &m, err, sizeof err) == 0, "%s", err);
@@ -209,7 +200,7 @@ static int diamond_in(int i, int j, int k) {
 static void edge_case(const char *file, analytic_fn analytic) {
     char err[512];
     kf_mesh m;
-    KT_CHECK(kf_mesh_load(src(file), &m, err, sizeof err) == 0, "%s", err);
+    KT_CHECK(kf_mesh_load(tu_repo_path(file), &m, err, sizeof err) == 0, "%s", err);
     /* variant 0: x, y, z first, then the generic directions; 1: the generic
      * directions only; 2 (the control): every direction along x, so nothing
      * can be re-cast: this naive parity must get some points wrong, or the
@@ -272,7 +263,7 @@ static void test_edge_vertex_hits(void) {
     edge_case("tests/meshes/diamond.obj", diamond_in);
     /* and through the sampler: dx = 0.25, 8 per cell puts points at odd/16,
      * never on the octahedron's surface (a sum of three odd numbers is odd) */
-    kf_sample_def d = mesh_def(src("tests/meshes/octahedron.obj"), 0.25, 8, 0);
+    kf_sample_def d = mesh_def(tu_repo_path("tests/meshes/octahedron.obj"), 0.25, 8, 0);
     long expect = 0;
     for (int i = -8; i < 8; i++)
         for (int j = -8; j < 8; j++)
@@ -293,7 +284,7 @@ static void test_formats_same_count(void) {
     for (int f = 0; f < 5; f++) {
         char err[512];
         kf_mesh m;
-        int rc = kf_mesh_load(src(files[f]), &m, err, sizeof err);
+        int rc = kf_mesh_load(tu_repo_path(files[f]), &m, err, sizeof err);
         KT_CHECK(rc == 0, "%s", err);
         if (rc) continue;
         KT_CHECK(m.nvert == 288 && m.ntri == 576 && m.closed && m.oriented,
@@ -301,7 +292,7 @@ static void test_formats_same_count(void) {
                  m.oriented);
         KT_NEAR(m.volume, 0.0805031, 1e-6, "the same torus in every format");
         kf_mesh_free(&m);
-        kf_sample_def d = mesh_def(src(files[f]), 0.02, 8, 3);
+        kf_sample_def d = mesh_def(tu_repo_path(files[f]), 0.02, 8, 3);
         long n = sample_count(&d);
         if (first < 0) first = n;
         KT_CHECK(n == first && n > 0, "%s: %ld particles, %s gave %ld", files[f], n, files[0], first);
@@ -329,16 +320,16 @@ static void expect_error(const char *path, const char *reason_text, int sample) 
 }
 
 static void test_bad_files(void) {
-    expect_error(src("tests/meshes/cube_open.obj"), "not closed: 4 boundary edges", 1);
-    expect_error(src("tests/meshes/bowtie.obj"), "not closed: 1 edge shared by more than two triangles", 1);
-    expect_error(src("tests/meshes/empty.obj"), "empty file", 0);
-    expect_error(src("tests/meshes/empty.obj"), "empty file", 1);
-    expect_error(src("tests/meshes/garbage.obj"), "no faces (truncated file?)", 1);
-    expect_error(src("tests/meshes/no_such_mesh.obj"), "cannot open: No such file or directory", 1);
+    expect_error(tu_repo_path("tests/meshes/cube_open.obj"), "not closed: 4 boundary edges", 1);
+    expect_error(tu_repo_path("tests/meshes/bowtie.obj"), "not closed: 1 edge shared by more than two triangles", 1);
+    expect_error(tu_repo_path("tests/meshes/empty.obj"), "empty file", 0);
+    expect_error(tu_repo_path("tests/meshes/empty.obj"), "empty file", 1);
+    expect_error(tu_repo_path("tests/meshes/garbage.obj"), "no faces (truncated file?)", 1);
+    expect_error(tu_repo_path("tests/meshes/no_such_mesh.obj"), "cannot open: No such file or directory", 1);
 
     /* truncations of a valid binary PLY (in the header, the vertices, the
      * faces, one byte short), an ASCII PLY and an OFF */
-    const char *ply = src("tests/meshes/torus.ply");
+    const char *ply = tu_repo_path("tests/meshes/torus.ply");
     long n = file_size(ply);
     long cuts[4] = {60, 2000, n - 700, n - 1};
     for (int c = 0; c < 4; c++) {
@@ -349,13 +340,13 @@ static void test_bad_files(void) {
                                : "truncated file: header declares 288 vertices and 576 faces",
                      0);
     }
-    const char *aply = src("tests/meshes/torus_ascii.ply");
+    const char *aply = tu_repo_path("tests/meshes/torus_ascii.ply");
     truncate_copy(aply, tmp("torus_cut_ascii.ply"), file_size(aply) - 200);
     expect_error(tmp("torus_cut_ascii.ply"), "truncated file: header declares 288 vertices and 576 faces", 1);
-    const char *stl = src("tests/meshes/torus.stl");
+    const char *stl = tu_repo_path("tests/meshes/torus.stl");
     truncate_copy(stl, tmp("torus_cut.stl"), file_size(stl) - 10);
     expect_error(tmp("torus_cut.stl"), "truncated file: header declares 576 triangles (28884 bytes), the file has 28874", 0);
-    const char *off = src("tests/meshes/torus.off");
+    const char *off = tu_repo_path("tests/meshes/torus.off");
     truncate_copy(off, tmp("torus_cut.off"), file_size(off) / 2);
     expect_error(tmp("torus_cut.off"), "truncated file: header declares 288 vertices and 576 faces", 0);
 
@@ -389,7 +380,7 @@ static void test_placement(void) {
 
     /* fit: the torus (0.84 x 0.24 x 0.84) turned 90° about x is 0.84 x 0.84 x
      * 0.24; fitted to size 0.5 at (1, 2, 3) */
-    kf_sample_def d = mesh_def(src("tests/meshes/torus.obj"), 0.01, 8, 0);
+    kf_sample_def d = mesh_def(tu_repo_path("tests/meshes/torus.obj"), 0.01, 8, 0);
     d.place.rotate[0] = 90;
     d.place.fit = 1;
     d.place.fit_size = 0.5;
@@ -438,7 +429,7 @@ static void test_placement(void) {
     kf_points_free(&p);
 
     /* a mesh moved without fit: cube [0,1]^3 scaled (2, 1, 1) and moved by (1, 1, 1) */
-    kf_sample_def c = mesh_def(src("tests/meshes/cube.obj"), 0.1, 8, 0);
+    kf_sample_def c = mesh_def(tu_repo_path("tests/meshes/cube.obj"), 0.1, 8, 0);
     c.place.scale[0] = 2;
     for (int a = 0; a < 3; a++) c.place.translate[a] = 1;
     KT_CHECK(kf_sample_shape(&c, &p, err, sizeof err) == 0, "%s", err);
@@ -494,7 +485,7 @@ static void test_placement(void) {
 /* Same def, 1 or 2 threads: the same particles in the same order. */
 static void test_determinism(void) {
     char err[512];
-    kf_sample_def d = mesh_def(src("tests/meshes/torus.obj"), 0.02, 27, 77);
+    kf_sample_def d = mesh_def(tu_repo_path("tests/meshes/torus.obj"), 0.02, 27, 77);
     d.place.rotate[1] = 30;
     kf_points a, b;
     d.threads = 1;
@@ -514,9 +505,9 @@ static void test_bunny_and_armadillo(void) {
     for (int f = 0; f < 2; f++) {
         char err[512];
         kf_mesh m;
-        KT_CHECK(kf_mesh_load(src(files[f]), &m, err, sizeof err) == 0, "%s", err);
+        KT_CHECK(kf_mesh_load(tu_repo_path(files[f]), &m, err, sizeof err) == 0, "%s", err);
         KT_CHECK(m.closed, "%s: %zu boundary edges", files[f], m.boundary_edges);
-        kf_sample_def d = mesh_def(src(files[f]), 0.01, 8, 7);
+        kf_sample_def d = mesh_def(tu_repo_path(files[f]), 0.01, 8, 7);
         d.mesh = &m;
         d.place.fit = 1;
         d.place.fit_size = 0.5;
@@ -551,7 +542,7 @@ static void test_assets_closed(void) {
         char rel[64], err[512];
         snprintf(rel, sizeof rel, "assets/%s.obj", files[f]);
         kf_mesh m;
-        int rc = kf_mesh_load(src(rel), &m, err, sizeof err);
+        int rc = kf_mesh_load(tu_repo_path(rel), &m, err, sizeof err);
         KT_CHECK(rc == 0, "%s", err);
         if (rc) continue;
         KT_CHECK(m.closed && m.oriented && m.flipped_tris == 0 && m.dropped_tris == 0 && m.duplicate_tris == 0,
@@ -566,7 +557,7 @@ static void test_assets_closed(void) {
 static void test_inside_throughput(void) {
     char err[512];
     kf_mesh m;
-    if (kf_mesh_load(src("assets/bunny.off"), &m, err, sizeof err)) {
+    if (kf_mesh_load(tu_repo_path("assets/bunny.off"), &m, err, sizeof err)) {
         KT_CHECK(0, "%s", err);
         return;
     }

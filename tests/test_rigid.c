@@ -10,20 +10,11 @@
 
 #include "kerf.h"
 #include "kt.h"
+#include "mesh_util.h"
 #include "random_util.h"
 #include "rigid/mass.h"
 #include "rigid/rigid.h"
 #include "scene/mesh.h"
-
-/* a path under the repository root (found from this file's own path) */
-static const char *src(const char *rel) {
-    static char buf[8][1024];
-    static int k = 0;
-    char *b = buf[k++ % 8];
-    const char *me = __FILE__, *cut = strstr(me, "tests/test_rigid.c");
-    snprintf(b, 1024, "%.*s%s", cut ? (int)(cut - me) : 0, me, rel);
-    return b;
-}
 
 /* ---- meshes ------------------------------------------------------------- */
 
@@ -46,28 +37,6 @@ static kf_rigid_def box_def(const double lo[3], const double hi[3], double v[24]
     d.motion = motion;
     d.density = 1000;
     return d;
-}
-
-/* a mesh file as int triangles */
-typedef struct loaded {
-    kf_mesh m;
-    int *tri;
-} loaded;
-
-static int load_mesh(const char *rel, loaded *L) {
-    char err[256];
-    if (kf_mesh_load(src(rel), &L->m, err, sizeof err)) {
-        KT_CHECK(0, "%s", err);
-        return -1;
-    }
-    L->tri = malloc(sizeof(int) * 3 * L->m.ntri);
-    for (size_t i = 0; i < 3 * L->m.ntri; i++) L->tri[i] = (int)L->m.tri[i];
-    return 0;
-}
-
-static void free_mesh(loaded *L) {
-    kf_mesh_free(&L->m);
-    free(L->tri);
 }
 
 /* ---- mass properties ------------------------------------------------------ */
@@ -127,8 +96,8 @@ static void test_mass_box_off_centre(void) {
  * from its corners), so volume and second moments are low by at most 3 s/R
  * and 5 s/R relative, and never high. */
 static void test_mass_sphere(void) {
-    loaded L;
-    if (load_mesh("assets/sphere.obj", &L)) return;
+    tu_loaded_mesh L;
+    if (tu_load_mesh("assets/sphere.obj", &L)) return;
     /* radius of the vertices */
     double R = 0;
     for (size_t i = 0; i < L.m.nvert; i++) {
@@ -151,7 +120,7 @@ static void test_mass_sphere(void) {
             else
                 KT_NEAR(mp.inertia[3 * i + j], 0, 1e-9 * I, "symmetric mesh");
         }
-    free_mesh(&L);
+    tu_free_mesh(&L);
 }
 
 /* the asymmetric tetrahedron of cpic-notes §8.7, where a known formula swaps

@@ -4,7 +4,7 @@
  * the independent rasteriser on the real meshes; lines exactly through
  * vertices and edges; the crossings of a flat square independent of its
  * triangulation; and the seeds themselves: every triangle of every mesh in
- * assets/ and tests/meshes (loaded by assimp) holds a seed, every surface
+ * assets/ and tests/meshes (tu_loaded_mesh by assimp) holds a seed, every surface
  * point is within the spacing of one, long thin triangles (a sliver, a tube
  * of 1 m x 1 mm strips) and specks included, and the seeds are
  * bit-identical run to run and for any thread count. */
@@ -15,44 +15,13 @@
 #include <string.h>
 
 #include "kt.h"
+#include "mesh_util.h"
 #include "random_util.h"
 #include "rigid/rigid.h"
 #include "rigid/seed_crossings.h"
 #include "scene/mesh.h"
 
-/* a path under the repository root (found from this file's own path) */
-static const char *src(const char *rel) {
-    static char buf[8][1024];
-    static int k = 0;
-    char *b = buf[k++ % 8];
-    const char *me = __FILE__, *cut = strstr(me, "tests/test_seed.c");
-    snprintf(b, 1024, "%.*s%s", cut ? (int)(cut - me) : 0, me, rel);
-    return b;
-}
-
 /* ---- meshes ------------------------------------------------------------- */
-
-/* a mesh file as int triangles */
-typedef struct loaded {
-    kf_mesh m;
-    int *tri;
-} loaded;
-
-static int load_mesh(const char *rel, loaded *L) {
-    char err[256];
-    if (kf_mesh_load(src(rel), &L->m, err, sizeof err)) {
-        KT_CHECK(0, "%s", err);
-        return -1;
-    }
-    L->tri = malloc(sizeof(int) * 3 * L->m.ntri);
-    for (size_t i = 0; i < 3 * L->m.ntri; i++) L->tri[i] = (int)L->m.tri[i];
-    return 0;
-}
-
-static void free_mesh(loaded *L) {
-    kf_mesh_free(&L->m);
-    free(L->tri);
-}
 
 static double extent(const kf_mesh *m) {
     double ext = 0;
@@ -270,11 +239,11 @@ static void test_seed_triangulation_independent(void) {
  * a typical shot) */
 static void test_seed_meshes(void) {
     for (int f = 0; f < NMESHES; f++) {
-        loaded L;
-        if (load_mesh(MESHES[f], &L)) continue;
+        tu_loaded_mesh L;
+        if (tu_load_mesh(MESHES[f], &L)) continue;
         const char *name = strrchr(MESHES[f], '/') + 1;
         check_seeding(name, L.m.vert, (int)L.m.nvert, L.tri, (int)L.m.ntri, extent(&L.m) / 60, 8);
-        free_mesh(&L);
+        tu_free_mesh(&L);
     }
 }
 
@@ -386,11 +355,11 @@ static void test_crossings_convex_analytic(void) {
     const char *files[4] = {"tests/meshes/cube.obj", "tests/meshes/octahedron.obj", "tests/meshes/diamond.obj",
                             "assets/sphere.obj"};
     for (int f = 0; f < 4; f++) {
-        loaded L;
-        if (load_mesh(files[f], &L)) continue;
+        tu_loaded_mesh L;
+        if (tu_load_mesh(files[f], &L)) continue;
         double ext = extent(&L.m);
         check_convex(strrchr(files[f], '/') + 1, L.m.vert, (int)L.m.nvert, L.tri, (int)L.m.ntri, ext / 41);
-        free_mesh(&L);
+        tu_free_mesh(&L);
     }
     /* a 1 x 0.6 x 0.3 box turned and moved */
     double Q[9], v[24];
@@ -412,8 +381,8 @@ static void test_crossings_convex_analytic(void) {
 static void test_crossings_match_raster(void) {
     long all_lines = 0, all_diff = 0, all_cross = 0;
     for (int f = 0; f < NMESHES; f++) {
-        loaded M;
-        if (load_mesh(MESHES[f], &M)) continue;
+        tu_loaded_mesh M;
+        if (tu_load_mesh(MESHES[f], &M)) continue;
         const double ext = extent(&M.m);
         kf_seed_lattice L;
         kf_seed_lattice_for(M.m.lo, M.m.hi, 0.7 * ext / 60, &L);
@@ -458,7 +427,7 @@ static void test_crossings_match_raster(void) {
         all_lines += lines, all_diff += diff_lines, all_cross += nr;
         free(r);
         free(s);
-        free_mesh(&M);
+        tu_free_mesh(&M);
     }
     printf("  all meshes: %ld lines, %ld crossings, %ld lines differing\n", all_lines, all_cross, all_diff);
 }
@@ -580,8 +549,8 @@ static void test_crossings_triangulation_independent(void) {
 
 /* the seeds are bit-identical run to run and for 1, 2 and 3 threads */
 static void test_seed_deterministic(void) {
-    loaded L;
-    if (load_mesh("assets/bunny.off", &L)) return;
+    tu_loaded_mesh L;
+    if (tu_load_mesh("assets/bunny.off", &L)) return;
     const double spacing = extent(&L.m) / 60;
     const int threads[4] = {2, 1, 2, 3};
     float *seed0 = NULL;
@@ -607,7 +576,7 @@ static void test_seed_deterministic(void) {
     printf("  bunny: %zu seeds, bit-identical over 4 runs with 2, 1, 2 and 3 threads\n", n0);
     free(seed0);
     free(tri0);
-    free_mesh(&L);
+    tu_free_mesh(&L);
 }
 
 int main(int argc, char **argv) {
