@@ -195,6 +195,37 @@ void kf_imp_mg_apply(kf_implicit *w, const double *r, double *z);
 int kf_imp_mg_levels(const kf_implicit *w);
 size_t kf_imp_mg_nodes(const kf_implicit *w, int level);
 
+/* ---- the solve's profile ------------------------------------------------------
+ * Process CPU milliseconds per stage of the implicit grid stage, summed
+ * over every substep since the last kf_imp_profile_take, for the evidence
+ * sweep (run it on one thread). Off unless kf_imp_profile_enable(1): the
+ * clock reads cost a system call each. Process-wide, not per model. */
+enum {
+    KF_IMP_T_SETUP,       /* stencils, P2G of mass and momentum, allocation */
+    KF_IMP_T_CONSTRAINTS, /* walls and colliders */
+    KF_IMP_T_PREDICT,     /* the explicit predictor and its energies */
+    KF_IMP_T_LINEARIZE,   /* F, Ψ, P and the Hessian blocks (SVD) at each Newton iterate */
+    KF_IMP_T_LINESEARCH,  /* the line search's energies (F, Ψ, P by the polar decomposition) */
+    KF_IMP_T_GRADIENT,    /* the gradient's scatter and residual */
+    KF_IMP_T_DIAG,        /* the Hessian's diagonal */
+    KF_IMP_T_MG_BUILD,    /* the multigrid levels' geometry */
+    KF_IMP_T_MG_REFRESH,  /* the coarse operators from the blocks (and the dampings) */
+    KF_IMP_T_HESSIAN,     /* CG's fine Hessian products */
+    KF_IMP_T_PRECOND,     /* CG's preconditioner (the V-cycle) */
+    KF_IMP_T_CG_VECTORS,  /* CG's dots, norms and updates */
+    KF_IMP_T_FINISH,      /* friction, the grid update, freeing */
+    KF_IMP_T_COUNT
+};
+typedef struct kf_imp_profile {
+    double ms[KF_IMP_T_COUNT];
+    long substeps, linearizations, energy_evals, hessian_products, precond_applications;
+} kf_imp_profile;
+void kf_imp_profile_enable(int on);
+/* the profile so far, and a fresh start */
+void kf_imp_profile_take(kf_imp_profile *out);
+/* its stage names ("setup", "hessian", ...) */
+const char *kf_imp_profile_stage(int stage);
+
 /* ---- the solve ---------------------------------------------------------------- */
 
 /* Newton with preconditioned CG and a line search, from v (admissible) to

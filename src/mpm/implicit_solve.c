@@ -14,6 +14,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 
 #include "implicit.h"
 
@@ -26,6 +27,38 @@
  * newton_tol / (the current Newton residual), so a Newton iteration that
  * starts near convergence stops CG early (an inexact Newton forcing term) */
 #define FORCING 0.5
+/* a Newton iteration on kept blocks that cut the residual by less than this
+ * makes the next one linearise afresh */
+#define RELINEARIZE 0.1
+
+/* ---- the profile (implicit.h) ------------------------------------------------ */
+
+static kf_imp_profile prof;
+static int prof_on;
+static const char *const STAGE_NAME[KF_IMP_T_COUNT] = {
+    "setup", "constraints", "predict", "linearize", "line search", "gradient", "diagonal",
+    "mg build", "mg refresh", "hessian", "precond", "cg vectors", "finish"};
+
+void kf_imp_profile_enable(int on) { prof_on = on; }
+void kf_imp_profile_take(kf_imp_profile *out) {
+    if (out) *out = prof;
+    memset(&prof, 0, sizeof prof);
+}
+const char *kf_imp_profile_stage(int stage) { return stage >= 0 && stage < KF_IMP_T_COUNT ? STAGE_NAME[stage] : "?"; }
+
+static double prof_now(void) {
+    if (!prof_on) return 0;
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return 1e3 * ts.tv_sec + 1e-6 * ts.tv_nsec;
+}
+/* the time since *t goes to stage; *t becomes now */
+static void prof_lap(int stage, double *t) {
+    if (!prof_on) return;
+    double n = prof_now();
+    prof.ms[stage] += n - *t;
+    *t = n;
+}
 
 /* ---- vectors over the grid nodes (3 per node), block-ordered sums -------- */
 
@@ -128,6 +161,20 @@ void kf_imp_hessian_action(kf_implicit *w, const double *x, double *y) {
     kf_imp_scatter_product(w, x, y);
 }
 
+/* S = Δt V⁰ τ(Fⁿ) from the particles' stored Kirchhoff stress; 0 when the
+ * state has none */
+static int stress_of_fn(kf_implicit *w) {
+    const kf_particles *p = &w->s->p;
+    if (!w->s->tau_valid) return 0;
+    static const int sym[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ij in the xx yy zz xy xz yz planes */
+#pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
+    for (size_t i = 0; i < w->np; i++) {
+        const double s = w->dt * (double)p->vol0[i];
+        for (int k = 0; k < 9; k++) w->S[9 * i + k] = s * (double)p->tau[sym[k]][i];
+    }
+    return 1;
+}
+
 /* ---- Newton–Krylov ------------------------------------------------------------ */
 
 /* z = P D⁻¹ r: the Jacobi preconditioner restricted to the free directions;
@@ -142,42 +189,59 @@ static void precondition(kf_implicit *w, const double *r, double *z) {
     kf_imp_project(w, z);
 }
 
-/* CG on (P H P) d = −P g from d = 0; returns the iterations taken */
-static int pcg(kf_implicit *w, double tol, int kmax) {
+/* CG on (P H P) d = −P g from d = 0; returns the iterations taken.
+ * blocks_changed: Kp is new since the last call (the diagonal and the
+ * preconditioner's operators are rebuilt) */
+static int pcg(kf_implicit *w, double tol, int kmax, int blocks_changed) {
     const size_t n3 = KF_IMP_NV * w->nnode;
     double *d = w->d, *r = w->r, *z = w->z, *p = w->p, *q = w->q;
+    double t = prof_now();
     memset(d, 0, n3 * sizeof *d);
     for (size_t k = 0; k < n3; k++) r[k] = -w->g[k];
-    /* the diagonal of the Hessian: mass plus the particles' stiffness */
-    for (size_t i = 0; i < w->nnode; i++)
-        for (int a = 0; a < 3; a++) w->diag[KF_IMP_NV * i + a] = w->mass[i];
-    kf_imp_scatter_diag(w, w->diag);
-    if (w->m->sim.precond == KF_PRECOND_MULTIGRID) {
+    if (blocks_changed) {
+        /* the diagonal of the Hessian: mass plus the particles' stiffness */
+        for (size_t i = 0; i < w->nnode; i++)
+            for (int a = 0; a < 3; a++) w->diag[KF_IMP_NV * i + a] = w->mass[i];
+        kf_imp_scatter_diag(w, w->diag);
+    }
+    prof_lap(KF_IMP_T_DIAG, &t);
+    if (blocks_changed && w->m->sim.precond == KF_PRECOND_MULTIGRID) {
         /* the levels once per substep, their operators at every Newton iteration */
         if (!w->mg && kf_imp_mg_create(w)) {
             kf_imp_mg_free(w->mg); /* out of memory: Jacobi instead */
             w->mg = NULL;
         }
+        prof_lap(KF_IMP_T_MG_BUILD, &t);
         if (w->mg) kf_imp_mg_refresh(w);
+        prof_lap(KF_IMP_T_MG_REFRESH, &t);
     }
     precondition(w, r, z);
+    prof.precond_applications++;
+    prof_lap(KF_IMP_T_PRECOND, &t);
     memcpy(p, z, n3 * sizeof *p);
     double rz = kf_imp_dot(w, r, z), r0 = norm_minv(w, r);
     int it = 0;
     while (it < kmax && r0 > 0) {
+        prof_lap(KF_IMP_T_CG_VECTORS, &t);
         kf_imp_hessian_action(w, p, q);
         kf_imp_project(w, q);
+        prof.hessian_products++;
+        prof_lap(KF_IMP_T_HESSIAN, &t);
         double pq = kf_imp_dot(w, p, q);
         it++;
         if (!(pq > 0)) break;
         double alpha = rz / pq;
         for (size_t k = 0; k < n3; k++) d[k] += alpha * p[k], r[k] -= alpha * q[k];
         if (norm_minv(w, r) <= tol * r0) break;
+        prof_lap(KF_IMP_T_CG_VECTORS, &t);
         precondition(w, r, z);
+        prof.precond_applications++;
+        prof_lap(KF_IMP_T_PRECOND, &t);
         double rz1 = kf_imp_dot(w, r, z), beta = rz1 / rz;
         rz = rz1;
         for (size_t k = 0; k < n3; k++) p[k] = z[k] + beta * p[k];
     }
+    prof_lap(KF_IMP_T_CG_VECTORS, &t);
     return it;
 }
 
@@ -207,27 +271,63 @@ int kf_imp_solve(kf_implicit *w, double *v) {
     /* start from the explicit step when it lowers E: v + P Δt f(Fⁿ)/m. Its
      * slow part (a body resting or bending under gravity) is what Jacobi-CG
      * resolves slowest; the fast part it overshoots at large steps is what
-     * CG removes in a few iterations (and the comparison catches a blow-up). */
-    memset(w->vt, 0, n3 * sizeof *w->vt);
-    if (!isfinite(evaluate(w, w->vt, 0, 1))) return -1; /* G = 0: F = Fⁿ, S = Δt V⁰ P(Fⁿ) Fⁿᵀ */
+     * CG removes in a few iterations (and the comparison catches a blow-up).
+     * f(Fⁿ) is the scatter of S = Δt V⁰ τ(Fⁿ), the Kirchhoff stress the last
+     * substep's stress pass left in the particles (float: it only picks the
+     * start), or an evaluation at G = 0 when there is none. */
+    double t = prof_now();
+    if (!stress_of_fn(w)) {
+        memset(w->vt, 0, n3 * sizeof *w->vt);
+        if (!isfinite(evaluate(w, w->vt, 0, 1))) return -1; /* G = 0: F = Fⁿ, S = Δt V⁰ P(Fⁿ) Fⁿᵀ */
+        prof.energy_evals++;
+    }
     memset(w->r, 0, n3 * sizeof *w->r);
     kf_imp_scatter(w, w->S, w->r);
     for (size_t i = 0; i < w->nnode; i++)
         for (int a = 0; a < 3; a++) w->d[KF_IMP_NV * i + a] = w->mass[i] > 0 ? -w->r[KF_IMP_NV * i + a] / w->mass[i] : 0.0;
     kf_imp_project(w, w->d);
     for (size_t k = 0; k < n3; k++) w->vt[k] = v[k] + w->d[k];
-    double E_star = evaluate(w, v, 0, 1), E_exp = evaluate(w, w->vt, 0, 1);
-    if (isfinite(E_exp) && E_exp < E_star) memcpy(v, w->vt, n3 * sizeof *v);
-    double E = evaluate(w, v, 1, 1);
-    int have_hessian = 1;
+    prof_lap(KF_IMP_T_PREDICT, &t);
+    /* the Hessian blocks at v*, then E at the predictor: the first Newton
+     * step from either uses the blocks of v* (see below) */
+    double E = evaluate(w, v, 1, 1), E_exp = evaluate(w, w->vt, 0, 1);
+    prof.linearizations++;
+    prof.energy_evals++;
+    prof_lap(KF_IMP_T_LINEARIZE, &t);
     if (!isfinite(E)) return -1;
+    if (isfinite(E_exp) && E_exp < E) {
+        memcpy(v, w->vt, n3 * sizeof *v); /* S is the predictor's */
+        E = E_exp;
+    } else {
+        evaluate(w, v, 0, 1); /* S back at v* */
+        prof.energy_evals++;
+    }
+    prof_lap(KF_IMP_T_PREDICT, &t);
     kf_imp_gradient(w, v, w->g);
     kf_imp_project(w, w->g);
     double res = scale > 0 ? norm_minv(w, w->g) / scale : 0;
+    prof_lap(KF_IMP_T_GRADIENT, &t);
+    /* Newton with the blocks kept while they work: a Newton iteration only
+     * linearises again (SVD, blocks, diagonal, coarse operators) when the
+     * previous one, on older blocks, cut the residual by less than
+     * RELINEARIZE; otherwise CG runs on the blocks of an earlier iterate
+     * (a chord step: still a descent direction, the blocks being positive
+     * semi-definite, and the line search and the convergence test use the
+     * true E and gradient, so the solution meets the same tolerance) */
+    int fresh = 1;          /* the blocks are the current iterate's (or v*'s, before the first step) */
+    int blocks_changed = 1; /* the diagonal and coarse operators need rebuilding */
+    double res_prev = INFINITY;
     while (res > tol && w->newton_iterations < nmax) {
-        if (!have_hessian) evaluate(w, v, 1, 1);
-        have_hessian = 1;
-        w->krylov_iterations += pcg(w, fmax(ktol, FORCING * tol / res), kmax);
+        if (!fresh && res > RELINEARIZE * res_prev) {
+            evaluate(w, v, 1, 1);
+            prof.linearizations++;
+            prof_lap(KF_IMP_T_LINEARIZE, &t);
+            blocks_changed = 1;
+        }
+        int kit = pcg(w, fmax(ktol, FORCING * tol / res), kmax, blocks_changed);
+        blocks_changed = 0;
+        w->krylov_iterations += kit;
+        t = prof_now();
         double slope = kf_imp_dot(w, w->g, w->d);
         if (!(slope < 0)) {
             /* CG found no descent (round-off at convergence): steepest descent in the mass metric */
@@ -241,6 +341,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
         for (int ls = 0; ls < 30; ls++) {
             for (size_t k = 0; k < n3; k++) w->vt[k] = v[k] + alpha * w->d[k];
             Et = evaluate(w, w->vt, 0, 1);
+            prof.energy_evals++;
             if (isfinite(Et) && Et <= E + 1e-4 * alpha * slope + 1e-13 * fabs(E)) {
                 ok = 1;
                 break;
@@ -249,16 +350,30 @@ int kf_imp_solve(kf_implicit *w, double *v) {
         }
         w->newton_iterations++;
         if (!ok) {
+            prof_lap(KF_IMP_T_LINESEARCH, &t);
+            if (!fresh) {
+                /* the old blocks gave no decrease: linearise here and try again */
+                evaluate(w, v, 1, 1);
+                prof.linearizations++;
+                prof_lap(KF_IMP_T_LINEARIZE, &t);
+                fresh = blocks_changed = 1;
+                res_prev = INFINITY;
+                continue;
+            }
             /* no decrease to round-off: v is as good as it gets */
             evaluate(w, v, 0, 1);
+            prof_lap(KF_IMP_T_LINESEARCH, &t);
             break;
         }
         memcpy(v, w->vt, n3 * sizeof *v);
         E = Et;
-        have_hessian = 0;
+        fresh = 0;
+        prof_lap(KF_IMP_T_LINESEARCH, &t);
         kf_imp_gradient(w, v, w->g);
         kf_imp_project(w, w->g);
+        res_prev = res;
         res = norm_minv(w, w->g) / scale;
+        prof_lap(KF_IMP_T_GRADIENT, &t);
         if (!isfinite(res)) return -1;
     }
     w->residual = res;
@@ -272,7 +387,13 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
     memset(trouble, 0, sizeof *trouble);
     kf_implicit w;
     int rc = 0;
-    if (kf_imp_create(&w, m, s, dt) || kf_imp_constraints(&w, w.v)) {
+    double t = prof_now();
+    prof.substeps++;
+    int crc = kf_imp_create(&w, m, s, dt);
+    prof_lap(KF_IMP_T_SETUP, &t);
+    if (!crc) crc = kf_imp_constraints(&w, w.v);
+    prof_lap(KF_IMP_T_CONSTRAINTS, &t);
+    if (crc) {
         rc = 1;
         trouble->found = 1;
         snprintf(trouble->what, sizeof trouble->what, "out of memory in the implicit solve");
@@ -288,6 +409,7 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
         kf_imp_free(&w);
         return 1;
     }
+    t = prof_now();
     kf_imp_friction(&w, w.v);
     /* leave (m (v − Δt g), m) so the explicit grid update turns it into
      * exactly the velocity it would have produced, boundaries included */
@@ -309,5 +431,6 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
         st->newton_residual = w.residual;
     }
     kf_imp_free(&w);
+    prof_lap(KF_IMP_T_FINISH, &t);
     return 0;
 }

@@ -2,7 +2,10 @@
  * integration, over a range of stiffnesses (issue 7's evidence).
  *
  *   kf_evid_implicit_sweep --out DIR [--quick] [--E 1e6,3e6,1e7,3e7] [--repeat N]
- *   kf_evid_implicit_sweep --out DIR --E 1e6 --only-k 20 [--jacobi]   (one run, for profiling)
+ *   kf_evid_implicit_sweep --out DIR --E 1e6 --only-k 20 [--jacobi] [--profile]   (one run, for profiling)
+ * --profile prints the implicit step's CPU milliseconds per stage per substep
+ * (implicit.h's kf_imp_profile; median over the repeats) and the rest of
+ * the substep (binning, G2P, stress) from kerf's own stage timers.
  * The committed results: OMP_NUM_THREADS=1 kf_evid_implicit_sweep --out
  * tools/evidence/implicit_results --repeat 3 2> .../implicit_sweep.log, then
  * gnuplot -e "dir='tools/evidence/implicit_results'" tools/evidence/implicit_sweep.gp
@@ -31,6 +34,7 @@
 #include <time.h>
 
 #include "kerf.h"
+#include "mpm/implicit.h" /* the solve's per-stage profile (--profile) */
 
 #define FPS 24.0
 #define FRAMES 6
@@ -43,6 +47,8 @@ typedef struct run {
     int ok;
     double cpu_per_frame, rms, maxerr;
     long substeps, newton, krylov;
+    kf_imp_profile prof; /* --profile: the implicit solve's stages */
+    double other_ms[KF_STAGE_COUNT]; /* kerf's stage timers (wall ms; CPU ms on an idle core) */
 } run;
 
 static double cpu_now(void) {
@@ -61,6 +67,7 @@ static kf_precond g_only_precond = KF_PRECOND_MULTIGRID;
 /* timed runs are repeated this many times and their median CPU time kept
  * (the machine is shared: one run can be slowed by another's cache traffic) */
 static int g_repeat = 1;
+static int g_profile;
 
 /* simulate; x receives positions by stable id (3 n) */
 static run simulate(double E, int implicit, kf_precond pc, double cfl, double dt_fixed, double *x, size_t *n_out) {
@@ -96,10 +103,14 @@ static run simulate(double E, int implicit, kf_precond pc, double cfl, double dt
     kf_state_fill_box(s, m, lo, hi, id, NULL, 2, 0);
     kf_step_stats st = {0};
     char msg[512];
+    kf_imp_profile_enable(g_profile);
+    kf_imp_profile_take(NULL);
     double t0 = cpu_now();
     r.ok = 1;
     for (int f = 0; f < FRAMES && r.ok; f++) r.ok = !kf_advance(m, s, 1.0 / FPS, &st, msg, sizeof msg);
     r.cpu_per_frame = (cpu_now() - t0) / FRAMES;
+    kf_imp_profile_take(&r.prof);
+    memcpy(r.other_ms, st.ms, sizeof r.other_ms);
     r.substeps = st.substeps;
     r.newton = st.newton_iterations;
     r.krylov = st.krylov_iterations;
@@ -120,16 +131,45 @@ static int cmp_double(const void *a, const void *b) {
 /* simulate g_repeat times (the runs are deterministic: same result, same
  * counts) and keep the median CPU time per frame */
 static run simulate_median(double E, int implicit, kf_precond pc, double cfl, double dt_fixed, double *x, size_t *n_out) {
-    double t[64];
+    double t[64], ps[KF_IMP_T_COUNT + KF_STAGE_COUNT][64];
     int n = g_repeat < 1 ? 1 : g_repeat > 64 ? 64 : g_repeat;
     run r = {0};
     for (int k = 0; k < n; k++) {
         r = simulate(E, implicit, pc, cfl, dt_fixed, x, n_out);
         t[k] = r.cpu_per_frame;
+        for (int j = 0; j < KF_IMP_T_COUNT; j++) ps[j][k] = r.prof.ms[j];
+        for (int j = 0; j < KF_STAGE_COUNT; j++) ps[KF_IMP_T_COUNT + j][k] = r.other_ms[j];
     }
     qsort(t, n, sizeof *t, cmp_double);
     r.cpu_per_frame = n % 2 ? t[n / 2] : 0.5 * (t[n / 2 - 1] + t[n / 2]);
+    for (int j = 0; j < KF_IMP_T_COUNT + KF_STAGE_COUNT; j++) {
+        qsort(ps[j], n, sizeof *ps[j], cmp_double);
+        double med = n % 2 ? ps[j][n / 2] : 0.5 * (ps[j][n / 2 - 1] + ps[j][n / 2]);
+        if (j < KF_IMP_T_COUNT) r.prof.ms[j] = med;
+        else r.other_ms[j - KF_IMP_T_COUNT] = med;
+    }
     return r;
+}
+
+/* CPU ms per substep of each stage of the implicit solve, then the rest of the substep */
+static void print_profile(const run *r) {
+    const double ns = (double)r->substeps, sub_ms = 1e3 * r->cpu_per_frame * FRAMES / ns;
+    const kf_imp_profile *p = &r->prof;
+    double sum = 0;
+    fprintf(stderr, "  per substep: %.3f CPU ms; %.2f linearisations, %.2f energies, %.2f Hessian products, "
+                    "%.2f preconditioner applications\n",
+            sub_ms, p->linearizations / ns, p->energy_evals / ns, p->hessian_products / ns,
+            p->precond_applications / ns);
+    for (int j = 0; j < KF_IMP_T_COUNT; j++) {
+        sum += p->ms[j];
+        fprintf(stderr, "    %-12s %7.3f ms  %5.1f%%\n", kf_imp_profile_stage(j), p->ms[j] / ns, 100 * p->ms[j] / ns / sub_ms);
+    }
+    const char *other[] = {"sort", "p2g", "grid", "g2p", "stress"};
+    fprintf(stderr, "    %-12s %7.3f ms  %5.1f%%  (implicit grid stage, profiled)\n", "sum", sum / ns, 100 * sum / ns / sub_ms);
+    for (int j = 0; j < 5; j++)
+        if (j != KF_STAGE_GRID && j != KF_STAGE_P2G)
+            fprintf(stderr, "    %-12s %7.3f ms  %5.1f%%  (kerf's wall-clock stage timer)\n", other[j], r->other_ms[j] / ns,
+                    100 * r->other_ms[j] / ns / sub_ms);
 }
 
 static void compare(run *r, const double *x, const double *ref, size_t n) {
@@ -157,6 +197,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--krylov-max") && i + 1 < argc) g_krylov_max = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--only-k") && i + 1 < argc) g_only_k = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--jacobi")) g_only_precond = KF_PRECOND_JACOBI;
+        else if (!strcmp(argv[i], "--profile")) g_profile = 1;
         else if (!strcmp(argv[i], "--repeat") && i + 1 < argc) g_repeat = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--E") && i + 1 < argc) {
             nE = 0;
@@ -205,6 +246,7 @@ int main(int argc, char **argv) {
             run r = simulate_median(E, 1, g_only_precond, 0.4, g_only_k * dt_exp, x, &n);
             fprintf(stderr, "E %.0e k %d: %.4f CPU s/frame, substeps %ld newton %ld cg %ld\n", E, g_only_k,
                     r.cpu_per_frame, r.substeps, r.newton, r.krylov);
+            if (g_profile && r.substeps > 0) print_profile(&r);
             free(ref);
             free(x);
             continue;
