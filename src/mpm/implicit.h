@@ -72,6 +72,9 @@ typedef struct kf_implicit {
     int32_t *idx;      /* (np × K) flat node of each stencil entry */
     double *gam;       /* (np × K × 3) γ_ip */
     double *mass;      /* (nnode) m_i */
+    int32_t *act;      /* (nact) the nodes that carry mass, ascending: every solver vector vanishes elsewhere */
+    size_t nact;
+    size_t *act_start; /* (nblocks + 1) block b's active nodes: act[act_start[b] .. act_start[b + 1]) */
     double *vstar;     /* (4 nnode) v*_i, 0 where m_i = 0 */
     double *Fn;        /* (9 np) F_pⁿ */
     double *F;         /* (9 np) F_p(v) at the last linearisation */
@@ -123,7 +126,8 @@ double kf_imp_linearize(kf_implicit *w, const double *v, int project);
 void kf_imp_gradient(kf_implicit *w, const double *v, double *g);
 /* y = (∂²E/∂v²) x at the last linearisation (unprojected on boundaries). */
 void kf_imp_hessian_action(kf_implicit *w, const double *x, double *y);
-/* x · y over all nodes, deterministic. */
+/* x · y over the nodes that carry mass (the solver's vectors vanish
+ * elsewhere), deterministic. */
 double kf_imp_dot(kf_implicit *w, const double *x, const double *y);
 
 /* ---- boundary conditions (implicit_boundary.c) --------------------------------- */
@@ -191,6 +195,9 @@ void kf_imp_mg_refresh(kf_implicit *w);
 void kf_imp_mg_project(const kf_implicit *w, int level, double *x);
 /* z = B r, B the V-cycle (z and r: KF_IMP_NV nnode; z projected) */
 void kf_imp_mg_apply(kf_implicit *w, const double *r, double *z);
+/* the same, writing only the nodes with mass (and lanes 0-2): for a z that
+ * already vanishes elsewhere (the solve's own vectors) */
+void kf_imp_mg_apply_active(kf_implicit *w, const double *r, double *z);
 /* levels built (1 = only the fine grid) and the node count of level l */
 int kf_imp_mg_levels(const kf_implicit *w);
 size_t kf_imp_mg_nodes(const kf_implicit *w, int level);

@@ -107,6 +107,18 @@ static double dot(const double *x, const double *y, size_t n) {
 /* x = s D⁻¹ y (+ x when add), projected on level 0 */
 static void jacobi(kf_implicit *w, int l, double s, const double *y, double *x, int add) {
     const double *d = w->mg->lev[l].diag;
+    if (l == 0) {
+        /* the fine level: only its nodes with mass (x and y vanish elsewhere) */
+        for (size_t k = 0; k < w->nact; k++) {
+            const size_t i = KF_IMP_NV * (size_t)w->act[k];
+            for (int a = 0; a < 3; a++) {
+                double z = d[i + a] > 0 ? s * y[i + a] / d[i + a] : 0.0;
+                x[i + a] = add ? x[i + a] + z : z;
+            }
+        }
+        kf_imp_project(w, x);
+        return;
+    }
     const size_t n = level_len(w, l);
     for (size_t k = 0; k < n; k++) {
         double z = d[k] > 0 ? s * y[k] / d[k] : 0.0;
@@ -231,10 +243,15 @@ static void vcycle(kf_implicit *w, int l, const double *b, double *x) {
  * cantilever at 20x), and the
  * sum of a positive-definite and a positive semi-definite term is positive
  * definite whatever the fine spectrum, so no fine damping is estimated. */
-void kf_imp_mg_apply(kf_implicit *w, const double *r, double *z) {
+void kf_imp_mg_apply_active(kf_implicit *w, const double *r, double *z) {
     jacobi(w, 0, 1.0, r, z, 0);
     if (w->mg->nlev < 2) return;
     restrict_to(w, 1, r);
     vcycle(w, 1, w->mg->lev[1].b, w->mg->lev[1].x);
     prolongate_add(w, 1, z);
+}
+
+void kf_imp_mg_apply(kf_implicit *w, const double *r, double *z) {
+    memset(z, 0, KF_IMP_NV * w->nnode * sizeof *z);
+    kf_imp_mg_apply_active(w, r, z);
 }

@@ -62,12 +62,34 @@ static void prof_lap(int stage, double *t) {
 
 /* ---- vectors over the grid nodes (3 per node), block-ordered sums -------- */
 
+/* node i's (x, y, z, 0) as one vector (grid vectors are only 8-byte aligned) */
+typedef double v4d __attribute__((vector_size(32), aligned(8)));
+#define V4(x, i) (*(v4d *)((x) + KF_IMP_NV * (size_t)(i)))
+
 double kf_imp_dot(kf_implicit *w, const double *x, const double *y) {
     size_t nb = w->nnode / KF_BLOCK_NODES;
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t b = 0; b < nb; b++) {
+        v4d t = {0, 0, 0, 0};
+        for (size_t k = w->act_start[b]; k < w->act_start[b + 1]; k++) t += V4(x, w->act[k]) * V4(y, w->act[k]);
+        w->bsum[b] = t[0] + t[1] + t[2] + t[3];
+    }
+    double s = 0;
+    for (size_t b = 0; b < nb; b++) s += w->bsum[b];
+    return s;
+}
+
+/* Σ |x_i|² / m_i over the nodes with mass, block-ordered */
+static double sum_minv(kf_implicit *w, const double *x) {
+    size_t nb = w->nnode / KF_BLOCK_NODES;
+#pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
+    for (size_t b = 0; b < nb; b++) {
         double t = 0;
-        for (size_t k = KF_IMP_NV * b * KF_BLOCK_NODES; k < KF_IMP_NV * (b + 1) * KF_BLOCK_NODES; k++) t += x[k] * y[k];
+        for (size_t k = w->act_start[b]; k < w->act_start[b + 1]; k++) {
+            size_t i = (size_t)w->act[k];
+            v4d xi = V4(x, i), x2 = xi * xi;
+            t += (x2[0] + x2[1] + x2[2]) / w->mass[i];
+        }
         w->bsum[b] = t;
     }
     double s = 0;
@@ -76,13 +98,23 @@ double kf_imp_dot(kf_implicit *w, const double *x, const double *y) {
 }
 
 /* ‖x‖ in the inverse-mass norm: √(Σ |x_i|² / m_i) over nodes with mass */
-static double norm_minv(kf_implicit *w, const double *x) {
+static double norm_minv(kf_implicit *w, const double *x) { return sqrt(sum_minv(w, x)); }
+
+/* CG's update d += α p, r −= α q, returning ‖r‖ in the inverse-mass norm (one pass) */
+static double cg_update(kf_implicit *w, double alpha) {
     size_t nb = w->nnode / KF_BLOCK_NODES;
+    double *d = w->d, *r = w->r;
+    const double *p = w->p, *q = w->q;
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t b = 0; b < nb; b++) {
         double t = 0;
-        for (size_t i = b * KF_BLOCK_NODES; i < (b + 1) * KF_BLOCK_NODES; i++)
-            if (w->mass[i] > 0) t += (x[KF_IMP_NV * i] * x[KF_IMP_NV * i] + x[KF_IMP_NV * i + 1] * x[KF_IMP_NV * i + 1] + x[KF_IMP_NV * i + 2] * x[KF_IMP_NV * i + 2]) / w->mass[i];
+        for (size_t k = w->act_start[b]; k < w->act_start[b + 1]; k++) {
+            size_t i = (size_t)w->act[k];
+            V4(d, i) += alpha * V4(p, i);
+            v4d ri = V4(r, i) - alpha * V4(q, i), r2 = ri * ri;
+            V4(r, i) = ri;
+            t += (r2[0] + r2[1] + r2[2]) / w->mass[i];
+        }
         w->bsum[b] = t;
     }
     double s = 0;
@@ -181,11 +213,14 @@ static int stress_of_fn(kf_implicit *w) {
  * or the multigrid V-cycle (implicit_mg_cycle.c) */
 static void precondition(kf_implicit *w, const double *r, double *z) {
     if (w->mg) {
-        kf_imp_mg_apply(w, r, z);
+        kf_imp_mg_apply_active(w, r, z);
         return;
     }
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
-    for (size_t k = 0; k < KF_IMP_NV * w->nnode; k++) z[k] = w->diag[k] > 0 ? r[k] / w->diag[k] : 0.0;
+    for (size_t k = 0; k < w->nact; k++) {
+        size_t i = (size_t)w->act[k];
+        for (int a = 0; a < 3; a++) z[KF_IMP_NV * i + a] = w->diag[KF_IMP_NV * i + a] > 0 ? r[KF_IMP_NV * i + a] / w->diag[KF_IMP_NV * i + a] : 0.0;
+    }
     kf_imp_project(w, z);
 }
 
@@ -198,6 +233,7 @@ static int pcg(kf_implicit *w, double tol, int kmax, int blocks_changed) {
     double t = prof_now();
     memset(d, 0, n3 * sizeof *d);
     for (size_t k = 0; k < n3; k++) r[k] = -w->g[k];
+    /* (d, r, z, p, q vanish off the nodes with mass: only those are visited) */
     if (blocks_changed) {
         /* the diagonal of the Hessian: mass plus the particles' stiffness */
         for (size_t i = 0; i < w->nnode; i++)
@@ -230,16 +266,14 @@ static int pcg(kf_implicit *w, double tol, int kmax, int blocks_changed) {
         double pq = kf_imp_dot(w, p, q);
         it++;
         if (!(pq > 0)) break;
-        double alpha = rz / pq;
-        for (size_t k = 0; k < n3; k++) d[k] += alpha * p[k], r[k] -= alpha * q[k];
-        if (norm_minv(w, r) <= tol * r0) break;
+        if (cg_update(w, rz / pq) <= tol * r0) break;
         prof_lap(KF_IMP_T_CG_VECTORS, &t);
         precondition(w, r, z);
         prof.precond_applications++;
         prof_lap(KF_IMP_T_PRECOND, &t);
         double rz1 = kf_imp_dot(w, r, z), beta = rz1 / rz;
         rz = rz1;
-        for (size_t k = 0; k < n3; k++) p[k] = z[k] + beta * p[k];
+        for (size_t k = 0; k < w->nact; k++) V4(p, w->act[k]) = V4(z, w->act[k]) + beta * V4(p, w->act[k]);
     }
     prof_lap(KF_IMP_T_CG_VECTORS, &t);
     return it;

@@ -96,7 +96,7 @@ static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
 void kf_imp_free(kf_implicit *w) {
     void *all[] = {w->idx, w->gam, w->mass, w->vstar, w->Fn, w->F, w->S, w->Kp, w->psi,   w->con_node,
                    w->con_P, w->con_slide, w->con_n, w->con_vc, w->v, w->g, w->d, w->r, w->z, w->p,
-                   w->q, w->vt, w->diag, w->bsum};
+                   w->q, w->vt, w->diag, w->bsum, w->act, w->act_start};
     for (size_t k = 0; k < sizeof all / sizeof *all; k++) free(all[k]);
     kf_imp_mg_free(w->mg);
     memset(w, 0, sizeof *w);
@@ -143,6 +143,23 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
         double mi = w->mass[i];
         for (int k = 0; k < 3; k++) mom[KF_IMP_NV * i + k] = mi > 0 ? mom[KF_IMP_NV * i + k] / mi + gdt[k] : 0.0;
     }
+    /* the nodes that carry mass, block by block (a quarter of the sparse
+     * grid's nodes on the evidence cantilever): the solver's vector loops
+     * visit only these (a stencil node without mass has zero weight, so
+     * zero γ too, and every solver vector stays 0 there) */
+    w->act = malloc((w->nnode + 1) * sizeof *w->act);
+    w->act_start = malloc((g->nblocks + 1) * sizeof *w->act_start);
+    if (!w->act || !w->act_start) {
+        kf_imp_free(w);
+        return -1;
+    }
+    w->nact = 0;
+    for (size_t b = 0; b < g->nblocks; b++) {
+        w->act_start[b] = w->nact;
+        for (size_t i = b * KF_BLOCK_NODES; i < (b + 1) * KF_BLOCK_NODES; i++)
+            if (w->mass[i] > 0) w->act[w->nact++] = (int32_t)i;
+    }
+    w->act_start[g->nblocks] = w->nact;
     return 0;
 }
 
