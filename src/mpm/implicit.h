@@ -61,6 +61,13 @@ double kf_imp_energy_psi(const kf_mat *m, const double F[9], const kf_real ps[2]
 
 /* doubles per node in grid vectors: (x, y, z, 0), one 256-bit register */
 #define KF_IMP_NV 4
+/* γ_ip is a tensor product over the stencil's axes: with per-axis kernel
+ * weights w_a and factors h_a (MLS: w_a D⁻¹ (x_ia − x_pa); classic: the
+ * weight's derivative), γ_ip = (h_0 w_1 w_2, w_0 h_1 w_2, w_0 w_1 h_2) at
+ * stencil node (i0, i1, i2). A particle keeps, per axis a, w_a[0..3] then
+ * h_a[0..3]: 24 doubles instead of 81 (quadratic) or 192 (cubic) for γ, and
+ * the gather and scatter sum axis by axis. */
+#define KF_IMP_WS 24
 
 typedef struct kf_implicit {
     const kf_model *m;
@@ -70,7 +77,7 @@ typedef struct kf_implicit {
     size_t np;         /* particles */
     int K;             /* stencil nodes per particle: 27 (quadratic) or 64 (cubic) */
     int32_t *idx;      /* (np × K) flat node of each stencil entry */
-    double *gam;       /* (np × K × 3) γ_ip */
+    double *wts;       /* (np × KF_IMP_WS) γ_ip's tensor factors, see below */
     double *mass;      /* (nnode) m_i */
     int32_t *act;      /* (nact) the nodes that carry mass, ascending: every solver vector vanishes elsewhere */
     size_t nact;

@@ -68,7 +68,13 @@ static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
         double mp = p->mass[i], vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]}, C[9];
         for (int k = 0; k < 9; k++) C[k] = apic ? (double)p->C[k][i] : 0.0;
         int32_t *id = w->idx + (size_t)K * i;
-        double *ga = w->gam + (size_t)3 * K * i;
+        /* γ's factors per axis: w, then h (classic: ∂w/∂x; MLS: w D⁻¹ (x_i − x_p)) */
+        double *f = w->wts + (size_t)KF_IMP_WS * i;
+        for (int a = 0; a < 3; a++)
+            for (int k = 0; k < 4; k++) {
+                f[8 * a + k] = k < KW ? wt[a][k] : 0.0;
+                f[8 * a + 4 + k] = k >= KW ? 0.0 : classic ? dw[a][k] * inv_dxd : minv * wt[a][k] * d[a][k];
+            }
         int e = 0;
         for (int a = 0; a < KW; a++)
             for (int b = 0; b < KW; b++)
@@ -76,13 +82,6 @@ static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
                     double wabc = wt[0][a] * wt[1][b] * wt[2][c], dd[3] = {d[0][a], d[1][b], d[2][c]};
                     int32_t node = flat_node(nb, l[0] + a, l[1] + b, l[2] + c);
                     id[e] = node;
-                    if (classic) {
-                        ga[3 * e] = dw[0][a] * wt[1][b] * wt[2][c] * inv_dxd;
-                        ga[3 * e + 1] = wt[0][a] * dw[1][b] * wt[2][c] * inv_dxd;
-                        ga[3 * e + 2] = wt[0][a] * wt[1][b] * dw[2][c] * inv_dxd;
-                    } else {
-                        for (int k = 0; k < 3; k++) ga[3 * e + k] = wabc * minv * dd[k];
-                    }
                     /* APIC: m w (v + C (x_i − x_p)) */
                     w->mass[node] += wabc * mp;
                     for (int k = 0; k < 3; k++)
@@ -94,7 +93,7 @@ static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
 }
 
 void kf_imp_free(kf_implicit *w) {
-    void *all[] = {w->idx, w->gam, w->mass, w->vstar, w->Fn, w->F, w->S, w->Kp, w->psi,   w->con_node,
+    void *all[] = {w->idx, w->wts, w->mass, w->vstar, w->Fn, w->F, w->S, w->Kp, w->psi,   w->con_node,
                    w->con_P, w->con_slide, w->con_n, w->con_vc, w->v, w->g, w->d, w->r, w->z, w->p,
                    w->q, w->vt, w->diag, w->bsum, w->act, w->act_start};
     for (size_t k = 0; k < sizeof all / sizeof *all; k++) free(all[k]);
@@ -113,7 +112,7 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
     w->K = m->sim.kernel == KF_KERNEL_CUBIC ? 64 : 27;
     size_t n3 = KF_IMP_NV * w->nnode, np = w->np ? w->np : 1, K = (size_t)w->K;
     w->idx = malloc(np * K * sizeof *w->idx);
-    w->gam = malloc(np * K * 3 * sizeof *w->gam);
+    w->wts = malloc(np * KF_IMP_WS * sizeof *w->wts);
     w->mass = calloc(w->nnode + 1, sizeof *w->mass);
     w->vstar = calloc(n3 + 1, sizeof *w->vstar);
     w->Fn = malloc(np * 9 * sizeof *w->Fn);
@@ -125,7 +124,7 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
     double **vec[] = {&w->v, &w->g, &w->d, &w->r, &w->z, &w->p, &w->q, &w->vt, &w->diag};
     int bad = 0;
     for (size_t k = 0; k < sizeof vec / sizeof *vec; k++) bad |= !(*vec[k] = calloc(n3 + 1, sizeof(double)));
-    if (bad || !w->idx || !w->gam || !w->mass || !w->vstar || !w->Fn || !w->F || !w->Kp || !w->S || !w->psi ||
+    if (bad || !w->idx || !w->wts || !w->mass || !w->vstar || !w->Fn || !w->F || !w->Kp || !w->S || !w->psi ||
         !w->bsum) {
         kf_imp_free(w);
         return -1;
@@ -165,51 +164,78 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
 
 /* a node's (x, y, z, 0) as one vector; grid vectors are only 8-byte aligned */
 typedef double v4d __attribute__((vector_size(32), aligned(8)));
+#define V4(x, i) (*(v4d *)((x) + KF_IMP_NV * (size_t)(i)))
+
+/* G = Σ_i x_i γ_iᵀ over particle p's KW³ stencil, summed axis by axis:
+ * column j of G is Σ_a f0 Σ_b f1 Σ_c f2 x_abc with f = h on axis j and w on
+ * the others (KW a constant where inlined, so the loops unroll) */
+static inline void gather_kw(const kf_implicit *w, const double *x, size_t p, double G[9], const int KW) {
+    const int32_t *id = w->idx + (size_t)w->K * p;
+    const double *f = w->wts + (size_t)KF_IMP_WS * p;
+    const double *w0 = f, *h0 = f + 4, *w1 = f + 8, *h1 = f + 12, *w2 = f + 16, *h2 = f + 20;
+    v4d c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
+    int e = 0;
+    for (int a = 0; a < KW; a++) {
+        v4d t00 = {0, 0, 0, 0}, t01 = t00, t10 = t00;
+        for (int b = 0; b < KW; b++) {
+            v4d s0 = {0, 0, 0, 0}, s1 = s0;
+            for (int c = 0; c < KW; c++, e++) {
+                const v4d xi = V4(x, id[e]);
+                s0 += w2[c] * xi;
+                s1 += h2[c] * xi;
+            }
+            t00 += w1[b] * s0;
+            t01 += h1[b] * s0;
+            t10 += w1[b] * s1;
+        }
+        c0 += h0[a] * t00;
+        c1 += w0[a] * t01;
+        c2 += w0[a] * t10;
+    }
+    for (int a = 0; a < 3; a++) G[3 * a] = c0[a], G[3 * a + 1] = c1[a], G[3 * a + 2] = c2[a];
+}
 
 static inline void gather(const kf_implicit *w, const double *x, size_t p, double G[9]) {
-    const int K = w->K;
-    const int32_t *id = w->idx + (size_t)K * p;
-    const double *ga = w->gam + (size_t)3 * K * p;
-    /* the columns of G: G_{·j} = Σ_i x_i γ_ij, in two interleaved partial
-     * sums so consecutive FMAs do not wait on each other (K is even or odd:
-     * the last odd entry goes to the first sum) */
-    v4d c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0, d0 = c0, d1 = c0, d2 = c0;
-    int e = 0;
-    for (; e + 1 < K; e += 2) {
-        const v4d xi = *(const v4d *)(x + KF_IMP_NV * (size_t)id[e]);
-        const v4d xj = *(const v4d *)(x + KF_IMP_NV * (size_t)id[e + 1]);
-        const double *ge = ga + 3 * e;
-        c0 += xi * ge[0];
-        c1 += xi * ge[1];
-        c2 += xi * ge[2];
-        d0 += xj * ge[3];
-        d1 += xj * ge[4];
-        d2 += xj * ge[5];
-    }
-    if (e < K) {
-        const v4d xi = *(const v4d *)(x + KF_IMP_NV * (size_t)id[e]);
-        const double *ge = ga + 3 * e;
-        c0 += xi * ge[0];
-        c1 += xi * ge[1];
-        c2 += xi * ge[2];
-    }
-    c0 += d0, c1 += d1, c2 += d2;
-    for (int a = 0; a < 3; a++) G[3 * a] = c0[a], G[3 * a + 1] = c1[a], G[3 * a + 2] = c2[a];
+    if (w->K == 27) gather_kw(w, x, p, G, 3);
+    else gather_kw(w, x, p, G, 4);
 }
 
 void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9]) { gather(w, x, p, G); }
 
-/* out_i += Σ_e Y γ_e over particle p's stencil */
-static inline void scatter_one(const kf_implicit *w, const double Y[9], size_t p, double *out) {
-    const int K = w->K;
-    const double *ga = w->gam + (size_t)3 * K * p;
-    const int32_t *id = w->idx + (size_t)K * p;
+/* out_i += Y γ_i over particle p's stencil: with y_j the columns of Y,
+ * Y γ_abc = w2_c (h0_a w1_b y0 + w0_a h1_b y1) + h2_c (w0_a w1_b y2) */
+static inline void scatter_kw(const kf_implicit *w, const double Y[9], size_t p, double *out, const int KW) {
+    const int32_t *id = w->idx + (size_t)w->K * p;
+    const double *f = w->wts + (size_t)KF_IMP_WS * p;
+    const double *w0 = f, *h0 = f + 4, *w1 = f + 8, *h1 = f + 12, *w2 = f + 16, *h2 = f + 20;
     const v4d y0 = {Y[0], Y[3], Y[6], 0}, y1 = {Y[1], Y[4], Y[7], 0}, y2 = {Y[2], Y[5], Y[8], 0};
-    for (int e = 0; e < K; e++) {
-        v4d *o = (v4d *)(out + KF_IMP_NV * (size_t)id[e]);
-        const double *ge = ga + 3 * e;
-        *o += y0 * ge[0] + y1 * ge[1] + y2 * ge[2];
+    int e = 0;
+    for (int a = 0; a < KW; a++) {
+        const v4d u0 = h0[a] * y0, u1 = w0[a] * y1, u2 = w0[a] * y2;
+        for (int b = 0; b < KW; b++) {
+            const v4d P = w1[b] * u0 + h1[b] * u1, Q = w1[b] * u2;
+            for (int c = 0; c < KW; c++, e++) V4(out, id[e]) += w2[c] * P + h2[c] * Q;
+        }
     }
+}
+
+static inline void scatter_one(const kf_implicit *w, const double Y[9], size_t p, double *out) {
+    if (w->K == 27) scatter_kw(w, Y, p, out, 3);
+    else scatter_kw(w, Y, p, out, 4);
+}
+
+/* γ of every node of particle p's stencil (3 K) */
+static void stencil_gamma(const kf_implicit *w, size_t p, double *ga) {
+    const int KW = w->K == 27 ? 3 : 4;
+    const double *f = w->wts + (size_t)KF_IMP_WS * p;
+    int e = 0;
+    for (int a = 0; a < KW; a++)
+        for (int b = 0; b < KW; b++)
+            for (int c = 0; c < KW; c++, e++) {
+                ga[3 * e] = f[4 + a] * f[8 + b] * f[16 + c];
+                ga[3 * e + 1] = f[a] * f[12 + b] * f[16 + c];
+                ga[3 * e + 2] = f[a] * f[8 + b] * f[20 + c];
+            }
 }
 
 /* One pass per particle instead of a gather pass and a scatter pass: the
@@ -227,11 +253,18 @@ void kf_imp_scatter_product(const kf_implicit *w, const double *x, double *out) 
                 double G[9], Y[9];
                 const double *Kp = w->Kp + 81 * i;
                 gather(w, x, i, G);
-                for (int row = 0; row < 9; row++) {
-                    const double *kr = Kp + 9 * row;
-                    Y[row] = kr[0] * G[0] + kr[1] * G[1] + kr[2] * G[2] + kr[3] * G[3] + kr[4] * G[4] + kr[5] * G[5] +
-                             kr[6] * G[6] + kr[7] * G[7] + kr[8] * G[8];
+                /* Y = Kp G = Σ_j G_j (row j of Kp), Kp being exactly symmetric:
+                 * contiguous rows, two vector FMAs and one scalar per j */
+                v4d ylo = {0, 0, 0, 0}, yhi = ylo;
+                double y8 = 0;
+                for (int j = 0; j < 9; j++) {
+                    const double *kr = Kp + 9 * j;
+                    ylo += G[j] * *(const v4d *)kr;
+                    yhi += G[j] * *(const v4d *)(kr + 4);
+                    y8 += G[j] * kr[8];
                 }
+                for (int j = 0; j < 4; j++) Y[j] = ylo[j], Y[4 + j] = yhi[j];
+                Y[8] = y8;
                 scatter_one(w, Y, i, out);
             }
         }
@@ -259,7 +292,9 @@ void kf_imp_scatter_diag(const kf_implicit *w, double *out) {
         for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
             size_t r = (size_t)g->owner[k];
             for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
-                const double *Kp = w->Kp + 81 * i, *ga = w->gam + (size_t)3 * K * i;
+                const double *Kp = w->Kp + 81 * i;
+                double ga[3 * 64];
+                stencil_gamma(w, i, ga);
                 const int32_t *id = w->idx + (size_t)K * i;
                 /* the diagonal entry (a, a) of node e is γᵀ K_a γ, K_a[b][c] =
                  * Kp[(a,b),(a,c)]: with the three a in the lanes of one vector
