@@ -87,6 +87,7 @@ typedef struct kf_implicit {
     double *F;         /* (9 np) F_p(v) at the last linearisation */
     double *Kp;        /* (81 np) Δt² V⁰ Tᵀ (∂²Ψ/∂F²) T, T: G ↦ G Fⁿ: the per-particle Hessian of E in G */
     double *S;         /* (9 np) Δt V⁰ P Fⁿᵀ: what a particle scatters into the gradient */
+    double *S_alt;     /* (9 np) scratch for a second S (the solve swaps the two) */
     double *psi;       /* (np) V⁰ Ψ at the last linearisation */
     /* boundary conditions (implicit_boundary.c): constrained nodes, each with
      * the orthogonal projection onto its free directions */

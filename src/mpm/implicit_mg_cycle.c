@@ -43,6 +43,10 @@ void kf_imp_mg_project(const kf_implicit *w, int l, double *x) {
     }
 }
 
+/* a node's (x, y, z, 0) as one vector; level vectors are only 8-byte aligned */
+typedef double v4d __attribute__((vector_size(32), aligned(8)));
+#define V4(x, i) (*(v4d *)((x) + KF_IMP_NV * (size_t)(i)))
+
 /* y = P_l A_l x for projected x */
 static void apply_op(kf_implicit *w, int l, const double *x, double *y) {
     if (l == 0) {
@@ -56,21 +60,28 @@ static void apply_op(kf_implicit *w, int l, const double *x, double *y) {
     for (size_t q = 0; q < L->nq; q++) {
         const int32_t *id = L->idx + 27 * q;
         const double *ga = L->gam + 81 * q, *K = L->K + 81 * q;
-        double G[9] = {0}, Y[9];
-        /* G = Σ_i x_i γ_iᵀ (G2P), Y = K G, y_i += Y γ_i (P2G) */
+        /* G = Σ_i x_i γ_iᵀ (G2P) by columns, Y = K G by K's rows (K is a
+         * sum of exactly symmetric blocks), y_i += Y γ_i (P2G); a node's
+         * (x, y, z, 0) as one vector */
+        v4d c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
         for (int e = 0; e < 27; e++) {
-            const double *xi = x + KF_IMP_NV * (size_t)id[e], *ge = ga + 3 * e;
-            for (int a = 0; a < 3; a++) G[3 * a] += xi[a] * ge[0], G[3 * a + 1] += xi[a] * ge[1], G[3 * a + 2] += xi[a] * ge[2];
-        }
-        for (int r = 0; r < 9; r++) {
-            double t = 0;
-            for (int c = 0; c < 9; c++) t += K[9 * r + c] * G[c];
-            Y[r] = t;
-        }
-        for (int e = 0; e < 27; e++) {
-            double *yi = y + KF_IMP_NV * (size_t)id[e];
+            const v4d xi = V4(x, id[e]);
             const double *ge = ga + 3 * e;
-            for (int a = 0; a < 3; a++) yi[a] += Y[3 * a] * ge[0] + Y[3 * a + 1] * ge[1] + Y[3 * a + 2] * ge[2];
+            c0 += xi * ge[0], c1 += xi * ge[1], c2 += xi * ge[2];
+        }
+        const double G[9] = {c0[0], c1[0], c2[0], c0[1], c1[1], c2[1], c0[2], c1[2], c2[2]};
+        v4d ylo = {0, 0, 0, 0}, yhi = ylo;
+        double y8 = 0;
+        for (int j = 0; j < 9; j++) {
+            const double *kr = K + 9 * j;
+            ylo += G[j] * *(const v4d *)kr;
+            yhi += G[j] * *(const v4d *)(kr + 4);
+            y8 += G[j] * kr[8];
+        }
+        const v4d y0 = {ylo[0], ylo[3], yhi[2], 0}, y1 = {ylo[1], yhi[0], yhi[3], 0}, y2 = {ylo[2], yhi[1], y8, 0};
+        for (int e = 0; e < 27; e++) {
+            const double *ge = ga + 3 * e;
+            V4(y, id[e]) += y0 * ge[0] + y1 * ge[1] + y2 * ge[2];
         }
     }
     kf_imp_mg_project(w, l, y);

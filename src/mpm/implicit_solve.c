@@ -324,7 +324,10 @@ int kf_imp_solve(kf_implicit *w, double *v) {
     prof_lap(KF_IMP_T_PREDICT, &t);
     /* the Hessian blocks at v*, then E at the predictor: the first Newton
      * step from either uses the blocks of v* (see below) */
-    double E = evaluate(w, v, 1, 1), E_exp = evaluate(w, w->vt, 0, 1);
+    double E = evaluate(w, v, 1, 1);
+    double *S_star = w->S; /* v*'s S stays aside while the predictor's is computed */
+    w->S = w->S_alt, w->S_alt = S_star;
+    double E_exp = evaluate(w, w->vt, 0, 1);
     prof.linearizations++;
     prof.energy_evals++;
     prof_lap(KF_IMP_T_LINEARIZE, &t);
@@ -333,8 +336,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
         memcpy(v, w->vt, n3 * sizeof *v); /* S is the predictor's */
         E = E_exp;
     } else {
-        evaluate(w, v, 0, 1); /* S back at v* */
-        prof.energy_evals++;
+        w->S_alt = w->S, w->S = S_star; /* S back at v* */
     }
     prof_lap(KF_IMP_T_PREDICT, &t);
     kf_imp_gradient(w, v, w->g);

@@ -93,7 +93,7 @@ static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
 }
 
 void kf_imp_free(kf_implicit *w) {
-    void *all[] = {w->idx, w->wts, w->mass, w->vstar, w->Fn, w->F, w->S, w->Kp, w->psi,   w->con_node,
+    void *all[] = {w->idx, w->wts, w->mass, w->vstar, w->Fn, w->F, w->S, w->S_alt, w->Kp, w->psi,   w->con_node,
                    w->con_P, w->con_slide, w->con_n, w->con_vc, w->v, w->g, w->d, w->r, w->z, w->p,
                    w->q, w->vt, w->diag, w->bsum, w->act, w->act_start};
     for (size_t k = 0; k < sizeof all / sizeof *all; k++) free(all[k]);
@@ -119,12 +119,13 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
     w->F = malloc(np * 9 * sizeof *w->F);
     w->Kp = malloc(np * 81 * sizeof *w->Kp);
     w->S = malloc(np * 9 * sizeof *w->S);
+    w->S_alt = malloc(np * 9 * sizeof *w->S_alt);
     w->psi = malloc(np * sizeof *w->psi);
     w->bsum = malloc((g->nblocks + 1) * sizeof *w->bsum);
     double **vec[] = {&w->v, &w->g, &w->d, &w->r, &w->z, &w->p, &w->q, &w->vt, &w->diag};
     int bad = 0;
     for (size_t k = 0; k < sizeof vec / sizeof *vec; k++) bad |= !(*vec[k] = calloc(n3 + 1, sizeof(double)));
-    if (bad || !w->idx || !w->wts || !w->mass || !w->vstar || !w->Fn || !w->F || !w->Kp || !w->S || !w->psi ||
+    if (bad || !w->idx || !w->wts || !w->mass || !w->vstar || !w->Fn || !w->F || !w->Kp || !w->S || !w->S_alt || !w->psi ||
         !w->bsum) {
         kf_imp_free(w);
         return -1;
