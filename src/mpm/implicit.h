@@ -34,10 +34,10 @@ void kf_imp_sym_eig3(const double A[9], double w[3], double Q[9]);
  * block per pair (i, j) acting on (δF̂_ij, δF̂_ji), whose eigenvalues are
  * (ψ_i − ψ_j)/(σ_i − σ_j) (stretch) and (ψ_i + ψ_j)/(σ_i + σ_j) (twist).
  * Projecting to positive semi-definite clamps those eigenvalues at 0.
- * Ψ and P of the corotated models (fixed corotated, snow) come from the
- * polar decomposition F = R S instead (a few Newton steps, several times
- * cheaper than the SVD), unless F is inverted; the SVD is then needed only
- * for the Hessian. */
+ * Without the Hessian, Ψ and P of the corotated models (fixed corotated,
+ * snow) come from the polar decomposition F = R S instead (a few Newton
+ * steps, several times cheaper than the SVD), unless F is inverted; with
+ * it, all three come from the SVD the Hessian needs anyway. */
 typedef struct kf_imp_energy {
     double psi;        /* Ψ, J/m³ */
     double P[9];       /* first Piola–Kirchhoff stress ∂Ψ/∂F, row-major */

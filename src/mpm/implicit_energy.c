@@ -188,10 +188,11 @@ int kf_imp_energy_eval_in(const kf_mat *m, const double F[9], const kf_real ps[2
                           int project, kf_imp_energy *out) {
     double U[9], s[3], V[9];
     principal pr;
-    /* Ψ and P: by the polar decomposition where it applies (the same
-     * function of F whether or not the Hessian is wanted) */
-    int polar = !corotated_by_polar(m, F, ps, &out->psi, out->P);
-    if (polar && !want_hessian) return 0;
+    /* Ψ and P: by the polar decomposition where it applies, unless the
+     * Hessian needs the SVD anyway (the two agree to round-off, far below
+     * the line search's slack) */
+    int polar = !want_hessian && !corotated_by_polar(m, F, ps, &out->psi, out->P);
+    if (polar) return 0;
     kf_imp_svd(F, U, s, V);
     if (principal_of(m, s, ps, &pr)) return -1;
     if (!polar) {
