@@ -193,9 +193,11 @@ void kf_imp_mg_refresh(kf_implicit *w) {
 /* b_c = P_c Pᵀ t: restriction of the finer level's t to level c */
 static void restrict_to(kf_implicit *w, int c, const double *t) {
     kf_mg_level *C = &w->mg->lev[c];
-    const size_t nf = c == 1 ? w->nnode : w->mg->lev[c - 1].nn;
+    /* from the fine level, only its nodes with mass have parents */
+    const size_t nf = c == 1 ? w->nact : w->mg->lev[c - 1].nn;
     memset(C->b, 0, KF_IMP_NV * C->nn * sizeof *C->b);
-    for (size_t j = 0; j < nf; j++) {
+    for (size_t jj = 0; jj < nf; jj++) {
+        const size_t j = c == 1 ? (size_t)w->act[jj] : jj;
         const int32_t *par = C->par + 8 * j;
         const double *pw = C->pw + 8 * j, *tj = t + KF_IMP_NV * j;
         for (int e = 0; e < 8 && par[e] >= 0; e++) {
@@ -209,8 +211,9 @@ static void restrict_to(kf_implicit *w, int c, const double *t) {
 /* x ← P_f (x + P C->x): level c's correction added to the finer level */
 static void prolongate_add(kf_implicit *w, int c, double *x) {
     const kf_mg_level *C = &w->mg->lev[c];
-    const size_t nf = c == 1 ? w->nnode : w->mg->lev[c - 1].nn;
-    for (size_t j = 0; j < nf; j++) {
+    const size_t nf = c == 1 ? w->nact : w->mg->lev[c - 1].nn;
+    for (size_t jj = 0; jj < nf; jj++) {
+        const size_t j = c == 1 ? (size_t)w->act[jj] : jj;
         const int32_t *par = C->par + 8 * j;
         const double *pw = C->pw + 8 * j;
         double *xj = x + KF_IMP_NV * j;
