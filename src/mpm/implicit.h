@@ -181,6 +181,8 @@ typedef struct kf_mg_level {
     int32_t *idx;         /* (27 nq) stencil nodes */
     double *gam;          /* (81 nq) MLS γ of each stencil node at spacing h */
     double *K;            /* (81 nq) Σ Kp of the point's particles */
+    int32_t *q_up;        /* (nq) each point's point on the next coarser level, whose cell holds its
+                           * cell; NULL when rounding splits a cell's particles (or on the coarsest) */
     int32_t *par;         /* (8 per node of the finer level) parents on this level, -1 none */
     double *pw;           /* (8 per node of the finer level) trilinear weights */
     double *b, *x, *t;    /* (KF_IMP_NV nn, coarse levels) right-hand side, iterate, scratch */

@@ -136,7 +136,7 @@ static int32_t quad_weights(double x, double inv_h, double w[3], double *fx) {
 /* ---- one coarse level ------------------------------------------------------------- */
 
 static void level_free(kf_mg_level *L) {
-    void *all[] = {L->coord, L->mass, L->diag, L->q_of_p, L->qx, L->idx, L->gam, L->K, L->par, L->pw,
+    void *all[] = {L->coord, L->mass, L->diag, L->q_of_p, L->qx, L->idx, L->gam, L->K, L->q_up, L->par, L->pw,
                    L->b, L->x, L->t, L->con_node, L->con_P};
     for (size_t k = 0; k < sizeof all / sizeof *all; k++) free(all[k]);
     memset(L, 0, sizeof *L);
@@ -162,18 +162,39 @@ static int build_level(const kf_implicit *w, kf_mg_level *L, const kf_mg_level *
     /* level 1: the particles' masses re-transferred at spacing h (the
      * re-discretisation itself; below it the finer masses restricted) */
     const int from_particles = F->h == w->m->sim.dx;
+    /* the 27 nodes of a base node, cached (direct-mapped): the 64 or so
+     * particles that share a base at spacing 2 Δx come in runs, and hashing
+     * 27 coordinates per particle was most of the levels' building time */
+    enum { STENCIL_CACHE = 256 };
+    struct {
+        uint64_t key;
+        int32_t k[27];
+    } *cache = from_particles ? malloc(STENCIL_CACHE * sizeof *cache) : NULL;
+    if (from_particles && !cache) bad = 1;
+    for (int e = 0; cache && e < STENCIL_CACHE; e++) cache[e].key = UINT64_MAX;
     for (size_t i = 0; i < np && from_particles && !bad; i++) {
         double wt[3][3], fx;
         int32_t base[3];
         for (int a = 0; a < 3; a++) base[a] = quad_weights(p->x[a][i], inv_h, wt[a], &fx);
+        const uint64_t key = pack(base[0], base[1], base[2]);
+        __typeof__(cache) ce = &cache[slot_of(key, STENCIL_CACHE)];
+        if (ce->key != key) {
+            int e = 0;
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 3; b++)
+                    for (int c = 0; c < 3; c++, e++) {
+                        ce->k[e] = node_at(&nodes, &nl, base[0] + a, base[1] + b, base[2] + c);
+                        if (ce->k[e] < 0) bad = 1;
+                    }
+            ce->key = bad ? UINT64_MAX : key;
+            if (bad) break;
+        }
+        int e = 0;
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
-                for (int c = 0; c < 3; c++) {
-                    int32_t k = node_at(&nodes, &nl, base[0] + a, base[1] + b, base[2] + c);
-                    if (k < 0) bad = 1;
-                    if (k >= 0) nl.mass[k] += wt[0][a] * wt[1][b] * wt[2][c] * p->mass[i];
-                }
+                for (int c = 0; c < 3; c++, e++) nl.mass[ce->k[e]] += wt[0][a] * wt[1][b] * wt[2][c] * p->mass[i];
     }
+    free(cache);
     /* the parents of the finer nodes, and the finer masses restricted */
     for (size_t j = 0; j < F->nn && !bad; j++) {
         int32_t *par = L->par + 8 * j;
@@ -372,6 +393,26 @@ int kf_imp_mg_create(kf_implicit *w) {
             return -1;
         if (L->nn * 2 > prev * 3 / 2) break; /* no longer coarsening (a flat or thin body) */
         prev = L->nn;
+    }
+    /* the cells of spacing 2h nest those of h, so a coarse point's blocks
+     * are its children's sums (kf_imp_mg_refresh): each point's parent,
+     * checked on every particle (a position on a cell face can round into
+     * different cells on the two levels; then that level sums particles) */
+    for (int l = 1; l + 1 < mg->nlev; l++) {
+        kf_mg_level *L = &mg->lev[l], *C = &mg->lev[l + 1];
+        L->q_up = malloc((L->nq + 1) * sizeof *L->q_up);
+        if (!L->q_up) return -1;
+        for (size_t q = 0; q < L->nq; q++) L->q_up[q] = -1;
+        int nested = 1;
+        for (size_t i = 0; i < w->np && nested; i++) {
+            int32_t *u = &L->q_up[L->q_of_p[i]];
+            if (*u < 0) *u = C->q_of_p[i];
+            nested = *u == C->q_of_p[i];
+        }
+        if (!nested) {
+            free(L->q_up);
+            L->q_up = NULL;
+        }
     }
     return 0;
 }

@@ -174,11 +174,21 @@ void kf_imp_mg_refresh(kf_implicit *w) {
     mg->lev[0].diag = w->diag; /* the solve's Jacobi diagonal, mass + stiffness */
     for (int l = 1; l < mg->nlev; l++) {
         kf_mg_level *L = &mg->lev[l];
+        const kf_mg_level *F = &mg->lev[l - 1];
         memset(L->K, 0, 81 * L->nq * sizeof *L->K);
-        for (size_t i = 0; i < w->np; i++) {
-            double *K = L->K + 81 * (size_t)L->q_of_p[i];
-            const double *Kp = w->Kp + 81 * i;
-            for (int r = 0; r < 81; r++) K[r] += Kp[r];
+        if (l >= 2 && F->q_up) {
+            /* the finer level's points, each a sum over particles of this level's cell */
+            for (size_t q = 0; q < F->nq; q++) {
+                double *K = L->K + 81 * (size_t)F->q_up[q];
+                const double *Kc = F->K + 81 * q;
+                for (int r = 0; r < 81; r++) K[r] += Kc[r];
+            }
+        } else {
+            for (size_t i = 0; i < w->np; i++) {
+                double *K = L->K + 81 * (size_t)L->q_of_p[i];
+                const double *Kp = w->Kp + 81 * i;
+                for (int r = 0; r < 81; r++) K[r] += Kp[r];
+            }
         }
         coarse_diag(L);
     }
