@@ -8,7 +8,10 @@
  * the substep (binning, G2P, stress) from kerf's own stage timers.
  * The committed results: OMP_NUM_THREADS=1 kf_evid_implicit_sweep --out
  * tools/evidence/implicit_results --repeat 3 2> .../implicit_sweep.log, then
- * gnuplot -e "dir='tools/evidence/implicit_results'" tools/evidence/implicit_sweep.gp
+ * gnuplot -e "dir='tools/evidence/implicit_results'" tools/evidence/implicit_sweep.gp;
+ * implicit_sweep_newton_tol_1e-2.{md,log} are --E 1e6 --newton-tol 1e-2 --repeat 3
+ * run into a scratch directory (it would overwrite the E = 1e6 .dat files). The
+ * .md's closing sections (profile before/after, conclusion) are written by hand.
  *
  * The problem: a stiff elastic (fixed corotated) cantilever, ρ = 1000 kg/m³,
  * ν = 0.3, 0.4 m long, 8 x 12 cm section, clamped by sticky walls at x = 0
