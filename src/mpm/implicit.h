@@ -250,4 +250,25 @@ const char *kf_imp_profile_stage(int stage);
  * when the potential or the residual stopped being finite. */
 int kf_imp_solve(kf_implicit *w, double *v);
 
+/* ---- vector helpers of the hot loops (GCC/Clang vector extension) ------------- */
+
+/* a node's (x, y, z, 0) as one vector; node vectors are only 8-byte aligned */
+typedef double kf_v4d __attribute__((vector_size(32), aligned(8)));
+#define KF_IMP_V4(x, i) (*(kf_v4d *)((x) + KF_IMP_NV * (size_t)(i)))
+
+/* y = K g for a 9x9 block K that is exactly symmetric, stored by rows:
+ * Σ_j g_j (row j), contiguous rows, two vector FMAs and one scalar per j.
+ * y[0..3] comes back in *lo, y[4..7] in *hi, y[8] in *y8. */
+static inline void kf_imp_block9(const double *K, const double g[9], kf_v4d *lo, kf_v4d *hi, double *y8) {
+    kf_v4d a = {0, 0, 0, 0}, b = a;
+    double c = 0;
+    for (int j = 0; j < 9; j++) {
+        const double *kr = K + 9 * j;
+        a += g[j] * *(const kf_v4d *)kr;
+        b += g[j] * *(const kf_v4d *)(kr + 4);
+        c += g[j] * kr[8];
+    }
+    *lo = a, *hi = b, *y8 = c;
+}
+
 #endif

@@ -43,9 +43,8 @@ void kf_imp_mg_project(const kf_implicit *w, int l, double *x) {
     }
 }
 
-/* a node's (x, y, z, 0) as one vector; level vectors are only 8-byte aligned */
-typedef double v4d __attribute__((vector_size(32), aligned(8)));
-#define V4(x, i) (*(v4d *)((x) + KF_IMP_NV * (size_t)(i)))
+typedef kf_v4d v4d;
+#define V4 KF_IMP_V4
 
 /* y = P_l A_l x for projected x */
 static void apply_op(kf_implicit *w, int l, const double *x, double *y) {
@@ -70,14 +69,9 @@ static void apply_op(kf_implicit *w, int l, const double *x, double *y) {
             c0 += xi * ge[0], c1 += xi * ge[1], c2 += xi * ge[2];
         }
         const double G[9] = {c0[0], c1[0], c2[0], c0[1], c1[1], c2[1], c0[2], c1[2], c2[2]};
-        v4d ylo = {0, 0, 0, 0}, yhi = ylo;
-        double y8 = 0;
-        for (int j = 0; j < 9; j++) {
-            const double *kr = K + 9 * j;
-            ylo += G[j] * *(const v4d *)kr;
-            yhi += G[j] * *(const v4d *)(kr + 4);
-            y8 += G[j] * kr[8];
-        }
+        v4d ylo, yhi;
+        double y8;
+        kf_imp_block9(K, G, &ylo, &yhi, &y8);
         const v4d y0 = {ylo[0], ylo[3], yhi[2], 0}, y1 = {ylo[1], yhi[0], yhi[3], 0}, y2 = {ylo[2], yhi[1], y8, 0};
         for (int e = 0; e < 27; e++) {
             const double *ge = ga + 3 * e;

@@ -163,9 +163,8 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
     return 0;
 }
 
-/* a node's (x, y, z, 0) as one vector; grid vectors are only 8-byte aligned */
-typedef double v4d __attribute__((vector_size(32), aligned(8)));
-#define V4(x, i) (*(v4d *)((x) + KF_IMP_NV * (size_t)(i)))
+typedef kf_v4d v4d;
+#define V4 KF_IMP_V4
 
 /* G = Σ_i x_i γ_iᵀ over particle p's KW³ stencil, summed axis by axis:
  * column j of G is Σ_a f0 Σ_b f1 Σ_c f2 x_abc with f = h on axis j and w on
@@ -254,16 +253,10 @@ void kf_imp_scatter_product(const kf_implicit *w, const double *x, double *out) 
                 double G[9], Y[9];
                 const double *Kp = w->Kp + 81 * i;
                 gather(w, x, i, G);
-                /* Y = Kp G = Σ_j G_j (row j of Kp), Kp being exactly symmetric:
-                 * contiguous rows, two vector FMAs and one scalar per j */
-                v4d ylo = {0, 0, 0, 0}, yhi = ylo;
-                double y8 = 0;
-                for (int j = 0; j < 9; j++) {
-                    const double *kr = Kp + 9 * j;
-                    ylo += G[j] * *(const v4d *)kr;
-                    yhi += G[j] * *(const v4d *)(kr + 4);
-                    y8 += G[j] * kr[8];
-                }
+                /* Y = Kp G (Kp is exactly symmetric) */
+                v4d ylo, yhi;
+                double y8;
+                kf_imp_block9(Kp, G, &ylo, &yhi, &y8);
                 for (int j = 0; j < 4; j++) Y[j] = ylo[j], Y[4 + j] = yhi[j];
                 Y[8] = y8;
                 scatter_one(w, Y, i, out);
