@@ -45,7 +45,7 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                    "Outputs per frame under <dir>: particles/<name>.ply, checkpoints/<name>.kfc,\n"
                    "surface/<name>.vdb (level set `surface`, or `surface_<group>` per material/object),\n"
                    "images/<name>.png. When every requested frame is cached from the same inputs (shot\n"
-                   "values that affect the simulation, mesh file contents, kerf version), nothing is\n"
+                   "values that affect the simulation, mesh file contents, the kerf build), nothing is\n"
                    "simulated; surfaces and images newer than their inputs are kept.\n");
     fprintf(f, "  --help              this text\n");
 }
