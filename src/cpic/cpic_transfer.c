@@ -53,6 +53,25 @@ static void kept_velocity(const kf_model *m, const kf_state *s, int r, const dou
     for (int a = 0; a < 3; a++) u[a] = V[a] + w[a];
 }
 
+/* APIC's affine velocity C_p d of a particle at a node offset d from it (0
+ * under PIC). At an incompatible node the particle keeps it: only v_p is
+ * projected against the body and only the removed part is the body's
+ * impulse; the ghost gives C_p d back in G2P, so no momentum is lost (Σ w d
+ * = 0 is not needed). Handing it to the body instead (its normal part,
+ * under slip) let a particle pressed against a face pull the body toward
+ * it with the velocity gradient of its own making (compatible nodes moving
+ * toward the face, ghosts not): 1.2 of a floating block's 12.6 N at 48
+ * cells/m, a quarter cell of draft. Dropping C near bodies (PIC there, as
+ * the authors' code does) removed that too, but PIC's damping in the band
+ * held a sinking brick up in still water. */
+static inline void affine_velocity(const kf_particles *p, size_t i, int apic, const double d[3], double cd[3]) {
+    for (int e = 0; e < 3; e++) {
+        cd[e] = 0;
+        if (apic)
+            for (int f = 0; f < 3; f++) cd[e] += (double)p->C[3 * e + f][i] * d[f];
+    }
+}
+
 static void add_impulse(double *imp, const kf_rigid_state *st, const double x[3], const double J[3]) {
     double r0 = x[0] - st->com[0], r1 = x[1] - st->com[1], r2 = x[2] - st->com[2];
     imp[0] += J[0];
@@ -219,16 +238,6 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
         const double mass = ck->mv[3][j];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        /* Q d without APIC's affine part m C d for a particle near a body
-         * (PIC there; the authors' code zeroes C near boundaries too). The
-         * one-sided constraint gives such a particle a velocity gradient of
-         * its own making (compatible nodes moving toward the face, ghosts
-         * not), and its affine momentum at incompatible nodes would then
-         * pull the body toward the material: 1.2 N of a floating block's
-         * 12.6 N at 48 cells/m, a quarter cell of draft. Σ_i w_i d_i = 0, so
-         * dropping it moves no momentum; F still sees the full gradient. */
-        double qp[9];
-        for (int e = 0; e < 9; e++) qp[e] = ck->q[e][j] - (apic && c->near[i] ? mass * (double)p->C[e][i] : 0);
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
                 for (int k = 0; k < 3; k++) {
@@ -237,7 +246,8 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                     /* what the node receives in ordinary MLS-MPM (or classic MPM) */
                     double add[4];
                     for (int r = 0; r < 3; r++) {
-                        add[r] = w * (ck->mv[r][j] + qp[3 * r] * d[0] + qp[3 * r + 1] * d[1] + qp[3 * r + 2] * d[2]);
+                        add[r] = w * (ck->mv[r][j] + ck->q[3 * r][j] * d[0] + ck->q[3 * r + 1][j] * d[1] +
+                                      ck->q[3 * r + 2][j] * d[2]);
                         if (classic) {
                             double gw[3] = {(double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j],
                                             (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j],
@@ -258,7 +268,9 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                                     (4 * bc[2] + ck->l[2][j] + k) * dx};
                     double u[3], J[3];
                     kept_velocity(m, s, r, xi, vp, np, u);
-                    for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (c->gdt[e] - u[e]);
+                    double cd[3];
+                    affine_velocity(p, i, apic, d, cd);
+                    for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (c->gdt[e] - u[e] - cd[e]);
                     add_impulse(imp + 6 * r, &s->rigid[r], xi, J);
                 }
     }
@@ -274,6 +286,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     double *imp = &c->imp[c->slot[owner]][0][0];
     const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx, dt = c->dt;
+    const int apic = m->sim.transfer == KF_TRANSFER_APIC;
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
         const uint32_t cp = p->colour[i];
@@ -302,6 +315,9 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                         double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
                                         (4 * bc[2] + ck->l[2][j] + k) * dx};
                         kept_velocity(m, s, r, xi, vp, np, vi);
+                        double cd[3];
+                        affine_velocity(p, i, apic, d, cd);
+                        for (int e = 0; e < 3; e++) vi[e] += cd[e];
                         double push = m->rigid[r].def.push;
                         if (push != 0 && c->near[i]) {
                             double J[3];
