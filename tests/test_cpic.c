@@ -489,16 +489,16 @@ static void momentum_ball_hits_box(void) {
  * penalty keeps a particle's extent, not its centre, out of the body, so
  * the water's edge rests on the face to within that; a bound in cells is
  * first order in Δx. Measured (2026-11-24, penalty 1000), error in cells
- * at 40, 48, 56, 64, 72, 80 cells/m: +0.07, −0.08, −0.14, +0.05, +0.23,
- * +0.04 (seeds 2 and 3: −0.11 and −0.06 at 48, +0.01 and +0.08 at 64); what is left
- * is the block's rocking (2–5° at the end), with no sign either way.
+ * at 40, 48, 56, 64, 72, 80 cells/m: +0.02, −0.14, +0.00, +0.11, +0.09,
+ * +0.07; what is left is the block's rocking (2–5° at the end), and it
+ * does not fall steadily with Δx, so the bound is in cells.
  * Before the two fixes in cpic_transfer.c (penalty at the particle's
  * extent; the affine part C d kept by the particle at incompatible nodes)
  * the same runs gave −0.07, +0.20, +0.44, +0.55, +0.43, +0.33: the water
  * overlapped the bottom face by half a particle spacing, and the affine
  * momentum of the particles pressed against it pulled the block down (1.2
  * of its 12.6 N at 48 cells/m). With a separate boundary (the shots'
- * default) it was −0.37 at 48 and +0.14 at 64: the one-sided projection
+ * default) it is −0.37 at 48 and −0.13 at 64: the one-sided projection
  * lets the water fall away from a face but not rise into it. */
 static int float_cells = 0; /* cells per metre; 0: both 48 and 64 (`test_cpic block_floats 56` for one) */
 

@@ -56,8 +56,10 @@ static void kept_velocity(const kf_model *m, const kf_state *s, int r, const dou
 /* APIC's affine velocity C_p d of a particle at a node offset d from it (0
  * under PIC). At an incompatible node the particle keeps it: only v_p is
  * projected against the body and only the removed part is the body's
- * impulse; the ghost gives C_p d back in G2P, so no momentum is lost (Σ w d
- * = 0 is not needed). Handing it to the body instead (its normal part,
+ * impulse; G2P gives C_p d back to the particle's velocity, so no momentum
+ * is lost, but not to its new C: a particle mostly among ghosts would keep
+ * its old velocity gradient forever (a bunny particle on a plate was
+ * crushed to J = 0.001). Handing it to the body instead (its normal part,
  * under slip) let a particle pressed against a face pull the body toward
  * it with the velocity gradient of its own making (compatible nodes moving
  * toward the face, ghosts not): 1.2 of a floating block's 12.6 N at 48
@@ -306,7 +308,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                     const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
                     const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
                     const int q = o + (a * NB + b) * NB + k;
-                    double vi[3];
+                    double vi[3], cd[3] = {0, 0, 0};
                     if (compatible(col[q], cp)) {
                         for (int e = 0; e < 3; e++) vi[e] = cache[q][e];
                     } else {
@@ -315,9 +317,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                         double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
                                         (4 * bc[2] + ck->l[2][j] + k) * dx};
                         kept_velocity(m, s, r, xi, vp, np, vi);
-                        double cd[3];
                         affine_velocity(p, i, apic, d, cd);
-                        for (int e = 0; e < 3; e++) vi[e] += cd[e];
                         double push = m->rigid[r].def.push;
                         if (push != 0 && c->near[i]) {
                             double J[3];
@@ -332,7 +332,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                                           (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j],
                                           (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->dw[2][k][j]};
                     for (int e = 0; e < 3; e++) {
-                        v[e] += w * vi[e];
+                        v[e] += w * (vi[e] + cd[e]);
                         for (int f = 0; f < 3; f++) {
                             B[3 * e + f] += w * vi[e] * d[f];
                             if (classic) G[3 * e + f] += vi[e] * gw[f];
