@@ -490,7 +490,8 @@ static void momentum_ball_hits_box(void) {
  * the water's edge rests on the face to within that; a bound in cells is
  * first order in Δx. Measured (2026-11-24, penalty 1000), error in cells
  * at 40, 48, 56, 64, 72, 80 cells/m: +0.02, −0.14, +0.00, +0.11, +0.09,
- * +0.07; what is left is the block's rocking (2–5° at the end), and it
+ * +0.07 (seeds 2 and 3: −0.09 and −0.04 at 48, +0.11 and +0.17 at 64);
+ * what is left is the block's rocking (2–5° at the end), and it
  * does not fall steadily with Δx, so the bound is in cells.
  * Before the two fixes in cpic_transfer.c (penalty at the particle's
  * extent; the affine part C d kept by the particle at incompatible nodes)
