@@ -252,7 +252,8 @@ int kf_imp_solve(kf_implicit *w, double *v);
 
 /* ---- vector helpers of the hot loops (GCC/Clang vector extension) ------------- */
 
-/* a node's (x, y, z, 0) as one vector; node vectors are only 8-byte aligned */
+/* a node's (x, y, z, 0) as one vector; node vectors are only 8-byte aligned.
+ * The implicit solver's files use these two names, not local copies. */
 typedef double kf_v4d __attribute__((vector_size(32), aligned(8)));
 #define KF_IMP_V4(x, i) (*(kf_v4d *)((x) + KF_IMP_NV * (size_t)(i)))
 

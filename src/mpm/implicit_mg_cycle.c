@@ -43,9 +43,6 @@ void kf_imp_mg_project(const kf_implicit *w, int l, double *x) {
     }
 }
 
-typedef kf_v4d v4d;
-#define V4 KF_IMP_V4
-
 /* y = P_l A_l x for projected x */
 static void apply_op(kf_implicit *w, int l, const double *x, double *y) {
     if (l == 0) {
@@ -62,20 +59,20 @@ static void apply_op(kf_implicit *w, int l, const double *x, double *y) {
         /* G = Σ_i x_i γ_iᵀ (G2P) by columns, Y = K G by K's rows (K is a
          * sum of exactly symmetric blocks), y_i += Y γ_i (P2G); a node's
          * (x, y, z, 0) as one vector */
-        v4d c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
+        kf_v4d c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
         for (int e = 0; e < 27; e++) {
-            const v4d xi = V4(x, id[e]);
+            const kf_v4d xi = KF_IMP_V4(x, id[e]);
             const double *ge = ga + 3 * e;
             c0 += xi * ge[0], c1 += xi * ge[1], c2 += xi * ge[2];
         }
         const double G[9] = {c0[0], c1[0], c2[0], c0[1], c1[1], c2[1], c0[2], c1[2], c2[2]};
-        v4d ylo, yhi;
+        kf_v4d ylo, yhi;
         double y8;
         kf_imp_block9(K, G, &ylo, &yhi, &y8);
-        const v4d y0 = {ylo[0], ylo[3], yhi[2], 0}, y1 = {ylo[1], yhi[0], yhi[3], 0}, y2 = {ylo[2], yhi[1], y8, 0};
+        const kf_v4d y0 = {ylo[0], ylo[3], yhi[2], 0}, y1 = {ylo[1], yhi[0], yhi[3], 0}, y2 = {ylo[2], yhi[1], y8, 0};
         for (int e = 0; e < 27; e++) {
             const double *ge = ga + 3 * e;
-            V4(y, id[e]) += y0 * ge[0] + y1 * ge[1] + y2 * ge[2];
+            KF_IMP_V4(y, id[e]) += y0 * ge[0] + y1 * ge[1] + y2 * ge[2];
         }
     }
     kf_imp_mg_project(w, l, y);

@@ -62,16 +62,13 @@ static void prof_lap(int stage, double *t) {
 
 /* ---- vectors over the grid nodes (3 per node), block-ordered sums -------- */
 
-/* node i's (x, y, z, 0) as one vector (grid vectors are only 8-byte aligned) */
-typedef double v4d __attribute__((vector_size(32), aligned(8)));
-#define V4(x, i) (*(v4d *)((x) + KF_IMP_NV * (size_t)(i)))
-
 double kf_imp_dot(kf_implicit *w, const double *x, const double *y) {
     size_t nb = w->nnode / KF_BLOCK_NODES;
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t b = 0; b < nb; b++) {
-        v4d t = {0, 0, 0, 0};
-        for (size_t k = w->act_start[b]; k < w->act_start[b + 1]; k++) t += V4(x, w->act[k]) * V4(y, w->act[k]);
+        kf_v4d t = {0, 0, 0, 0};
+        for (size_t k = w->act_start[b]; k < w->act_start[b + 1]; k++)
+            t += KF_IMP_V4(x, w->act[k]) * KF_IMP_V4(y, w->act[k]);
         w->bsum[b] = t[0] + t[1] + t[2] + t[3];
     }
     double s = 0;
@@ -87,7 +84,7 @@ static double sum_minv(kf_implicit *w, const double *x) {
         double t = 0;
         for (size_t k = w->act_start[b]; k < w->act_start[b + 1]; k++) {
             size_t i = (size_t)w->act[k];
-            v4d xi = V4(x, i), x2 = xi * xi;
+            kf_v4d xi = KF_IMP_V4(x, i), x2 = xi * xi;
             t += (x2[0] + x2[1] + x2[2]) / w->mass[i];
         }
         w->bsum[b] = t;
@@ -110,9 +107,9 @@ static double cg_update(kf_implicit *w, double alpha) {
         double t = 0;
         for (size_t k = w->act_start[b]; k < w->act_start[b + 1]; k++) {
             size_t i = (size_t)w->act[k];
-            V4(d, i) += alpha * V4(p, i);
-            v4d ri = V4(r, i) - alpha * V4(q, i), r2 = ri * ri;
-            V4(r, i) = ri;
+            KF_IMP_V4(d, i) += alpha * KF_IMP_V4(p, i);
+            kf_v4d ri = KF_IMP_V4(r, i) - alpha * KF_IMP_V4(q, i), r2 = ri * ri;
+            KF_IMP_V4(r, i) = ri;
             t += (r2[0] + r2[1] + r2[2]) / w->mass[i];
         }
         w->bsum[b] = t;
@@ -273,7 +270,8 @@ static int pcg(kf_implicit *w, double tol, int kmax, int blocks_changed) {
         prof_lap(KF_IMP_T_PRECOND, &t);
         double rz1 = kf_imp_dot(w, r, z), beta = rz1 / rz;
         rz = rz1;
-        for (size_t k = 0; k < w->nact; k++) V4(p, w->act[k]) = V4(z, w->act[k]) + beta * V4(p, w->act[k]);
+        for (size_t k = 0; k < w->nact; k++)
+            KF_IMP_V4(p, w->act[k]) = KF_IMP_V4(z, w->act[k]) + beta * KF_IMP_V4(p, w->act[k]);
     }
     prof_lap(KF_IMP_T_CG_VECTORS, &t);
     return it;

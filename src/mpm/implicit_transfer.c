@@ -163,9 +163,6 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
     return 0;
 }
 
-typedef kf_v4d v4d;
-#define V4 KF_IMP_V4
-
 /* G = Σ_i x_i γ_iᵀ over particle p's KW³ stencil, summed axis by axis:
  * column j of G is Σ_a f0 Σ_b f1 Σ_c f2 x_abc with f = h on axis j and w on
  * the others (KW a constant where inlined, so the loops unroll) */
@@ -173,14 +170,14 @@ static inline void gather_kw(const kf_implicit *w, const double *x, size_t p, do
     const int32_t *id = w->idx + (size_t)w->K * p;
     const double *f = w->wts + (size_t)KF_IMP_WS * p;
     const double *w0 = f, *h0 = f + 4, *w1 = f + 8, *h1 = f + 12, *w2 = f + 16, *h2 = f + 20;
-    v4d c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
+    kf_v4d c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
     int e = 0;
     for (int a = 0; a < KW; a++) {
-        v4d t00 = {0, 0, 0, 0}, t01 = t00, t10 = t00;
+        kf_v4d t00 = {0, 0, 0, 0}, t01 = t00, t10 = t00;
         for (int b = 0; b < KW; b++) {
-            v4d s0 = {0, 0, 0, 0}, s1 = s0;
+            kf_v4d s0 = {0, 0, 0, 0}, s1 = s0;
             for (int c = 0; c < KW; c++, e++) {
-                const v4d xi = V4(x, id[e]);
+                const kf_v4d xi = KF_IMP_V4(x, id[e]);
                 s0 += w2[c] * xi;
                 s1 += h2[c] * xi;
             }
@@ -208,13 +205,13 @@ static inline void scatter_kw(const kf_implicit *w, const double Y[9], size_t p,
     const int32_t *id = w->idx + (size_t)w->K * p;
     const double *f = w->wts + (size_t)KF_IMP_WS * p;
     const double *w0 = f, *h0 = f + 4, *w1 = f + 8, *h1 = f + 12, *w2 = f + 16, *h2 = f + 20;
-    const v4d y0 = {Y[0], Y[3], Y[6], 0}, y1 = {Y[1], Y[4], Y[7], 0}, y2 = {Y[2], Y[5], Y[8], 0};
+    const kf_v4d y0 = {Y[0], Y[3], Y[6], 0}, y1 = {Y[1], Y[4], Y[7], 0}, y2 = {Y[2], Y[5], Y[8], 0};
     int e = 0;
     for (int a = 0; a < KW; a++) {
-        const v4d u0 = h0[a] * y0, u1 = w0[a] * y1, u2 = w0[a] * y2;
+        const kf_v4d u0 = h0[a] * y0, u1 = w0[a] * y1, u2 = w0[a] * y2;
         for (int b = 0; b < KW; b++) {
-            const v4d P = w1[b] * u0 + h1[b] * u1, Q = w1[b] * u2;
-            for (int c = 0; c < KW; c++, e++) V4(out, id[e]) += w2[c] * P + h2[c] * Q;
+            const kf_v4d P = w1[b] * u0 + h1[b] * u1, Q = w1[b] * u2;
+            for (int c = 0; c < KW; c++, e++) KF_IMP_V4(out, id[e]) += w2[c] * P + h2[c] * Q;
         }
     }
 }
@@ -254,7 +251,7 @@ void kf_imp_scatter_product(const kf_implicit *w, const double *x, double *out) 
                 const double *Kp = w->Kp + 81 * i;
                 gather(w, x, i, G);
                 /* Y = Kp G (Kp is exactly symmetric) */
-                v4d ylo, yhi;
+                kf_v4d ylo, yhi;
                 double y8;
                 kf_imp_block9(Kp, G, &ylo, &yhi, &y8);
                 for (int j = 0; j < 4; j++) Y[j] = ylo[j], Y[4 + j] = yhi[j];
@@ -293,13 +290,13 @@ void kf_imp_scatter_diag(const kf_implicit *w, double *out) {
                 /* the diagonal entry (a, a) of node e is γᵀ K_a γ, K_a[b][c] =
                  * Kp[(a,b),(a,c)]: with the three a in the lanes of one vector
                  * (kbc) and the symmetric pairs summed, 6 vector FMAs a node */
-                v4d kbc[3][3];
+                kf_v4d kbc[3][3];
                 for (int b = 0; b < 3; b++)
                     for (int bc = 0; bc < 3; bc++)
-                        kbc[b][bc] = (v4d){Kp[9 * b + bc], Kp[9 * (3 + b) + 3 + bc], Kp[9 * (6 + b) + 6 + bc], 0};
-                const v4d k01 = kbc[0][1] + kbc[1][0], k02 = kbc[0][2] + kbc[2][0], k12 = kbc[1][2] + kbc[2][1];
+                        kbc[b][bc] = (kf_v4d){Kp[9 * b + bc], Kp[9 * (3 + b) + 3 + bc], Kp[9 * (6 + b) + 6 + bc], 0};
+                const kf_v4d k01 = kbc[0][1] + kbc[1][0], k02 = kbc[0][2] + kbc[2][0], k12 = kbc[1][2] + kbc[2][1];
                 for (int e = 0; e < K; e++) {
-                    v4d *o = (v4d *)(out + KF_IMP_NV * (size_t)id[e]);
+                    kf_v4d *o = (kf_v4d *)(out + KF_IMP_NV * (size_t)id[e]);
                     const double *ge = ga + 3 * e;
                     *o += kbc[0][0] * (ge[0] * ge[0]) + kbc[1][1] * (ge[1] * ge[1]) + kbc[2][2] * (ge[2] * ge[2]) +
                           k01 * (ge[0] * ge[1]) + k02 * (ge[0] * ge[2]) + k12 * (ge[1] * ge[2]);
