@@ -158,7 +158,9 @@ void kf_imp_friction(const kf_implicit *w, double *v);
  * the same energy on a grid of spacing 2^l Δx, with the particles' masses
  * re-transferred to its nodes and their per-particle Hessian blocks Kp
  * summed into one quadrature point per cell of the level (the particles'
- * centroid), so a coarse product costs a fraction of a fine one. Levels are
+ * centroid; eight per cell, one per cell of half the spacing, when
+ * stiffness outweighs mass: implicit_mg_build.c), so a coarse product
+ * costs a fraction of a fine one. Levels are
  * joined by trilinear prolongation P and restriction Pᵀ, each level's
  * boundary projection applied after P and before Pᵀ (coarse levels inherit
  * their children's fixed directions). Coarse levels run a symmetric
@@ -192,6 +194,7 @@ typedef struct kf_mg_level {
 } kf_mg_level;
 typedef struct kf_imp_mg {
     int nlev;
+    int full_quadrature;  /* eight quadrature points per coarse cell (stiffness-dominated), not one */
     int estimated;        /* the coarse dampings were estimated (once per substep) */
     kf_mg_level lev[KF_MG_MAX_LEVELS];
 } kf_imp_mg;

@@ -12,10 +12,19 @@
  * re-transfer on every level cost 14% more CPU time per frame at 5x the
  * explicit step, where the levels are rebuilt most often). The particles
  * of one cell of the level become one quadrature point at their mass
- * centroid carrying the sum of their Hessian blocks: one point per cell
- * took 2.6% more CG iterations than eight (cells of H/2) on the evidence
- * cantilever at 20x, for 16% less CPU time per frame (a coarse level only
- * has to be spectrally close, and its mass keeps it definite). Everything
+ * centroid carrying the sum of their Hessian blocks. Where mass dominates
+ * the operator, one point per cell of spacing H is enough (a coarse level
+ * only has to be spectrally close, and its mass keeps it definite): on the
+ * evidence cantilever at 20x the explicit step it took 1% fewer CG
+ * iterations than eight and 25% less CPU time per frame. Where stiffness
+ * dominates, one point per cell under-integrates: a body one or two coarse
+ * cells thick bends with no strain at its only point, so the coarse level
+ * is far too soft in bending and its correction overshoots (more coarse
+ * sweeps made it worse). There each cell of spacing H/2 is a point, eight
+ * per cell: at 1 to 4 steps per frame (E = 1e8 to 1e10, 350 to 3800x the
+ * explicit step) that took 2-4x fewer CG iterations and 2.4x less time.
+ * The switch is the ratio of the fine diagonal's stiffness to its mass,
+ * FULL_QUADRATURE_RATIO. Everything
  * is serial and in particle order, so the levels are the same for any
  * thread count. */
 #include <math.h>
@@ -26,6 +35,11 @@
 
 /* coarsening stops once a level has at most this many nodes */
 #define COARSEST_NODES 64
+/* eight quadrature points per coarse cell once Σ (fine diagonal − mass) /
+ * Σ mass over the nodes with mass exceeds this (the cantilever: one point
+ * was cheaper at 34 (20x the explicit step) and 149 (50x), eight at 545
+ * (100x) and beyond; 300 splits the measured break-even) */
+#define FULL_QUADRATURE_RATIO 300
 
 /* ---- integer coordinates → index ---------------------------------------------- */
 
@@ -147,7 +161,7 @@ static void level_free(kf_mg_level *L) {
  * F's nodes that carry mass, and the quadrature points with their
  * stencils. Per axis an even finer coordinate sits on a
  * coarse node (weight 1), an odd one between two (½, ½). */
-static int build_level(const kf_implicit *w, kf_mg_level *L, const kf_mg_level *F, double h) {
+static int build_level(const kf_implicit *w, kf_mg_level *L, const kf_mg_level *F, double h, int full_quadrature) {
     const kf_particles *p = &w->s->p;
     const size_t np = w->np;
     const double inv_h = 1 / h, dinv = 4 / (h * h); /* MLS D⁻¹ of the quadratic kernel */
@@ -216,13 +230,14 @@ static int build_level(const kf_implicit *w, kf_mg_level *L, const kf_mg_level *
                     if (!from_particles) nl.mass[k] += wt * F->mass[j];
                 }
     }
-    /* each particle's cell of the level: one quadrature point per cell */
+    /* each particle's quadrature cell: the level's cells, or their eighths */
+    const double q_inv = full_quadrature ? 2 * inv_h : inv_h;
     double *qm = NULL, *qs = NULL;
     size_t qcap = 0;
     for (size_t i = 0; i < np && !bad; i++) {
         double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]};
-        int32_t q = hash_insert(&cells, pack((int32_t)floor(x[0] * inv_h), (int32_t)floor(x[1] * inv_h),
-                                             (int32_t)floor(x[2] * inv_h)));
+        int32_t q = hash_insert(&cells, pack((int32_t)floor(x[0] * q_inv), (int32_t)floor(x[1] * q_inv),
+                                             (int32_t)floor(x[2] * q_inv)));
         if (q < 0) {
             bad = 1;
             break;
@@ -383,11 +398,18 @@ int kf_imp_mg_create(kf_implicit *w) {
     }
     size_t prev = 0;
     for (size_t i = 0; i < w->nnode; i++) prev += w->mass[i] > 0;
+    /* how much stiffness outweighs mass on the fine diagonal (built before the levels) */
+    double sum_m = 0, sum_k = 0;
+    for (size_t k = 0; k < w->nact; k++) {
+        const size_t i = (size_t)w->act[k];
+        for (int a = 0; a < 3; a++) sum_m += w->mass[i], sum_k += w->diag[KF_IMP_NV * i + a] - w->mass[i];
+    }
+    mg->full_quadrature = sum_k > FULL_QUADRATURE_RATIO * sum_m;
     /* coarsen while the level is big enough to be worth it and still shrinks */
     while (mg->nlev < KF_MG_MAX_LEVELS && prev > COARSEST_NODES) {
         kf_mg_level *L = &mg->lev[mg->nlev], *F = &mg->lev[mg->nlev - 1];
         mg->nlev++;
-        if (build_level(w, L, F, 2 * F->h)) return -1;
+        if (build_level(w, L, F, 2 * F->h, mg->full_quadrature)) return -1;
         if (build_constraints(L, F->nn, F == L0 ? w->ncon : F->ncon, F == L0 ? w->con_node : F->con_node,
                               F == L0 ? w->con_P : F->con_P))
             return -1;

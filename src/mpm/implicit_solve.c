@@ -320,22 +320,39 @@ int kf_imp_solve(kf_implicit *w, double *v) {
     kf_imp_project(w, w->d);
     for (size_t k = 0; k < n3; k++) w->vt[k] = v[k] + w->d[k];
     prof_lap(KF_IMP_T_PREDICT, &t);
-    /* the Hessian blocks at v*, then E at the predictor: the first Newton
-     * step from either uses the blocks of v* (see below) */
+    /* the Hessian blocks at v*, then E at two other starts; Newton begins
+     * at the lowest of the three, with the blocks of v* (see below):
+     * - the explicit predictor above, best at small steps;
+     * - the grid's velocity before gravity, v* − P Δt g: a stiff body
+     *   barely moves in a step, so at large steps (hundreds of explicit
+     *   steps) v* is far from the solution in the stiffness's norm (E = 1e10,
+     *   4 steps a frame: a residual 1e5 times the tolerance's scale, six
+     *   Newton iterations) while the body's last velocity is close */
     double E = evaluate(w, v, 1, 1);
-    double *S_star = w->S; /* v*'s S stays aside while the predictor's is computed */
-    w->S = w->S_alt, w->S_alt = S_star;
-    double E_exp = evaluate(w, w->vt, 0, 1);
     prof.linearizations++;
-    prof.energy_evals++;
+    double *S_best = w->S, *S_try = w->S_alt;
+    const double *best = v;
+    double *q = w->q; /* (CG's scratch, unused before the first solve) */
+    const double gdt[3] = {w->dt * sd->gravity[0], w->dt * sd->gravity[1], w->dt * sd->gravity[2]};
+    memset(q, 0, n3 * sizeof *q);
+    for (size_t k = 0; k < w->nact; k++)
+        for (int a = 0; a < 3; a++) q[KF_IMP_NV * (size_t)w->act[k] + a] = -gdt[a];
+    kf_imp_project(w, q);
+    for (size_t k = 0; k < n3; k++) q[k] += v[k];
+    double *const start[2] = {w->vt, q};
+    for (int c = 0; c < 2; c++) {
+        w->S = S_try;
+        double Ec = evaluate(w, start[c], 0, 1);
+        prof.energy_evals++;
+        if (isfinite(Ec) && Ec < E) {
+            E = Ec, best = start[c];
+            S_try = S_best, S_best = w->S;
+        }
+    }
+    w->S = S_best, w->S_alt = S_try;
     prof_lap(KF_IMP_T_LINEARIZE, &t);
     if (!isfinite(E)) return -1;
-    if (isfinite(E_exp) && E_exp < E) {
-        memcpy(v, w->vt, n3 * sizeof *v); /* S is the predictor's */
-        E = E_exp;
-    } else {
-        w->S_alt = w->S, w->S = S_star; /* S back at v* */
-    }
+    if (best != v) memcpy(v, best, n3 * sizeof *v);
     prof_lap(KF_IMP_T_PREDICT, &t);
     kf_imp_gradient(w, v, w->g);
     kf_imp_project(w, w->g);

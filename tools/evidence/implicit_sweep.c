@@ -3,12 +3,15 @@
  *
  *   kf_evid_implicit_sweep --out DIR [--quick] [--E 1e6,3e6,1e7,3e7] [--repeat N]
  *   kf_evid_implicit_sweep --out DIR --E 1e6 --only-k 20 [--jacobi] [--profile]   (one run, for profiling)
+ *   kf_evid_implicit_sweep --out DIR --crossover [--E 1e6,1e7,1e8,1e9,1e10] [--repeat N]
  * --profile prints the implicit step's CPU milliseconds per stage per substep
  * (implicit.h's kf_imp_profile; median over the repeats) and the rest of
  * the substep (binning, G2P, stress) from kerf's own stage timers.
  * The committed results: OMP_NUM_THREADS=1 kf_evid_implicit_sweep --out
  * tools/evidence/implicit_results --repeat 3 2> .../implicit_sweep.log, then
  * gnuplot -e "dir='tools/evidence/implicit_results'" tools/evidence/implicit_sweep.gp;
+ * the crossover (see crossover() below): --crossover --repeat 3 into the same
+ * directory (2> implicit_crossover.log), then tools/evidence/implicit_crossover.gp;
  * implicit_sweep_newton_tol_1e-2.{md,log} are --E 1e6 --newton-tol 1e-2 --repeat 3
  * run into a scratch directory (it would overwrite the E = 1e6 .dat files). The
  * .md's closing sections (profile before/after, conclusion) are written by hand.
@@ -86,14 +89,11 @@ static kf_precond g_only_precond = KF_PRECOND_MULTIGRID;
  * (the machine is shared: one run can be slowed by another's cache traffic) */
 static int g_repeat = 1;
 static int g_profile;
+/* --crossover: the stiffness sweep at fixed steps per frame instead */
+static int g_crossover;
 
-/* simulate; x receives positions by stable id (3 n) */
-static run simulate(double E, int implicit, kf_precond pc, double cfl, double dt_fixed, double *x, size_t *n_out) {
-    run r = {0};
-    r.implicit = implicit;
-    r.precond = pc;
-    r.cfl = cfl;
-    r.dt = dt_fixed;
+/* the cantilever's model and seeded state for stiffness E and the given integrator */
+static kf_state *make_sim(double E, int implicit, kf_precond pc, double cfl, double dt_fixed, kf_model **mo) {
     kf_sim_def sd = kf_default_sim_def();
     sd.dx = g_dx;
     sd.walls = 1;
@@ -120,6 +120,36 @@ static run simulate(double E, int implicit, kf_precond pc, double cfl, double dt
     kf_state *s = kf_state_create(m);
     double lo[3] = {-0.08, 0.46, 0.44}, hi[3] = {0.4, 0.54, 0.56};
     kf_state_fill_box(s, m, lo, hi, id, NULL, 2, 0);
+    *mo = m;
+    return s;
+}
+
+/* the particles' positions by stable id (3 n) */
+static void read_positions(kf_state *s, double *x, size_t *n_out) {
+    kf_particles_view pv = kf_state_particles(s);
+    for (size_t i = 0; i < pv.n; i++)
+        for (int a = 0; a < 3; a++) x[3 * pv.id[i] + a] = pv.x[a][i];
+    *n_out = pv.n;
+}
+
+/* the seeded positions (any stiffness: seeding does not depend on it) */
+static void seed_positions(double *x, size_t *n_out) {
+    kf_model *m;
+    kf_state *s = make_sim(1e6, 0, KF_PRECOND_MULTIGRID, 0.4, 0, &m);
+    read_positions(s, x, n_out);
+    kf_state_destroy(s);
+    kf_model_destroy(m);
+}
+
+/* simulate; x receives positions by stable id (3 n) */
+static run simulate(double E, int implicit, kf_precond pc, double cfl, double dt_fixed, double *x, size_t *n_out) {
+    run r = {0};
+    r.implicit = implicit;
+    r.precond = pc;
+    r.cfl = cfl;
+    r.dt = dt_fixed;
+    kf_model *m;
+    kf_state *s = make_sim(E, implicit, pc, cfl, dt_fixed, &m);
     kf_step_stats st = {0};
     char msg[512];
     kf_imp_profile_enable(g_profile);
@@ -127,16 +157,14 @@ static run simulate(double E, int implicit, kf_precond pc, double cfl, double dt
     double t0 = cpu_now();
     r.ok = 1;
     for (int f = 0; f < FRAMES && r.ok; f++) r.ok = !kf_advance(m, s, 1.0 / FPS, &st, msg, sizeof msg);
+    if (!r.ok) fprintf(stderr, "  (E %.0e, %s, step %.3g s: %s)\n", E, implicit ? "implicit" : "explicit", dt_fixed, msg);
     r.cpu_per_frame = (cpu_now() - t0) / FRAMES;
     kf_imp_profile_take(&r.prof);
     memcpy(r.other_ms, st.ms, sizeof r.other_ms);
     r.substeps = st.substeps;
     r.newton = st.newton_iterations;
     r.krylov = st.krylov_iterations;
-    kf_particles_view pv = kf_state_particles(s);
-    for (size_t i = 0; i < pv.n; i++)
-        for (int a = 0; a < 3; a++) x[3 * pv.id[i] + a] = pv.x[a][i];
-    *n_out = pv.n;
+    read_positions(s, x, n_out);
     kf_state_destroy(s);
     kf_model_destroy(m);
     return r;
@@ -209,10 +237,130 @@ static void compare(run *r, const double *x, const double *ref, size_t n) {
     if (!r->ok || r->rms != r->rms) r->rms = r->maxerr = INFINITY;
 }
 
+/* ---- the crossover: which integrator is cheapest for a given error, by stiffness ----
+ * The k-sweep above ties the implicit step to the explicit one, so both
+ * costs grow as √E and their ratio hardly moves with stiffness. An artist
+ * picks the implicit step for the motion instead (a few steps per frame,
+ * whatever the stiffness), while explicit stays bound to 0.4–0.8 Δx / c.
+ * Here implicit takes n = 1..16 steps per frame at every E, explicit runs
+ * at CFL 0.4 and 0.8, and for each error budget (a fraction of Δx, what
+ * a render at the grid's resolution can show) the cheapest run of each
+ * integrator that meets it is compared. The crossover for a budget is the
+ * smallest measured E from which implicit is cheaper at every larger
+ * measured E. */
+#define XO_NSTEPS 5
+#define XO_NBUDGET 3
+static const int XO_STEPS[XO_NSTEPS] = {1, 2, 4, 8, 16};
+static const double XO_BUDGET[XO_NBUDGET] = {0.1, 0.02, 0.004}; /* × Δx */
+
+static int crossover(const char *out, const double *Es, int nE) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/implicit_crossover.md", out);
+    FILE *md = fopen(path, "w");
+    snprintf(path, sizeof path, "%s/implicit_crossover.csv", out);
+    FILE *csv = fopen(path, "w");
+    if (!md || !csv) {
+        fprintf(stderr, "cannot write into %s\n", out);
+        return 1;
+    }
+    fprintf(csv, "E,integrator,cfl,steps_per_frame,ok,cpu_s_per_frame,rms_error_m,ref_rms_displacement_m,substeps,newton,krylov\n");
+    fprintf(md, "# Explicit against implicit by stiffness: the cheapest run that meets an error budget\n\n"
+                "The cantilever of implicit_sweep.md (dx = %g m, %d frames at 24 fps, 1 thread, CPU seconds per frame, "
+                "median of %d runs; error = RMS particle position difference to explicit at CFL 0.1 at the end). "
+                "Explicit runs at CFL 0.4 and 0.8; implicit (multigrid-CG, kerf's default solver settings) at a fixed "
+                "number of steps per frame, whatever the stiffness. \"displacement\" is the reference's RMS particle "
+                "displacement from the start, the size of the motion the error is measured against.\n\n",
+                g_dx, FRAMES, g_repeat);
+    double cost[8][2][XO_NBUDGET]; /* [E][explicit, implicit][budget]: cheapest run meeting it, INFINITY = none */
+    int best_n[8][XO_NBUDGET];
+    double *ref = malloc(sizeof(double) * 3 * 200000), *x = malloc(sizeof(double) * 3 * 200000),
+           *x0 = malloc(sizeof(double) * 3 * 200000);
+    for (int e = 0; e < nE; e++) {
+        const double E = Es[e], nu = 0.3, la = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
+        const double c = sqrt((la + 2 * mu) / 1000);
+        size_t n = 0;
+        /* the start positions: a run of zero frames is the seeding */
+        run rr = simulate(E, 0, KF_PRECOND_MULTIGRID, 0.1, 0, ref, &n);
+        seed_positions(x0, &n);
+        const double disp = rms_diff(ref, x0, n);
+        fprintf(stderr, "crossover E %.0e: reference %s, %.2f s/frame, displacement %.3g m\n", E, rr.ok ? "ok" : "FAILED",
+                rr.cpu_per_frame, disp);
+        fprintf(md, "## E = %.0e Pa (c = %.0f m/s; reference %.2f CPU s/frame; displacement %.3g m)\n\n"
+                    "| integrator | step | CPU s/frame | RMS error (m) | error / dx | error / displacement | substeps | Newton | CG |\n"
+                    "|---|---|---|---|---|---|---|---|---|\n",
+                E, c, rr.cpu_per_frame, disp);
+        for (int b = 0; b < XO_NBUDGET; b++) cost[e][0][b] = cost[e][1][b] = INFINITY, best_n[e][b] = 0;
+        for (int j = 0; j < 2 + XO_NSTEPS; j++) {
+            const int imp = j >= 2, steps = imp ? XO_STEPS[j - 2] : 0;
+            const double cfl = imp ? 0.4 : (j ? 0.8 : 0.4);
+            /* a hair over 1/(24 n) so that round-off cannot split the last step */
+            const double dt = imp ? (1.0 / FPS) / steps * (1 + 1e-12) : 0;
+            run r = simulate_median(E, imp, KF_PRECOND_MULTIGRID, cfl, dt, x, &n);
+            compare(&r, x, ref, n);
+            char step[48];
+            if (imp) snprintf(step, sizeof step, "%d / frame", steps);
+            else snprintf(step, sizeof step, "CFL %.1f", cfl);
+            fprintf(md, "| %s | %s | %.4f | %s%.3g | %.3g | %.3g | %ld | %ld | %ld |\n", imp ? "implicit" : "explicit", step,
+                    r.cpu_per_frame, r.ok ? "" : "failed ", r.rms, r.rms / g_dx, r.rms / disp, r.substeps, r.newton,
+                    r.krylov);
+            fprintf(csv, "%g,%s,%g,%d,%d,%.6g,%.6g,%.6g,%ld,%ld,%ld\n", E, imp ? "implicit" : "explicit", imp ? 0 : cfl,
+                    steps, r.ok, r.cpu_per_frame, r.rms, disp, r.substeps, r.newton, r.krylov);
+            fprintf(stderr, "  %-9s %-10s %.4f s/frame  rms %.3g m  substeps %ld newton %ld cg %ld\n",
+                    imp ? "implicit" : "explicit", step, r.cpu_per_frame, r.rms, r.substeps, r.newton, r.krylov);
+            for (int b = 0; b < XO_NBUDGET; b++)
+                if (r.ok && r.rms <= XO_BUDGET[b] * g_dx && r.cpu_per_frame < cost[e][imp][b]) {
+                    cost[e][imp][b] = r.cpu_per_frame;
+                    if (imp) best_n[e][b] = steps;
+                }
+        }
+        fprintf(md, "\n");
+    }
+    /* the verdict per budget, and the plot's data (E, explicit, implicit; NaN = no run meets it) */
+    fprintf(md, "## The cheapest run meeting each error budget (CPU s/frame)\n\n| E |");
+    for (int b = 0; b < XO_NBUDGET; b++) fprintf(md, " %.3g dx (%.2g m): explicit | implicit |", XO_BUDGET[b], XO_BUDGET[b] * g_dx);
+    fprintf(md, "\n|---|");
+    for (int b = 0; b < XO_NBUDGET; b++) fprintf(md, "---|---|");
+    fprintf(md, "\n");
+    for (int e = 0; e < nE; e++) {
+        fprintf(md, "| %.0e |", Es[e]);
+        for (int b = 0; b < XO_NBUDGET; b++) {
+            const double ex = cost[e][0][b], im = cost[e][1][b];
+            if (isfinite(ex)) fprintf(md, " %s%.4f%s |", ex <= im ? "**" : "", ex, ex <= im ? "**" : "");
+            else fprintf(md, " none |");
+            if (isfinite(im)) fprintf(md, " %s%.4f (%d / frame)%s |", im < ex ? "**" : "", im, best_n[e][b], im < ex ? "**" : "");
+            else fprintf(md, " none |");
+        }
+        fprintf(md, "\n");
+    }
+    fprintf(md, "\n");
+    for (int b = 0; b < XO_NBUDGET; b++) {
+        snprintf(path, sizeof path, "%s/implicit_crossover_%d.dat", out, b);
+        FILE *d = fopen(path, "w");
+        if (d) fprintf(d, "# E explicit_cpu_s_per_frame implicit_cpu_s_per_frame (budget %g dx; NaN = none meets it)\n", XO_BUDGET[b]);
+        int from = -1; /* the crossover: implicit cheaper at Es[from..] */
+        for (int e = nE - 1; e >= 0 && cost[e][1][b] < cost[e][0][b]; e--) from = e;
+        for (int e = 0; e < nE && d; e++)
+            fprintf(d, "%g %.6g %.6g\n", Es[e], isfinite(cost[e][0][b]) ? cost[e][0][b] : NAN,
+                    isfinite(cost[e][1][b]) ? cost[e][1][b] : NAN);
+        if (d) fclose(d);
+        fprintf(md, "Budget %.3g dx (%.2g m): ", XO_BUDGET[b], XO_BUDGET[b] * g_dx);
+        if (from < 0) fprintf(md, "explicit is the cheaper at every measured stiffness up to E = %.0e.\n\n", Es[nE - 1]);
+        else if (from == 0) fprintf(md, "implicit is the cheaper at every measured stiffness from E = %.0e.\n\n", Es[0]);
+        else
+            fprintf(md, "implicit is the cheaper from E = %.0e on (%.2fx cheaper there; explicit wins at %.0e, where implicit costs %.2fx).\n\n",
+                    Es[from], cost[from][0][b] / cost[from][1][b], Es[from - 1], cost[from - 1][1][b] / cost[from - 1][0][b]);
+        fprintf(stderr, "budget %.3g dx: crossover %s%.0e\n", XO_BUDGET[b], from < 0 ? "above " : "", from < 0 ? Es[nE - 1] : Es[from]);
+    }
+    free(ref), free(x), free(x0);
+    fclose(md);
+    fclose(csv);
+    return 0;
+}
+
 int main(int argc, char **argv) {
     const char *out = NULL;
     double Es[8] = {1e6, 3e6, 1e7, 3e7};
-    int nE = 4;
+    int nE = 4, Es_given = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--out") && i + 1 < argc) out = argv[++i];
         else if (!strcmp(argv[i], "--quick")) g_dx = 0.04;
@@ -223,18 +371,23 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--only-k") && i + 1 < argc) g_only_k = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--jacobi")) g_only_precond = KF_PRECOND_JACOBI;
         else if (!strcmp(argv[i], "--profile")) g_profile = 1;
+        else if (!strcmp(argv[i], "--crossover")) g_crossover = 1;
         else if (!strcmp(argv[i], "--repeat") && i + 1 < argc) g_repeat = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--E") && i + 1 < argc) {
-            nE = 0;
+            nE = 0, Es_given = 1;
             for (char *t = strtok(argv[++i], ","); t && nE < 8; t = strtok(NULL, ",")) Es[nE++] = atof(t);
         } else {
-            fprintf(stderr, "usage: %s --out DIR [--quick] [--E 1e6,3e6,1e7,3e7]\n", argv[0]);
+            fprintf(stderr, "usage: %s --out DIR [--quick] [--crossover] [--E 1e6,3e6,1e7,3e7] [--repeat N]\n", argv[0]);
             return 2;
         }
     }
     if (!out) {
-        fprintf(stderr, "usage: %s --out DIR [--quick] [--E 1e6,3e6,1e7,3e7]\n", argv[0]);
+        fprintf(stderr, "usage: %s --out DIR [--quick] [--crossover] [--E 1e6,3e6,1e7,3e7] [--repeat N]\n", argv[0]);
         return 2;
+    }
+    if (g_crossover) {
+        if (!Es_given) nE = 5, Es[0] = 1e6, Es[1] = 1e7, Es[2] = 1e8, Es[3] = 1e9, Es[4] = 1e10;
+        return crossover(out, Es, nE);
     }
     char path[1024];
     snprintf(path, sizeof path, "%s/implicit_sweep.csv", out);
