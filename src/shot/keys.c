@@ -77,7 +77,11 @@ const kf_keydef kf_keys[] = {
     {"sim.integrator", KT_ENUM, TOP(s.sim.integrator), ANY, "explicit|implicit", "explicit", NULL, NULL, 0,
      "Time integration: explicit (symplectic Euler, substep limited by the elastic wave speed) or implicit "
      "(backward Euler by Newton-Krylov: substeps limited by advection alone, for stiff solids). Implicit covers "
-     "corotated, von_mises, sand and snow; water and rigid bodies need explicit."},
+     "corotated, von_mises, sand and snow; water and rigid bodies need explicit. Implicit damps what its steps do "
+     "not resolve (wobble, swing, bounce) and its error is first order in the step, so it pays only for bodies "
+     "stiff enough that their wobble does not matter (measured: E of 1e9 Pa and up for a 40 cm bar at 0.1 dx "
+     "error, at 32-64 substeps per frame); spinning stiff bodies make its solves slow. Its step: "
+     "sim.dt_fixed, or sim.cfl on advection alone."},
     {"sim.newton_tol", KT_NUM, TOP(s.sim.newton_tol), GT(0), NULL, "1e-3", NULL, "integrator=implicit", KF_SOFT,
      "Newton stops when the residual, relative to the momentum scale, is below this."},
     {"sim.newton_max", KT_INT, TOP(s.sim.newton_max), CC(1, 1000), NULL, "20", NULL, "integrator=implicit", KF_SOFT,

@@ -3,18 +3,21 @@
  *
  *   kf_evid_implicit_sweep --out DIR [--quick] [--E 1e6,3e6,1e7,3e7] [--repeat N]
  *   kf_evid_implicit_sweep --out DIR --E 1e6 --only-k 20 [--jacobi] [--profile]   (one run, for profiling)
- *   kf_evid_implicit_sweep --out DIR --crossover [--E 1e6,1e7,1e8,1e9,1e10] [--repeat N]
+ *   kf_evid_implicit_sweep --out DIR --crossover [--tumble] [--E 1e6,1e7,1e8,1e9,1e10] [--repeat N]
  * --profile prints the implicit step's CPU milliseconds per stage per substep
  * (implicit.h's kf_imp_profile; median over the repeats) and the rest of
  * the substep (binning, G2P, stress) from kerf's own stage timers.
  * The committed results: OMP_NUM_THREADS=1 kf_evid_implicit_sweep --out
  * tools/evidence/implicit_results --repeat 3 2> .../implicit_sweep.log, then
  * gnuplot -e "dir='tools/evidence/implicit_results'" tools/evidence/implicit_sweep.gp;
- * the crossover (see crossover() below): --crossover --repeat 3 into the same
- * directory (2> implicit_crossover.log), then tools/evidence/implicit_crossover.gp;
- * implicit_sweep_newton_tol_1e-2.{md,log} are --E 1e6 --newton-tol 1e-2 --repeat 3
- * run into a scratch directory (it would overwrite the E = 1e6 .dat files). The
- * .md's closing sections (profile before/after, conclusion) are written by hand.
+ * the crossover (see crossover() below): --crossover --E 1e6,3e6,1e7,3e7,1e8,3e8,1e9
+ * --repeat 3 (2> implicit_crossover.log) and --crossover --tumble --repeat 3
+ * (2> implicit_crossover_tumble.log) into the same directory, then
+ * tools/evidence/implicit_crossover.gp; implicit_sweep_newton_tol_1e-2.{md,log}
+ * are --E 1e6 --newton-tol 1e-2 --repeat 3 run into a scratch directory (it
+ * would overwrite the E = 1e6 .dat files). The .md files' closing sections
+ * (what changed, conclusions) are written by hand. kf_evid_implicit_sweep_f64
+ * (make target, not built by default) is the same with double particles.
  *
  * The problem: a stiff elastic (fixed corotated) cantilever, ρ = 1000 kg/m³,
  * ν = 0.3, 0.4 m long, 8 x 12 cm section, clamped by sticky walls at x = 0
@@ -400,26 +403,37 @@ static int crossover(const char *out, const double *Es, int nE) {
                     counts && isfinite(cost[e][1][b]) ? cost[e][1][b] : NAN);
         }
         if (d) fclose(d);
-        /* the crossover: implicit cheaper at every counted E from Es[from] on; below, the last counted E */
-        int from = -1, below = -1, counted = 0;
+        /* per counted E: which integrator is the cheaper within the budget (or neither meets it); the
+         * crossover: implicit at every counted E from Es[from] on */
+        char who[8];
+        int from = -1, counted = 0;
+        for (int e = 0; e < nE; e++) {
+            const double ex = cost[e][0][b], im = cost[e][1][b];
+            who[e] = budget >= motion[e] ? '-' : !isfinite(ex) && !isfinite(im) ? 'n' : im < ex ? 'i' : 'e';
+            counted += who[e] != '-';
+        }
         for (int e = nE - 1; e >= 0; e--) {
-            if (budget >= motion[e]) continue;
-            counted++;
-            if (cost[e][1][b] < cost[e][0][b] && below < 0) from = e;
-            else if (below < 0) below = e;
+            if (who[e] == '-') continue;
+            if (who[e] != 'i') break;
+            from = e;
         }
         fprintf(md, "Budget %.3g dx (%.2g m): ", XO_BUDGET[b], budget);
-        if (!counted) fprintf(md, "above the motion at every measured stiffness.\n\n");
-        else if (from < 0) fprintf(md, "explicit is the cheaper up to E = %.0e, the stiffest where the budget is below the motion.\n\n", Es[below]);
-        else if (below < 0)
-            fprintf(md, "implicit is the cheaper at every measured stiffness where the budget is below the motion (from E = %.0e, "
-                        "%.2fx cheaper there).\n\n", Es[from], cost[from][0][b] / cost[from][1][b]);
-        else
-            fprintf(md, "implicit is the cheaper from E = %.0e on (%.2fx cheaper there); at E = %.0e %s.\n\n", Es[from],
-                    cost[from][0][b] / cost[from][1][b], Es[below],
-                    isfinite(cost[below][1][b]) ? "explicit is the cheaper" : "no implicit run meets it");
-        fprintf(stderr, "budget %.3g dx: %s %.0e\n", XO_BUDGET[b], from < 0 ? "explicit up to" : "implicit from",
-                from < 0 ? (below < 0 ? 0 : Es[below]) : Es[from]);
+        if (!counted) fprintf(md, "above the motion at every measured stiffness");
+        else if (from >= 0) fprintf(md, "**implicit is the cheaper from E = %.0e on** (%.2fx cheaper there)", Es[from],
+                                    cost[from][0][b] / cost[from][1][b]);
+        else fprintf(md, "implicit is not the cheaper at the stiffest E where the budget counts");
+        static const char *const WHAT[] = {"explicit is the cheaper", "implicit is the cheaper", "no run meets it",
+                                           "it is above the motion"};
+        static const char CODE[] = "ein";
+        for (int k = 0; k < 4; k++) {
+            int any = 0;
+            for (int e = 0; e < nE; e++)
+                if (who[e] == (k == 3 ? '-' : CODE[k])) fprintf(md, "%s%.0e", any++ ? ", " : "; ", Es[e]);
+            if (any) fprintf(md, ": %s", WHAT[k]);
+        }
+        fprintf(md, ".\n\n");
+        fprintf(stderr, "budget %.3g dx: %s %.0e\n", XO_BUDGET[b], from < 0 ? "no crossover up to" : "implicit from",
+                from < 0 ? Es[nE - 1] : Es[from]);
     }
     free(ref), free(x);
     fclose(md);

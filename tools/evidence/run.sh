@@ -104,5 +104,17 @@ started=$(cat "$res/started"); elapsed=$(cat "$res/elapsed")
   cat "$res/energy.md"
   echo
   cat "$ev/paper_claims.md"
+  # issue 7's figures, from their own sweep (kf_evid_implicit_sweep: not rerun here, see its header)
+  if [ -z "$quick" ] && [ -f "$ev/implicit_results/implicit_crossover.png" ]; then
+    echo
+    echo "## 4. Implicit against explicit (issue 7)"
+    echo
+    echo "Tables and per-run data: \`tools/evidence/implicit_results/\` (implicit_sweep.md," \
+         "implicit_crossover.md, implicit_crossover_tumble.md)."
+    echo
+    echo "![CPU time against error, explicit and implicit](implicit_results/implicit_sweep.png)"
+    echo
+    echo "![the cheapest run within an error budget, by stiffness](implicit_results/implicit_crossover.png)"
+  fi
 } > "$report"
 echo "run.sh: wrote $report and $res/" >&2
