@@ -219,7 +219,9 @@ size_t kf_imp_mg_nodes(const kf_implicit *w, int level);
  * Process CPU milliseconds per stage of the implicit grid stage, summed
  * over every substep since the last kf_imp_profile_take, for the evidence
  * sweep (run it on one thread). Off unless kf_imp_profile_enable(1): the
- * clock reads cost a system call each. Process-wide, not per model. */
+ * clock reads cost a system call each. Process-wide, not per model; while
+ * it is off the solve writes none of it (two states may then step on two
+ * threads at once). */
 enum {
     KF_IMP_T_SETUP,       /* stencils, P2G of mass and momentum, allocation */
     KF_IMP_T_CONSTRAINTS, /* walls and colliders */

@@ -35,6 +35,13 @@
 
 static kf_imp_profile prof;
 static int prof_on;
+/* counters too only while profiling: with it off (every simulation but the
+ * evidence sweep's) the solve writes no process-wide state, so two states
+ * may be stepped on two threads at once */
+#define PROF_COUNT(field) \
+    do { \
+        if (prof_on) prof.field++; \
+    } while (0)
 static const char *const STAGE_NAME[KF_IMP_T_COUNT] = {
     "setup", "constraints", "predict", "linearize", "line search", "gradient", "diagonal",
     "mg build", "mg refresh", "hessian", "precond", "cg vectors", "finish"};
@@ -249,7 +256,7 @@ static int pcg(kf_implicit *w, double tol, int kmax, int blocks_changed) {
         prof_lap(KF_IMP_T_MG_REFRESH, &t);
     }
     precondition(w, r, z);
-    prof.precond_applications++;
+    PROF_COUNT(precond_applications);
     prof_lap(KF_IMP_T_PRECOND, &t);
     memcpy(p, z, n3 * sizeof *p);
     double rz = kf_imp_dot(w, r, z), r0 = norm_minv(w, r);
@@ -258,7 +265,7 @@ static int pcg(kf_implicit *w, double tol, int kmax, int blocks_changed) {
         prof_lap(KF_IMP_T_CG_VECTORS, &t);
         kf_imp_hessian_action(w, p, q);
         kf_imp_project(w, q);
-        prof.hessian_products++;
+        PROF_COUNT(hessian_products);
         prof_lap(KF_IMP_T_HESSIAN, &t);
         double pq = kf_imp_dot(w, p, q);
         it++;
@@ -266,7 +273,7 @@ static int pcg(kf_implicit *w, double tol, int kmax, int blocks_changed) {
         if (cg_update(w, rz / pq) <= tol * r0) break;
         prof_lap(KF_IMP_T_CG_VECTORS, &t);
         precondition(w, r, z);
-        prof.precond_applications++;
+        PROF_COUNT(precond_applications);
         prof_lap(KF_IMP_T_PRECOND, &t);
         double rz1 = kf_imp_dot(w, r, z), beta = rz1 / rz;
         rz = rz1;
@@ -311,7 +318,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
     if (!stress_of_fn(w)) {
         memset(w->vt, 0, n3 * sizeof *w->vt);
         if (!isfinite(evaluate(w, w->vt, 0, 1))) return -1; /* G = 0: F = Fⁿ, S = Δt V⁰ P(Fⁿ) Fⁿᵀ */
-        prof.energy_evals++;
+        PROF_COUNT(energy_evals);
     }
     memset(w->r, 0, n3 * sizeof *w->r);
     kf_imp_scatter(w, w->S, w->r);
@@ -329,7 +336,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
      *   4 steps a frame: a residual 1e5 times the tolerance's scale, six
      *   Newton iterations) while the body's last velocity is close */
     double E = evaluate(w, v, 1, 1);
-    prof.linearizations++;
+    PROF_COUNT(linearizations);
     double *S_best = w->S, *S_try = w->S_alt;
     const double *best = v;
     double *q = w->q; /* (CG's scratch, unused before the first solve) */
@@ -343,7 +350,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
     for (int c = 0; c < 2; c++) {
         w->S = S_try;
         double Ec = evaluate(w, start[c], 0, 1);
-        prof.energy_evals++;
+        PROF_COUNT(energy_evals);
         if (isfinite(Ec) && Ec < E) {
             E = Ec, best = start[c];
             S_try = S_best, S_best = w->S;
@@ -371,7 +378,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
     while (res > tol && w->newton_iterations < nmax) {
         if (!fresh && res > RELINEARIZE * res_prev) {
             evaluate(w, v, 1, 1);
-            prof.linearizations++;
+            PROF_COUNT(linearizations);
             prof_lap(KF_IMP_T_LINEARIZE, &t);
             blocks_changed = 1;
         }
@@ -392,7 +399,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
         for (int ls = 0; ls < 30; ls++) {
             for (size_t k = 0; k < n3; k++) w->vt[k] = v[k] + alpha * w->d[k];
             Et = evaluate(w, w->vt, 0, 1);
-            prof.energy_evals++;
+            PROF_COUNT(energy_evals);
             if (isfinite(Et) && Et <= E + 1e-4 * alpha * slope + 1e-13 * fabs(E)) {
                 ok = 1;
                 break;
@@ -405,7 +412,7 @@ int kf_imp_solve(kf_implicit *w, double *v) {
             if (!fresh) {
                 /* the old blocks gave no decrease: linearise here and try again */
                 evaluate(w, v, 1, 1);
-                prof.linearizations++;
+                PROF_COUNT(linearizations);
                 prof_lap(KF_IMP_T_LINEARIZE, &t);
                 fresh = blocks_changed = 1;
                 res_prev = INFINITY;
@@ -439,7 +446,7 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
     kf_implicit w;
     int rc = 0;
     double t = prof_now();
-    prof.substeps++;
+    PROF_COUNT(substeps);
     int crc = kf_imp_create(&w, m, s, dt);
     prof_lap(KF_IMP_T_SETUP, &t);
     if (!crc) crc = kf_imp_constraints(&w, w.v);
