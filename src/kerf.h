@@ -196,6 +196,12 @@ typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC } kf_transfer;
 /* How the grid velocities advance (issue 7): explicit symplectic Euler, or
  * backward Euler solved by Newton-Krylov on the incremental potential. */
 typedef enum kf_integrator { KF_INTEGRATOR_EXPLICIT = 0, KF_INTEGRATOR_IMPLICIT } kf_integrator;
+/* The implicit step's time discretisation. Backward Euler: v_{n+1} solves
+ * the incremental potential over Δt (first order, damps what the step does
+ * not resolve). Implicit midpoint: the same solve over Δt/2 gives v_{n+½};
+ * particles move and deform with it over Δt and leave at v_{n+1} = 2 v_{n+½}
+ * − v_n (second order, no numerical damping: gravity's parabola exact). */
+typedef enum kf_implicit_scheme { KF_SCHEME_BACKWARD_EULER = 0, KF_SCHEME_MIDPOINT } kf_implicit_scheme;
 /* The implicit solve's CG preconditioner: a multigrid V-cycle, or Jacobi. */
 typedef enum kf_precond { KF_PRECOND_MULTIGRID = 0, KF_PRECOND_JACOBI } kf_precond;
 
@@ -223,6 +229,7 @@ typedef struct kf_sim_def {
     double krylov_tol;    /* CG relative residual (0 = default) */
     int krylov_max;       /* CG iterations per Newton step (0 = default) */
     kf_precond precond;   /* CG preconditioner */
+    kf_implicit_scheme implicit_scheme;
     /* testing the recovery path: at this substep count (kf_state's substeps
      * since creation) one particle's velocity becomes NaN, once per state; the
      * step must catch it and kf_advance retry the interval (0 = never) */

@@ -216,6 +216,34 @@ static void good_shot_values(void) {
     kf_diag_free(&d);
 }
 
+/* the implicit step's scheme: parsed, a warning without the implicit
+ * integrator, an error for a name it does not know */
+static void implicit_scheme_key(void) {
+    kf_diag d;
+    const char *good[] = {"sim.integrator=implicit", "sim.implicit_scheme=midpoint"};
+    kf_shot *s = load("good.yaml", good, 2, NULL, NULL, &d);
+    KT_CHECK(s != NULL && d.count == 0, "midpoint loads, nothing said (%d diagnostics)", d.count);
+    if (s) KT_CHECK(s->sim.implicit_scheme == KF_SCHEME_MIDPOINT, "scheme %d", (int)s->sim.implicit_scheme);
+    kf_shot_free(s);
+    kf_diag_free(&d);
+    s = load("good.yaml", NULL, 0, NULL, NULL, &d);
+    KT_CHECK(s != NULL && s->sim.implicit_scheme == KF_SCHEME_BACKWARD_EULER, "backward Euler by default");
+    kf_shot_free(s);
+    kf_diag_free(&d);
+    const char *unused[] = {"sim.implicit_scheme=midpoint"};
+    s = load("good.yaml", unused, 1, NULL, NULL, &d);
+    KT_CHECK(s != NULL && d.errors == 0, "without the implicit integrator: loads");
+    EXPECT(&d, "--set", 1, 5, KF_DIAG_WARNING, "sim.implicit_scheme has no effect with integrator explicit (only with implicit)");
+    kf_shot_free(s);
+    kf_diag_free(&d);
+    const char *bad[] = {"sim.integrator=implicit", "sim.implicit_scheme=leapfrog"};
+    s = load("good.yaml", bad, 2, NULL, NULL, &d);
+    KT_CHECK(s == NULL && d.errors == 1, "unknown scheme refused (%d errors)", d.errors);
+    EXPECT(&d, "--set", 2, 21, KF_DIAG_ERROR, "sim.implicit_scheme: expected backward_euler or midpoint, got 'leapfrog'");
+    kf_shot_free(s);
+    kf_diag_free(&d);
+}
+
 /* what the builder hands the sampler: the real kf_sample_placement puts each
  * object where the shot says */
 static void placement_for_sampler(void) {
@@ -664,6 +692,7 @@ int main(int argc, char **argv) {
     KT_RUN(syntax_error, argc, argv);
     KT_RUN(caret, argc, argv);
     KT_RUN(overrides, argc, argv);
+    KT_RUN(implicit_scheme_key, argc, argv);
     KT_RUN(quality, argc, argv);
     KT_RUN(frames, argc, argv);
     KT_RUN(templates, argc, argv);

@@ -116,6 +116,10 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt);
 void kf_imp_free(kf_implicit *w);
 /* G_p = Σ_i x_i γ_ipᵀ of particle p for a grid vector x. */
 void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9]);
+/* What kf_g2p takes from the grid vector x at particle p, still at x_pⁿ:
+ * the velocity Σ_i w_ip x_i and APIC's affine C = Σ_i w_ip x_i (x_i − x_p)ᵀ
+ * D⁻¹ (the MLS form in both force modes, as kf_g2p stores it). */
+void kf_imp_g2p_vector(const kf_implicit *w, const double *x, size_t p, double v[3], double C[9]);
 /* out_i += Σ_p Y_p γ_ip (race-free in the owner colours, deterministic). */
 void kf_imp_scatter(const kf_implicit *w, const double *Y, double *out);
 /* out_i += Σ_p (Kp G_p(x)) γ_ip: the particles' part of the Hessian action,

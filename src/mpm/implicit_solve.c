@@ -13,6 +13,7 @@
  * scale √M · v_scale, v_scale the RMS speed of v* (at least |g| Δt). */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
@@ -441,13 +442,63 @@ int kf_imp_solve(kf_implicit *w, double *v) {
 
 /* ---- the substep's grid stage ------------------------------------------------- */
 
+/* Implicit midpoint (kf_implicit_scheme): the solve ran backward Euler over
+ * half the step, so w->v is v_{n+½}, and the grid is left at it: kf_g2p
+ * moves and deforms the particles with it over the whole step. Their
+ * velocity must leave at v_{n+1} = 2 v_{n+½} − v_n, so the G2P of the
+ * grid's δ = v_{n+½} − v_n (projected where a boundary fixes a direction:
+ * there v_{n+1} is the boundary's, as v_{n+½} is) is kept per particle and
+ * added after kf_g2p (kf_implicit_g2p_finish). v_n = v* − h g. Returns 0 or
+ * -1 (out of memory). */
+static int midpoint_velocity(const kf_model *m, kf_state *s, kf_implicit *w, double h) {
+    const size_t n3 = KF_IMP_NV * w->nnode, np = w->np;
+    if (s->mid_cap < np) {
+        free(s->mid_dv);
+        s->mid_dv = malloc(12 * (np ? np : 1) * sizeof *s->mid_dv);
+        s->mid_cap = s->mid_dv ? np : 0;
+        if (!s->mid_dv) return -1;
+    }
+    double *dl = w->q; /* CG's scratch, free after the solve */
+    const double gh[3] = {h * m->sim.gravity[0], h * m->sim.gravity[1], h * m->sim.gravity[2]};
+    memset(dl, 0, n3 * sizeof *dl);
+    for (size_t k = 0; k < w->nact; k++) {
+        size_t i = (size_t)w->act[k];
+        for (int a = 0; a < 3; a++) dl[KF_IMP_NV * i + a] = w->v[KF_IMP_NV * i + a] - (w->vstar[KF_IMP_NV * i + a] - gh[a]);
+    }
+    kf_imp_project(w, dl);
+#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    for (size_t i = 0; i < np; i++) {
+        double dv[3], dC[9];
+        kf_imp_g2p_vector(w, dl, i, dv, dC);
+        kf_real *o = s->mid_dv + 12 * i;
+        for (int a = 0; a < 3; a++) o[a] = (kf_real)dv[a];
+        for (int k = 0; k < 9; k++) o[3 + k] = (kf_real)dC[k];
+    }
+    s->mid_pending = 1;
+    return 0;
+}
+
+void kf_implicit_g2p_finish(const kf_model *m, kf_state *s) {
+    if (!s->mid_pending) return;
+    kf_particles *p = &s->p;
+    const kf_real *dv = s->mid_dv;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    for (size_t i = 0; i < p->n; i++) {
+        const kf_real *o = dv + 12 * i;
+        for (int a = 0; a < 3; a++) p->v[a][i] += o[a];
+        for (int k = 0; k < 9; k++) p->C[k][i] += o[3 + k];
+    }
+    s->mid_pending = 0;
+}
+
 int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_trouble *trouble) {
     memset(trouble, 0, sizeof *trouble);
     kf_implicit w;
     int rc = 0;
     double t = prof_now();
     PROF_COUNT(substeps);
-    int crc = kf_imp_create(&w, m, s, dt);
+    const int mid = m->sim.implicit_scheme == KF_SCHEME_MIDPOINT;
+    int crc = kf_imp_create(&w, m, s, mid ? 0.5 * dt : dt);
     prof_lap(KF_IMP_T_SETUP, &t);
     if (!crc) crc = kf_imp_constraints(&w, w.v);
     prof_lap(KF_IMP_T_CONSTRAINTS, &t);
@@ -469,6 +520,12 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
     }
     t = prof_now();
     kf_imp_friction(&w, w.v);
+    if (mid && midpoint_velocity(m, s, &w, 0.5 * dt)) {
+        kf_imp_free(&w);
+        trouble->found = 1;
+        snprintf(trouble->what, sizeof trouble->what, "out of memory in the implicit solve");
+        return 1;
+    }
     /* leave (m (v − Δt g), m) so the explicit grid update turns it into
      * exactly the velocity it would have produced, boundaries included */
     kf_grid *g = &s->g;

@@ -199,6 +199,33 @@ static inline void gather(const kf_implicit *w, const double *x, size_t p, doubl
 
 void kf_imp_gather(const kf_implicit *w, const double *x, size_t p, double G[9]) { gather(w, x, p, G); }
 
+void kf_imp_g2p_vector(const kf_implicit *w, const double *x, size_t p, double v[3], double C[9]) {
+    const kf_model *m = w->m;
+    const kf_particles *pp = &w->s->p;
+    const int cubic = m->sim.kernel == KF_KERNEL_CUBIC, KW = cubic ? 4 : 3;
+    const double dx = m->sim.dx, minv = 1 / kf_model_dfactor(m);
+    const kf_real inv_dx = kf_model_inv_dx(m);
+    double wt[3][4], dw[3][4], d[3][4];
+    for (int a = 0; a < 3; a++) {
+        double fx;
+        axis_weights(pp->x[a][p], inv_dx, cubic, wt[a], dw[a], &fx);
+        for (int k = 0; k < KW; k++) d[a][k] = minv * (k - fx) * dx;
+    }
+    const int32_t *id = w->idx + (size_t)w->K * p;
+    kf_v4d sv = {0, 0, 0, 0}, c0 = sv, c1 = sv, c2 = sv;
+    int e = 0;
+    for (int a = 0; a < KW; a++)
+        for (int b = 0; b < KW; b++)
+            for (int c = 0; c < KW; c++, e++) {
+                const kf_v4d wx = (wt[0][a] * wt[1][b] * wt[2][c]) * KF_IMP_V4(x, id[e]);
+                sv += wx;
+                c0 += d[0][a] * wx;
+                c1 += d[1][b] * wx;
+                c2 += d[2][c] * wx;
+            }
+    for (int a = 0; a < 3; a++) v[a] = sv[a], C[3 * a] = c0[a], C[3 * a + 1] = c1[a], C[3 * a + 2] = c2[a];
+}
+
 /* out_i += Y γ_i over particle p's stencil: with y_j the columns of Y,
  * Y γ_abc = w2_c (h0_a w1_b y0 + w0_a h1_b y1) + h2_c (w0_a w1_b y2) */
 static inline void scatter_kw(const kf_implicit *w, const double Y[9], size_t p, double *out, const int KW) {

@@ -50,6 +50,8 @@ kf_model *kf_model_create(const kf_sim_def *def, char *err, size_t errlen) {
     if (!bad && !(def->j_min > 0 && def->j_max > def->j_min)) bad = "j_min must be positive and below j_max";
     if (!bad && !(def->integrator == KF_INTEGRATOR_EXPLICIT || def->integrator == KF_INTEGRATOR_IMPLICIT))
         bad = "integrator must be explicit or implicit";
+    if (!bad && !(def->implicit_scheme == KF_SCHEME_BACKWARD_EULER || def->implicit_scheme == KF_SCHEME_MIDPOINT))
+        bad = "implicit_scheme must be backward_euler or midpoint";
     if (!bad && !(def->newton_tol >= 0 && def->krylov_tol >= 0 && def->newton_max >= 0 && def->krylov_max >= 0))
         bad = "newton_tol, krylov_tol, newton_max and krylov_max must be >= 0 (0 = default)";
     if (bad) {

@@ -49,6 +49,11 @@ struct kf_state {
     size_t snapshot_rsim_size;
     int fault_done;    /* the testing fault (kf_sim_def.fault_substep) has happened */
     struct kf_cpic *cpic; /* CPIC scratch (grid colored distance field, particle distances), src/cpic */
+    /* implicit midpoint: per particle (dv, dC) the G2P of the grid's
+     * v_{n+1} − v_{n+½} adds after kf_g2p (12 floats a particle) */
+    kf_real *mid_dv;
+    size_t mid_cap;
+    int mid_pending;
 };
 
 /* MLS inertia-like tensor D_p = d I: d = Δx²/4 (quadratic), Δx²/3 (cubic) */
@@ -78,6 +83,9 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble);
  * velocities, boundaries; the grid ends as kf_grid_update leaves it.
  * Returns 0, or 1 with trouble filled. Adds iteration counts to st. */
 int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_trouble *trouble);
+/* after kf_g2p: the implicit midpoint's velocity correction (nothing for
+ * backward Euler or explicit) */
+void kf_implicit_g2p_finish(const kf_model *m, kf_state *s);
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt);
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F */

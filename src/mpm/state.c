@@ -35,6 +35,7 @@ void kf_state_destroy(kf_state *s) {
     kf_rigid_sim_destroy(s->rsim);
     free(s->snapshot_rsim);
     kf_cpic_free(s->cpic);
+    free(s->mid_dv);
     kf_particles_free(&s->p);
     kf_particles_free(&s->snapshot);
     kf_grid_free(&s->g);

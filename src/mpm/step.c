@@ -97,6 +97,8 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
 
     kf_g2p_result res;
     kf_g2p(m, s, rdt, &res);
+    /* implicit midpoint: the particles' velocity ends at v_{n+1} */
+    kf_implicit_g2p_finish(m, s);
     t0 = kf_now_ms();
     if (st) st->ms[KF_STAGE_G2P] += t0 - t1;
 

@@ -83,6 +83,13 @@ const kf_keydef kf_keys[] = {
      "error, at 32-64 substeps per frame); at hundreds of explicit steps per substep its solves slow down on "
      "moving bodies (~100 CG iterations per Newton iteration). Its step: "
      "sim.dt_fixed, or sim.cfl on advection alone."},
+    {"sim.implicit_scheme", KT_ENUM, TOP(s.sim.implicit_scheme), ANY, "backward_euler|midpoint", "backward_euler",
+     NULL, "integrator=implicit", KF_SOFT,
+     "The implicit step: backward_euler (first order; damps wobble and swing the substeps do not resolve, "
+     "robust at any step) or midpoint (one solve over half the substep, then the particles move with that "
+     "velocity: second order, no numerical damping, gravity's arc exact; measured on a tumbling 40 cm bar at "
+     "E = 1e6 and 20x the explicit step: 0.08 mm from a fine explicit reference against backward Euler's 6.5 mm, "
+     "at the same cost). Midpoint keeps fast oscillations it cannot resolve rather than damping them."},
     {"sim.newton_tol", KT_NUM, TOP(s.sim.newton_tol), GT(0), NULL, "1e-3", NULL, "integrator=implicit", KF_SOFT,
      "Newton stops when the residual, relative to the momentum scale, is below this."},
     {"sim.newton_max", KT_INT, TOP(s.sim.newton_max), CC(1, 1000), NULL, "20", NULL, "integrator=implicit", KF_SOFT,
