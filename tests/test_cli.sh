@@ -64,6 +64,13 @@ check "twelve checkpoints" test "$(ls full/checkpoints/*.kfc 2>/dev/null | wc -l
 check "frame log line per frame (not a terminal)" test "$(grep -cE '^frame 10[0-9]+: [0-9]+ particles' run.log)" -eq 11
 check "twelve surfaces (.vdb)" test "$(ls full/surface/*.vdb 2>/dev/null | wc -l)" -eq 12
 check "twelve images (.png)" test "$(ls full/images/*.png 2>/dev/null | wc -l)" -eq 12
+
+# the implicit midpoint scheme from the command line: the frame log names it
+"$kerf" run tiny.yaml --out mid --frames 1001-1003 --set sim.integrator=implicit \
+    --set sim.implicit_scheme=midpoint > mid.log 2>&1
+check "an implicit midpoint run exits 0" test $? -eq 0
+check "its frame log names the scheme and the iterations" \
+    test "$(grep -cE '^frame 100[23]: implicit \(midpoint\): [0-9]+ Newton, [0-9]+ Krylov iterations' mid.log)" -eq 2
 check "the images are 1280x720 PNGs" bash -c "file full/images/tiny.1012.png | grep -q 'PNG image data, 1280 x 720'"
 check "the PNG carries the shot and frame" bash -c "grep -a -q 'shot' full/images/tiny.1012.png && grep -a -q '1012' full/images/tiny.1012.png"
 "$kerf" render tiny.yaml --out full > render.log 2>&1

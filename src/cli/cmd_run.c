@@ -203,7 +203,8 @@ int kf_cmd_run(int argc, char **argv) {
                     eta);
             /* implicit integration: how hard the solves worked this frame */
             if (kf_model_sim(sc.model)->integrator == KF_INTEGRATOR_IMPLICIT)
-                fprintf(stderr, "frame %d: implicit: %ld Newton, %ld Krylov iterations, last residual %.2g\n", frame,
+                fprintf(stderr, "frame %d: implicit (%s): %ld Newton, %ld Krylov iterations, last residual %.2g\n", frame,
+                        kf_model_sim(sc.model)->implicit_scheme == KF_SCHEME_MIDPOINT ? "midpoint" : "backward Euler",
                         st.newton_iterations, st.krylov_iterations, st.newton_residual);
             kf_rigid_log_frame(stderr, shot, sc.state); /* where each rigid body is (rigid_log.c) */
         }
