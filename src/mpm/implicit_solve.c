@@ -526,10 +526,12 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
         snprintf(trouble->what, sizeof trouble->what, "out of memory in the implicit solve");
         return 1;
     }
-    /* leave (m (v − Δt g), m) so the explicit grid update turns it into
-     * exactly the velocity it would have produced, boundaries included */
+    /* leave (m (v − h g), m) so the explicit grid update over the solve's
+     * step h turns it into exactly the velocity it would have produced,
+     * boundaries included (midpoint: h = Δt/2, so the colliders' velocities
+     * are the mid-step ones, as v's are) */
     kf_grid *g = &s->g;
-    const double gdt[3] = {dt * m->sim.gravity[0], dt * m->sim.gravity[1], dt * m->sim.gravity[2]};
+    const double h = w.dt, gdt[3] = {h * m->sim.gravity[0], h * m->sim.gravity[1], h * m->sim.gravity[2]};
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
     for (size_t i = 0; i < w.nnode; i++) {
         double mi = w.mass[i];
@@ -539,7 +541,7 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
         else
             g->node[i] = (kf_v4){0, 0, 0, 0};
     }
-    kf_grid_update(m, s, (kf_real)dt);
+    kf_grid_update(m, s, (kf_real)h);
     if (st) {
         st->newton_iterations += w.newton_iterations;
         st->krylov_iterations += w.krylov_iterations;
