@@ -9,7 +9,7 @@
 # the tumbling bar). Implicit: backward Euler dashed (open squares), the
 # midpoint scheme dotted (open circles).
 if (!exists("dir")) dir = "."
-set terminal pngcairo size 1400,650 font "sans,11"
+set terminal pngcairo size 1500,650 font "sans,11"
 set output dir."/implicit_crossover.png"
 set multiplot layout 1,2
 set logscale xy
@@ -21,7 +21,7 @@ budgets = "0.1 0.02 0.004 0.001"
 do for [p=1:2] {
     name = p == 1 ? "implicit_crossover" : "implicit_crossover_tumble"
     fewest = p == 1 ? 1 : 4
-    set title (p == 1 ? "Clamped cantilever sagging (the motion is its swing: shrinks as 1/E)" : "Bar thrown up and tumbling (motion about 0.1 m at every E)")."\ncheapest run within each error budget: explicit solid, backward Euler dashed, midpoint dotted"
+    set title (p == 1 ? "Clamped cantilever sagging (the motion is its swing: shrinks as 1/E)" : "Bar thrown up and tumbling (motion about 0.1 m at every E)")."\ncheapest run per error budget: explicit solid, backward Euler dashed, midpoint dotted"
     f = dir."/".name.".csv"
     ex = "< awk -F, '$2 == \"explicit\" && $3 == 0.8 && $5 == 1 {print $1, $6}' ".f
     im = sprintf("< awk -F, '$2 == \"backward Euler\" && $4 == %d && $5 == 1 {print $1, $6}' ", fewest).f

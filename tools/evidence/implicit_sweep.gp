@@ -14,7 +14,7 @@ set grid
 Es = "1e+06 3e+06 1e+07 3e+07"
 do for [p=1:2] {
     prefix = p == 1 ? "implicit" : "implicit_tumble"
-    set title (p == 1 ? "Clamped cantilever (explicit does not converge against its own refinement: see implicit_sweep.md)" : "Tumbling bar")."\nexplicit CFL 0.8 ... 0.05 (filled), backward Euler multigrid (squares) and Jacobi (crosses),\nmidpoint (circles): 5, 10, 20, 50 x the explicit step"
+    set title (p == 1 ? "Clamped cantilever (explicit does not converge against its own refinement: see implicit\\_sweep.md)" : "Tumbling bar")."\nexplicit CFL 0.8 ... 0.05 (filled), backward Euler multigrid (squares) and Jacobi (crosses),\nmidpoint (circles): 5, 10, 20, 50 x the explicit step"
     plot for [i=1:words(Es)] dir."/".prefix."_".word(Es,i)."_explicit.dat" u 1:2 w lp pt 7 ps 1.2 lc i title "E ".word(Es,i)." explicit", \
          for [i=1:words(Es)] dir."/".prefix."_".word(Es,i)."_implicit.dat" u 1:2 w lp pt 4 ps 1.2 lc i dt 2 title "E ".word(Es,i)." backward Euler", \
          for [i=1:words(Es)] dir."/".prefix."_".word(Es,i)."_jacobi.dat" u 1:2 w lp pt 2 ps 1.0 lc i dt 3 notitle, \

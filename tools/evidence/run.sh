@@ -110,7 +110,11 @@ started=$(cat "$res/started"); elapsed=$(cat "$res/elapsed")
     echo "## 4. Implicit against explicit (issue 7)"
     echo
     echo "Tables and per-run data: \`tools/evidence/implicit_results/\` (implicit_sweep.md," \
-         "implicit_crossover.md, implicit_crossover_tumble.md)."
+         "implicit_sweep_tumble.md, implicit_sweep_bend.md, implicit_crossover.md," \
+         "implicit_crossover_tumble.md). Left: the clamped cantilever, where explicit does not" \
+         "converge against its own refinement (each transfer damps the bar's bending), so no" \
+         "integrator can be ranked; right: the tumbling bar, where it does, and the midpoint scheme" \
+         "at 20x the explicit step costs 0.42x explicit at the same error (E = 1e6)."
     echo
     echo "![CPU time against error, explicit and implicit](implicit_results/implicit_sweep.png)"
     echo
