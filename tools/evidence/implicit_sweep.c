@@ -40,6 +40,11 @@
  *   --out DIR --bend --E 1e6 --repeat 3       implicit_sweep_bend.*
  *   --out DIR --crossover --E 1e6,3e6,1e7,3e7,1e8,3e8,1e9 --repeat 3
  *   --out DIR --crossover --tumble --repeat 3
+ *   --out SCRATCH --E 1e6 --newton-tol 1e-2 --repeat 3 [--tumble]: the .md and .log copied to
+ *     implicit_sweep[_tumble]_newton_tol_1e-2.* (run into a scratch directory: they would
+ *     overwrite the E = 1e6 .dat files)
+ *   kf_evid_implicit_sweep_f64 --out SCRATCH --tumble --E 1e6,1e7: implicit_sweep_tumble_f64.*
+ *   --out SCRATCH --bend --dx 0.0125 --E 1e6: implicit_sweep_bend_dx0.0125.*
  * then gnuplot -e "dir='tools/evidence/implicit_results'" on
  * tools/evidence/implicit_sweep.gp and implicit_crossover.gp. The .md
  * files' closing sections (what changed, conclusions) are written by hand.
