@@ -89,7 +89,9 @@ const kf_keydef kf_keys[] = {
      "The implicit step: backward_euler (first order; damps wobble and swing the substeps do not resolve, its "
      "bodies fall 1/2 g dt t too far; robust at any step) or midpoint (the same solve over half the substep, "
      "the particles then move with that velocity: second order, gravity's arc exact, no numerical damping, same "
-     "cost). Midpoint keeps fast oscillations it cannot resolve rather than damping them."},
+     "cost; it keeps the look of explicit: the snow shot at preview took 22 s against explicit's 189 s and "
+     "broke the wall as explicit does, where backward Euler's damped impact, 18 s, left it whole). Midpoint "
+     "keeps fast oscillations it cannot resolve rather than damping them."},
     {"sim.newton_tol", KT_NUM, TOP(s.sim.newton_tol), GT(0), NULL, "1e-3", NULL, "integrator=implicit", KF_SOFT,
      "Newton stops when the residual, relative to the momentum scale, is below this."},
     {"sim.newton_max", KT_INT, TOP(s.sim.newton_max), CC(1, 1000), NULL, "20", NULL, "integrator=implicit", KF_SOFT,
