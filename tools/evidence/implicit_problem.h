@@ -60,6 +60,9 @@ extern int g_tight;
  * (the machine is shared: one run can be slowed by another's cache traffic) */
 extern int g_repeat;
 extern int g_profile;
+/* cost by wall-clock time (CLOCK_MONOTONIC) instead of process CPU time:
+ * for an idle machine, where the two should agree on 1 thread */
+extern int g_wall;
 /* the problem: the clamped cantilever (0) or the tumbling bar (1) */
 extern int g_tumble;
 

@@ -4,6 +4,7 @@
  *   kf_evid_implicit_sweep --out DIR [--tumble | --bend] [--quick | --dx H] [--E 1e6,3e6,1e7,3e7] [--repeat N]
  *   kf_evid_implicit_sweep --out DIR --E 1e6 --only-k 20 [--jacobi] [--midpoint] [--profile]   (one run)
  *   kf_evid_implicit_sweep --out DIR --crossover [--tumble] [--E 1e6,1e7,1e8,1e9,1e10] [--repeat N]
+ * --wall costs runs by wall-clock time instead of process CPU time (an idle machine).
  *
  * The problems (implicit_problem.h): the clamped cantilever (default), the
  * bar thrown tumbling through the air (--tumble), and the same bar free
@@ -45,6 +46,7 @@
  *     overwrite the E = 1e6 .dat files)
  *   kf_evid_implicit_sweep_f64 --out SCRATCH --tumble --E 1e6,1e7: implicit_sweep_tumble_f64.*
  *   --out SCRATCH --bend --dx 0.0125 --E 1e6: implicit_sweep_bend_dx0.0125.*
+ *   --out SCRATCH --tumble --E 1e6 --wall --repeat 5 (nothing else running): implicit_sweep_tumble_wall.*
  * then gnuplot -e "dir='tools/evidence/implicit_results'" on
  * tools/evidence/implicit_sweep.gp and implicit_crossover.gp. The .md
  * files' closing sections (what changed, conclusions) are written by hand.
@@ -91,9 +93,10 @@ static int target_verdict(FILE *md, const run *im, const run *ex, int nex, doubl
         if (ex[j].rms <= im->rms) acc = &ex[j]; /* the least accurate of those at least as accurate */
         else if (!less) less = &ex[j];           /* the most accurate of those less accurate */
     }
-    fprintf(md, "Target (E = %.0e, k = %d), %s: %.4f CPU s/frame at RMS error %.3g m (solve error %.2g m); one step "
+    fprintf(md, "Target (E = %.0e, k = %d), %s: %.4f %s s/frame at RMS error %.3g m (solve error %.2g m); one step "
                 "costs %.0f explicit substeps at CFL 0.4. ",
-            TARGET_E, TARGET_K, run_name(im), im->cpu_per_frame, im->rms, im->solve_rms, step_cost);
+            TARGET_E, TARGET_K, run_name(im), im->cpu_per_frame, g_wall ? "wall-clock" : "CPU", im->rms, im->solve_rms,
+            step_cost);
     double at = NAN;
     int met = 0;
     if (acc && less) {
@@ -184,13 +187,13 @@ static int ksweep(const char *out, const double *Es, int nE) {
         fprintf(csv, "E,integrator,cfl,dt,k,ok,cpu_s_per_frame,rms_error_m,max_error_m,substeps,newton,krylov,"
                      "solve_rms_error_m,rms_error_last_frame_m\n");
         fprintf(md, "# Explicit against implicit integration: CPU time per frame against error\n\n"
-                    "%s, dx = %g m, %d frames at 24 fps, 1 thread, CPU seconds per frame (median of %d runs); error = "
+                    "%s, dx = %g m, %d frames at 24 fps, 1 thread, %s seconds per frame (median of %d runs); error = "
                     "the largest over the frames of the RMS particle position difference to explicit at CFL %g (last "
                     "frame: the same at the last frame alone); solve error = the same difference to the same implicit "
                     "step solved to a Newton tolerance of %g (what the solver's tolerance adds). k = implicit step / "
                     "explicit step (0.4 dx / c). Implicit: backward Euler with multigrid-CG (kerf's default) and "
                     "Jacobi-CG, the midpoint scheme with multigrid-CG.\n\n",
-                problem_text(), g_dx, FRAMES, g_repeat, REF_CFL, TIGHT_TOL);
+                problem_text(), g_dx, FRAMES, g_wall ? "wall-clock" : "CPU", g_repeat, REF_CFL, TIGHT_TOL);
         if (g_newton_tol > 0 || g_krylov_tol > 0 || g_newton_max > 0 || g_krylov_max > 0)
             fprintf(md, "Solver settings other than kerf's defaults: newton_tol %g, krylov_tol %g, newton_max %d, "
                         "krylov_max %d (0 = default).\n\n",
@@ -300,7 +303,7 @@ static int ksweep(const char *out, const double *Es, int nE) {
 static void usage(const char *argv0) {
     fprintf(stderr,
             "usage: %s --out DIR [--tumble | --bend] [--quick | --dx H] [--crossover] [--E 1e6,3e6,1e7,3e7] [--repeat N]\n"
-            "       [--only-k K [--jacobi] [--midpoint] [--profile]] [--newton-tol X] [--newton-max N] [--krylov-tol X] "
+            "       [--only-k K [--jacobi] [--midpoint] [--profile]] [--wall] [--newton-tol X] [--newton-max N] [--krylov-tol X] "
             "[--krylov-max N]\n",
             argv0);
 }
@@ -321,6 +324,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--jacobi")) g_only_precond = KF_PRECOND_JACOBI;
         else if (!strcmp(argv[i], "--midpoint")) g_only_how = MIDPOINT;
         else if (!strcmp(argv[i], "--profile")) g_profile = 1;
+        else if (!strcmp(argv[i], "--wall")) g_wall = 1;
         else if (!strcmp(argv[i], "--crossover")) cross = 1;
         else if (!strcmp(argv[i], "--tumble")) g_tumble = 1;
         else if (!strcmp(argv[i], "--bend")) g_tumble = 2;
