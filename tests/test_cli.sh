@@ -71,6 +71,13 @@ check "twelve images (.png)" test "$(ls full/images/*.png 2>/dev/null | wc -l)" 
 check "an implicit midpoint run exits 0" test $? -eq 0
 check "its frame log names the scheme and the iterations" \
     test "$(grep -cE '^frame 100[23]: implicit \(midpoint\): [0-9]+ Newton, [0-9]+ Krylov iterations' mid.log)" -eq 2
+# ... and a resume continues it exactly (the solve's start reads the stress planes a checkpoint restores)
+"$kerf" run tiny.yaml --out mid --frames 1001-1006 --resume --set sim.integrator=implicit \
+    --set sim.implicit_scheme=midpoint > midr.log 2>&1
+"$kerf" run tiny.yaml --out midfull --frames 1001-1006 --set sim.integrator=implicit \
+    --set sim.implicit_scheme=midpoint > midfull.log 2>&1
+check "an implicit run resumed after frame 1003 ends bit for bit where an uninterrupted one ends" \
+    bash -c "grep -q 'resuming after frame 1003' midr.log && cmp -s mid/checkpoints/tiny.1006.kfc midfull/checkpoints/tiny.1006.kfc"
 check "the images are 1280x720 PNGs" bash -c "file full/images/tiny.1012.png | grep -q 'PNG image data, 1280 x 720'"
 check "the PNG carries the shot and frame" bash -c "grep -a -q 'shot' full/images/tiny.1012.png && grep -a -q '1012' full/images/tiny.1012.png"
 "$kerf" render tiny.yaml --out full > render.log 2>&1
