@@ -71,6 +71,9 @@ check "twelve images (.png)" test "$(ls full/images/*.png 2>/dev/null | wc -l)" 
 check "an implicit midpoint run exits 0" test $? -eq 0
 check "its frame log names the scheme and the iterations" \
     test "$(grep -cE '^frame 100[23]: implicit \(midpoint\): [0-9]+ Newton, [0-9]+ Krylov iterations' mid.log)" -eq 2
+"$kerf" info tiny.yaml --set sim.integrator=implicit --set sim.implicit_scheme=midpoint > midinfo.txt 2>&1
+check "kerf info names the integrator, its scheme and its solver settings" \
+    grep -q "^time      implicit, midpoint; substeps by advection alone; Newton tol 0.001 (at most 20)" midinfo.txt
 # ... and a resume continues it exactly (the solve's start reads the stress planes a checkpoint restores)
 "$kerf" run tiny.yaml --out mid --frames 1001-1006 --resume --set sim.integrator=implicit \
     --set sim.implicit_scheme=midpoint > midr.log 2>&1

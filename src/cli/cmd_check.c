@@ -44,6 +44,15 @@ int kf_cmd_info(int argc, char **argv) {
            shot->sim.kernel == KF_KERNEL_CUBIC ? "cubic" : "quadratic",
            shot->sim.force == KF_FORCE_CLASSIC ? "classic" : "MLS", shot->sim.transfer == KF_TRANSFER_PIC ? "PIC" : "APIC",
            shot->sim.cfl, shot->sim.walls ? "walls on" : "no walls");
+    /* (a shot carries every solver setting: the keys' defaults fill what it leaves out) */
+    const kf_sim_def *sd = &shot->sim;
+    if (sd->integrator == KF_INTEGRATOR_IMPLICIT)
+        printf("time      implicit, %s; substeps by advection alone; Newton tol %g (at most %d), CG tol %g (at most "
+               "%d), %s preconditioner\n",
+               sd->implicit_scheme == KF_SCHEME_MIDPOINT ? "midpoint" : "backward Euler", sd->newton_tol,
+               sd->newton_max, sd->krylov_tol, sd->krylov_max, sd->precond == KF_PRECOND_JACOBI ? "Jacobi" : "multigrid");
+    else
+        printf("time      explicit (symplectic Euler); substeps by the elastic wave speed and advection\n");
     printf("particles %zu (%d per cell), seeded in %.2f s\n", n, shot->ppc, bs.seconds);
     for (int i = 0; i < shot->nobjects && i < 256; i++)
         printf("  %-16s %10zu  %s\n", shot->objects[i].name, bs.particles_per_object[i],
