@@ -11,6 +11,10 @@
  * exactly the F that kf_g2p computes from the same grid velocities, so after
  * the solve the explicit G2P and stress pass run unchanged.
  *
+ * The midpoint scheme (kf_implicit_scheme) runs the same solve over Δt/2:
+ * its v is v_{n+½}, with which kf_g2p moves and deforms the particles over
+ * Δt; their velocity then ends at 2 v_{n+½} − v_n (implicit_solve.c).
+ *
  * Everything here is double: the solve's symmetry and convergence checks
  * need it even when the particles are float. */
 #ifndef KF_IMPLICIT_H
