@@ -544,6 +544,19 @@ static void midpoint_keeps_energy(void) {
     KT_CHECK(most[0] <= 1 + 1e-4 && most[1] <= 1 + 1e-4, "energy bounded: %g, %g of the start", most[0], most[1]);
 }
 
+/* Δx = 0.05 m in the closed unit box with walls of the given kind,
+ * integrated implicitly by backward Euler or (mid) the midpoint scheme */
+static kf_sim_def walled_implicit(kf_boundary walls, int mid) {
+    kf_sim_def sd = kf_default_sim_def();
+    sd.dx = 0.05;
+    sd.walls = 1;
+    sd.wall_boundary = walls;
+    sd.integrator = KF_INTEGRATOR_IMPLICIT;
+    sd.implicit_scheme = mid ? KF_SCHEME_MIDPOINT : KF_SCHEME_BACKWARD_EULER;
+    sd.threads = 2;
+    return sd;
+}
+
 /* mean x velocity of the particles */
 static double mean_vx(kf_state *s) {
     kf_particles_view pv = kf_state_particles(s);
@@ -561,14 +574,8 @@ static double mean_vx(kf_state *s) {
 static void walls_in_solve(void) {
     for (int run = 0; run < 4; run++) {
         const int kind = run % 2, mid = run / 2;
-        kf_sim_def sd = kf_default_sim_def();
-        sd.dx = 0.05;
-        sd.walls = 1;
-        sd.wall_boundary = kind == 0 ? KF_BOUNDARY_SLIP : KF_BOUNDARY_SEPARATE;
+        kf_sim_def sd = walled_implicit(kind == 0 ? KF_BOUNDARY_SLIP : KF_BOUNDARY_SEPARATE, mid);
         sd.wall_friction = 0.5;
-        sd.integrator = KF_INTEGRATOR_IMPLICIT;
-        sd.implicit_scheme = mid ? KF_SCHEME_MIDPOINT : KF_SCHEME_BACKWARD_EULER;
-        sd.threads = 2;
         int mat;
         kf_model *m = tu_model(&sd, "rubber", 0, -1, 0, &mat);
         kf_state *s = kf_state_create(m);
@@ -602,13 +609,7 @@ static void walls_in_solve(void) {
  * particle ends on or inside the yield surface |dev ε| <= τ_Y / (2μ) */
 static void plastic_after_solve(void) {
     for (int mid = 0; mid < 2; mid++) {
-        kf_sim_def sd = kf_default_sim_def();
-        sd.dx = 0.05;
-        sd.walls = 1;
-        sd.wall_boundary = KF_BOUNDARY_STICKY;
-        sd.integrator = KF_INTEGRATOR_IMPLICIT;
-        sd.implicit_scheme = mid ? KF_SCHEME_MIDPOINT : KF_SCHEME_BACKWARD_EULER;
-        sd.threads = 2;
+        kf_sim_def sd = walled_implicit(KF_BOUNDARY_STICKY, mid);
         int mat;
         kf_model *m = tu_model(&sd, "metal", 0, -1, 0, &mat);
         kf_state *s = kf_state_create(m);
