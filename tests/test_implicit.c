@@ -656,6 +656,11 @@ static void rejects_water(void) {
     kf_model_destroy(m);
     sd.integrator = (kf_integrator)7;
     KT_CHECK(kf_model_create(&sd, err, sizeof err) == NULL, "unknown integrator refused");
+    sd.integrator = KF_INTEGRATOR_IMPLICIT;
+    sd.implicit_scheme = (kf_implicit_scheme)5;
+    KT_CHECK(kf_model_create(&sd, err, sizeof err) == NULL, "unknown implicit scheme refused");
+    KT_CHECK(strstr(err, "implicit_scheme must be backward_euler or midpoint") != NULL, "message names the choices: %s",
+             err);
 }
 
 int main(int argc, char **argv) {
