@@ -96,10 +96,128 @@ static void damage_is_refused(void) {
     expect_refused(missing, "cannot open");
 }
 
+
+/* ---- forged and damaged headers (issue 18): refused before anything is
+ * allocated from them, each with the true reason ---------------------------- */
+
+static unsigned char *slurp(const char *path, size_t *n) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    *n = (size_t)ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *b = malloc(*n);
+    if (b && fread(b, 1, *n, f) != *n) free(b), b = NULL;
+    fclose(f);
+    return b;
+}
+
+/* a copy of `good` with `len` bytes at `off` replaced; with `resum` the
+ * trailing FNV-1a checksum is recomputed (a forgery, not damage) */
+static void forge(const char *good, const char *out, size_t off, const void *bytes, size_t len, int resum) {
+    size_t n;
+    unsigned char *b = slurp(good, &n);
+    KT_CHECK(b && n > off + len + 8, "read %s", good);
+    if (!b) return;
+    memcpy(b + off, bytes, len);
+    if (resum) {
+        uint64_t h = 1469598103934665603ULL;
+        for (size_t i = 0; i + 8 < n; i++) h = (h ^ b[i]) * 1099511628211ULL;
+        memcpy(b + n - 8, &h, 8);
+    }
+    FILE *f = fopen(out, "wb");
+    KT_CHECK(f && fwrite(b, 1, n, f) == n, "write %s", out);
+    if (f) fclose(f);
+    free(b);
+}
+
+/* the exact message, and that the header-only peek agrees where it reads */
+static void expect_message(const char *path, const char *exact, int peek_too) {
+    char err[1024];
+    expect_refused(path, exact);
+    kf_scene sc;
+    kf_scene_demo(&sc, 12, err, sizeof err);
+    kf_checkpoint_read(path, sc.model, sc.state, NULL, err, sizeof err);
+    KT_CHECK(strcmp(err, exact) == 0, "read says\n  '%s'\nexpected\n  '%s'", err, exact);
+    kf_scene_free(&sc);
+    if (!peek_too) return;
+    kf_checkpoint_info info;
+    KT_CHECK(kf_checkpoint_peek(path, &info, err, sizeof err) == -1, "peek refuses %s", path);
+    KT_CHECK(strcmp(err, exact) == 0, "peek says\n  '%s'\nexpected\n  '%s'", err, exact);
+}
+
+static void forged_headers_are_refused(void) {
+    char err[256], good[320], p[8][340], want[1024];
+    /* header: magic 0, version 8, real size 12, particles 16, ..., rigid bodies 64, solver bytes 72 */
+    snprintf(good, sizeof good, "%s/forge_good.kfc", dir);
+    kf_scene sc;
+    kf_scene_demo(&sc, 12, err, sizeof err);
+    size_t n = kf_state_count(sc.state);
+    KT_CHECK(kf_checkpoint_write(good, sc.state, 7, 1, err, sizeof err) == 0, "%s", err);
+    kf_scene_free(&sc);
+    size_t size;
+    free(slurp(good, &size));
+    for (int i = 0; i < 8; i++) snprintf(p[i], sizeof p[i], "%s/forge%d.kfc", dir, i);
+
+    /* the audit's case: particle count (offset 16) = 0x7fffffffffffffff; it
+     * overflowed the heap (ASan: WRITE of size 4016) and the release build
+     * blamed "different shot settings" */
+    const uint64_t huge = 0x7fffffffffffffffULL;
+    forge(good, p[0], 16, &huge, 8, 0);
+    snprintf(want, sizeof want,
+             "%s: checkpoint checksum mismatch (file damaged: its header claims 9223372036854775807 particles, which "
+             "%zu bytes do not hold)", p[0], size);
+    expect_message(p[0], want, 1);
+
+    /* the same count with the checksum forged to match: the length still refuses it */
+    forge(good, p[1], 16, &huge, 8, 1);
+    snprintf(want, sizeof want,
+             "%s: checkpoint header is damaged: 9223372036854775807 particles, 0 rigid bodies and 0 solver bytes would "
+             "take more than 2^64 bytes, the file has %zu", p[1], size);
+    expect_message(p[1], want, 1);
+    /* one particle more than the file holds, checksum forged: no read past the end */
+    uint64_t one_more = (uint64_t)n + 1;
+    forge(good, p[2], 16, &one_more, 8, 1);
+    size_t per = (size - 80 - 8) / n; /* an 80-byte header and an 8-byte checksum around the particles */
+    snprintf(want, sizeof want,
+             "%s: checkpoint header is damaged: %zu particles, 0 rigid bodies and 0 solver bytes need %zu bytes, the "
+             "file has %zu", p[2], n + 1, size + per, size);
+    expect_message(p[2], want, 1);
+    /* a damaged version field (offset 8) said "written by a single-precision
+     * build, this is single precision"; it is damage */
+    const unsigned char junk = 0x5a;
+    forge(good, p[3], 8, &junk, 1, 0);
+    snprintf(want, sizeof want, "%s: checkpoint checksum mismatch (file damaged)", p[3]);
+    expect_message(p[3], want, 1);
+    /* a damaged precision field (offset 12) likewise */
+    forge(good, p[4], 12, &junk, 1, 0);
+    snprintf(want, sizeof want, "%s: checkpoint checksum mismatch (file damaged)", p[4]);
+    expect_message(p[4], want, 1);
+    /* an intact file of another format version is named as such */
+    const uint32_t v3 = 3;
+    forge(good, p[5], 8, &v3, 4, 1);
+    snprintf(want, sizeof want, "%s: checkpoint format version 3, this kerf reads version %d", p[5],
+             KF_CHECKPOINT_VERSION);
+    expect_message(p[5], want, 1);
+    /* an intact file of the other precision likewise */
+    const uint32_t other = sizeof(kf_real) == 8 ? 4 : 8;
+    forge(good, p[6], 12, &other, 4, 1);
+    snprintf(want, sizeof want, "%s: checkpoint was written by a %s-precision build, this is %s precision", p[6],
+             other == 8 ? "double" : "single", other == 8 ? "single" : "double");
+    expect_message(p[6], want, 1);
+    /* a rigid body count over the limit with a forged checksum */
+    const uint32_t many = 1000;
+    forge(good, p[7], 64, &many, 4, 1); /* nrigid */
+    snprintf(want, sizeof want, "%s: checkpoint header is damaged (1000 rigid bodies, at most %d)", p[7],
+             KF_MAX_RIGIDS);
+    expect_message(p[7], want, 1);
+}
+
 int main(int argc, char **argv) {
     make_dir();
     KT_RUN(resume_is_exact, argc, argv);
     KT_RUN(damage_is_refused, argc, argv);
+    KT_RUN(forged_headers_are_refused, argc, argv);
     char cmd[300];
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     if (system(cmd)) fprintf(stderr, "could not remove %s\n", dir);

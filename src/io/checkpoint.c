@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "../mpm/model.h"
 #include "atomic_file.h"
@@ -96,23 +97,165 @@ int kf_checkpoint_write(const char *path, const kf_state *s, int frame, uint64_t
     return 0;
 }
 
-static int read_header(FILE *f, const char *path, header *h, char *err, size_t errlen) {
-    if (fread(h, sizeof *h, 1, f) != 1) {
-        snprintf(err, errlen, "%s: not a kerf checkpoint (too short)", path);
+/* ---- reading: nothing the header says is used before the file vouches for it ---- */
+
+/* the bytes one particle takes in the file */
+static size_t particle_bytes(void) {
+    kf_particles p;
+    return KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.id + sizeof *p.obj + sizeof *p.colour;
+}
+
+/* The size a checkpoint with this header has: header, particles, rigid
+ * states, solver state, checksum. 0 when a count is so large that the size
+ * overflows 64 bits (no real file holds it). */
+static uint64_t expected_size(const header *h) {
+    uint64_t parts, rig, total;
+    if (__builtin_mul_overflow(h->particles, (uint64_t)particle_bytes(), &parts) ||
+        __builtin_mul_overflow((uint64_t)h->nrigid, (uint64_t)sizeof(kf_rigid_state), &rig) ||
+        __builtin_add_overflow(parts, (uint64_t)sizeof *h + sizeof(uint64_t), &total) ||
+        __builtin_add_overflow(total, rig, &total) || __builtin_add_overflow(total, h->rsim_bytes, &total))
+        return 0;
+    return total;
+}
+
+/* FNV-1a of the file's first `len` bytes, read in chunks from the start.
+ * Returns 0, or -1 when the file cannot be read that far. */
+static int hash_prefix(FILE *f, uint64_t len, uint64_t *sum) {
+    enum { CHUNK = 1 << 20 };
+    unsigned char *buf = malloc(CHUNK);
+    *sum = 1469598103934665603ULL;
+    if (!buf || fseek(f, 0, SEEK_SET) != 0) {
+        free(buf);
         return -1;
     }
-    if (memcmp(h->magic, MAGIC, sizeof MAGIC) != 0) {
-        snprintf(err, errlen, "%s: not a kerf checkpoint (bad magic)", path);
-        return -1;
+    while (len > 0) {
+        size_t want = len < CHUNK ? (size_t)len : CHUNK;
+        if (fread(buf, 1, want, f) != want) break;
+        fnv(sum, buf, want);
+        len -= want;
     }
+    free(buf);
+    return len == 0 ? 0 : -1;
+}
+
+/* An open checkpoint whose header has been checked against the file. */
+typedef struct ck_file {
+    FILE *f;
+    uint64_t size; /* bytes on disk */
+    header h;
+} ck_file;
+
+/* the header fields this build can read, or the reason it cannot (the
+ * checksum has already vouched for them, so the reason is true) */
+static int header_usable(const ck_file *c, const char *path, char *err, size_t errlen) {
+    const header *h = &c->h;
     if (h->version != KF_CHECKPOINT_VERSION) {
         snprintf(err, errlen, "%s: checkpoint format version %u, this kerf reads version %d", path, h->version,
                  KF_CHECKPOINT_VERSION);
         return -1;
     }
+    if (h->real_size != 4 && h->real_size != 8) {
+        snprintf(err, errlen, "%s: checkpoint header is damaged (a real of %u bytes)", path, h->real_size);
+        return -1;
+    }
     if (h->real_size != sizeof(kf_real)) {
         snprintf(err, errlen, "%s: checkpoint was written by a %s-precision build, this is %s precision", path,
                  h->real_size == 8 ? "double" : "single", sizeof(kf_real) == 8 ? "double" : "single");
+        return -1;
+    }
+    if (h->nrigid > KF_MAX_RIGIDS) {
+        snprintf(err, errlen, "%s: checkpoint header is damaged (%u rigid bodies, at most %d)", path, h->nrigid,
+                 KF_MAX_RIGIDS);
+        return -1;
+    }
+    uint64_t want = expected_size(h);
+    if (want == 0) {
+        snprintf(err, errlen,
+                 "%s: checkpoint header is damaged: %llu particles, %u rigid bodies and %llu solver bytes would take "
+                 "more than 2^64 bytes, the file has %llu",
+                 path, (unsigned long long)h->particles, h->nrigid, (unsigned long long)h->rsim_bytes,
+                 (unsigned long long)c->size);
+        return -1;
+    }
+    if (want != c->size) {
+        snprintf(err, errlen,
+                 "%s: checkpoint header is damaged: %llu particles, %u rigid bodies and %llu solver bytes need %llu "
+                 "bytes, the file has %llu",
+                 path, (unsigned long long)h->particles, h->nrigid, (unsigned long long)h->rsim_bytes,
+                 (unsigned long long)want, (unsigned long long)c->size);
+        return -1;
+    }
+    return 0;
+}
+
+/* why a file whose checksum does not match is bad: cut short (the header
+ * is plausible and asks for more bytes than there are), else damaged */
+static void explain_mismatch(const ck_file *c, const char *path, char *err, size_t errlen) {
+    const header *h = &c->h;
+    uint64_t want = expected_size(h);
+    int plausible = h->version == KF_CHECKPOINT_VERSION && h->real_size == sizeof(kf_real) &&
+                    h->nrigid <= KF_MAX_RIGIDS && want != 0;
+    if (plausible && want > c->size)
+        snprintf(err, errlen, "%s: checkpoint is truncated (%llu of %llu bytes; expected %llu particles)", path,
+                 (unsigned long long)c->size, (unsigned long long)want, (unsigned long long)h->particles);
+    else if (want != c->size)
+        snprintf(err, errlen,
+                 "%s: checkpoint checksum mismatch (file damaged: its header claims %llu particles, which %llu bytes "
+                 "do not hold)",
+                 path, (unsigned long long)h->particles, (unsigned long long)c->size);
+    else
+        snprintf(err, errlen, "%s: checkpoint checksum mismatch (file damaged)", path);
+}
+
+/* Open, read the header, check the magic. With `verify`, the checksum over
+ * the whole file is checked before any other field is believed; without it
+ * (finding where to resume: headers only) it is checked only when the
+ * header looks foreign, so that damage is not reported as another build.
+ * Returns 0 with c->f open, or -1 with the reason in err. */
+static int ck_open(ck_file *c, const char *path, int verify, char *err, size_t errlen) {
+    memset(c, 0, sizeof *c);
+    c->f = fopen(path, "rb");
+    struct stat st;
+    if (!c->f || fstat(fileno(c->f), &st) != 0) {
+        snprintf(err, errlen, "%s: cannot open checkpoint: %s", path, strerror(errno));
+        if (c->f) fclose(c->f);
+        return -1;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        snprintf(err, errlen, "%s: not a kerf checkpoint (not a regular file)", path);
+        fclose(c->f);
+        return -1;
+    }
+    c->size = (uint64_t)st.st_size;
+    if (c->size < sizeof c->h + sizeof(uint64_t) || fread(&c->h, sizeof c->h, 1, c->f) != 1) {
+        snprintf(err, errlen, "%s: not a kerf checkpoint (too short: %llu bytes)", path, (unsigned long long)c->size);
+        fclose(c->f);
+        return -1;
+    }
+    if (memcmp(c->h.magic, MAGIC, sizeof MAGIC) != 0) {
+        snprintf(err, errlen, "%s: not a kerf checkpoint (bad magic)", path);
+        fclose(c->f);
+        return -1;
+    }
+    char why[1200];
+    int usable = header_usable(c, path, why, sizeof why) == 0;
+    if (verify || !usable) {
+        uint64_t sum = 0, stored = 0;
+        int readable = hash_prefix(c->f, c->size - sizeof stored, &sum) == 0 && fread(&stored, sizeof stored, 1, c->f) == 1;
+        if (!readable) {
+            snprintf(err, errlen, "%s: cannot read checkpoint: %s", path, strerror(errno ? errno : EIO));
+            fclose(c->f);
+            return -1;
+        }
+        if (sum != stored) {
+            explain_mismatch(c, path, err, errlen);
+            fclose(c->f);
+            return -1;
+        }
+    }
+    if (!usable) {
+        snprintf(err, errlen, "%s", why);
+        fclose(c->f);
         return -1;
     }
     return 0;
@@ -128,73 +271,45 @@ static void fill_info(kf_checkpoint_info *info, const header *h) {
 }
 
 int kf_checkpoint_peek(const char *path, kf_checkpoint_info *info, char *err, size_t errlen) {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        snprintf(err, errlen, "%s: cannot open checkpoint: %s", path, strerror(errno));
-        return -1;
-    }
-    header h;
-    int rc = read_header(f, path, &h, err, errlen);
-    fclose(f);
-    if (rc == 0) fill_info(info, &h);
-    return rc;
+    ck_file c;
+    if (ck_open(&c, path, 0, err, errlen)) return -1;
+    fclose(c.f);
+    fill_info(info, &c.h);
+    return 0;
 }
+
+/* n items of `size` bytes into dst; the sizes were checked against the file */
+static int get(FILE *f, void *dst, size_t size, size_t n) { return n == 0 || fread(dst, size, n, f) == n; }
 
 int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_checkpoint_info *info, char *err,
                        size_t errlen) {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        snprintf(err, errlen, "%s: cannot open checkpoint: %s", path, strerror(errno));
-        return -1;
-    }
-    header h;
-    if (read_header(f, path, &h, err, errlen)) {
-        fclose(f);
+    ck_file c;
+    if (ck_open(&c, path, 1, err, errlen)) return -1;
+    const header h = c.h; /* verified: checksum, version, precision, and sizes against the file length */
+    if (h.nrigid != (uint32_t)s->nrigid || h.rsim_bytes != (s->rsim ? kf_rigid_sim_state_size(s->rsim) : 0)) {
+        fclose(c.f);
+        snprintf(err, errlen, "%s: checkpoint has %u rigid bodies in another configuration than the shot's %d", path,
+                 h.nrigid, s->nrigid);
         return -1;
     }
     /* read into a fresh particle set; the state changes only if all is well */
     kf_particles p;
     memset(&p, 0, sizeof p);
     size_t n = (size_t)h.particles;
-    uint64_t sum = 1469598103934665603ULL;
-    fnv(&sum, &h, sizeof h);
-    int ok = kf_particles_reserve(&p, n ? n : 1) == 0;
-    for (int k = 0; ok && k < KF_PARTICLE_REAL_PLANES; k++) {
-        ok = fread(p.plane[k], sizeof(kf_real), n, f) == n;
-        if (ok) fnv(&sum, p.plane[k], n * sizeof(kf_real));
-    }
-    if (ok) ok = fread(p.mat, sizeof *p.mat, n, f) == n, fnv(&sum, p.mat, n * sizeof *p.mat);
-    if (ok) ok = fread(p.id, sizeof *p.id, n, f) == n, fnv(&sum, p.id, n * sizeof *p.id);
-    if (ok) ok = fread(p.obj, sizeof *p.obj, n, f) == n, fnv(&sum, p.obj, n * sizeof *p.obj);
-    if (ok) ok = fread(p.colour, sizeof *p.colour, n, f) == n, fnv(&sum, p.colour, n * sizeof *p.colour);
     kf_rigid_state rigid[KF_MAX_RIGIDS];
-    void *rsim = NULL;
-    if (ok && (h.nrigid != (uint32_t)s->nrigid || h.rsim_bytes != (s->rsim ? kf_rigid_sim_state_size(s->rsim) : 0))) {
-        fclose(f);
-        kf_particles_free(&p);
-        snprintf(err, errlen, "%s: checkpoint has %u rigid bodies in another configuration than the shot's %d", path,
-                 h.nrigid, s->nrigid);
-        return -1;
-    }
-    if (ok) ok = fread(rigid, sizeof rigid[0], h.nrigid, f) == h.nrigid, fnv(&sum, rigid, h.nrigid * sizeof rigid[0]);
-    if (ok && h.rsim_bytes) {
-        rsim = malloc(h.rsim_bytes);
-        ok = rsim && fread(rsim, 1, h.rsim_bytes, f) == h.rsim_bytes;
-        if (ok) fnv(&sum, rsim, h.rsim_bytes);
-    }
-    uint64_t stored = 0;
-    if (ok) ok = fread(&stored, sizeof stored, 1, f) == 1;
-    fclose(f);
+    void *rsim = h.rsim_bytes ? malloc((size_t)h.rsim_bytes) : NULL;
+    int ok = fseek(c.f, (long)sizeof h, SEEK_SET) == 0 && kf_particles_reserve(&p, n ? n : 1) == 0 &&
+             (rsim || !h.rsim_bytes);
+    for (int k = 0; ok && k < KF_PARTICLE_REAL_PLANES; k++) ok = get(c.f, p.plane[k], sizeof(kf_real), n);
+    ok = ok && get(c.f, p.mat, sizeof *p.mat, n) && get(c.f, p.id, sizeof *p.id, n) &&
+         get(c.f, p.obj, sizeof *p.obj, n) && get(c.f, p.colour, sizeof *p.colour, n) &&
+         get(c.f, rigid, sizeof rigid[0], h.nrigid) && get(c.f, rsim, 1, (size_t)h.rsim_bytes);
+    fclose(c.f);
     if (!ok) {
         kf_particles_free(&p);
         free(rsim);
-        snprintf(err, errlen, "%s: checkpoint is truncated (expected %zu particles)", path, n);
-        return -1;
-    }
-    if (stored != sum) {
-        kf_particles_free(&p);
-        free(rsim);
-        snprintf(err, errlen, "%s: checkpoint checksum mismatch (file damaged)", path);
+        snprintf(err, errlen, "%s: cannot read checkpoint of %zu particles: %s", path, n,
+                 errno ? strerror(errno) : "out of memory");
         return -1;
     }
     for (size_t i = 0; i < n; i++)

@@ -33,13 +33,19 @@ typedef struct kf_checkpoint_info {
 /* Returns 0, or -1 with a message naming the path in err. */
 int kf_checkpoint_write(const char *path, const kf_state *s, int frame, uint64_t inputs_hash, char *err, size_t errlen);
 
-/* Replace the state's particles and clock with the checkpoint's. Checks the
- * magic, version, precision, size and checksum; materials must exist in m.
+/* Replace the state's particles and clock with the checkpoint's. The
+ * checksum over the whole file is verified before any header field is
+ * believed; then the version, the precision, and every count against the
+ * file's length (with overflow checks), so a damaged or forged header is
+ * refused before anything is allocated from it; materials must exist in m.
  * Returns 0, or -1 with a message naming the path and what is wrong. */
 int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_checkpoint_info *info, char *err,
                        size_t errlen);
 
-/* Only the header (no checksum pass): for finding where to resume. */
+/* Only the header, checked against the file's length: for finding where to
+ * resume. The checksum is verified only when the header looks foreign (another
+ * version or precision, counts the length does not match), so that damage is
+ * reported as damage and not as another build. */
 int kf_checkpoint_peek(const char *path, kf_checkpoint_info *info, char *err, size_t errlen);
 
 #endif
