@@ -45,7 +45,14 @@ int kf_cli_parse(const char *cmd, int argc, char **argv, kf_cli_opts *o) {
             o->sets[o->nsets++] = val;
         } else if (!strcmp(a, "--quality")) o->quality = val;
         else if (!strcmp(a, "--frames")) o->frames = val;
-        else if (!strcmp(a, "--out")) o->out = val;
+        else if (!strcmp(a, "--out")) {
+            /* "" would put every output at the root ("/particles/...") */
+            if (strspn(val, " \t") == strlen(val)) {
+                fprintf(stderr, "kerf %s: --out is empty: give a directory (relative to the current directory)\n", cmd);
+                return KF_EXIT_USAGE;
+            }
+            o->out = val;
+        }
         else if (!strcmp(a, "--threads")) {
             if (parse_int(val, 1, 1024, &o->threads)) {
                 fprintf(stderr, "kerf %s: --threads wants an integer in [1, 1024], got '%s'\n", cmd, val);

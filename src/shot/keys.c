@@ -336,9 +336,11 @@ const kf_keydef kf_keys[] = {
 
     {"output", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0, "Where results go."},
     {"output.dir", KT_STR, TOP(s.output_dir), ANY, NULL, "out/{shot}/v{version:03d}", NULL, NULL, KF_TEMPLATE,
-     "Output directory (a template)."},
+     "Output directory (a template), relative to the directory kerf runs in, not to the shot file; --out "
+     "replaces it. Must not be empty."},
     {"output.name", KT_STR, TOP(s.output_name), ANY, NULL, "{shot}.{frame:04d}", NULL, NULL, KF_TEMPLATE,
-     "File name of a frame's outputs, without extension (a template with {frame})."},
+     "File name of a frame's outputs, without extension (a template with {frame}); it stays inside output.dir "
+     "(no '..')."},
     {"output.particles", KT_BOOL, TOP(s.output_particles), ANY, NULL, "true", NULL, NULL, 0,
      "Write the particles of every frame."},
     {"output.checkpoints", KT_BOOL, TOP(s.output_checkpoints), ANY, NULL, "true", NULL, NULL, 0,
@@ -785,6 +787,8 @@ void kf_shot_help(FILE *f) {
     }
     fprintf(f, "\ntemplates (output.dir, output.name): {shot}, {version}, {frame}, each with an optional\n"
                "zero-padded width, e.g. {version:03d} -> 001, {frame:04d} -> 1001; {{ and }} are braces.\n"
+               "\npaths: mesh files (objects, colliders, rigids) are relative to the shot file's directory;\n"
+               "output.dir and --out are relative to the directory kerf runs in.\n"
                "\ncommand line: --set path=value (repeatable), --quality preview|final (preview doubles sim.dx\n"
                "and halves image resolution), --frames A-B (a sub-range of frames.start..frames.end).\n");
 }

@@ -718,6 +718,29 @@ static void check_unique(loader *L, kf_scope scope, const char *path, const char
     }
 }
 
+/* 1 when a path has ".." as one of its components */
+static int has_dotdot(const char *p) {
+    for (const char *c = p; (c = strstr(c, "..")) != NULL; c += 2)
+        if ((c == p || c[-1] == '/') && (c[2] == 0 || c[2] == '/')) return 1;
+    return 0;
+}
+
+/* Outputs go under output.dir (relative to where kerf runs): an empty one
+ * would write into "/" (".../particles" becomes "/particles"), and a name
+ * that climbs out with ".." writes where the log does not say. */
+static void check_output_paths(loader *L, inst *T, const kf_shot *s) {
+    char msg[700];
+    if (T->at[K("output.dir")] && T->ok[K("output.dir")] && strspn(s->output_dir, " \t") == strlen(s->output_dir)) {
+        snprintf(msg, sizeof msg, "output.dir is empty: give a directory, relative to where kerf runs (e.g. out/{shot})");
+        report_inst(L, T, "output.dir", KF_DIAG_ERROR, msg);
+    }
+    if (T->at[K("output.name")] && T->ok[K("output.name")] && has_dotdot(s->output_name)) {
+        snprintf(msg, sizeof msg, "output.name must stay inside the output directory ('..' climbs out of it), got '%s'",
+                 s->output_name);
+        report_inst(L, T, "output.name", KF_DIAG_ERROR, msg);
+    }
+}
+
 static void resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
     const kf_top *t = T->base;
     char msg[256];
@@ -770,6 +793,7 @@ static void resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
         snprintf(msg, sizeof msg, "output.name must contain {frame} (or {frame:04d}) so frames do not overwrite each other");
         report_inst(L, T, "output.name", KF_DIAG_ERROR, msg);
     }
+    check_output_paths(L, T, s);
     s->resolution_scale = 1;
 }
 
