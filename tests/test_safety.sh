@@ -70,5 +70,40 @@ if run_case outputs; then
         has help.txt "paths: mesh files (objects, colliders, rigids) are relative to the shot file's directory;"
 fi
 
+# --- 5. one run per output directory --------------------------------------------
+# listing: every file under a directory with its checksum (what a refused run must not change)
+listing() { (cd "$1" && find . -type f ! -name .kerf.lock | sort | xargs -r md5sum); }
+if run_case lock; then
+    # the first run: stopped (SIGSTOP) while it holds the directory, so the
+    # second one meets it for certain, then killed hard as a crash would
+    "$kerf" run tiny.yaml --out lock > first.log 2>&1 &
+    first=$!
+    for _ in $(seq 1 1000); do [ -s lock/.kerf.lock ] && break; sleep 0.01; done
+    kill -STOP $first
+    read -r held started_day started_time < lock/.kerf.lock
+    check "the lock file names the first run's pid" test "$held" = "$first"
+    listing lock > before.txt
+    "$kerf" run tiny.yaml --out lock > second.out 2> second.err; rc=$?
+    check "a second run on the directory exits 1 (got $rc)" test $rc -eq 1
+    check "it names the first run's pid" has second.err \
+        "kerf: lock/ is in use by another kerf run (pid $first, started $started_day $started_time); wait for it to end or stop it (kill $first)"
+    listing lock > after.txt
+    check "the refused run wrote nothing" cmp -s before.txt after.txt
+    "$kerf" render tiny.yaml --out lock > render.out 2> render.err; rc=$?
+    check "kerf render on it exits 1 too (got $rc)" test $rc -eq 1
+    check "kerf render on it names the pid" has render.err \
+        "kerf: lock/ is in use by another kerf run (pid $first, started $started_day $started_time); wait for it to end or stop it (kill $first)"
+    kill -KILL $first; kill -CONT $first 2> /dev/null; wait $first 2> /dev/null
+    # the crash left its pid in the lock file, but no lock: the next run says so and goes on
+    "$kerf" run tiny.yaml --out lock --frames 1001-1002 --set output.images=false --set output.surface=false \
+        > third.out 2> third.err; rc=$?
+    check "the run after the crash exits 0 (got $rc)" test $rc -eq 0
+    check "it reports the stale lock and its pid" has third.err \
+        "kerf: lock/: the run before (pid $first, started $started_day $started_time) ended without releasing its lock (killed or crashed); taking the lock over"
+    check "a run that ends empties the lock file" test ! -s lock/.kerf.lock
+    "$kerf" run small.yaml --out lock > fourth.out 2> fourth.err
+    check "so the next run finds no stale lock" bash -c "! grep -q 'without releasing' fourth.err"
+fi
+
 echo "$fails failed"
 exit $((fails > 0))

@@ -4,6 +4,7 @@
 #ifndef KF_CLI_H
 #define KF_CLI_H
 
+#include "../io/dir_lock.h"
 #include "../scene/build.h"
 #include "../shot/shot.h"
 
@@ -37,6 +38,12 @@ int kf_cli_load(const kf_cli_opts *o, kf_shot **shot, kf_scene *sc, kf_build_sta
  * printed, or an error reported): return the value then. */
 int kf_cli_start(const char *cmd, int argc, char **argv, kf_cli_opts *o, kf_shot **shot, kf_scene *sc,
                  kf_build_stats *stats);
+
+/* Lock the shot's output directory (the first frame's) for this run and
+ * remove the temporaries a killed run left there. Returns 0, or 1 with a
+ * message (another live run holds it: its pid is named). Release with
+ * kf_dir_lock_release; a kill releases it too, and the next run says so. */
+int kf_cli_claim_output(const kf_cli_opts *o, const kf_shot *shot, kf_dir_lock *lock);
 
 int kf_cmd_run(int argc, char **argv);
 int kf_cmd_surface(int argc, char **argv);

@@ -118,6 +118,8 @@ static int write_frame(const kf_shot *shot, const char *out, kf_scene *sc, int f
     return 0;
 }
 
+static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp);
+
 int kf_cmd_run(int argc, char **argv) {
     kf_cli_opts o;
     kf_shot *shot;
@@ -125,7 +127,21 @@ int kf_cmd_run(int argc, char **argv) {
     kf_build_stats bs;
     int rc = kf_cli_start("run", argc, argv, &o, &shot, &sc, &bs);
     if (!shot) return rc;
+    /* one run per output directory, held until this one ends */
+    kf_dir_lock lock;
+    rc = kf_cli_claim_output(&o, shot, &lock);
+    if (rc == KF_EXIT_OK) rc = run_claimed(&o, shot, &sc);
+    kf_dir_lock_release(&lock);
+    kf_scene_free(&sc);
+    kf_shot_free(shot);
+    return rc;
+}
 
+/* simulate, then surface and render, in a directory this run holds */
+static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
+    kf_cli_opts o = *opts;
+    kf_scene sc = *scp; /* handles: the model and state are the caller's */
+    int rc = KF_EXIT_OK;
     uint64_t hash = kf_shot_sim_hash(shot);
     int frame = shot->frame_start; /* the frame the state is at */
     if (!o.force && !o.resume) {
@@ -136,8 +152,6 @@ int kf_cmd_run(int argc, char **argv) {
                                 "(--force to simulate anyway)\n", shot->name, shot->first, shot->last);
             /* the later stages still run: their own outputs may be missing or stale */
             rc = c > 0 ? kf_cli_post(&o, shot, &sc, 1, 1) : KF_EXIT_FAIL;
-            kf_scene_free(&sc);
-            kf_shot_free(shot);
             return rc;
         }
         if (matched > 1 && !o.quiet)
@@ -215,7 +229,5 @@ int kf_cmd_run(int argc, char **argv) {
                 rp.dir, (kf_now_ms() - start) / 1e3);
     /* simulate → surface → render */
     if (rc == KF_EXIT_OK) rc = kf_cli_post(&o, shot, &sc, 1, 1);
-    kf_scene_free(&sc);
-    kf_shot_free(shot);
     return rc;
 }

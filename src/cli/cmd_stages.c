@@ -143,7 +143,10 @@ static int stage_command(const char *cmd, int argc, char **argv, int do_surface,
     kf_scene sc;
     int rc = kf_cli_start(cmd, argc, argv, &o, &shot, &sc, NULL);
     if (!shot) return rc;
-    rc = kf_cli_post(&o, shot, &sc, do_surface, do_render);
+    kf_dir_lock lock; /* one run per output directory */
+    rc = kf_cli_claim_output(&o, shot, &lock);
+    if (rc == KF_EXIT_OK) rc = kf_cli_post(&o, shot, &sc, do_surface, do_render);
+    kf_dir_lock_release(&lock);
     kf_scene_free(&sc);
     kf_shot_free(shot);
     return rc;
@@ -182,6 +185,7 @@ int kf_cmd_turntable(int argc, char **argv) {
     if (frame == 0) frame = shot->frame_start;
     kf_frame_paths fp;
     char err[4200];
+    kf_dir_lock lock = {.fd = -1};
     if (frame < shot->frame_start || frame > shot->frame_end) {
         fprintf(stderr, "kerf turntable: --frame %d is outside the shot's frames %d-%d\n", frame, shot->frame_start,
                 shot->frame_end);
@@ -189,7 +193,7 @@ int kf_cmd_turntable(int argc, char **argv) {
     } else if (kf_frame_paths_make(shot, o.out, frame, &fp) || access(fp.surface, R_OK) != 0) {
         fprintf(stderr, "kerf turntable: frame %d has no surface yet: run kerf run (or kerf surface) first\n", frame);
         rc = KF_EXIT_FAIL;
-    } else {
+    } else if ((rc = kf_cli_claim_output(&o, shot, &lock)) == KF_EXIT_OK) {
         kf_render_opts ro = framing(&o, shot, &sc);
         ro.turntable_n = count;
         for (int k = 0; k < count && rc == KF_EXIT_OK; k++) {
@@ -204,6 +208,7 @@ int kf_cmd_turntable(int argc, char **argv) {
         if (rc == KF_EXIT_OK && !o.quiet)
             fprintf(stderr, "kerf: turntable of frame %d: %d views in %s/turntable/\n", frame, count, fp.dir);
     }
+    kf_dir_lock_release(&lock);
     kf_scene_free(&sc);
     kf_shot_free(shot);
     return rc;
