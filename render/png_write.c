@@ -25,6 +25,11 @@ static void on_png_error(png_structp png, png_const_charp msg) {
 }
 static void on_png_warning(png_structp png, png_const_charp msg) { (void)png, (void)msg; }
 
+/* an errno as an artist reads it: a full disk says so (issue 18) */
+static const char *io_reason(int e) {
+    return e == ENOSPC || e == EDQUOT ? "no space left on the device (disk full)" : strerror(e);
+}
+
 static int key_ok(const char *k) {
     size_t n = strlen(k);
     if (n < 1 || n > 79 || k[0] == ' ' || k[n - 1] == ' ') return 0;
@@ -64,10 +69,13 @@ static int write_stream(FILE *f, const uint8_t *rgba, int w, int h, const char *
         return -1;
     }
     if (setjmp(png_jmpbuf(png))) {
+        /* libpng's "Write Error" hides why fwrite failed: errno still holds it */
+        int e = errno, io = ferror(f) && e != 0;
         png_destroy_write_struct(&png, &info);
         free(texts);
         free(rows);
-        snprintf(err, errlen, "libpng: %s", ectx.msg);
+        if (io) snprintf(err, errlen, "%s", io_reason(e));
+        else snprintf(err, errlen, "libpng: %s", ectx.msg);
         return -1;
     }
     png_init_io(png, f);
@@ -138,9 +146,9 @@ int kf_png_write(const char *path, const uint8_t *rgba, int w, int h, const char
     }
     char why[300] = "";
     int rc = write_stream(f, rgba, w, h, kv, nkv, why, sizeof why);
-    if (rc == 0 && fflush(f) != 0) rc = -1, snprintf(why, sizeof why, "%s", strerror(errno));
-    if (rc == 0 && fsync(fd) != 0) rc = -1, snprintf(why, sizeof why, "fsync: %s", strerror(errno));
-    if (fclose(f) != 0 && rc == 0) rc = -1, snprintf(why, sizeof why, "close: %s", strerror(errno));
+    if (rc == 0 && fflush(f) != 0) rc = -1, snprintf(why, sizeof why, "%s", io_reason(errno));
+    if (rc == 0 && fsync(fd) != 0) rc = -1, snprintf(why, sizeof why, "fsync: %s", io_reason(errno));
+    if (fclose(f) != 0 && rc == 0) rc = -1, snprintf(why, sizeof why, "close: %s", io_reason(errno));
     if (rc == 0 && rename(tmp, path) != 0)
         rc = -1, snprintf(why, sizeof why, "rename from %s: %s", tmp, strerror(errno));
     if (rc != 0) {

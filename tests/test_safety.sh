@@ -105,5 +105,75 @@ if run_case lock; then
     check "so the next run finds no stale lock" bash -c "! grep -q 'without releasing' fourth.err"
 fi
 
+# --- 6. atomic outputs: a full disk, damaged outputs, leftover temporaries -------
+if run_case atomic; then
+    "$kerf" run tiny.yaml --out base --frames 1001-1002 --set output.surface=false --set output.images=false --quiet
+    # a real full disk: a small tmpfs in a private mount namespace, filled
+    # but for 64 KB (less than a surface or an image needs)
+    cat > full_disk.sh << 'SCRIPT'
+set -u
+kerf=$1
+mount -t tmpfs -o size=16m tmpfs full || exit 3
+cp -a base/. full/
+fill() { dd if=/dev/zero of=full/filler bs=64k status=none 2> /dev/null; truncate -s -$1 full/filler; }
+fill 64K
+"$kerf" surface tiny.yaml --out full --frames 1001-1002 > /dev/null 2> surface_full.err; echo $? > surface_full.rc
+ls full/surface > surface_full.ls 2>&1; find full -name '*.tmp-*' > surface_full.tmp
+rm full/filler
+"$kerf" surface tiny.yaml --out full --frames 1001-1002 > /dev/null 2> surface_room.err; echo $? > surface_room.rc
+fill 16K
+"$kerf" render tiny.yaml --out full --frames 1001-1002 > /dev/null 2> render_full.err; echo $? > render_full.rc
+ls full/images > render_full.ls 2>&1; find full -name '*.tmp-*' > render_full.tmp
+SCRIPT
+    mkdir -p full
+    if unshare -rm true 2> /dev/null; then
+        unshare -rm bash full_disk.sh "$kerf"
+        check "surfacing on a full disk exits 1 (got $(cat surface_full.rc))" test "$(cat surface_full.rc)" = 1
+        check "it says no space left" has surface_full.err \
+            "kerf: frame 1001: surface: vdb: write: cannot write 'full/surface/tiny.1001.vdb': no space left on the device (disk full)"
+        check "no surface left under its final name" test ! -s surface_full.ls
+        check "no temporary left" test ! -s surface_full.tmp
+        check "with room again, surfacing succeeds" test "$(cat surface_room.rc)" = 0
+        check "rendering on a full disk exits 1 (got $(cat render_full.rc))" test "$(cat render_full.rc)" = 1
+        check "it says no space left" has render_full.err \
+            "kerf: frame 1001: render: full/images/tiny.1001.png: no space left on the device (disk full)"
+        check "no image left under its final name" test ! -s render_full.ls
+        check "no temporary left" test ! -s render_full.tmp
+    else
+        echo "skip  full disk: this machine gives no user namespace to mount a small tmpfs in"
+    fi
+
+    # damaged outputs under their final names are made again, not fatal
+    cp -a base dmg
+    "$kerf" run tiny.yaml --out dmg --frames 1001-1002 --quiet
+    # a surface cut short after its image was made (as a full disk under an older kerf left it): the render reads it
+    head -c 5000 dmg/surface/tiny.1002.vdb > cut && cat cut > dmg/surface/tiny.1002.vdb
+    # an image cut short, still newer than its surface
+    head -c 3000 dmg/images/tiny.1001.png > cut && cat cut > dmg/images/tiny.1001.png
+    "$kerf" render tiny.yaml --out dmg --frames 1001-1002 > /dev/null 2> dmg.err; rc=$?
+    check "a render over damaged outputs exits 0 (got $rc)" test $rc -eq 0
+    check "a cut-short image is named and made again" has dmg.err \
+        "kerf: frame 1001: dmg/images/tiny.1001.png is damaged (cut short); rendering it again"
+    check "a damaged surface is named and made again from its checkpoint" grep -qxE \
+        "kerf: frame 1002: dmg/surface/tiny.1002.vdb is damaged \(vdb: .*\); surfacing it again from dmg/checkpoints/tiny.1002.kfc" dmg.err
+    check "both images are whole again" bash -c "tail -c 8 dmg/images/tiny.1001.png | grep -q IEND && tail -c 8 dmg/images/tiny.1002.png | grep -q IEND"
+    check "the summary counts them" has dmg.err "kerf: tiny: 1 surfaces, 2 images made, 0 current outputs kept; images in dmg/images/"
+    # kerf surface alone finds a damaged surface that is newer than its checkpoint
+    cat cut > dmg/surface/tiny.1001.vdb
+    "$kerf" surface tiny.yaml --out dmg --frames 1001-1002 > /dev/null 2> dmgs.err; rc=$?
+    check "kerf surface over a damaged surface exits 0 (got $rc)" test $rc -eq 0
+    check "it names the damaged surface and makes it again" grep -qxE \
+        "kerf: frame 1001: dmg/surface/tiny.1001.vdb is damaged \(vdb: .*\); surfacing it again from dmg/checkpoints/tiny.1001.kfc" dmgs.err
+    check "and keeps the good one" has dmgs.err "kerf: tiny: 1 surfaces, 0 images made, 1 current outputs kept; images in dmg/images/"
+
+    # a killed write's temporary (what kill -9 between open and rename leaves) is swept by the next run
+    cp base/checkpoints/tiny.1002.kfc base/checkpoints/tiny.1002.kfc.tmp-4242
+    "$kerf" run tiny.yaml --out base --frames 1001-1002 --resume --set output.surface=false --set output.images=false \
+        > /dev/null 2> sweep.err
+    check "--resume removes the stale temporary and says so" has sweep.err \
+        "kerf: base/: removed 1 temporary file left by an interrupted write (base/checkpoints/tiny.1002.kfc.tmp-4242)"
+    check "it is gone" test ! -e base/checkpoints/tiny.1002.kfc.tmp-4242
+fi
+
 echo "$fails failed"
 exit $((fails > 0))

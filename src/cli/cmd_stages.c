@@ -8,6 +8,7 @@
 #include "../core/timer.h"
 #include "../io/atomic_file.h"
 #include "../io/checkpoint.h"
+#include "../io/vdb_bridge.h"
 #include "cli.h"
 #include "stages.h"
 
@@ -67,9 +68,62 @@ static void surface_settings(const kf_shot *shot, char *buf, size_t n) {
              shot->surface_iterations, shot->surface_dilate, shot->surface_erode, shot->surface_group);
 }
 
+/* A PNG ends with its IEND chunk; one cut short (a full disk under an old
+ * kerf, a copy that died) does not, and is made again rather than kept. */
+static int png_complete(const char *path) {
+    static const unsigned char iend[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
+    unsigned char tail[12];
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    int ok = fseek(f, -12, SEEK_END) == 0 && fread(tail, 1, 12, f) == 12 && memcmp(tail, iend, 12) == 0;
+    fclose(f);
+    return ok;
+}
+
+/* surface frame f again (its .vdb was missing, stale or damaged); 0 or prints and returns 1 */
+static int surface_frame(const kf_shot *shot, kf_scene *sc, const kf_frame_paths *fp, int f, double *ms) {
+    char err[4200];
+    double t0 = kf_now_ms();
+    if (kf_stage_surface(shot, sc, fp, f, err, sizeof err)) {
+        fprintf(stderr, "kerf: frame %d: surface: %s\n", f, err);
+        return 1;
+    }
+    *ms += kf_now_ms() - t0;
+    return 0;
+}
+
+/* Render frame f. A surface that cannot be read (damaged on disk) is made
+ * again from its checkpoint and the render tried once more: a damaged output
+ * is rebuilt, not fatal. 0, or prints and returns 1. */
+static int render_frame(const kf_shot *shot, kf_scene *sc, const kf_frame_paths *fp, int f, const kf_render_opts *ro,
+                        double *ms_s, double *ms_r, int *made_s) {
+    char err[4200], why[4200];
+    double t0 = kf_now_ms();
+    if (kf_stage_render(shot, sc, fp->surface, fp->image, f, ro, err, sizeof err) == 0) {
+        *ms_r += kf_now_ms() - t0;
+        return 0;
+    }
+    kf_vdb_file_info info;
+    int damaged = kf_vdb_info(fp->surface, &info, why, sizeof why) != 0 || strncmp(err, "vdb: ", 5) == 0;
+    if (!damaged || access(fp->checkpoint, R_OK) != 0) {
+        fprintf(stderr, "kerf: frame %d: render: %s\n", f, err);
+        return 1;
+    }
+    fprintf(stderr, "kerf: frame %d: %s is damaged (%s); surfacing it again from %s\n", f, fp->surface, err,
+            fp->checkpoint);
+    if (surface_frame(shot, sc, fp, f, ms_s)) return 1;
+    (*made_s)++;
+    t0 = kf_now_ms();
+    if (kf_stage_render(shot, sc, fp->surface, fp->image, f, ro, err, sizeof err)) {
+        fprintf(stderr, "kerf: frame %d: render: %s\n", f, err);
+        return 1;
+    }
+    *ms_r += kf_now_ms() - t0;
+    return 0;
+}
+
 /* surface and render frames first..last, skipping current outputs */
 int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render) {
-    char err[4200];
     kf_render_opts ro = framing(o, shot, sc);
     do_surface &= shot->output_surface;
     do_render &= shot->output_images;
@@ -97,13 +151,16 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
                         fp.checkpoint);
                 return KF_EXIT_FAIL;
             }
-            if (o->force || resurface || !kf_output_current(fp.surface, fp.checkpoint)) {
-                double t0 = kf_now_ms();
-                if (kf_stage_surface(shot, sc, &fp, f, err, sizeof err)) {
-                    fprintf(stderr, "kerf: frame %d: surface: %s\n", f, err);
-                    return KF_EXIT_FAIL;
-                }
-                t_s += kf_now_ms() - t0;
+            int current = kf_output_current(fp.surface, fp.checkpoint);
+            char why[4200];
+            kf_vdb_file_info info;
+            if (current && !o->force && !resurface && kf_vdb_info(fp.surface, &info, why, sizeof why)) {
+                fprintf(stderr, "kerf: frame %d: %s is damaged (%s); surfacing it again from %s\n", f, fp.surface, why,
+                        fp.checkpoint);
+                current = 0;
+            }
+            if (o->force || resurface || !current) {
+                if (surface_frame(shot, sc, &fp, f, &t_s)) return KF_EXIT_FAIL;
                 made_s++;
             } else kept++;
         }
@@ -112,13 +169,13 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
                 fprintf(stderr, "kerf: frame %d has no surface (%s): run kerf surface first\n", f, fp.surface);
                 return KF_EXIT_FAIL;
             }
-            if (o->force || rerender || !kf_output_current(fp.image, fp.surface)) {
-                double t0 = kf_now_ms();
-                if (kf_stage_render(shot, sc, fp.surface, fp.image, f, &ro, err, sizeof err)) {
-                    fprintf(stderr, "kerf: frame %d: render: %s\n", f, err);
-                    return KF_EXIT_FAIL;
-                }
-                t_r += kf_now_ms() - t0;
+            int current = kf_output_current(fp.image, fp.surface);
+            if (current && !png_complete(fp.image)) {
+                fprintf(stderr, "kerf: frame %d: %s is damaged (cut short); rendering it again\n", f, fp.image);
+                current = 0;
+            }
+            if (o->force || rerender || !current) {
+                if (render_frame(shot, sc, &fp, f, &ro, &t_s, &t_r, &made_s)) return KF_EXIT_FAIL;
                 made_r++;
             } else kept++;
         }

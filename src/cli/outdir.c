@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "../io/atomic_file.h"
 #include "cli.h"
 #include "stages.h"
 
@@ -24,7 +25,7 @@ int kf_cli_claim_output(const kf_cli_opts *o, const kf_shot *shot, kf_dir_lock *
         return KF_EXIT_FAIL;
     }
     if (rc < 0) {
-        fprintf(stderr, "kerf: %s/: cannot lock the output directory: %s\n", fp.dir, strerror(errno));
+        fprintf(stderr, "kerf: %s/: cannot lock the output directory: %s\n", fp.dir, kf_io_reason(errno));
         return KF_EXIT_FAIL;
     }
     if (stale.pid)

@@ -47,6 +47,10 @@ void kf_atomic_abort(kf_atomic_file *a) {
     unlink(a->tmp);
 }
 
+const char *kf_io_reason(int e) {
+    return e == ENOSPC || e == EDQUOT ? "no space left on the device (disk full)" : strerror(e);
+}
+
 int kf_mkdirs(const char *dir) {
     char buf[4096];
     if (snprintf(buf, sizeof buf, "%s", dir) >= (int)sizeof buf) return -1;

@@ -20,6 +20,10 @@ int kf_atomic_commit(kf_atomic_file *a);
 /* Abandon: close and remove the temporary. */
 void kf_atomic_abort(kf_atomic_file *a);
 
+/* An errno as a message: a full disk (ENOSPC, EDQUOT) reads "no space left on
+ * the device (disk full)", anything else strerror's words. */
+const char *kf_io_reason(int e);
+
 /* mkdir -p. Returns 0 or -1. */
 int kf_mkdirs(const char *dir);
 

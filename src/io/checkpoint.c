@@ -50,7 +50,7 @@ int kf_checkpoint_write(const char *path, const kf_state *s, int frame, uint64_t
     const kf_particles *p = &s->p;
     kf_atomic_file af;
     if (kf_atomic_open(&af, path)) {
-        snprintf(err, errlen, "%s: cannot write checkpoint: %s", path, strerror(errno));
+        snprintf(err, errlen, "%s: cannot write checkpoint: %s", path, kf_io_reason(errno));
         return -1;
     }
     header h;
@@ -91,7 +91,7 @@ int kf_checkpoint_write(const char *path, const kf_state *s, int frame, uint64_t
     if (w.failed || kf_atomic_commit(&af)) {
         int e = errno;
         if (af.f) kf_atomic_abort(&af);
-        snprintf(err, errlen, "%s: writing checkpoint failed: %s", path, strerror(e));
+        snprintf(err, errlen, "%s: writing checkpoint failed: %s", path, kf_io_reason(e));
         return -1;
     }
     return 0;

@@ -11,7 +11,7 @@ int kf_write_points_ply(const char *path, const kf_state *s, char *err, size_t e
     kf_particles_view pv = kf_state_particles_read(s);
     kf_atomic_file af;
     if (kf_atomic_open(&af, path)) {
-        snprintf(err, errlen, "%s: cannot write: %s", path, strerror(errno));
+        snprintf(err, errlen, "%s: cannot write: %s", path, kf_io_reason(errno));
         return -1;
     }
     fprintf(af.f,
@@ -31,8 +31,9 @@ int kf_write_points_ply(const char *path, const kf_state *s, char *err, size_t e
         fwrite(rec, sizeof rec, 1, af.f);
     }
     if (ferror(af.f) || kf_atomic_commit(&af)) {
+        int e = errno; /* before the abort's own calls */
         if (af.f) kf_atomic_abort(&af);
-        snprintf(err, errlen, "%s: write failed: %s", path, strerror(errno));
+        snprintf(err, errlen, "%s: write failed: %s", path, kf_io_reason(e));
         return -1;
     }
     return 0;

@@ -16,6 +16,7 @@
 #include <openvdb/tools/LevelSetTracker.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
+#include <errno.h>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -25,6 +26,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -179,6 +181,49 @@ void get_meta(const openvdb::MetaMap &m, kf_vdb_meta *meta)
     if (auto d = m.getMetadata<openvdb::DoubleMetadata>("dx")) meta->dx = d->value();
 }
 
+// The archive exactly as io::File writes it (seekable, with grid offsets, so
+// a reader can load one grid alone), but into memory: io::File writes through
+// an std::ofstream that ignores a full disk and leaves a short file, which the
+// rename then published (issue 18: "KeyError: Map", then "Cannot read grid"
+// forever). From memory every byte goes through write(2), whose errno counts.
+struct memory_archive : openvdb::io::Archive {
+    using openvdb::io::Archive::write;
+};
+
+// what a failed write says: a full disk in words an artist reads
+std::string write_failure(const std::string &path, const char *step, int e)
+{
+    if (e == ENOSPC || e == EDQUOT)
+        return fmt("cannot write '%s': no space left on the device (%s)", path.c_str(), e == EDQUOT ? "quota" : "disk full");
+    return fmt("cannot write '%s': %s: %s", path.c_str(), step, strerror(e));
+}
+
+// all of bytes to a new file at tmp, fsync'ed; throws with errno's reason
+void write_file(const std::string &tmp, const std::string &path, const std::string &bytes)
+{
+    int fd = open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) throw bridge_error(write_failure(path, "create", errno));
+    const char *p = bytes.data();
+    size_t left = bytes.size();
+    while (left > 0) {
+        ssize_t n = ::write(fd, p, left);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+            int e = n < 0 ? errno : EIO;
+            close(fd);
+            unlink(tmp.c_str());
+            throw bridge_error(write_failure(path, "write", e));
+        }
+        p += n;
+        left -= size_t(n);
+    }
+    if (fsync(fd) != 0 || close(fd) != 0) {
+        int e = errno;
+        unlink(tmp.c_str());
+        throw bridge_error(write_failure(path, "fsync", e));
+    }
+}
+
 // write grids to path.tmp-<pid>, fsync, rename over path, fsync the directory
 void write_atomic(const std::string &path, const openvdb::GridPtrVec &grids, const kf_vdb_meta *meta)
 {
@@ -189,29 +234,22 @@ void write_atomic(const std::string &path, const openvdb::GridPtrVec &grids, con
     put_meta(fm, meta, comp);
     for (auto &g : grids) put_meta(*g, meta, comp);
 
-    const std::string tmp = path + ".tmp-" + std::to_string(long(getpid()));
+    std::ostringstream os(std::ios_base::out | std::ios_base::binary);
     try {
-        openvdb::io::File f(tmp);
-        f.setCompression((blosc ? openvdb::io::COMPRESS_BLOSC : openvdb::io::COMPRESS_ZIP) |
+        memory_archive a;
+        a.setCompression((blosc ? openvdb::io::COMPRESS_BLOSC : openvdb::io::COMPRESS_ZIP) |
                          openvdb::io::COMPRESS_ACTIVE_MASK);
-        f.write(grids, fm);
-        f.close();
+        a.write(os, grids, /*seekable=*/true, fm);
     } catch (const std::exception &e) {
-        unlink(tmp.c_str());
         throw bridge_error(fmt("cannot write '%s': %s", path.c_str(), e.what()));
     }
-    int fd = open(tmp.c_str(), O_RDONLY);
-    if (fd < 0 || fsync(fd) != 0) {
-        int e = errno;
-        if (fd >= 0) close(fd);
-        unlink(tmp.c_str());
-        throw bridge_error(fmt("cannot write '%s': fsync: %s", path.c_str(), strerror(e)));
-    }
-    close(fd);
+    if (!os) throw bridge_error(fmt("cannot write '%s': out of memory for the archive", path.c_str()));
+    const std::string tmp = path + ".tmp-" + std::to_string(long(getpid()));
+    write_file(tmp, path, os.str());
     if (rename(tmp.c_str(), path.c_str()) != 0) {
         int e = errno;
         unlink(tmp.c_str());
-        throw bridge_error(fmt("cannot write '%s': rename: %s", path.c_str(), strerror(e)));
+        throw bridge_error(write_failure(path, "rename", e));
     }
     std::string dir = path.substr(0, path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/'));
     if (dir.empty()) dir = path[0] == '/' ? "/" : ".";
