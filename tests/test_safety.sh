@@ -175,5 +175,46 @@ SCRIPT
     check "it is gone" test ! -e base/checkpoints/tiny.1002.kfc.tmp-4242
 fi
 
+# --- 8. true messages ---------------------------------------------------------------
+if run_case messages; then
+    # a NUL byte in the YAML said "frames is missing"
+    { printf 'shot: nul\nframes: {start: 1001, end: 1003}\nsim: {dx: 0.1'; printf '\0'; printf '}\n'; } > nul.yaml
+    for cmd in check run; do
+        refused $cmd nul.yaml \
+            "nul.yaml:3:14: error: a NUL byte (byte 57 of 59): a shot file is text; is this file damaged or not a shot?" \
+            "    3 | sim: {dx: 0.1" --out refused_out
+    done
+    # a mesh path that is a directory said "not found"
+    mkdir -p meshes/folder.obj
+    sed 's|^  - {name: cube, .*|  - {name: cube, shape: mesh, mesh: meshes/folder.obj, material: jelly}|' small.yaml > dir_mesh.yaml
+    refused check dir_mesh.yaml \
+        "dir_mesh.yaml:8:37: error: objects[0]: mesh path 'meshes/folder.obj' is a directory, not a mesh file (meshes/folder.obj)" \
+        "    8 |   - {name: cube, shape: mesh, mesh: meshes/folder.obj, material: jelly}"
+
+    # a damaged last checkpoint said "frames are cached", then simulated everything again;
+    # its damaged version field said "written by a single-precision build, this is single precision"
+    quick=(--set output.surface=false --set output.images=false)
+    "$kerf" run tiny.yaml --out dmgck --frames 1001-1004 "${quick[@]}" --quiet
+    cp dmgck/checkpoints/tiny.1004.kfc good1004.kfc
+    printf 'Z' | dd of=dmgck/checkpoints/tiny.1004.kfc bs=1 seek=8 conv=notrunc status=none # the version field
+    "$kerf" run tiny.yaml --out dmgck --frames 1001-1004 "${quick[@]}" > /dev/null 2> dmgck.err; rc=$?
+    check "a run over a damaged last checkpoint exits 0 (got $rc)" test $rc -eq 0
+    check "it calls the damage damage" has dmgck.err \
+        "kerf: cache: dmgck/checkpoints/tiny.1004.kfc: checkpoint checksum mismatch (file damaged)"
+    check "it keeps the good frames" has dmgck.err \
+        "kerf: tiny: frames 1001-1003 are cached from the same inputs; simulating again after frame 1003"
+    check "and simulates only the damaged one" bash -c "grep -c '^frame 100[0-9]: [0-9]* particles' dmgck.err | grep -qx 1"
+    check "the summary says which" grep -qxE \
+        "kerf: tiny: simulated frame 1004 \(resumed after frame 1003\) in dmgck/ \([0-9.]+ s\)" dmgck.err
+    check "the remade checkpoint is the original, bit for bit" cmp -s good1004.kfc dmgck/checkpoints/tiny.1004.kfc
+
+    # after a resume the summary said "simulated frames 1001-1012"
+    mkdir resumed && cp -a dmgck/. resumed/ # frames 1001-1004, as a run killed after 1004 leaves them
+    "$kerf" run tiny.yaml --out resumed --frames 1001-1006 --resume "${quick[@]}" > /dev/null 2> resumed.err
+    check "a resume names where it continues" has resumed.err "kerf: resuming after frame 1004"
+    check "its summary names the frames it simulated" grep -qxE \
+        "kerf: tiny: simulated frames 1005-1006 \(resumed after frame 1004\) in resumed/ \([0-9.]+ s\)" resumed.err
+fi
+
 echo "$fails failed"
 exit $((fails > 0))

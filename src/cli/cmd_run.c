@@ -19,10 +19,10 @@
 #include "rigid_log.h"
 #include "stages.h"
 
-/* the last frame with a readable checkpoint made from the same inputs */
-static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint64_t hash, int *frame) {
-    char err[1024];
-    for (int f = shot->last; f >= shot->frame_start; f--) {
+/* the last frame up to `from` with a readable checkpoint made from the same inputs */
+static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint64_t hash, int from, int *frame) {
+    char err[4200];
+    for (int f = from; f >= shot->frame_start; f--) {
         kf_frame_paths rp;
         kf_checkpoint_info info;
         if (kf_frame_paths_make(shot, out, f, &rp) || access(rp.checkpoint, R_OK) != 0) continue;
@@ -47,16 +47,23 @@ static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint6
 
 /* Every requested frame has a checkpoint from the same inputs: the cache is
  * current. Missing particle files are rewritten from their checkpoints. Only
- * headers are read, except the last frame's, which is checked whole. */
-static int cache_current(const kf_shot *shot, const char *out, kf_scene *sc, uint64_t hash, int *matched) {
+ * headers are read, except the last frame's, which is checked whole.
+ * *matched: how many frames from the start are cached; *damaged: the frame
+ * whose checkpoint exists but cannot be used (said why), else 0. */
+static int cache_current(const kf_shot *shot, const char *out, kf_scene *sc, uint64_t hash, int *matched,
+                         int *damaged) {
     char err[4200];
-    *matched = 0;
+    *matched = *damaged = 0;
     for (int f = shot->frame_start; f <= shot->last; f++) {
         kf_frame_paths rp;
         kf_checkpoint_info info;
-        if (kf_frame_paths_make(shot, out, f, &rp) || kf_checkpoint_peek(rp.checkpoint, &info, err, sizeof err) ||
-            info.inputs_hash != hash || info.frame != f)
+        if (kf_frame_paths_make(shot, out, f, &rp) || access(rp.checkpoint, F_OK) != 0) return 0;
+        if (kf_checkpoint_peek(rp.checkpoint, &info, err, sizeof err)) {
+            fprintf(stderr, "kerf: cache: %s\n", err);
+            *damaged = f;
             return 0;
+        }
+        if (info.inputs_hash != hash || info.frame != f) return 0;
         (*matched)++;
     }
     for (int f = shot->first; f <= shot->last; f++) {
@@ -66,6 +73,8 @@ static int cache_current(const kf_shot *shot, const char *out, kf_scene *sc, uin
         if (f != shot->last && !need_ply) continue;
         if (kf_checkpoint_read(rp.checkpoint, sc->model, sc->state, NULL, err, sizeof err)) {
             fprintf(stderr, "kerf: cache: %s\n", err);
+            *matched = f - shot->frame_start; /* the frames before it stand */
+            *damaged = f;
             return 0;
         }
         if (need_ply && (kf_ensure_parent(rp.particles) || kf_write_points_ply(rp.particles, sc->state, err, sizeof err))) {
@@ -144,8 +153,9 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     int rc = KF_EXIT_OK;
     uint64_t hash = kf_shot_sim_hash(shot);
     int frame = shot->frame_start; /* the frame the state is at */
+    int resume_from = o.resume ? shot->last : 0; /* the latest frame a resume may start from; 0: none */
     if (!o.force && !o.resume) {
-        int matched, c = cache_current(shot, o.out, &sc, hash, &matched);
+        int matched, damaged, c = cache_current(shot, o.out, &sc, hash, &matched, &damaged);
         if (c != 0) {
             if (c > 0 && !o.quiet)
                 fprintf(stderr, "kerf: %s: frames %d-%d are cached from the same inputs; nothing to simulate "
@@ -154,18 +164,24 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
             rc = c > 0 ? kf_cli_post(&o, shot, &sc, 1, 1) : KF_EXIT_FAIL;
             return rc;
         }
-        if (matched > 1 && !o.quiet)
+        if (damaged && matched > 0) {
+            /* a damaged checkpoint is made again from the good frames before it, not from the start */
+            fprintf(stderr, "kerf: %s: frames %d-%d are cached from the same inputs; simulating again after frame %d\n",
+                    shot->name, shot->frame_start, shot->frame_start + matched - 1, shot->frame_start + matched - 1);
+            resume_from = shot->frame_start + matched - 1;
+        } else if (matched > 1 && !o.quiet)
             fprintf(stderr, "kerf: frames %d-%d are cached from the same inputs; --resume continues after them\n",
                     shot->frame_start, shot->frame_start + matched - 1);
     }
-    if (o.resume) {
-        if (find_resume(shot, o.out, &sc, hash, &frame) == 0) {
+    if (resume_from) {
+        if (find_resume(shot, o.out, &sc, hash, resume_from, &frame) == 0) {
             if (!o.quiet) fprintf(stderr, "kerf: resuming after frame %d\n", frame);
         } else {
             if (!o.quiet) fprintf(stderr, "kerf: nothing to resume; starting at frame %d\n", shot->frame_start);
             frame = shot->frame_start;
         }
     }
+    const int resumed = frame != shot->frame_start ? frame : 0; /* the frame the simulation continued after */
     kf_frame_paths rp;
     kf_frame_paths_make(shot, o.out, shot->first, &rp);
     int tty = isatty(fileno(stderr));
@@ -224,9 +240,19 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         }
     }
     if (!o.quiet && tty) fputc('\n', stderr);
-    if (rc == KF_EXIT_OK && !o.quiet)
+    /* what this run simulated: after a resume, only the frames after it */
+    if (rc == KF_EXIT_OK && !o.quiet && !resumed)
         fprintf(stderr, "kerf: %s: simulated frames %d-%d in %s/ (%.1f s)\n", shot->name, shot->first, shot->last,
                 rp.dir, (kf_now_ms() - start) / 1e3);
+    else if (rc == KF_EXIT_OK && !o.quiet && resumed < shot->last) {
+        char which[64];
+        if (resumed + 1 == shot->last) snprintf(which, sizeof which, "frame %d", shot->last);
+        else snprintf(which, sizeof which, "frames %d-%d", resumed + 1, shot->last);
+        fprintf(stderr, "kerf: %s: simulated %s (resumed after frame %d) in %s/ (%.1f s)\n", shot->name, which,
+                resumed, rp.dir, (kf_now_ms() - start) / 1e3);
+    }
+    else if (rc == KF_EXIT_OK && !o.quiet)
+        fprintf(stderr, "kerf: %s: nothing left to simulate after frame %d in %s/\n", shot->name, resumed, rp.dir);
     /* simulate → surface → render */
     if (rc == KF_EXIT_OK) rc = kf_cli_post(&o, shot, &sc, 1, 1);
     return rc;

@@ -448,8 +448,12 @@ static void resolve_mesh_path(loader *L, inst *I, const kf_shot *s, const char *
     if (mesh[0] == '/' || strcmp(s->dir, ".") == 0) snprintf(path, n, "%s", mesh);
     else snprintf(path, n, "%.700s/%s", s->dir, mesh);
     struct stat st;
-    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) {
+    if (stat(path, &st) != 0) {
         snprintf(msg, sizeof msg, "%s: mesh file '%s' not found (looked for %s)", I->label, mesh, path);
+        report_inst(L, I, key, KF_DIAG_ERROR, msg);
+    } else if (!S_ISREG(st.st_mode)) {
+        snprintf(msg, sizeof msg, "%s: mesh path '%s' is %s, not a mesh file (%s)", I->label, mesh,
+                 S_ISDIR(st.st_mode) ? "a directory" : "not a regular file", path);
         report_inst(L, I, key, KF_DIAG_ERROR, msg);
     }
 }
@@ -842,6 +846,17 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
         goto done;
     }
     int src = kf_srcs_add(&L.srcs, path, text, len, 0, 0, NULL), empty = 0;
+    /* a NUL byte ends the text for the YAML parser, which then reports the
+     * keys after it as missing: name the byte instead */
+    const char *nul = memchr(text, 0, len);
+    if (nul) {
+        int line = 1, col = 1;
+        for (const char *c = text; c < nul; c++) col = *c == '\n' ? (line++, 1) : col + 1;
+        kf_report(d, &L.srcs, src, line, col, KF_DIAG_ERROR,
+                  "a NUL byte (byte %zu of %zu): a shot file is text; is this file damaged or not a shot?",
+                  (size_t)(nul - text) + 1, len);
+        goto done;
+    }
     ky_node *root = ky_parse(&L.doc, &L.srcs, src, ends_with(path, ".json"), d, &empty);
     if (!root) {
         if (empty) kf_report(d, &L.srcs, src, 0, 0, KF_DIAG_ERROR, "the shot file is empty");
