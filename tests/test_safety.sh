@@ -175,6 +175,33 @@ SCRIPT
     check "it is gone" test ! -e base/checkpoints/tiny.1002.kfc.tmp-4242
 fi
 
+# --- 7. geometry mistakes ------------------------------------------------------------
+if run_case geometry; then
+    sed 's|center: \[0.5, 0.5, 0.5\]|center: [3.5, 0.5, 0.5]|' small.yaml > outside.yaml
+    for cmd in check run; do
+        refused $cmd outside.yaml \
+            "outside.yaml:8:5: error: object 'cube' lies entirely outside the domain [0, 0, 0]-[1, 1, 1]: it spans [3.35, 0.35, 0.35]-[3.65, 0.65, 0.65]" \
+            "    8 |   - {name: cube, shape: box, center: [3.5, 0.5, 0.5], size: 0.3, material: jelly}"
+    done
+    # half outside is allowed, and counted
+    sed 's|center: \[0.5, 0.5, 0.5\]|center: [1.0, 0.5, 0.5]|' small.yaml > partly.yaml
+    "$kerf" check partly.yaml > partly.out 2> partly.err; rc=$?
+    check "an object half outside the domain passes check (got $rc)" test $rc -eq 0
+    check "with a warning counting its particles outside" has partly.err \
+        "partly.yaml:8:5: warning: object 'cube': 108 of its 216 particles start outside the domain [0, 0, 0]-[1, 1, 1]"
+    # a static solid rigid with an open mesh (a dynamic one was already refused)
+    cp small.yaml open_static.yaml
+    printf '%s\n' 'rigids:' \
+        '  - {name: cup, shape: mesh, mesh: meshes/cube_open.obj, scale: 0.2, center: [0.5, 0.2, 0.5]}' >> open_static.yaml
+    refused check open_static.yaml \
+        "open_static.yaml:11:36: error: rigid cup: a static solid must be a closed mesh (or make it thin: true): meshes/cube_open.obj: not closed: 4 boundary edges" \
+        "   11 |   - {name: cup, shape: mesh, mesh: meshes/cube_open.obj, scale: 0.2, center: [0.5, 0.2, 0.5]}"
+    # the same mesh as a thin shell is fine
+    sed 's|center: \[0.5, 0.2, 0.5\]}|center: [0.5, 0.2, 0.5], thin: true}|' open_static.yaml > open_thin.yaml
+    "$kerf" check open_thin.yaml > /dev/null 2>&1
+    check "an open static mesh that is thin passes check" test $? -eq 0
+fi
+
 # --- 8. true messages ---------------------------------------------------------------
 if run_case messages; then
     # a NUL byte in the YAML said "frames is missing"

@@ -35,6 +35,35 @@ static int mesh_collider(const kf_shot_collider *c, double dx, int threads, kf_m
     return rc;
 }
 
+/* An object wholly outside the domain (its placed bounding box misses the
+ * box) is a mistake: an error at its entry. One partly outside is allowed
+ * (material may start against a wall's far side), with a warning counting
+ * its particles out there. Returns -1 on the error. */
+static int check_in_domain(const kf_shot_object *o, const kf_sim_def *sd, const kf_points *pts, kf_diag *diag) {
+    const double *lo = sd->domain_min, *hi = sd->domain_max;
+    int misses = 0;
+    for (int a = 0; a < 3; a++) misses |= pts->hi[a] < lo[a] || pts->lo[a] > hi[a];
+    if (misses) {
+        kf_shot_report(diag, &o->at, KF_DIAG_ERROR,
+                       "object '%s' lies entirely outside the domain [%g, %g, %g]-[%g, %g, %g]: it spans "
+                       "[%.3g, %.3g, %.3g]-[%.3g, %.3g, %.3g]",
+                       o->name, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], pts->lo[0], pts->lo[1], pts->lo[2],
+                       pts->hi[0], pts->hi[1], pts->hi[2]);
+        return -1;
+    }
+    size_t out = 0;
+    for (size_t k = 0; k < pts->n; k++) {
+        const double *x = &pts->x[3 * k];
+        int in = 1;
+        for (int a = 0; a < 3; a++) in &= x[a] >= lo[a] && x[a] <= hi[a];
+        out += !in;
+    }
+    if (out)
+        kf_shot_report(diag, &o->at, KF_DIAG_WARNING, "object '%s': %zu of its %zu particles start outside the domain "
+                       "[%g, %g, %g]-[%g, %g, %g]", o->name, out, pts->n, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+    return 0;
+}
+
 int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_stats *stats, kf_diag *diag) {
     char err[1024];
     double t0 = kf_now_ms();
@@ -104,6 +133,11 @@ int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_
             kf_shot_report(diag, o->shape == KF_SOURCE_MESH ? &o->mesh_at : &o->at, KF_DIAG_ERROR, "object '%s': %s",
                            o->name, err);
             bad = 1;
+            continue;
+        }
+        if (check_in_domain(o, &sd, &pts, diag)) {
+            bad = 1;
+            kf_points_free(&pts);
             continue;
         }
         if (pts.n == 0)

@@ -78,6 +78,22 @@ int kf_rigid_surface(const kf_shot_rigid *r, double **vert, int *nv, int **tri, 
     return 0;
 }
 
+/* A solid body (not thin) has an inside, so its mesh must be closed; the
+ * rigid compiler checks dynamic ones, this checks static and kinematic ones
+ * the same way. Returns 0, or -1 with the message in err. */
+static int solid_is_closed(const kf_shot_rigid *r, char *err, size_t errlen) {
+    if (r->shape != 1 || r->def.thin || r->def.motion == KF_RIGID_DYNAMIC) return 0;
+    kf_mesh mesh;
+    char why[900];
+    if (kf_mesh_load(r->mesh_path, &mesh, why, sizeof why)) return 0; /* kf_rigid_surface reports it */
+    int rc = kf_mesh_check_closed(&mesh, why, sizeof why);
+    kf_mesh_free(&mesh);
+    if (rc)
+        snprintf(err, errlen, "rigid %s: a %s solid must be a closed mesh (or make it thin: true): %s", r->def.name,
+                 r->def.motion == KF_RIGID_STATIC ? "static" : "kinematic", why);
+    return rc ? -1 : 0;
+}
+
 int kf_scene_add_rigids(const kf_shot *shot, kf_model *m, kf_diag *diag) {
     char err[1024];
     int bad = 0;
@@ -86,6 +102,11 @@ int kf_scene_add_rigids(const kf_shot *shot, kf_model *m, kf_diag *diag) {
         const kf_loc *at = r->shape == 1 ? &r->mesh_at : &r->at;
         double *vert;
         int *tri, nv, nt;
+        if (solid_is_closed(r, err, sizeof err)) {
+            kf_shot_report(diag, at, KF_DIAG_ERROR, "%s", err);
+            bad = 1;
+            continue;
+        }
         if (kf_rigid_surface(r, &vert, &nv, &tri, &nt, err, sizeof err)) {
             kf_shot_report(diag, at, KF_DIAG_ERROR, "rigid '%s': %s", r->def.name, err);
             bad = 1;
