@@ -147,16 +147,79 @@ static int check_ply(FILE *f, long fsize, char *why, size_t whylen) {
     return 0;
 }
 
-/* OFF: "OFF" (or COFF, NOFF, ...), then "nv nf ne", then nv + nf lines. */
+/* the next data line (blank lines and '#' comments skipped, a trailing
+ * comment cut off) into *buf; its number in *lineno. 0 at end of file. */
+static int off_data_line(FILE *f, char **buf, size_t *cap, long *lineno) {
+    while (getline(buf, cap, f) != -1) {
+        ++*lineno;
+        char *hash = strchr(*buf, '#');
+        if (hash) *hash = 0;
+        if ((*buf)[strspn(*buf, " \t\r\n")]) return 1;
+    }
+    return 0;
+}
+
+/* OFF data after the counts: nv vertex lines of at least three numbers, then
+ * nf face lines "k i1 ... ik" with every index a vertex of the file. assimp
+ * 5.2 reads a face line it cannot parse (a letter, a vertex count larger than
+ * the indices given) past its buffers and crashes (tests/fuzz/crashes). */
+static int check_off_data(FILE *f, long nv, long nf, long lineno, char *why, size_t whylen) {
+    char *buf = NULL;
+    size_t cap = 0;
+    int bad = 0;
+    for (long i = 0; i < nv && !bad; i++) {
+        if (!off_data_line(f, &buf, &cap, &lineno)) break; /* counted before: cannot happen */
+        char *p = buf, *end;
+        for (int d = 0; d < 3 && !bad; d++, p = end) {
+            (void)strtod(p, &end);
+            if (end == p) {
+                snprintf(why, whylen, "line %ld: vertex %ld has %d coordinates, not 3 (corrupt file?)", lineno, i, d);
+                bad = 1;
+            }
+        }
+    }
+    for (long i = 0; i < nf && !bad; i++) {
+        if (!off_data_line(f, &buf, &cap, &lineno)) break;
+        char *p = buf, *end;
+        long k = strtol(p, &end, 10);
+        if (end == p || k < 0 || (*end && !strchr(" \t\r\n", *end))) {
+            snprintf(why, whylen, "line %ld: face %ld does not start with its vertex count (corrupt file?)", lineno, i);
+            bad = 1;
+        }
+        for (long j = 0; j < k && !bad; j++) {
+            p = end;
+            long v = strtol(p, &end, 10);
+            if (end == p) {
+                snprintf(why, whylen, "line %ld: face %ld lists %ld vertices but gives %ld (corrupt file?)", lineno, i,
+                         k, j);
+                bad = 1;
+            } else if (v < 0 || v >= nv) {
+                snprintf(why, whylen, "line %ld: face %ld uses vertex %ld of %ld (truncated or corrupt file?)", lineno,
+                         i, v, nv);
+                bad = 1;
+            }
+        }
+    }
+    free(buf);
+    return bad ? -1 : 0;
+}
+
+/* OFF: "OFF" (or COFF, NOFF, ...), then "nv nf ne", then nv + nf lines.
+ * assimp 5.2 also reads a file without the keyword (counts first), so that
+ * is checked the same way. */
 static int check_off(FILE *f, char *why, size_t whylen) {
     char tok[64];
     if (fscanf(f, "%63s", tok) != 1) return 0;
     size_t L = strlen(tok);
-    if (L < 3 || strcmp(tok + L - 3, "OFF")) return 0;
-    /* binary OFF is not line based */
-    long pos = ftell(f);
-    if (fscanf(f, "%63s", tok) == 1 && !strcmp(tok, "BINARY")) return 0;
-    fseek(f, pos, SEEK_SET);
+    int keyword = L >= 3 && !strcmp(tok + L - 3, "OFF");
+    if (keyword) {
+        /* binary OFF is not line based */
+        long pos = ftell(f);
+        if (fscanf(f, "%63s", tok) == 1 && !strcmp(tok, "BINARY")) return 0;
+        fseek(f, pos, SEEK_SET);
+    } else {
+        rewind(f);
+    }
     long counts[3] = {0, 0, 0};
     int got = 0;
     while (got < 3) {
@@ -168,7 +231,7 @@ static int check_off(FILE *f, char *why, size_t whylen) {
         }
         if (c == ' ' || c == '\t' || c == '\r' || c == '\n') continue;
         ungetc(c, f);
-        if (fscanf(f, "%ld", &counts[got]) != 1) return 0;
+        if (fscanf(f, "%ld", &counts[got]) != 1) break;
         got++;
         if (got == 2) { /* the edge count is optional: stop at the end of this line */
             while ((c = getc(f)) == ' ' || c == '\t' || c == '\r') {
@@ -177,17 +240,24 @@ static int check_off(FILE *f, char *why, size_t whylen) {
             ungetc(c, f);
         }
     }
-    if (got < 2) {
-        snprintf(why, whylen, "truncated file: no vertex and face counts after the OFF keyword");
+    if (got < 2 || counts[0] < 0 || counts[1] < 0) {
+        snprintf(why, whylen, keyword ? "truncated file: no vertex and face counts after the OFF keyword"
+                                      : "not an OFF file: no OFF keyword and no vertex and face counts");
         return -1;
     }
+    /* lines before the one the data starts in (for messages: the next line read is lineno + 1) */
+    long data = ftell(f), lineno = 0;
+    rewind(f);
+    for (long i = 0; i < data; i++)
+        if (getc(f) == '\n') lineno++;
     long have = count_data_lines(f, 1);
     if (have < counts[0] + counts[1]) {
         snprintf(why, whylen, "truncated file: header declares %ld vertices and %ld faces, %ld data lines follow",
                  counts[0], counts[1], have);
         return -1;
     }
-    return 0;
+    fseek(f, data, SEEK_SET);
+    return check_off_data(f, counts[0], counts[1], lineno, why, whylen);
 }
 
 /* binary STL: 80-byte header, triangle count, 50 bytes per triangle. A file
