@@ -70,6 +70,41 @@ if run_case outputs; then
         has help.txt "paths: mesh files (objects, colliders, rigids) are relative to the shot file's directory;"
 fi
 
+# --- 3. budget guards: estimated before seeding, refused with the estimate ------------
+if run_case budget; then
+    # each of these hung with no output (within their documented bounds); the hours are
+    # particles x substeps x 2 frames / (2e6 per core x the cores kerf sees) / 3600
+    sed 's|^  jelly: {preset: jello}|  jelly: {preset: jello, E: 1e30}|' small.yaml > stiff.yaml
+    sed 's|cfl: 0.4}|cfl: 1e-9}|' small.yaml > tiny_cfl.yaml
+    sed 's|cfl: 0.4}|cfl: 0.4, dt_fixed: 1e-12}|' small.yaml > fixed.yaml
+    sed 's|dx: 0.1,|dx: 0.002,|; s|size: 0.3,|size: 0.9,|' small.yaml > fine.yaml
+    for cmd in check info run; do
+        refused $cmd stiff.yaml \
+            "stiff.yaml:6:29: error: about 3.82e+13 substeps per frame (dt 1.09e-15 s: material jelly's wave speed 3.67e+13 m/s at sim.cfl 0.4), over the budget of 1000000: 3 frames of about 216 particles would take about 1.1e+06 hours on $(nproc) cores (--force to run anyway)" \
+            "    6 |   jelly: {preset: jello, E: 1e30}"
+        refused $cmd tiny_cfl.yaml \
+            "tiny_cfl.yaml:3:29: error: about 2.16G substeps per frame (dt 1.93e-11 s from sim.cfl 1e-09), over the budget of 1000000: 3 frames of about 216 particles would take about 65 hours on $(nproc) cores (--force to run anyway)" \
+            "    3 | sim: {dx: 0.1, ppc: 8, cfl: 1e-9}"
+        refused $cmd fixed.yaml \
+            "fixed.yaml:3:44: error: about 41.7G substeps per frame (sim.dt_fixed 1e-12 s), over the budget of 1000000: 3 frames of about 216 particles would take about 1.2e+03 hours on $(nproc) cores (--force to run anyway)" \
+            "    3 | sim: {dx: 0.1, ppc: 8, cfl: 0.4, dt_fixed: 1e-12}"
+        "$kerf" $cmd fine.yaml > refused.out 2> refused.err; rc=$?
+        check "fine.yaml ($cmd): exit 2 (got $rc)" test $rc -eq 2
+        check "fine.yaml ($cmd): the estimate at sim.dx" grep -qxE \
+            "fine.yaml:3:11: error: sim.dx 0.002 m gives about 729M particles needing about 260.7 GB, more than this machine's [0-9.]+ GB \(a larger dx, or --quality preview: 8x fewer; --force to try anyway\)" refused.err
+    done
+    # --force goes past the guard: a fixed step of 1 ms is fine, 1e-12 s is forced
+    "$kerf" info fixed.yaml --force > forced.txt 2>&1; rc=$?
+    check "kerf info --force on the over-budget shot exits 0 (got $rc)" test $rc -eq 0
+    # kerf info honours sim.dt_fixed (it showed the CFL step)
+    check "kerf info shows sim.dt_fixed's substeps" has forced.txt "substeps  41666666667 per frame (sim.dt_fixed 1e-12 s)"
+    check "kerf info shows the estimate" has forced.txt \
+        "estimate  before seeding: about 216 particles, 0 MB, 41666666667 substeps per frame, 1.2e+03 hours for frames 1001-1003 on $(nproc) cores"
+    sed 's|cfl: 0.4}|cfl: 0.4, dt_fixed: 1e-3}|' small.yaml > fixed_ok.yaml
+    "$kerf" info fixed_ok.yaml > fixed_ok.txt 2>&1
+    check "a normal fixed step passes and is what info shows" has fixed_ok.txt "substeps  42 per frame (sim.dt_fixed 0.001 s)"
+fi
+
 # --- 5. one run per output directory --------------------------------------------
 # listing: every file under a directory with its checksum (what a refused run must not change)
 listing() { (cd "$1" && find . -type f ! -name .kerf.lock | sort | xargs -r md5sum); }

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "../mpm/model.h"
+#include "../scene/budget.h"
 #include "cli.h"
 #include "rigid_log.h"
 
@@ -76,9 +77,19 @@ int kf_cmd_info(int argc, char **argv) {
     double mb = (2 * per_particle * (double)n + (double)blocks * KF_BLOCK_NODES * sizeof(kf_v4)) / (1 << 20);
     printf("grid      %ld active blocks of 4^3 nodes at the start\n", blocks);
     printf("memory    about %.0f MB (particles, their frame snapshot, grid)\n", mb);
-    if (dt > 0)
+    if (shot->sim.dt_fixed > 0) /* a fixed step is the step, whatever the CFL rule says */
+        printf("substeps  %.0f per frame (sim.dt_fixed %.3g s)\n", 1.0 / shot->fps / shot->sim.dt_fixed,
+               shot->sim.dt_fixed);
+    else if (dt > 0)
         printf("substeps  about %.0f per frame at the start (dt %.3g s; more once things move)\n",
                1.0 / shot->fps / dt, dt);
+    /* what the budget guard estimated before seeding (scene/budget.h) */
+    kf_budget b;
+    char err[256];
+    if (kf_budget_estimate(shot, &b, err, sizeof err) == 0)
+        printf("estimate  before seeding: about %.0f particles, %.0f MB, %.0f substeps per frame, %.2g hours for "
+               "frames %d-%d on %d cores\n",
+               b.particles, b.bytes / (1 << 20), b.substeps_per_frame, b.hours, shot->first, shot->last, b.cores);
     kf_scene_free(&sc);
     kf_shot_free(shot);
     return KF_EXIT_OK;

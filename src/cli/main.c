@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "../scene/budget.h"
 #include "cli.h"
 
 void kf_cli_usage(FILE *f, const char *cmd) {
@@ -35,8 +36,14 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                "  --frames A-B        only these frames of the shot's range (or one frame: --frames 1010)\n"
                "  --threads N         worker threads (default: all cores)\n");
     if (strcmp(cmd, "check") && strcmp(cmd, "info"))
-        fprintf(f, "  --out DIR           output directory template instead of output.dir\n"
-                   "  --force             redo outputs even when they are current\n");
+        fprintf(f, "  --out DIR           output directory template instead of output.dir (relative to the\n"
+                   "                      current directory)\n"
+                   "  --force             redo outputs even when they are current; go past the budget guard\n");
+    else
+        fprintf(f, "  --force             go past the budget guard\n");
+    fprintf(f, "                      (a shot whose estimate, made before seeding, needs more memory than\n"
+               "                      this machine has or more than %.0f substeps a frame is refused)\n",
+            KF_BUDGET_SUBSTEPS_PER_FRAME);
     if (!strcmp(cmd, "run"))
         fprintf(f, "  --resume            continue after the last good checkpoint of an interrupted run\n"
                    "  --quiet             no progress output\n"

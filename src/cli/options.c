@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../scene/budget.h"
 #include "cli.h"
 
 static int parse_int(const char *s, int lo, int hi, int *out) {
@@ -97,7 +98,12 @@ int kf_cli_load(const kf_cli_opts *o, kf_shot **shot, kf_scene *sc, kf_build_sta
     kf_diag_init(&diag);
     *shot = kf_shot_load(o->shot, o->sets, o->nsets, o->quality, o->frames, &diag);
     int rc = KF_EXIT_OK;
+    /* the cost first: a shot too large to seed would take all the memory before any message */
+    kf_budget b;
+    char err[1024];
     if (!*shot) rc = KF_EXIT_USAGE;
+    else if (kf_budget_estimate(*shot, &b, err, sizeof err) == 0 && !o->force && kf_budget_check(*shot, &b, &diag))
+        rc = KF_EXIT_USAGE;
     else if (kf_scene_from_shot(*shot, o->threads, sc, stats, &diag)) rc = KF_EXIT_USAGE;
     kf_diag_print(stderr, &diag);
     if (rc != KF_EXIT_OK) {

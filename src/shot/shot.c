@@ -367,6 +367,8 @@ static void resolve_material(loader *L, inst *I, kf_shot *s, kf_shot_material *o
     if (I->at[K("materials.*.friction_angle")] && !I->at[K("materials.*.hardening")]) out->mat.hardening = 0;
     snprintf(out->mat.name, sizeof out->mat.name, "%s", I->name->text);
     out->at = loc_of(L, s, I->name);
+    out->stiffness_at = loc_of(L, s, node_for(I, out->mat.model == KF_MAT_WATER ? "materials.*.bulk_modulus"
+                                                                                 : "materials.*.E"));
     if (!based) return;
     ((kf_shot_material *)I->base)->mat.model = out->mat.model; /* what `only: model=...` reads */
     check_presence(L, I);
@@ -798,6 +800,10 @@ static void resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
         report_inst(L, T, "output.name", KF_DIAG_ERROR, msg);
     }
     check_output_paths(L, T, s);
+    s->dx_at = loc_of(L, s, node_for(T, "sim.dx"));
+    s->cfl_at = loc_of(L, s, node_for(T, "sim.cfl"));
+    s->dt_fixed_at = loc_of(L, s, node_for(T, "sim.dt_fixed"));
+    s->dt_max_at = loc_of(L, s, node_for(T, "sim.dt_max"));
     s->resolution_scale = 1;
 }
 

@@ -53,6 +53,7 @@ typedef struct kf_shot_material {
     double color[3];  /* sRGB render colour; negative: by kind (unset) */
     double specular, roughness; /* render shading, [0, 1]; negative: by kind (unset) */
     kf_loc at;        /* its name under materials: */
+    kf_loc stiffness_at; /* its E (water: bulk_modulus) where given, else its name: the budget points here */
 } kf_shot_material;
 
 /* An object is filled with particles at t = 0. `place` is ready for the
@@ -159,6 +160,8 @@ typedef struct kf_shot {
     double resolution_scale;     /* images: 1 final, 0.5 preview */
 
     kf_sim_def sim;              /* dx (quality applied), walls and domain filled */
+    kf_loc dx_at, cfl_at, dt_fixed_at, dt_max_at; /* sim.dx, .cfl, .dt_fixed, .dt_max where given (else the
+                                                     top of the file): what the budget's messages point at */
     int ppc;                     /* particles per cell: 1, 8, 27 or 64 */
     int ppc_axis;                /* its cube root, for kf_state_fill_*() */
     int jitter;                  /* 1 = jittered lattice */
