@@ -105,6 +105,29 @@ if run_case budget; then
     check "a normal fixed step passes and is what info shows" has fixed_ok.txt "substeps  42 per frame (sim.dt_fixed 0.001 s)"
 fi
 
+# --- 4. partial re-runs: later frames from other inputs do not stay -----------------
+if run_case partial; then
+    pv=(--quality preview)
+    "$kerf" run tiny.yaml --out part "${pv[@]}" --quiet
+    cp part/checkpoints/tiny.1008.kfc old1008.kfc
+    # the same inputs over part of the range: nothing simulated, nothing removed
+    "$kerf" run tiny.yaml --out part "${pv[@]}" --frames 1001-1004 > /dev/null 2> same.err
+    check "a partial re-run with the same inputs removes nothing" bash -c "! grep -q removed same.err && test \$(ls part/checkpoints | wc -l) -eq 12"
+    # --force with the same inputs re-simulates 1001-1004; 1005+ still follow from them
+    "$kerf" run tiny.yaml --out part "${pv[@]}" --frames 1001-1004 --force > /dev/null 2> forced.err
+    check "so does a forced one" bash -c "! grep -q removed forced.err && cmp -s old1008.kfc part/checkpoints/tiny.1008.kfc"
+    # changed physics over 1001-1004: 1005-1012 were made from the old settings
+    "$kerf" run tiny.yaml --out part "${pv[@]}" --frames 1001-1004 --set materials.jelly.E=3e4 > /dev/null 2> changed.err
+    check "a partial re-run after a physics change names the frames it removes (8 x checkpoint, particles, surface, image)" has changed.err \
+        "kerf: tiny: removed frames 1005-1012 (32 files): made from other inputs than this run's, they would not follow from frame 1004"
+    check "no checkpoint, particles, surface or image of 1005-1012 is left" \
+        bash -c "test -z \"\$(find part -name 'tiny.10[01][0-9].*' | grep -vE 'tiny.100[1-4]\.')\""
+    check "frames 1001-1004 are there" test "$(ls part/checkpoints part/particles part/surface part/images | grep -c 'tiny.100[1-4]')" -eq 16
+    # and a later run of the whole range simulates them again from the new settings
+    "$kerf" run tiny.yaml --out part "${pv[@]}" --set materials.jelly.E=3e4 > /dev/null 2> whole.err
+    check "the whole range after it makes all twelve again" test "$(ls part/checkpoints | wc -l)" -eq 12
+fi
+
 # --- 5. one run per output directory --------------------------------------------
 # listing: every file under a directory with its checksum (what a refused run must not change)
 listing() { (cd "$1" && find . -type f ! -name .kerf.lock | sort | xargs -r md5sum); }

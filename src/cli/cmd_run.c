@@ -85,6 +85,32 @@ static int cache_current(const kf_shot *shot, const char *out, kf_scene *sc, uin
     return 1;
 }
 
+/* Frames after this run's range whose checkpoints were made from other
+ * inputs (a partial re-run after a physics change) no longer follow from the
+ * frames this run writes: remove them and every output made from them, and
+ * say so. Frames from the same inputs, and frames without a checkpoint (whose
+ * inputs are unknown), are left alone. */
+static void remove_stale_after(const kf_shot *shot, const char *out, uint64_t hash) {
+    int lo = 0, hi = 0, files = 0;
+    for (int f = shot->last + 1; f <= shot->frame_end; f++) {
+        kf_frame_paths fp;
+        kf_checkpoint_info info;
+        char err[4200];
+        if (kf_frame_paths_make(shot, out, f, &fp) || access(fp.checkpoint, F_OK) != 0) continue;
+        if (kf_checkpoint_peek(fp.checkpoint, &info, err, sizeof err) == 0 && info.inputs_hash == hash) continue;
+        const char *paths[] = {fp.checkpoint, fp.particles, fp.surface, fp.image, fp.points};
+        for (size_t k = 0; k < sizeof paths / sizeof *paths; k++) files += unlink(paths[k]) == 0;
+        if (!lo) lo = f;
+        hi = f;
+    }
+    char which[64];
+    if (lo == hi) snprintf(which, sizeof which, "frame %d", lo);
+    else snprintf(which, sizeof which, "frames %d-%d", lo, hi);
+    if (lo)
+        fprintf(stderr, "kerf: %s: removed %s (%d files): made from other inputs than this run's, they would not "
+                        "follow from frame %d\n", shot->name, which, files, shot->last);
+}
+
 static void fmt_eta(char *buf, size_t n, double seconds) {
     int s = (int)(seconds + 0.5);
     if (s >= 3600) snprintf(buf, n, "%dh%02dm", s / 3600, s / 60 % 60);
@@ -182,6 +208,7 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         }
     }
     const int resumed = frame != shot->frame_start ? frame : 0; /* the frame the simulation continued after */
+    if (frame < shot->last) remove_stale_after(shot, o.out, hash);
     kf_frame_paths rp;
     kf_frame_paths_make(shot, o.out, shot->first, &rp);
     int tty = isatty(fileno(stderr));
