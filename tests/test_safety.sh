@@ -224,6 +224,16 @@ SCRIPT
         "kerf: frame 1001: dmg/surface/tiny.1001.vdb is damaged \(vdb: .*\); surfacing it again from dmg/checkpoints/tiny.1001.kfc" dmgs.err
     check "and keeps the good one" has dmgs.err "kerf: tiny: 1 surfaces, 0 images made, 1 current outputs kept; images in dmg/images/"
 
+    # a particle file cut short comes back from its checkpoint, byte for byte
+    cp dmg/particles/tiny.1002.ply good1002.ply
+    head -c 2000 good1002.ply > dmg/particles/tiny.1002.ply
+    "$kerf" run tiny.yaml --out dmg --frames 1001-1002 > /dev/null 2> dmgp.err
+    check "a cut-short PLY is named and written again" has dmgp.err \
+        "kerf: frame 1002: dmg/particles/tiny.1002.ply is damaged (cut short); writing it again from dmg/checkpoints/tiny.1002.kfc"
+    check "without simulating" has dmgp.err \
+        "kerf: tiny: frames 1001-1002 are cached from the same inputs; nothing to simulate (--force to simulate anyway)"
+    check "byte for byte the original" cmp -s good1002.ply dmg/particles/tiny.1002.ply
+
     # a killed write's temporary (what kill -9 between open and rename leaves) is swept by the next run
     cp base/checkpoints/tiny.1002.kfc base/checkpoints/tiny.1002.kfc.tmp-4242
     "$kerf" run tiny.yaml --out base --frames 1001-1002 --resume --set output.surface=false --set output.images=false \

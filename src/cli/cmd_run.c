@@ -7,6 +7,7 @@
  * --resume continues from the last good checkpoint, bit for bit. */
 #include <errno.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -45,6 +46,23 @@ static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint6
     return -1;
 }
 
+/* A particle PLY is whole when its size is its header plus the records the
+ * header counts (30 bytes each, points_ply.c); one cut short is written again. */
+static int ply_complete(const char *path) {
+    char head[1024];
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    size_t got = fread(head, 1, sizeof head - 1, f);
+    head[got] = 0;
+    struct stat st;
+    int ok = fstat(fileno(f), &st) == 0;
+    fclose(f);
+    const char *count = strstr(head, "element vertex "), *end = strstr(head, "end_header\n");
+    if (!ok || !count || !end) return 0;
+    unsigned long long n = strtoull(count + 15, NULL, 10);
+    return (unsigned long long)st.st_size == (unsigned long long)(end + 11 - head) + 30 * n;
+}
+
 /* Every requested frame has a checkpoint from the same inputs: the cache is
  * current. Missing particle files are rewritten from their checkpoints. Only
  * headers are read, except the last frame's, which is checked whole.
@@ -70,6 +88,11 @@ static int cache_current(const kf_shot *shot, const char *out, kf_scene *sc, uin
         kf_frame_paths rp;
         kf_frame_paths_make(shot, out, f, &rp);
         int need_ply = shot->output_particles && access(rp.particles, R_OK) != 0;
+        if (shot->output_particles && !need_ply && !ply_complete(rp.particles)) {
+            fprintf(stderr, "kerf: frame %d: %s is damaged (cut short); writing it again from %s\n", f, rp.particles,
+                    rp.checkpoint);
+            need_ply = 1;
+        }
         if (f != shot->last && !need_ply) continue;
         if (kf_checkpoint_read(rp.checkpoint, sc->model, sc->state, NULL, err, sizeof err)) {
             fprintf(stderr, "kerf: cache: %s\n", err);
