@@ -303,6 +303,18 @@ if run_case messages; then
         "kerf: tiny: simulated frame 1004 \(resumed after frame 1003\) in dmgck/ \([0-9.]+ s\)" dmgck.err
     check "the remade checkpoint is the original, bit for bit" cmp -s good1004.kfc dmgck/checkpoints/tiny.1004.kfc
 
+    # a forged particle count (offset 16 = 0x7fffffffffffffff) in the last checkpoint: a heap
+    # overflow before, blamed on "different shot settings"; now damage, and the frame before is used
+    mkdir forged && cp -a good1004.kfc dmgck/checkpoints/tiny.1004.kfc && cp -a dmgck/. forged/
+    printf '\377\377\377\377\377\377\377\177' | dd of=forged/checkpoints/tiny.1004.kfc bs=1 seek=16 conv=notrunc status=none
+    size=$(stat -c %s forged/checkpoints/tiny.1004.kfc)
+    "$kerf" run tiny.yaml --out forged --frames 1001-1004 --resume "${quick[@]}" > /dev/null 2> forged.err; rc=$?
+    check "a resume over a forged particle count exits 0 (got $rc)" test $rc -eq 0
+    check "it names the forged count as damage" has forged.err \
+        "kerf: resume: skipping forged/checkpoints/tiny.1004.kfc: checkpoint checksum mismatch (file damaged: its header claims 9223372036854775807 particles, which $size bytes do not hold)"
+    check "and resumes from the frame before" has forged.err "kerf: resuming after frame 1003"
+    check "making frame 1004 again, bit for bit" cmp -s good1004.kfc forged/checkpoints/tiny.1004.kfc
+
     # after a resume the summary said "simulated frames 1001-1012"
     mkdir resumed && cp -a dmgck/. resumed/ # frames 1001-1004, as a run killed after 1004 leaves them
     "$kerf" run tiny.yaml --out resumed --frames 1001-1006 --resume "${quick[@]}" > /dev/null 2> resumed.err
