@@ -186,6 +186,60 @@ static void recovery_from_blowup(void) {
     kf_model_destroy(m);
 }
 
+/* The CFL-violation retry: a block gliding at 2 m/s (no gravity, no walls,
+ * stress free) under a fixed step of 1.6 cells' travel (0.04 s at Δx = 0.05)
+ * is "CFL violated" at its first substep; kf_advance goes back to the
+ * interval start and retries at 0.02 s (0.8 cells), which passes. The
+ * retried run must end on the bits of a run made at 0.02 s from the start
+ * (the snapshot restores everything), and with no retries left it fails,
+ * naming the violation and the cells moved. */
+static kf_state *glide_state(double dt_fixed, int retries, kf_model **mp) {
+    kf_sim_def sd = kf_default_sim_def();
+    sd.dx = 0.05;
+    sd.gravity[1] = 0;
+    sd.dt_fixed = dt_fixed;
+    sd.max_retries = retries;
+    sd.threads = 1;
+    int mat;
+    *mp = tu_model(&sd, "jello", 0, -1, 0, &mat);
+    kf_state *s = kf_state_create(*mp);
+    double lo[3] = {0.3, 0.3, 0.3}, hi[3] = {0.5, 0.5, 0.5}, v[3] = {2, 0, 0};
+    kf_state_fill_box(s, *mp, lo, hi, mat, v, 2, 0);
+    return s;
+}
+
+static void cfl_violation_retried(void) {
+    kf_model *m, *mr;
+    kf_state *s = glide_state(0.04, 4, &m), *ref = glide_state(0.02, 0, &mr);
+    kf_trouble tr = {0};
+    /* the violation itself, at the first substep */
+    kf_model *m1;
+    kf_state *s1 = glide_state(0.04, 0, &m1);
+    KT_CHECK(kf_step(m1, s1, 0.04, NULL, &tr) == 1, "a 1.6-cell substep is trouble");
+    KT_CHECK(strstr(tr.what, "CFL violated") != NULL, "the trouble is the CFL violation: '%s'", tr.what);
+    /* v dt / dx = 2 x 0.04 / 0.05; velocities are float */
+    KT_NEAR(tr.value, 1.6, 1e-5, "cells moved in the substep: |v| dt / dx");
+    kf_step_stats st = {0}, st_ref = {0};
+    char msg[512] = "";
+    int rc = kf_advance(m, s, 0.08, &st, msg, sizeof msg);
+    KT_CHECK(rc == 0, "the retry at half the step recovers: %s", msg);
+    KT_CHECK(st.retries == 1, "one retry (1.6 -> 0.8 cells), got %d", st.retries);
+    KT_CHECK(kf_advance(mr, ref, 0.08, &st_ref, msg, sizeof msg) == 0 && st_ref.retries == 0, "reference: %s", msg);
+    KT_CHECK(st.substeps == st_ref.substeps + 1, "the retried interval: the failed 0.04 s substep, then the "
+             "reference's %ld, got %ld", st_ref.substeps, st.substeps);
+    KT_CHECK(kf_state_hash(s) == kf_state_hash(ref), "the retried interval ends on the bits of a run at 0.02 s "
+                                                     "from the start (%016llx vs %016llx)",
+             (unsigned long long)kf_state_hash(s), (unsigned long long)kf_state_hash(ref));
+    KT_NEAR(kf_state_time(s), 0.08, 1e-12, "the interval ends where asked");
+    /* no retries allowed: the run stops and says why */
+    rc = kf_advance(m1, s1, 0.08, NULL, msg, sizeof msg);
+    KT_CHECK(rc == 1, "with sim.max_retries = 0 the violation stops the run");
+    KT_CHECK(strstr(msg, "numerical trouble: CFL violated (cells moved per substep) (value 1.6") != NULL,
+             "message: %s", msg);
+    kf_state_destroy(s), kf_state_destroy(ref), kf_state_destroy(s1);
+    kf_model_destroy(m), kf_model_destroy(mr), kf_model_destroy(m1);
+}
+
 /* A fault that retries cannot cure (a NaN already in the state) stops the run
  * with a message naming the trouble, the particle and its material. */
 static void persistent_fault_reported(void) {
@@ -221,5 +275,6 @@ int main(int argc, char **argv) {
     KT_RUN(sparse_grid, argc, argv);
     KT_RUN(recovery_from_blowup, argc, argv);
     KT_RUN(persistent_fault_reported, argc, argv);
+    KT_RUN(cfl_violation_retried, argc, argv);
     return KT_EXIT();
 }
