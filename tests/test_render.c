@@ -223,13 +223,38 @@ static void test_silhouette_and_upright(void) {
     kf_render_destroy(r);
 }
 
+/* The largest per-tile mean |difference| (of 255) over tile x tile squares
+ * and the three colour channels; the tile holding it in *tx, *ty. */
+static double max_tile_diff(const uint8_t *a, const uint8_t *b, int W, int H, int tile, int *tx, int *ty) {
+    double worst = 0;
+    for (int y0 = 0; y0 < H; y0 += tile)
+        for (int x0 = 0; x0 < W; x0 += tile) {
+            double s = 0;
+            int n = 0;
+            for (int y = y0; y < y0 + tile && y < H; y++)
+                for (int x = x0; x < x0 + tile && x < W; x++, n++)
+                    for (int ch = 0; ch < 3; ch++)
+                        s += abs((int)a[4 * (y * W + x) + ch] - (int)b[4 * (y * W + x) + ch]);
+            s /= 3.0 * n;
+            if (s > worst) worst = s, *tx = x0 / tile, *ty = y0 / tile;
+        }
+    return worst;
+}
+
 /* A 64x48 image of two objects on the ground against tests/render_golden/.
  * Tolerance: mean absolute difference <= 1.0 (of 255) per channel. llvmpipe
  * is deterministic on one machine, but another CPU (AVX2 vs AVX-512 code
  * paths) or Mesa release may round a few edge samples or shadow-map texels
  * differently; that is well below 1.0 on average, while (measured on this
  * golden) shifting the image by one pixel gives 1.6-2.2 and brightening it by
- * 2% gives 2.5-2.7, both caught. */
+ * 2% gives 2.5-2.7, both caught.
+ * The whole-image mean misses local changes: rendering without shadows moves
+ * it by only 1.7 (of 255). So each 8x8 tile is compared too: its mean
+ * |difference| over the three channels must stay within 6 (measured here: 0;
+ * a tile with a few edge pixels rounded differently elsewhere stays far below
+ * 6). Measured on this golden, the largest tile moves 26.3 without shadows,
+ * 17.7 when shifted a pixel, 3.0 when 2% brighter (the mean catches that). */
+#define GOLDEN_TILE_TOL 6.0
 static void test_golden(void) {
     const int W = 64, H = 48;
     char err[256] = "", path[1024];
@@ -263,6 +288,25 @@ static void test_golden(void) {
                 for (int i = 0; i < W * H; i++) s += abs((int)img[4 * i + ch] - (int)gold[4 * i + ch]);
                 KT_NEAR(s / (W * H), 0.0, 1.0, "per-channel mean |diff| vs golden (see comment)");
             }
+            /* per 8x8 tile: a local change (a shadow, a missing object) is not
+             * averaged away over the whole image */
+            int tx = 0, ty = 0;
+            double worst = max_tile_diff(img, gold, W, H, 8, &tx, &ty);
+            printf("  largest 8x8 tile mean |diff| vs golden: %.3f (tile %d,%d)\n", worst, tx, ty);
+            KT_NEAR(worst, 0.0, GOLDEN_TILE_TOL, "per-tile mean |diff| vs golden (see comment)");
+            /* the check is not blind: the same scene without shadows fails it */
+            t.sc.shadows = 0;
+            uint8_t *alt = malloc((size_t)W * H * 4);
+            KT_CHECK(kf_render_frame(r, &t.sc, &cam, alt, err, sizeof err) == 0, "%s", err);
+            t.sc.shadows = 1;
+            double noshadow = max_tile_diff(alt, gold, W, H, 8, &tx, &ty), mean = 0;
+            for (int i = 0; i < W * H; i++)
+                for (int ch = 0; ch < 3; ch++) mean += abs((int)alt[4 * i + ch] - (int)gold[4 * i + ch]);
+            mean /= 3.0 * W * H;
+            printf("  without shadows: largest tile %.3f (tile %d,%d), whole-image mean %.3f\n", noshadow, tx, ty, mean);
+            KT_CHECK(noshadow > 2 * GOLDEN_TILE_TOL, "removing the shadows must fail the tile check by a margin "
+                     "(largest tile %.3f, tolerance %.1f; measured 26.3)", noshadow, GOLDEN_TILE_TOL);
+            free(alt);
         }
     }
     free(gold);
