@@ -143,6 +143,9 @@ typedef enum kf_rigid_motion { KF_RIGID_STATIC = 0, KF_RIGID_KINEMATIC, KF_RIGID
  * body's index in one 32-bit word beside its distance (paper §5.2.3). */
 #define KF_MAX_RIGIDS 14
 
+/* penalty and push left to kerf: sized from the substep, the grid and the material */
+#define KF_RIGID_AUTO (-1.0)
+
 typedef struct kf_rigid_def {
     char name[32];
     /* the surface in the mesh's own frame, metres; a closed solid is wound
@@ -314,6 +317,12 @@ typedef struct kf_step_stats {
     long active_blocks;        /* grid blocks (4³ nodes) at the last substep */
     double max_cfl;            /* largest (c + |v|) Δt / Δx seen */
     double dt_min, dt_max;
+    double max_cells_moved;    /* fastest particle, cells per substep */
+    /* thin boundaries (CPIC): particles whose path passed through a rigid
+     * surface, caught and put back on their own side, and how far behind the
+     * surface the deepest would have been, in cells */
+    long thin_caught;
+    double thin_deepest;
     int retries;               /* frames retried at a smaller CFL number */
     long warnings;             /* counted warnings (see message) */
 } kf_step_stats;

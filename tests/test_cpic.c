@@ -125,7 +125,7 @@ static long blade_cuts_block_with(int closed) {
     while (t < 0.3 - 1e-9) {
         kf_trouble tr;
         int rc = kf_step(m, s, dt, &st, &tr);
-        KT_CHECK(rc == 0, "substep at t = %g: %s", t, tr.what);
+        KT_CHECK(rc == 0, "substep at t = %g: %s (value %g, particle %u)", t, tr.what, tr.value, tr.particle);
         if (rc) break;
         t += dt;
         /* the blade now spans y in [bottom, bottom + H] */
@@ -612,14 +612,24 @@ static double block_floats_at(int cells) {
         tilt = acos(fmin(1, fmax(fabs(pose.R[3]), fmax(fabs(pose.R[4]), fabs(pose.R[5]))))) * 180 / 3.14159265358979;
     }
     double vdraft = disp_sum / samples / (W * W), rms_v = sqrt(v2_sum / samples);
+    long inside = 0; /* water inside the block at the end (leaked through its faces) */
+    {
+        kf_rigid_pose pose = kf_state_rigid(s, 0);
+        kf_particles_view pv = kf_state_particles_read(s);
+        for (size_t i = 0; i < pv.n; i++) {
+            double q[3] = {pv.x[0][i] - pose.com[0], pv.x[1][i] - pose.com[1], pv.x[2][i] - pose.com[2]}, l[3];
+            for (int a = 0; a < 3; a++) l[a] = pose.R[a] * q[0] + pose.R[3 + a] * q[1] + pose.R[6 + a] * q[2];
+            inside += fabs(l[0]) < W / 2 && fabs(l[1]) < H / 2 && fabs(l[2]) < W / 2;
+        }
+    }
     printf("  floating block, %d cells/m: draft %.4f m from its displaced volume (Archimedes %.4f m, error %+.2f cells), "
            "lowest corner %.4f m below the surface, tilt %.1f deg, rms vertical speed %.3f m/s; %ld substeps, %.1f M "
-           "particle-steps/s, cdf %.0f ms, rigid %.0f ms\n",
+           "particle-steps/s, cdf %.0f ms, rigid %.0f ms; crossings caught %ld (deepest %.2f cells), %ld particles inside the block\n",
            cells, vdraft, archimedes, (vdraft - archimedes) / sd.dx, draft, tilt, rms_v, st.substeps,
            st.particle_steps / 1e3 / (st.ms[KF_STAGE_P2G] + st.ms[KF_STAGE_G2P] + st.ms[KF_STAGE_GRID] +
                                       st.ms[KF_STAGE_SORT] + st.ms[KF_STAGE_STRESS] + st.ms[KF_STAGE_CDF] +
                                       st.ms[KF_STAGE_RIGID]),
-           st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID]);
+           st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID], st.thin_caught, st.thin_deepest, inside);
     KT_NEAR(vdraft, archimedes, 0.25 * sd.dx, "the floating block's draft (displaced volume / cross-section, m)");
     KT_CHECK(rms_v < 0.05, "the block has come to rest (rms vertical speed %g m/s)", rms_v);
     KT_CHECK(tilt < 10, "the stable block floats upright (tilt %.1f deg)", tilt);

@@ -37,6 +37,8 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->best_stamp);
     free(c->slot);
     free(c->imp);
+    free(c->guard_caught);
+    free(c->guard_depth);
     free(c->pd);
     free(c->pn);
     free(c->near);
@@ -227,6 +229,7 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
         }
         if (apart) continue;
         for (size_t e = 0; e < b->nseed; e++) {
+            if (b->tri_edge && b->tri_edge[b->seed_tri[e]]) continue; /* a blade's narrow side: its sheet's edge */
             const float *o = &b->seed[3 * e];
             double x[3];
             for (int a = 0; a < 3; a++)
@@ -246,10 +249,14 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     c->band_owners = (long)c->nslot;
     if (c->nslot > c->cap_slot) {
         size_t cap = c->nslot + c->nslot / 2 + 16;
-        if (grow((void **)&c->imp, sizeof c->imp[0], cap)) return -1;
+        if (grow((void **)&c->imp, sizeof c->imp[0], cap) || grow((void **)&c->guard_caught, sizeof(long), cap) ||
+            grow((void **)&c->guard_depth, sizeof(double), cap))
+            return -1;
         c->cap_slot = cap;
     }
     memset(c->imp, 0, c->nslot * sizeof c->imp[0]);
+    memset(c->guard_caught, 0, c->nslot * sizeof(long));
+    memset(c->guard_depth, 0, c->nslot * sizeof(double));
     /* particles outside the band touch no coloured node: their colour lapses (§5.3.3) */
     kf_particles *p = &s->p;
     for (size_t k = 0; k < g->nowner; k++)
@@ -258,5 +265,6 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
                 if (p->colour[i]) p->colour[i] = 0;
     c->dt = dt;
     for (int a = 0; a < 3; a++) c->gdt[a] = dt * m->sim.gravity[a];
+    kf_cpic_guard_poses(m, s, dt);
     return 0;
 }

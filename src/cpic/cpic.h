@@ -79,6 +79,14 @@ typedef struct kf_cpic {
     double impulse_total[KF_MAX_RIGIDS][6];
     /* the substep's pinned constants */
     double dt, gdt[3];
+    /* the crossing guard (guard.c): every body's pose at the substep's end,
+     * and per owner slot the crossings caught and the deepest (m) */
+    kf_rigid_state end[KF_MAX_RIGIDS];
+    long *guard_caught;
+    double *guard_depth;
+    /* the substep's guard totals (kf_cpic_finish) */
+    long caught;
+    double caught_depth;
 } kf_cpic;
 
 void kf_cpic_free(kf_cpic *c);
@@ -105,6 +113,25 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                        size_t i0, const void *cache, int classic);
 /* after G2P's advection: the penalty on slightly penetrated particles (Eq. 22) */
 void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, int n);
+
+/* The crossing guard (guard.c): the bodies' poses at the substep's end
+ * (called by the splat), and after a chunk's advection, every particle whose
+ * path relative to a body passed through it put back on its own side.
+ * xold: the chunk's positions before advection, [3][KF_CHUNK] flat. */
+void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt);
+void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const struct chunk *ck,
+                   size_t i0, const kf_real *xold);
+
+/* J (linear impulse at world point x) and its moment about the body's com, added to imp[6] */
+static inline void kf_cpic_add_impulse(double *imp, const kf_rigid_state *st, const double x[3], const double J[3]) {
+    double r0 = x[0] - st->com[0], r1 = x[1] - st->com[1], r2 = x[2] - st->com[2];
+    imp[0] += J[0];
+    imp[1] += J[1];
+    imp[2] += J[2];
+    imp[3] += r1 * J[2] - r2 * J[1];
+    imp[4] += r2 * J[0] - r0 * J[2];
+    imp[5] += r0 * J[1] - r1 * J[0];
+}
 
 /* Sum the impulses and advance the rigid bodies to t + dt. */
 void kf_cpic_finish(const kf_model *m, kf_state *s, double dt);

@@ -74,15 +74,6 @@ static inline void affine_velocity(const kf_particles *p, size_t i, int apic, co
     }
 }
 
-static void add_impulse(double *imp, const kf_rigid_state *st, const double x[3], const double J[3]) {
-    double r0 = x[0] - st->com[0], r1 = x[1] - st->com[1], r2 = x[2] - st->com[2];
-    imp[0] += J[0];
-    imp[1] += J[1];
-    imp[2] += J[2];
-    imp[3] += r1 * J[2] - r2 * J[1];
-    imp[4] += r2 * J[0] - r0 * J[2];
-    imp[5] += r0 * J[1] - r1 * J[0];
-}
 
 /* Solve the symmetric 4x4 system M c = y (Gaussian elimination with partial
  * pivoting); returns det M. */
@@ -165,7 +156,7 @@ static int acquire_side(const chunk *ck, int j, const uint32_t *col, const float
  * distance and normal. Writes the colour, pd, pn and near (r*+1 of the
  * fit's closest node, 0 when the fit failed). */
 static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck, int j, const uint32_t *col,
-                         const float *dist, double dx) {
+                         const float *dist, double dx, const uint8_t *thin_body) {
     const double inv_dx = 1 / dx;
     const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
     uint32_t B = 0;
@@ -174,6 +165,23 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
             for (int k = 0; k < 3; k++) B |= col[o + (a * NB + b) * NB + k] & AFF;
     /* drop bodies no kernel node is close to; keep the rest as they are */
     uint32_t cp = p->colour[i] & ((B | B >> 1));
+    /* ... unless every node near body r says the particle is on its other
+     * side: with the crossing guard (guard.c) nothing passes through a
+     * surface, so such a tag is stale, kept by a particle that went around
+     * an edge (a blade's tip) and drifted away from it, too far for the
+     * distance fit below to notice; the particle takes its nodes' side */
+    for (uint32_t held = cp & AFF; held; held &= held - 1) {
+        int bit = __builtin_ctz(held); /* 2r + 1 */
+        if (!thin_body[bit / 2]) continue; /* a solid has no edge to go around */
+        int agree = 0, differ = 0;
+        for (int a = 0; a < 27; a++) {
+            uint32_t cn = col[o + (a / 9 * NB + a / 3 % 3) * NB + a % 3];
+            if (!(cn >> bit & 1)) continue;
+            if ((cn ^ cp) >> (bit - 1) & 1) differ++;
+            else agree++;
+        }
+        if (differ && !agree) cp ^= 1u << (bit - 1);
+    }
     /* acquire: the side of the distance-weighted majority (Eq. 21) */
     for (uint32_t need = B & ~cp; need; need &= need - 1) {
         int bit = __builtin_ctz(need); /* 2r + 1 */
@@ -188,7 +196,7 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     /* MLS fit of the nodes' distances, signed relative to the particle */
     double M[4][4] = {{0}}, y[4] = {0}, coef[4];
     float closest = 1e30f;
-    int rstar = -1;
+    int rstar = -1, first_body = -1, mixed = 0;
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++)
             for (int k = 0; k < 3; k++) {
@@ -201,11 +209,25 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
                 double sgn = flips ? -dist[q] : dist[q];
                 double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
                 fit_add(M, y, w, sgn, ck, j, a, b, k, inv_dx);
+                if (first_body < 0) first_body = (int)(cn >> KF_CPIC_RSTAR_SHIFT);
+                mixed |= (int)(cn >> KF_CPIC_RSTAR_SHIFT) != first_body;
                 if (dist[q] < closest) closest = dist[q], rstar = (int)(cn >> KF_CPIC_RSTAR_SHIFT) - 1;
             }
     double det = solve4(M, y, coef);
     if (!(fabs(det) > 1e-4)) return; /* too few nodes: colour kept, no distance (a full stencil gives 1/64) */
     double g2 = coef[0] * coef[0] + coef[1] * coef[1] + coef[2] * coef[2];
+    /* A tag that disagrees with the geometry by more than a quarter cell is
+     * stale, not a penetration: the crossing guard (guard.c) lets no
+     * particle through a surface, so a particle only gets "behind" one by
+     * going around its edge (a blade's tip, a plate's rim) while it kept
+     * affinity, its old tag naming the side it left. Kept, it would treat
+     * its own side's nodes as the far side's. It takes the side it is on.
+     * Only where one body is the closest at every node of the fit: where
+     * surfaces meet, the fit mixes their distances and its sign is no guide. */
+    if (coef[3] < -0.25 && !mixed && rstar >= 0 && (cp >> (2 * rstar + 1) & 1) && thin_body[rstar]) {
+        p->colour[i] = cp ^ (1u << (2 * rstar));
+        for (int a = 0; a < 4; a++) coef[a] = -coef[a];
+    }
     c->near[i] = (uint8_t)(rstar + 1);
     c->pd[i] = (float)(coef[3] * dx);
     if (g2 > 1e-4) {
@@ -226,9 +248,11 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx;
     const int apic = m->sim.transfer == KF_TRANSFER_APIC;
+    uint8_t thin_body[KF_MAX_RIGIDS];
+    for (int r = 0; r < m->nrigid; r++) thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
-        particle_cdf(c, p, i, ck, j, col, dist, dx);
+        particle_cdf(c, p, i, ck, j, col, dist, dx, thin_body);
         const uint32_t cp = p->colour[i];
         /* no affinity to any body: every node is compatible, the ordinary scatter */
         if (!(cp & AFF)) {
@@ -273,7 +297,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                     double cd[3];
                     affine_velocity(p, i, apic, d, cd);
                     for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (c->gdt[e] - u[e] - cd[e]);
-                    add_impulse(imp + 6 * r, &s->rigid[r], xi, J);
+                    kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], xi, J);
                 }
     }
 }
@@ -319,13 +343,14 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                         kept_velocity(m, s, r, xi, vp, np, vi);
                         affine_velocity(p, i, apic, d, cd);
                         double push = m->rigid[r].def.push;
+                        if (push == KF_RIGID_AUTO) push = 0;
                         if (push != 0 && c->near[i]) {
                             double J[3];
                             for (int e = 0; e < 3; e++) {
                                 vi[e] += dt * push * np[e];
                                 J[e] = -w * mass * dt * push * np[e];
                             }
-                            add_impulse(imp + 6 * r, &s->rigid[r], xi, J);
+                            kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], xi, J);
                         }
                     }
                     const double gw[3] = {(double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j],
@@ -367,8 +392,29 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
          * kernel (1 cell for a thin body, 2 inside a solid) the fit is not
          * trusted. */
         double depth = m->rigid[r].def.thin ? dx : 2 * dx, half = 0.5 * cbrt((double)p->vol0[i]);
-        if (k <= 0 || !(d < half && d > -depth)) continue;
+        if (k == 0 || !(d < half && d > -depth)) continue;
         d -= half;
+        if (k == KF_RIGID_AUTO) {
+            /* auto: a stabilised contact (Baumgarte, as rigid-body engines
+             * do): the particle leaves the skin no slower than a fifth of its
+             * overlap per substep, relative to the body, and is never kicked
+             * faster than that, so nothing bounces or jitters; a particle
+             * already leaving fast enough is left alone */
+            double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, V[3], J[3];
+            kf_rigid_point_velocity(&c->end[r], x, V);
+            const float *nrm = &c->pn[3 * i];
+            double wn = 0;
+            for (int a = 0; a < 3; a++) wn += ((double)p->v[a][i] - V[a]) * nrm[a];
+            double want = -0.2 * d / c->dt;
+            if (wn >= want) continue;
+            for (int a = 0; a < 3; a++) {
+                double dv = (want - wn) * nrm[a];
+                p->v[a][i] += (kf_real)dv;
+                J[a] = -p->mass[i] * dv;
+            }
+            kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], x, J);
+            continue;
+        }
         /* the penetration closes at rate k, but never faster than within this
          * substep: k Δt <= 1 (a larger kick would overshoot and, repeated
          * every substep, blow up) */
@@ -379,7 +425,7 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
             p->v[a][i] += (kf_real)dv;
             J[a] = -p->mass[i] * dv;
         }
-        add_impulse(imp + 6 * r, &s->rigid[r], x, J);
+        kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], x, J);
     }
 }
 
@@ -392,5 +438,11 @@ void kf_cpic_finish(const kf_model *m, kf_state *s, double dt) {
             for (int e = 0; e < 6; e++) c->impulse[r][e] += c->imp[k][r][e];
     for (int r = 0; r < m->nrigid; r++)
         for (int e = 0; e < 6; e++) c->impulse_total[r][e] += c->impulse[r][e];
+    c->caught = 0;
+    c->caught_depth = 0;
+    for (size_t k = 0; k < c->nslot; k++) {
+        c->caught += c->guard_caught[k];
+        if (c->guard_depth[k] > c->caught_depth) c->caught_depth = c->guard_depth[k];
+    }
     kf_rigid_sim_step(s->rsim, m->rigid, m->nrigid, s->rigid, s->time, dt, (const double(*)[6])c->impulse);
 }

@@ -47,6 +47,7 @@ struct kf_state {
     kf_rigid_state snapshot_rigid[KF_MAX_RIGIDS];
     void *snapshot_rsim; /* kf_rigid_sim_save bytes */
     size_t snapshot_rsim_size;
+    double drive_cells; /* the fastest rigid surface so far, cells per substep (step.c's speed bound) */
     int fault_done;    /* the testing fault (kf_sim_def.fault_substep) has happened */
     struct kf_cpic *cpic; /* CPIC scratch (grid colored distance field, particle distances), src/cpic */
     /* implicit midpoint: per particle (dv, dC) the G2P of the grid's

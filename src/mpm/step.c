@@ -29,8 +29,13 @@ static void set_trouble(kf_trouble *t, const kf_state *s, size_t i, const char *
     t->value = value;
 }
 
+static double rigid_max_speed(const kf_model *m, const kf_state *s);
+
 int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_trouble *trouble) {
     kf_trouble none;
+    /* the fastest rigid surface over the substep (start and end), cells: the
+     * material it drives moves as fast, and its elastic rebound twice as fast */
+    double body_cells = m->nrigid ? rigid_max_speed(m, s) * dt / m->sim.dx : 0;
     if (!trouble) trouble = &none;
     memset(trouble, 0, sizeof *trouble);
     const kf_real rdt = (kf_real)dt;
@@ -110,6 +115,11 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     /* rigid bodies: the material's impulses, contacts, joints, advection */
     if (m->nrigid) {
         kf_cpic_finish(m, s, dt);
+        if (st) {
+            st->thin_caught += s->cpic->caught;
+            double deep = s->cpic->caught_depth / m->sim.dx;
+            if (deep > st->thin_deepest) st->thin_deepest = deep;
+        }
         t0 = kf_now_ms();
         if (st) st->ms[KF_STAGE_RIGID] += t0 - t1;
     }
@@ -123,11 +133,22 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
         if (st->dt_min == 0 || dt < st->dt_min) st->dt_min = dt;
         if (dt > st->dt_max) st->dt_max = dt;
     }
+    if (st && res.max_cells > st->max_cells_moved) st->max_cells_moved = res.max_cells;
     if (res.trouble.found) {
         *trouble = res.trouble;
         return 1;
     }
-    if (res.max_cells > m->sim.max_cells_per_step) {
+    if (m->nrigid) {
+        double end_cells = rigid_max_speed(m, s) * dt / m->sim.dx;
+        if (end_cells > body_cells) body_cells = end_cells;
+    }
+    /* material a body drives moves as fast as the body, and rebounds at up to
+     * twice its speed, for as long as it coasts after the body stops: under a
+     * fixed step that may be more than the CFL bound, and is not trouble */
+    if (body_cells > s->drive_cells) s->drive_cells = body_cells;
+    double limit = m->sim.max_cells_per_step;
+    if (m->sim.dt_fixed > 0 && 2.5 * s->drive_cells > limit) limit = 2.5 * s->drive_cells;
+    if (res.max_cells > limit) {
         /* moving more than the kernel tolerates: report the fastest particle */
         size_t fast = 0;
         kf_real best = -1;

@@ -22,6 +22,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "../core/expm.h"
 #include "../core/mat3.h"
 #include "model.h"
 
@@ -140,6 +141,10 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
     if (trouble) *trouble = total.trouble;
 }
 
+/* |Δt L|² beyond which G2P steps F by exp(Δt L): 0.1², where the linear
+ * step's error (|Δt L|²/2) passes half a percent */
+#define KF_EXPM_FROM2 0.01
+
 /* ---- G2P ---------------------------------------------------------------------- */
 
 KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
@@ -189,6 +194,11 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
             for (int k = 0; k < 9; k++)
                 for (int j = 0; j < n; j++) L[k][j] *= minv;
 
+        /* near a rigid surface, where each particle starts: the guard follows its path */
+        kf_real xold[3 * KF_CHUNK];
+        if (band)
+            for (int a = 0; a < 3; a++) memcpy(&xold[a * KF_CHUNK], p->x[a] + i0, sizeof(kf_real) * (size_t)n);
+
         /* velocity and advection */
         for (int a = 0; a < 3; a++) {
             kf_real *restrict v = p->v[a] + i0, *restrict x = p->x[a] + i0;
@@ -214,6 +224,25 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
                 J[j] = Fn[0][j] * (Fn[4][j] * Fn[8][j] - Fn[5][j] * Fn[7][j]) -
                        Fn[1][j] * (Fn[3][j] * Fn[8][j] - Fn[5][j] * Fn[6][j]) +
                        Fn[2][j] * (Fn[3][j] * Fn[7][j] - Fn[4][j] * Fn[6][j]);
+            /* where the step deforms by more than a few percent (a body
+             * driving material a large fraction of a cell per substep), the
+             * exact step exp(Δt L) F instead: det stays positive (expm.h) */
+            for (int j = 0; j < n; j++) {
+                kf_real a2 = 0;
+                for (int k = 0; k < 9; k++) a2 += L[k][j] * L[k][j];
+                if (!(a2 * dt * dt > (kf_real)KF_EXPM_FROM2)) continue;
+                size_t i = i0 + (size_t)j;
+                double A[9], E[9];
+                for (int k = 0; k < 9; k++) A[k] = (double)dt * L[k][j];
+                kf_expm3(A, E);
+                for (int rr = 0; rr < 3; rr++)
+                    for (int cc = 0; cc < 3; cc++)
+                        Fn[3 * rr + cc][j] = (kf_real)(E[3 * rr] * F[cc][i] + E[3 * rr + 1] * F[3 + cc][i] +
+                                                       E[3 * rr + 2] * F[6 + cc][i]);
+                J[j] = Fn[0][j] * (Fn[4][j] * Fn[8][j] - Fn[5][j] * Fn[7][j]) -
+                       Fn[1][j] * (Fn[3][j] * Fn[8][j] - Fn[5][j] * Fn[6][j]) +
+                       Fn[2][j] * (Fn[3][j] * Fn[7][j] - Fn[4][j] * Fn[6][j]);
+            }
         }
 
         /* water keeps F = I and tracks J ← (1 + Δt tr L) J instead */
@@ -227,14 +256,20 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
             for (int j = 0; j < n; j++) {
                 size_t i = i0 + (size_t)j;
                 if (m->mat[p->mat[i]].model != KF_MAT_WATER) continue;
-                J[j] = p->ps[0][i] * (1 + dt * (L[0][j] + L[4][j] + L[8][j]));
+                kf_real div = dt * (L[0][j] + L[4][j] + L[8][j]);
+                /* exp(Δt tr L) where the linear step could reach 0 (as for F above) */
+                J[j] = p->ps[0][i] * (div * div > (kf_real)KF_EXPM_FROM2 ? kf_exp(div) : 1 + div);
                 p->ps[0][i] = J[j];
                 for (int k = 0; k < 9; k++) p->F[k][i] = (kf_real)(k % 4 == 0);
             }
         }
 
-        /* slightly penetrated particles pushed back out (Eq. 22) */
-        if (band) kf_cpic_penalty(m, s, r, i0, n);
+        /* slightly penetrated particles pushed back out (Eq. 22); then
+         * nothing may have passed through a surface (guard.c) */
+        if (band) {
+            kf_cpic_penalty(m, s, r, i0, n);
+            kf_cpic_guard(m, s, r, &oc, ck, i0, xold);
+        }
 
         /* numerical trouble: non-finite, volume out of range, too fast */
         int bad = 0;

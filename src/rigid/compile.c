@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bvh.h"
 #include "mass.h"
 #include "rigid.h"
 #include "thin.h"
@@ -82,8 +83,10 @@ static int check(const kf_rigid_def *d, double dx, char *err, size_t errlen) {
         return fail(err, errlen, "rigid %s: center, position, rotate, velocity and angular_velocity must be finite",
                     nm);
     if (!isfinite(d->friction) || d->friction < 0) return fail(err, errlen, "rigid %s: friction must be >= 0", nm);
-    if (!isfinite(d->penalty) || d->penalty < 0) return fail(err, errlen, "rigid %s: penalty must be >= 0", nm);
-    if (!isfinite(d->push) || d->push < 0) return fail(err, errlen, "rigid %s: push must be >= 0", nm);
+    if (!isfinite(d->penalty) || (d->penalty < 0 && d->penalty != KF_RIGID_AUTO))
+        return fail(err, errlen, "rigid %s: penalty must be >= 0 (or auto)", nm);
+    if (!isfinite(d->push) || (d->push < 0 && d->push != KF_RIGID_AUTO))
+        return fail(err, errlen, "rigid %s: push must be >= 0 (or auto)", nm);
     if (d->motion == KF_RIGID_KINEMATIC) {
         if (d->nkeys < 0 || d->nkeys > KF_MAX_KEYS)
             return fail(err, errlen, "rigid %s: %d keys, at most %d", nm, d->nkeys, KF_MAX_KEYS);
@@ -105,6 +108,51 @@ static int check(const kf_rigid_def *d, double dx, char *err, size_t errlen) {
     return 0;
 }
 
+/* The triangles the crossing guard (src/cpic/guard.c) keeps material from
+ * passing through, in an Embree scene. All of them, except on a closed thin
+ * body (a blade with two faces), whose narrow sides facing across its axis
+ * are the sheet's edges: CPIC treats such a body as one sheet with a front
+ * and a back (thin.c), whose edges the two sides share. Those triangles are
+ * marked (tri_edge) and the colored distance field leaves them out too: a
+ * node below a blade's 2 mm bottom face would otherwise take its side from
+ * that face's plane, which says nothing about front and back, and material
+ * under the edge would acquire that side. */
+static int guard_surface(kf_rigid_body *b, const double axis[3]) {
+    int *keep = malloc(sizeof(int) * 3 * (size_t)b->ntri);
+    b->guard_tri = malloc(sizeof(int) * (size_t)b->ntri);
+    b->tri_edge = calloc((size_t)b->ntri, 1);
+    if (!keep || !b->guard_tri || !b->tri_edge) return free(keep), -1;
+    const int sheet = axis[0] != 0 || axis[1] != 0 || axis[2] != 0;
+    int n = 0;
+    for (int t = 0; t < b->ntri; t++) {
+        const int *f = &b->tri[3 * t];
+        const double *p0 = &b->vert[3 * f[0]], *p1 = &b->vert[3 * f[1]], *p2 = &b->vert[3 * f[2]];
+        double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]}, e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+        double nn[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+        double a2 = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+        if (sheet && fabs(nn[0] * axis[0] + nn[1] * axis[1] + nn[2] * axis[2]) < 0.3 * a2) {
+            b->tri_edge[t] = 1; /* an edge */
+            continue;
+        }
+        memcpy(&keep[3 * n], f, 3 * sizeof(int));
+        b->guard_tri[n++] = t;
+    }
+    b->nguard_tri = n;
+    /* a blade's thickness: its extent along the axis */
+    if (sheet) {
+        double lo = 1e300, hi = -1e300;
+        for (int v = 0; v < b->nvert; v++) {
+            double x = b->vert[3 * v] * axis[0] + b->vert[3 * v + 1] * axis[1] + b->vert[3 * v + 2] * axis[2];
+            lo = x < lo ? x : lo, hi = x > hi ? x : hi;
+        }
+        b->sheet_thickness = hi - lo;
+    }
+    char why[160];
+    b->bvh = n ? kf_rigid_bvh_build(b->vert, b->nvert, keep, n, why, sizeof why) : NULL;
+    free(keep);
+    return n && !b->bvh ? -1 : 0;
+}
+
 int kf_rigid_compile(kf_rigid_body *b, const kf_rigid_def *d, double dx, char *err, size_t errlen) {
     memset(b, 0, sizeof *b);
     if (check(d, dx, err, errlen)) return -1;
@@ -123,8 +171,9 @@ int kf_rigid_compile(kf_rigid_body *b, const kf_rigid_def *d, double dx, char *e
     b->def.vertices = b->vert;
     b->def.triangles = b->tri;
     /* a closed thin body (a blade with two faces) gets one front and one back */
+    double sheet_axis[3] = {0, 0, 0};
     if (d->thin && closed_mesh(b->tri, b->ntri, b->nvert) &&
-        kf_rigid_orient_thin(b->vert, b->nvert, b->tri, b->ntri, dx, nm, err, errlen)) {
+        kf_rigid_orient_thin(b->vert, b->nvert, b->tri, b->ntri, dx, nm, err, errlen, sheet_axis)) {
         kf_rigid_body_free(b);
         return -1;
     }
@@ -177,6 +226,10 @@ int kf_rigid_compile(kf_rigid_body *b, const kf_rigid_def *d, double dx, char *e
         kf_rigid_body_free(b);
         return fail(err, errlen, "rigid %s: could not seed the surface", nm);
     }
+    if (guard_surface(b, sheet_axis)) {
+        kf_rigid_body_free(b);
+        return fail(err, errlen, "rigid %s: could not index the surface for the crossing guard", nm);
+    }
     return 0;
 }
 
@@ -185,6 +238,10 @@ void kf_rigid_body_free(kf_rigid_body *b) {
     free(b->tri);
     free(b->seed);
     free(b->seed_tri);
+    kf_rigid_bvh_free(b->bvh);
+    free(b->guard_tri);
+    free(b->tri_edge);
+    b->bvh = NULL, b->guard_tri = NULL, b->tri_edge = NULL;
     b->vert = NULL, b->tri = NULL, b->seed = NULL, b->seed_tri = NULL;
     b->nseed = 0;
 }

@@ -38,6 +38,13 @@ typedef struct kf_rigid_body {
     size_t nseed;
     float *seed;        /* (nseed x 3) */
     int32_t *seed_tri;  /* (nseed) the triangle each seed lies on */
+    /* the triangles in an Embree scene (mesh frame): the crossing guard's
+     * segment queries (bvh.h, src/cpic/guard.c) */
+    struct kf_rigid_bvh *bvh; /* NULL when no triangle is guarded */
+    int *guard_tri;           /* (nguard_tri) the mesh triangle of each of its primitives */
+    int nguard_tri;
+    uint8_t *tri_edge;        /* (ntri) 1: a narrow side of a closed thin body, not part of its sheet */
+    double sheet_thickness;   /* a closed thin body (a blade with two faces): its thickness, m; else 0 */
 } kf_rigid_body;
 
 typedef struct kf_rigid_state {

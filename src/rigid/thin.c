@@ -18,7 +18,7 @@
 #include "thin.h"
 
 int kf_rigid_orient_thin(double *vert, int nvert, int *tri, int ntri, double dx, const char *name, char *err,
-                         size_t errlen) {
+                         size_t errlen, double axis_out[3]) {
     (void)dx;
     double c[3] = {0, 0, 0};
     for (int v = 0; v < nvert; v++)
@@ -35,6 +35,7 @@ int kf_rigid_orient_thin(double *vert, int nvert, int *tri, int ntri, double dx,
     for (int a = 1; a < 3; a++)
         if (s[a] < s[k]) k = a;
     double axis[3] = {V[k], V[3 + k], V[6 + k]};
+    if (axis_out) axis_out[0] = axis[0], axis_out[1] = axis[1], axis_out[2] = axis[2];
     /* a front and a back exist when most of the area faces along the axis
      * (a wavy blade tilts its normals, a bowl turns them sideways) */
     double area = 0, side_on = 0;

@@ -1,0 +1,186 @@
+/* guard.c — nothing passes through a rigid surface (issue 17).
+ *
+ * CPIC keeps the two sides of a thin surface apart on the grid, but the
+ * particles themselves are advected with interpolated velocities: a particle
+ * pressed against a moving sheet takes the sheet's velocity only in
+ * proportion to the weight of its ghost nodes, so a sheet moving a fraction
+ * of a cell per substep overtakes the particles in front of it, and a
+ * particle's advection error can carry it through (§5.3.3: "a particle may
+ * slightly penetrate a surface due to numerical advection error"). The
+ * paper answers with a weak penalty; that bounds nothing, and measured, 3,616
+ * of 14,400 sand particles ended up across a sheet at half a cell per substep.
+ *
+ * The guard makes the crossing impossible. After advection, each particle
+ * near a body (its stencil had affinity to it) is followed along its path
+ * relative to the body: the segment from where it was in the body's frame at
+ * the start of the substep to where it is in the body's frame at the end. If
+ * that segment passes through a triangle (an exact, watertight Embree query
+ * against the body's own mesh, bvh.h), the particle crossed: it is put back
+ * on the side it came from, at half its spacing from the triangle's plane
+ * (or where it started, if closer), keeping its motion along the surface; its velocity relative to the
+ * body loses its approaching normal part as the boundary type says (Eq. 25),
+ * and the momentum it loses goes to the body (Newton's third law). If the
+ * corrected path still passes through the surface (a concave fold), the
+ * correction is repeated, and after four tries the particle stays where it
+ * was relative to the body.
+ *
+ * The body's pose at the end of the substep is known for static and
+ * kinematic bodies; a dynamic body's is predicted from its velocity at the
+ * start (gravity included), which the material's impulses change by a small
+ * fraction of a cell; the penalty of Eq. 22 takes care of that remainder.
+ *
+ * Colours are untouched: a particle that never crosses keeps the side its
+ * colour records. */
+#include <math.h>
+
+#include "../mpm/collider.h"
+#include "../mpm/transfer_chunk.h"
+#include "../rigid/bvh.h"
+#include "../rigid/rmath.h"
+#include "cpic.h"
+
+#define NB KF_CPIC_NB
+
+/* the pose of every body at the substep's end (exact, or predicted for dynamic bodies) */
+void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt) {
+    kf_cpic *c = s->cpic;
+    for (int r = 0; r < m->nrigid; r++) {
+        const kf_rigid_body *b = &m->rigid[r];
+        kf_rigid_state *e = &c->end[r];
+        if (b->def.motion != KF_RIGID_DYNAMIC) {
+            kf_rigid_state_at(b, s->time + dt, e);
+            continue;
+        }
+        const kf_rigid_state *st = &s->rigid[r];
+        double wdt[3] = {st->w[0] * dt, st->w[1] * dt, st->w[2] * dt}, Q[9], cm[3];
+        rm_rotvec(wdt, Q);
+        rm_mm(Q, st->R, e->R);
+        for (int a = 0; a < 3; a++) {
+            e->v[a] = st->v[a] + m->sim.gravity[a] * dt;
+            e->w[a] = st->w[a];
+            e->com[a] = st->com[a] + e->v[a] * dt;
+        }
+        rm_mv(e->R, b->com, cm);
+        for (int a = 0; a < 3; a++) e->t[a] = e->com[a] - cm[a];
+    }
+}
+
+/* world -> mesh frame of pose st */
+static inline void to_mesh(const kf_rigid_state *st, const double x[3], double p[3]) {
+    double q[3] = {x[0] - st->t[0], x[1] - st->t[1], x[2] - st->t[2]};
+    rm_mtv(st->R, q, p);
+}
+
+/* the unit normal and the offset of triangle k's plane, mesh frame */
+static inline void tri_plane(const kf_rigid_body *b, int k, double n[3], double *off) {
+    const double *a = &b->vert[3 * b->tri[3 * k]], *p = &b->vert[3 * b->tri[3 * k + 1]],
+                 *q = &b->vert[3 * b->tri[3 * k + 2]];
+    double e1[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]}, e2[3] = {q[0] - a[0], q[1] - a[1], q[2] - a[2]};
+    rm_cross(e1, e2, n);
+    double nn = sqrt(rm_dot(n, n));
+    for (int i = 0; i < 3; i++) n[i] = nn > 0 ? n[i] / nn : 0;
+    *off = rm_dot(n, a);
+}
+
+/* Follow one particle's path relative to body r; fix it if it crossed.
+ * Returns the depth it would have been behind (m), or 0 when it did not cross. */
+static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, const double xold[3], double *imp) {
+    const kf_rigid_body *b = &m->rigid[r];
+    const kf_cpic *c = s->cpic;
+    kf_particles *p = &s->p;
+    double x1[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, p0[3], p1[3], t;
+    if (!b->bvh) return 0;
+    to_mesh(&s->rigid[r], xold, p0);
+    to_mesh(&c->end[r], x1, p1);
+    int k = kf_rigid_bvh_first_hit(b->bvh, p0, p1, &t);
+    if (k < 0) return 0;
+    /* a particle that got between the two faces of a blade (through its
+     * unguarded edge) is let out: looking back along its path, the other face
+     * is within the blade's thickness */
+    if (b->sheet_thickness > 0) {
+        double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]}, len = sqrt(rm_dot(d, d)), back[3], tb;
+        if (len > 0) {
+            for (int a = 0; a < 3; a++) back[a] = p0[a] - d[a] / len * 1.5 * b->sheet_thickness;
+            if (kf_rigid_bvh_first_hit(b->bvh, p0, back, &tb) >= 0) return 0;
+        }
+    }
+    const double eps = 0.01 * m->sim.dx, half = 0.5 * cbrt((double)p->vol0[i]);
+    double n[3], off, depth = 0, side_n[3], side = 1;
+    for (int tries = 0; k >= 0; tries++) {
+        tri_plane(b, b->guard_tri[k], n, &off);
+        double s0 = rm_dot(n, p0) - off, s1 = rm_dot(n, p1) - off;
+        side = s0 >= 0 ? 1 : -1;
+        if (tries == 0) depth = fabs(s1);
+        for (int a = 0; a < 3; a++) side_n[a] = side * n[a];
+        if (tries == 4) {
+            /* a fold it keeps crossing: it stays where it was relative to the body */
+            for (int a = 0; a < 3; a++) p1[a] = p0[a];
+            break;
+        }
+        /* back onto its own side, its motion along the plane kept: at half
+         * its spacing from the plane (a particle stands for a cube of side
+         * vol0^(1/3), and the penalty keeps that cube out of a body, so this
+         * is where it rests either way), or where it started if that was
+         * closer (the guard adds no motion away from the surface), but at
+         * least a hair */
+        double place = fabs(s0) < half ? fabs(s0) : half;
+        if (place < eps) place = eps;
+        for (int a = 0; a < 3; a++) p1[a] -= (s1 - side * place) * n[a];
+        k = kf_rigid_bvh_first_hit(b->bvh, p0, p1, &t);
+    }
+    /* its colour for r names the side it is on, as a node's would (T = behind
+     * the triangle's normal, cdf.c): the guard knows it exactly, where the
+     * colour was voted from the grid when the particle came near */
+    const uint32_t bits = 3u << (2 * r), want = (2u << (2 * r)) | (side < 0 ? 1u << (2 * r) : 0);
+    p->colour[i] = (p->colour[i] & ~bits) | want;
+    /* back to the world, at the body's end pose */
+    const kf_rigid_state *e = &c->end[r];
+    double xw[3], nw[3];
+    rm_mv(e->R, p1, xw);
+    rm_mv(e->R, side_n, nw);
+    for (int a = 0; a < 3; a++) {
+        xw[a] += e->t[a];
+        p->x[a][i] = (kf_real)xw[a];
+    }
+    /* its velocity relative to the body: no approach through the surface (Eq. 25) */
+    double V[3], w[3];
+    kf_rigid_point_velocity(e, xw, V);
+    for (int a = 0; a < 3; a++) w[a] = p->v[a][i] - V[a];
+    double wn = rm_dot(w, nw);
+    if (wn < 0 || b->def.boundary == KF_BOUNDARY_STICKY) {
+        double w0[3] = {w[0], w[1], w[2]}, J[3];
+        kf_project_velocity(w, nw, b->def.boundary, b->def.friction);
+        for (int a = 0; a < 3; a++) {
+            double dv = w[a] - w0[a];
+            p->v[a][i] = (kf_real)(p->v[a][i] + dv);
+            J[a] = -p->mass[i] * dv; /* the body takes what the particle lost */
+        }
+        kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], xw, J);
+    }
+    return depth;
+}
+
+void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const chunk *ck, size_t i0,
+                   const kf_real *xold) {
+    kf_cpic *c = s->cpic;
+    const int slot = c->slot[owner];
+    double *imp = &c->imp[slot][0][0];
+    for (int j = 0; j < ck->n; j++) {
+        /* the bodies the particle's stencil (at its start) had affinity to */
+        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+        uint32_t B = 0;
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++)
+                for (int k = 0; k < 3; k++) B |= oc->col[o + (a * NB + b) * NB + k] & KF_CPIC_AFFINITY;
+        if (!B) continue;
+        const double x0[3] = {xold[j], xold[KF_CHUNK + j], xold[2 * KF_CHUNK + j]};
+        for (; B; B &= B - 1) {
+            int r = __builtin_ctz(B) / 2;
+            double depth = guard_particle(m, s, r, i0 + (size_t)j, x0, imp);
+            if (depth > 0) {
+                c->guard_caught[slot]++;
+                if (depth > c->guard_depth[slot]) c->guard_depth[slot] = depth;
+            }
+        }
+    }
+}
