@@ -54,7 +54,27 @@ check "unknown command is a usage error (2)" test $? -eq 2
 "$kerf" help shot | grep -q "sim.dx"
 check "kerf help shot lists the keys" test $? -eq 0
 "$kerf" check tiny.yaml > check.txt 2>&1
-check "kerf check accepts a good shot" grep -q "ok" check.txt
+rc=$?
+check "kerf check accepts a good shot: exit 0 (got $rc), its one line exactly" \
+    bash -c "test $rc -eq 0 && test \"\$(grep -c . check.txt)\" -eq 1 && \
+             grep -qxF 'tiny.yaml: ok (tiny, 9192 particles, frames 1001-1012)' check.txt"
+
+# --- a run that fails: exit 1 with the reason, no frame after the last good one ---
+# a fixed step of 0.04 s moves the falling cube a cell a substep: with no
+# retries that is fatal; with the default 4 the frame is retried at 0.02 s
+"$kerf" run tiny.yaml --out trouble --frames 1001-1002 --set sim.dt_fixed=0.04 --set sim.max_retries=0 \
+    > trouble.log 2> trouble.err
+rc=$?
+check "numerical trouble exits 1 (got $rc)" test $rc -eq 1
+check "it names the frame, the trouble, the particle and the material" grep -qE "^kerf: frame 1002: numerical \
+trouble: CFL violated \(cells moved per substep\) \(value [0-9.]+\) at substep [0-9]+, particle [0-9]+, material 0 \
+'jelly'; still failing after 0 retries at half the CFL number \(last cfl 0.4\)$" trouble.err
+check "no checkpoint after the last good frame" bash -c "test -e trouble/checkpoints/tiny.1001.kfc && ! test -e trouble/checkpoints/tiny.1002.kfc"
+"$kerf" run tiny.yaml --out retried --frames 1001-1002 --set sim.dt_fixed=0.04 --set output.surface=false \
+    --set output.images=false > retried.log 2>&1
+rc=$?
+check "with retries the same frame is retried at half the step and the run exits 0 (got $rc)" \
+    bash -c "test $rc -eq 0 && grep -qE '^frame 1002: .* 1 retries, 1 warnings' retried.log && test -e retried/checkpoints/tiny.1002.kfc"
 
 # --- a full run ---------------------------------------------------------------
 "$kerf" run tiny.yaml --out full > run.log 2>&1
@@ -82,6 +102,28 @@ check "kerf info names the integrator, its scheme and its solver settings" \
 check "an implicit run resumed after frame 1003 ends bit for bit where an uninterrupted one ends" \
     bash -c "grep -q 'resuming after frame 1003' midr.log && cmp -s mid/checkpoints/tiny.1006.kfc midfull/checkpoints/tiny.1006.kfc"
 check "the images are 1280x720 PNGs" bash -c "file full/images/tiny.1012.png | grep -q 'PNG image data, 1280 x 720'"
+# what the frames show (kf_png_probe, built beside kerf: counts and centroids of
+# clearly red and green pixels): the red jello cube and the green goo slab in
+# every frame; at 1001 the cube above the slab (measured 162 px higher) and
+# centred over it (3 px); at 1012 it has fallen (135 px lower); the renderer's
+# background gradient alone is a fifth of a frame (measured 21%), never all of it
+probe="$(dirname "$kerf")/kf_png_probe"
+seen=0
+for f in full/images/tiny.10*.png; do
+    "$probe" "$f" > probe.txt || break
+    awk '$1 == "red" { r = $2 } $1 == "green" { g = $2 } $1 == "background" { b = $2 }
+         END { exit !(r > 0.005 * 921600 && g > 0.03 * 921600 && b < 0.5 * 921600) }' probe.txt && seen=$((seen + 1))
+done
+check "every image shows the cube and the slab, not only background ($seen of 12)" test $seen -eq 12
+"$probe" full/images/tiny.1001.png > p1001.txt
+"$probe" full/images/tiny.1012.png > p1012.txt
+at() { awk -v k="$2" -v i="$3" '$1 == k { print $i }' "$1"; }
+check "frame 1001: the cube above the slab (red y $(at p1001.txt red 4), green y $(at p1001.txt green 4))" \
+    awk -v r="$(at p1001.txt red 4)" -v g="$(at p1001.txt green 4)" 'BEGIN { exit !(r > 0 && r < g - 72) }'
+check "frame 1001: the cube centred over the slab (red x $(at p1001.txt red 3), green x $(at p1001.txt green 3))" \
+    awk -v r="$(at p1001.txt red 3)" -v g="$(at p1001.txt green 3)" 'BEGIN { d = r - g; exit !(r > 0 && d * d < 38 * 38) }'
+check "frame 1012: the cube has fallen (red y $(at p1001.txt red 4) -> $(at p1012.txt red 4))" \
+    awk -v a="$(at p1001.txt red 4)" -v b="$(at p1012.txt red 4)" 'BEGIN { exit !(a > 0 && b > a + 72) }'
 check "the PNG carries the shot and frame" bash -c "grep -a -q 'shot' full/images/tiny.1012.png && grep -a -q '1012' full/images/tiny.1012.png"
 "$kerf" render tiny.yaml --out full > render.log 2>&1
 check "kerf render keeps current images" grep -q "0 images made, 12 current outputs kept" render.log
