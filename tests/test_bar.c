@@ -192,17 +192,23 @@ static void check_run(const bar_result *r) {
     KT_NEAR(r->v_half0, v0, 1e-6 * fabs(v0), "initial V of the left half: the seeded first mode");
 }
 
-/* V4: period within 0.5% at L/Δx = 50 (the verification.md bound) */
+/* V4: period within 0.5% at L/Δx = 50 (the verification.md bound). The
+ * solver does far better, and a regression to even a few times its error
+ * should fail: measured +0.0106% (MLS) and +0.0137% (classic), held to about
+ * twice that, 0.022% and 0.028%. The error is deterministic (float, fixed
+ * seeding, a fixed CFL step); other CPUs move it in the 4th digit. */
 static void bar_mls(void) {
     bar_result r = cached(50, KF_FORCE_MLS);
     check_run(&r);
     KT_NEAR(r.period, BAR_T1, 0.005 * BAR_T1, "V4: period error <= 0.5% at L/dx = 50 (MLS force)");
+    KT_NEAR(r.period, BAR_T1, 2.2e-4 * BAR_T1, "period error within 2x the measured +0.0106% at L/dx = 50 (MLS)");
 }
 
 static void bar_classic(void) {
     bar_result r = cached(50, KF_FORCE_CLASSIC);
     check_run(&r);
     KT_NEAR(r.period, BAR_T1, 0.005 * BAR_T1, "V4: period error <= 0.5% at L/dx = 50 (classic force)");
+    KT_NEAR(r.period, BAR_T1, 2.8e-4 * BAR_T1, "period error within 2x the measured +0.0137% at L/dx = 50 (classic)");
 }
 
 /* V4: the error falls ~Δx². The observed order from L/Δx = 25 to 50 is held
@@ -219,6 +225,9 @@ static void bar_convergence(void) {
         printf("  %-8s observed order %.2f (errors %.3e -> %.3e)\n", f ? "classic" : "mls", p, e25, e50);
         KT_CHECK(e50 < e25, "error must fall with refinement: %g at L/dx=25, %g at 50", e25, e50);
         KT_NEAR(p, 2.0, 0.5, "V4: period error falls ~dx^2 (observed order from L/dx = 25 to 50 in [1.5, 2.5])");
+        /* the order is a ratio: a uniform rise of the error passes it, so the
+         * coarse error is held too (measured 4.13e-4 MLS, 5.30e-4 classic) */
+        KT_NEAR(e25, 0, f ? 1.1e-3 : 8.3e-4, "period error at L/dx = 25 within 2x the measured (4.13e-4 MLS, 5.30e-4 classic)");
     }
 }
 

@@ -213,17 +213,24 @@ static void sphere_root(void) {
     KT_NEAR(breathing_root(0.4), 2.8966, 5e-5, "first radial root for nu = 0.4 is 2.8966 (4 decimals)");
 }
 
-static void check_sphere(int res, kf_force force, const char *why) {
+static void check_sphere(int res, kf_force force, double tight, const char *why, const char *why_tight) {
     sph_result r = cached(res, force);
     KT_CHECK(r.crossings == 3, "1.3 periods of q(t) should cross zero 3 times, got %d", r.crossings);
     KT_NEAR(za_of(r.period), SPH_Z_REF, 0.01 * SPH_Z_REF, why);
+    KT_NEAR(za_of(r.period), SPH_Z_REF, tight * SPH_Z_REF, why_tight);
 }
 
-/* V6: ω a/c_p = 2.6702 within 1% at a/Δx = 16 */
-static void sphere_mls(void) { check_sphere(16, KF_FORCE_MLS, "V6: breathing frequency within 1% at a/dx = 16 (MLS)"); }
+/* V6: ω a/c_p = 2.6702 within 1% at a/Δx = 16; the solver does better, and
+ * is held to about twice its measured error: -0.258% (MLS), -0.314% (classic)
+ * -> 0.52% and 0.63% (deterministic: float, fixed lattice, fixed step) */
+static void sphere_mls(void) {
+    check_sphere(16, KF_FORCE_MLS, 0.0052, "V6: breathing frequency within 1% at a/dx = 16 (MLS)",
+                 "within 2x the measured -0.258% at a/dx = 16 (MLS)");
+}
 
 static void sphere_classic(void) {
-    check_sphere(16, KF_FORCE_CLASSIC, "V6: breathing frequency within 1% at a/dx = 16 (classic force)");
+    check_sphere(16, KF_FORCE_CLASSIC, 0.0063, "V6: breathing frequency within 1% at a/dx = 16 (classic force)",
+                 "within 2x the measured -0.314% at a/dx = 16 (classic)");
 }
 
 /* the frequency error falls from a/Δx = 8 to 16. Only a decrease is demanded
@@ -237,6 +244,12 @@ static void sphere_convergence(void) {
         double e16 = fabs(za_of(cached(16, force).period) / SPH_Z_REF - 1);
         printf("  %-7s error %.3e (a/dx=8) -> %.3e (a/dx=16), ratio %.2f\n", f ? "classic" : "mls", e8, e16, e8 / e16);
         KT_CHECK(e16 < e8, "V6: frequency error must fall with refinement: %g at a/dx=8, %g at 16", e8, e16);
+        /* a ratio alone passes a uniform rise of the error: the coarse error
+         * is held to about twice its measured value too (1.00% MLS, 1.18%
+         * classic; the fine one in sphere_mls/classic), and the fall to better
+         * than first order (measured ratios 3.89 and 3.75, second order 4) */
+        KT_NEAR(e8, 0, f ? 0.024 : 0.020, "frequency error at a/dx = 8 within 2x the measured (1.00% MLS, 1.18% classic)");
+        KT_CHECK(e8 / e16 > 2.0, "error ratio from a/dx = 8 to 16 above first order's 2 (measured 3.9, 3.75): %.2f", e8 / e16);
     }
 }
 
