@@ -222,6 +222,8 @@ typedef struct kf_sim_def {
     kf_boundary wall_boundary;
     double wall_friction;
     int max_retries;      /* frame retries at half the CFL number on numerical trouble */
+    int retry_fixed;      /* 1: under dt_fixed, a retry may halve the fixed step too (the log says so); 0: a
+                             fixed step is never changed, and trouble at it is reported as such */
     double j_min, j_max;  /* sane range of det F; outside it is numerical trouble */
     double max_cells_per_step; /* CFL violation: |v| Δt / Δx above this is trouble */
     int threads;          /* 0 = OpenMP default */
@@ -323,7 +325,8 @@ typedef struct kf_step_stats {
      * surface the deepest would have been, in cells */
     long thin_caught;
     double thin_deepest;
-    int retries;               /* frames retried at a smaller CFL number */
+    int retries;               /* frames retried at a smaller CFL number (or, opted in, a halved fixed step) */
+    double fixed_halved;       /* > 0: the last retry ran the frame at this halved sim.dt_fixed, s */
     long warnings;             /* counted warnings (see message) */
 } kf_step_stats;
 
@@ -346,6 +349,12 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
 
 /* The substep the CFL rule would choose now. */
 double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl);
+
+/* Particles on the wrong side of a rigid surface now (issue 17): those whose
+ * colour records one side of a body while the exact triangle closest to them
+ * (within 1.5 cells, the point inside it) puts them on the other; the
+ * deepest such, in cells, in *deepest_cells (may be NULL). 0 is the promise. */
+long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_cells);
 
 /* The pose of rigid body `body` at the state's time. */
 kf_rigid_pose kf_state_rigid(const kf_state *s, int body);

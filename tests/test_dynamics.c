@@ -193,12 +193,19 @@ static void recovery_from_blowup(void) {
  * retried run must end on the bits of a run made at 0.02 s from the start
  * (the snapshot restores everything), and with no retries left it fails,
  * naming the violation and the cells moved. */
+static kf_state *glide_state_opt(double dt_fixed, int retries, int retry_fixed, kf_model **mp);
 static kf_state *glide_state(double dt_fixed, int retries, kf_model **mp) {
+    /* a fixed step is halved only where the shot opts in (issue 17) */
+    return glide_state_opt(dt_fixed, retries, retries > 0, mp);
+}
+
+static kf_state *glide_state_opt(double dt_fixed, int retries, int retry_fixed, kf_model **mp) {
     kf_sim_def sd = kf_default_sim_def();
     sd.dx = 0.05;
     sd.gravity[1] = 0;
     sd.dt_fixed = dt_fixed;
     sd.max_retries = retries;
+    sd.retry_fixed = retry_fixed;
     sd.threads = 1;
     int mat;
     *mp = tu_model(&sd, "jello", 0, -1, 0, &mat);
@@ -224,6 +231,7 @@ static void cfl_violation_retried(void) {
     int rc = kf_advance(m, s, 0.08, &st, msg, sizeof msg);
     KT_CHECK(rc == 0, "the retry at half the step recovers: %s", msg);
     KT_CHECK(st.retries == 1, "one retry (1.6 -> 0.8 cells), got %d", st.retries);
+    KT_NEAR(st.fixed_halved, 0.02, 1e-15, "the retry ran at half of sim.dt_fixed, and the stats say so");
     KT_CHECK(kf_advance(mr, ref, 0.08, &st_ref, msg, sizeof msg) == 0 && st_ref.retries == 0, "reference: %s", msg);
     KT_CHECK(st.substeps == st_ref.substeps + 1, "the retried interval: the failed 0.04 s substep, then the "
              "reference's %ld, got %ld", st_ref.substeps, st.substeps);
@@ -236,6 +244,21 @@ static void cfl_violation_retried(void) {
     KT_CHECK(rc == 1, "with sim.max_retries = 0 the violation stops the run");
     KT_CHECK(strstr(msg, "numerical trouble: CFL violated (cells moved per substep) (value 1.6") != NULL,
              "message: %s", msg);
+    /* sim.dt_fixed means fixed (issue 17): retries allowed but not opted in
+     * for the fixed step, the frame fails at once, naming the step */
+    {
+        kf_model *mf;
+        kf_state *sf = glide_state_opt(0.04, 4, 0, &mf);
+        kf_step_stats sst = {0};
+        rc = kf_advance(mf, sf, 0.08, &sst, msg, sizeof msg);
+        KT_CHECK(rc == 1, "a fixed step that fails is not silently halved");
+        KT_CHECK(sst.substeps == 1, "one substep tried, no retry (%ld)", sst.substeps);
+        KT_CHECK(strstr(msg, "at the fixed step sim.dt_fixed = 0.04 s (not retried: a fixed step is never changed; "
+                             "sim.retry_fixed: true lets a retry halve it)") != NULL,
+                 "message names the fixed step: %s", msg);
+        kf_state_destroy(sf);
+        kf_model_destroy(mf);
+    }
     kf_state_destroy(s), kf_state_destroy(ref), kf_state_destroy(s1);
     kf_model_destroy(m), kf_model_destroy(mr), kf_model_destroy(m1);
 }

@@ -47,6 +47,31 @@ static int has(const kf_diag *d, int line, int col, kf_severity sev, const char 
 
 /* ---- parsing ---------------------------------------------------------------------------- */
 
+/* penalty and push (issue 17): auto by default (kerf sizes them), a number
+ * as the paper's, and anything else refused naming both choices */
+static void penalty_auto(void) {
+    kf_diag d;
+    const char *sets[] = {"rigids.blade.penalty=auto", "rigids.box1.push=12.5"};
+    kf_shot *s = load(fixture("rigids.yaml"), sets, 2, &d);
+    KT_CHECK(s != NULL, "auto and a number both parse");
+    if (s) {
+        KT_NEAR(s->rigids[0].def.penalty, KF_RIGID_AUTO, 0, "penalty: auto");
+        KT_NEAR(s->rigids[1].def.push, 12.5, 0, "push: a number as given");
+        KT_NEAR(s->rigids[1].def.penalty, 1000, 0, "penalty as the file gives it");
+        KT_NEAR(s->rigids[3].def.push, KF_RIGID_AUTO, 0, "push default: auto");
+        kf_shot_free(s);
+    }
+    kf_diag_free(&d);
+    const char *bad[] = {"rigids.blade.penalty=fast"};
+    kf_diag_init(&d);
+    s = kf_shot_load(fixture("rigids.yaml"), bad, 1, NULL, NULL, &d);
+    KT_CHECK(s == NULL && d.errors == 1, "a word other than auto is an error (%d errors)", d.errors);
+    KT_CHECK(d.count == 1 && strstr(d.entry[0].message, "rigids[0].penalty: expected auto or a number, got 'fast'"),
+             "message: %s", d.count ? d.entry[0].message : "(none)");
+    kf_shot_free(s);
+    kf_diag_free(&d);
+}
+
 static void rigid_values(void) {
     kf_diag d;
     kf_shot *s = load(fixture("rigids.yaml"), NULL, 0, &d);
@@ -74,7 +99,7 @@ static void rigid_values(void) {
     KT_NEAR(k[1].scale[0] + k[1].scale[1] + k[1].scale[2], 3, 0, "bodies are rigid: key scale 1");
     KT_CHECK(blade->def.boundary == KF_BOUNDARY_SLIP, "slip");
     KT_NEAR(blade->def.push, 50, 0, "push");
-    KT_NEAR(blade->def.penalty, 0, 0, "penalty default 0 (off)");
+    KT_NEAR(blade->def.penalty, KF_RIGID_AUTO, 0, "penalty default auto (issue 17: on, sized by kerf)");
     KT_NEAR(blade->def.friction, 0.3, 0, "friction default");
     KT_NEAR(blade->color[2], 0.9, 0, "colour");
     /* a dynamic box with the defaults of everything else */
@@ -338,6 +363,7 @@ static void example_shots(void) {
 
 int main(int argc, char **argv) {
     KT_RUN(rigid_values, argc, argv);
+    KT_RUN(penalty_auto, argc, argv);
     KT_RUN(bad_rigids, argc, argv);
     KT_RUN(rigid_surfaces, argc, argv);
     KT_RUN(rigid_model, argc, argv);

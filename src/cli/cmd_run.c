@@ -286,6 +286,19 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                 fprintf(stderr, "frame %d: implicit (%s): %ld Newton, %ld Krylov iterations, last residual %.2g\n", frame,
                         kf_model_sim(sc.model)->implicit_scheme == KF_SCHEME_MIDPOINT ? "midpoint" : "backward Euler",
                         st.newton_iterations, st.krylov_iterations, st.newton_residual);
+            /* thin boundaries: crossings the guard caught and undid this frame, and
+             * a fixed step an opted-in retry halved */
+            if (kf_model_rigid_count(sc.model) > 0) {
+                double deep_left = 0;
+                long left = kf_state_thin_audit(sc.model, sc.state, &deep_left);
+                fprintf(stderr,
+                        "frame %d: crossings: %ld caught and put back (deepest %.2f cells behind); %ld across at the "
+                        "frame's end (deepest %.2f cells)\n",
+                        frame, st.thin_caught, st.thin_deepest, left, deep_left);
+            }
+            if (st.fixed_halved > 0)
+                fprintf(stderr, "frame %d: retried at a fixed step of %g s (sim.retry_fixed: half of sim.dt_fixed %g s)\n",
+                        frame, st.fixed_halved, kf_model_sim(sc.model)->dt_fixed);
             kf_rigid_log_frame(stderr, shot, sc.state); /* where each rigid body is (rigid_log.c) */
         }
     }

@@ -184,3 +184,38 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
         }
     }
 }
+
+/* ---- the audit: who is on the wrong side now --------------------------------
+ * Independent of the grid: each particle with affinity to a body is compared
+ * with the exact triangle closest to it (within 1.5 cells; where that point
+ * lies on an edge or a corner, the particle is beside the surface, not
+ * behind it). Its colour records a side; the triangle's plane says which
+ * side it is on. The frame log reports the count after every frame. */
+long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_cells) {
+    const kf_particles *p = &s->p;
+    const double dx = m->sim.dx;
+    long across = 0;
+    double deepest = 0;
+    for (int r = 0; r < m->nrigid; r++) {
+        const kf_rigid_body *b = &m->rigid[r];
+        if (!b->bvh) continue;
+        const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
+        const size_t n = p->n;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(+ : across) reduction(max : deepest)
+        for (size_t i = 0; i < n; i++) {
+            if (!(p->colour[i] & abit)) continue;
+            double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, pm[3], q[3], nrm[3], off;
+            to_mesh(&s->rigid[r], x, pm);
+            int interior = 0, k = kf_rigid_bvh_closest(b->bvh, pm, 1.5 * dx, q, &interior);
+            if (k < 0 || !interior) continue;
+            tri_plane(b, b->guard_tri[k], nrm, &off);
+            double u = rm_dot(nrm, pm) - off;
+            int behind = (p->colour[i] & tbit) ? u > 0 : u < 0;
+            if (!behind) continue;
+            across++;
+            if (fabs(u) / dx > deepest) deepest = fabs(u) / dx;
+        }
+    }
+    if (deepest_cells) *deepest_cells = deepest;
+    return across;
+}

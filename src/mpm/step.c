@@ -263,7 +263,10 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
     const long substep0 = s->substep;
     double cfl = m->sim.cfl, fixed = m->sim.dt_fixed;
     kf_trouble tr = {0};
-    for (int attempt = 0; attempt <= m->sim.max_retries; attempt++) {
+    /* a fixed step is the shot's choice: only an opted-in retry may change it */
+    const int retries = fixed > 0 && !m->sim.retry_fixed ? 0 : m->sim.max_retries;
+    int attempt = 0;
+    for (; attempt <= retries; attempt++) {
         double t = 0;
         int ok = 1;
         while (duration - t > 1e-9 * duration) {
@@ -283,15 +286,29 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
         /* trouble: back to the interval start, half the step, try again */
         restore_snapshot(s, time0, substep0);
         if (st) st->retries++, st->warnings++;
+        if (attempt == retries) break;
         cfl *= 0.5;
         fixed *= 0.5;
+        if (st && fixed > 0) st->fixed_halved = fixed;
     }
     if (msg) {
         const char *name = tr.material >= 0 && tr.material < m->nmat ? m->mat_def[tr.material].name : "?";
-        snprintf(msg, msglen,
-                 "numerical trouble: %s (value %g) at substep %ld, particle %u, material %d '%s'; "
-                 "still failing after %d retries at half the CFL number (last cfl %g)",
-                 tr.what, tr.value, tr.substep, tr.particle, tr.material, name, m->sim.max_retries, cfl * 2);
+        if (m->sim.dt_fixed > 0 && !m->sim.retry_fixed)
+            snprintf(msg, msglen,
+                     "numerical trouble: %s (value %g) at substep %ld, particle %u, material %d '%s', at the fixed "
+                     "step sim.dt_fixed = %g s (not retried: a fixed step is never changed; sim.retry_fixed: true "
+                     "lets a retry halve it)",
+                     tr.what, tr.value, tr.substep, tr.particle, tr.material, name, m->sim.dt_fixed);
+        else if (m->sim.dt_fixed > 0)
+            snprintf(msg, msglen,
+                     "numerical trouble: %s (value %g) at substep %ld, particle %u, material %d '%s'; still failing "
+                     "after %d retries halving the fixed step (sim.retry_fixed; last step %g s, sim.dt_fixed %g s)",
+                     tr.what, tr.value, tr.substep, tr.particle, tr.material, name, retries, fixed, m->sim.dt_fixed);
+        else
+            snprintf(msg, msglen,
+                     "numerical trouble: %s (value %g) at substep %ld, particle %u, material %d '%s'; "
+                     "still failing after %d retries at half the CFL number (last cfl %g)",
+                     tr.what, tr.value, tr.substep, tr.particle, tr.material, name, retries, cfl);
     }
     return 1;
 }

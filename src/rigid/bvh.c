@@ -12,6 +12,8 @@
 #include "bvh.h"
 
 #include <embree3/rtcore.h>
+#include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,12 +22,17 @@ struct kf_rigid_bvh {
     RTCDevice dev;
     RTCScene scn;
     double c[3]; /* the vertices were shifted by -c before going to float */
+    /* the mesh in double (shifted), for exact closest points */
+    double *vert;
+    int *tri;
 };
 
 void kf_rigid_bvh_free(kf_rigid_bvh *b) {
     if (!b) return;
     if (b->scn) rtcReleaseScene(b->scn);
     if (b->dev) rtcReleaseDevice(b->dev);
+    free(b->vert);
+    free(b->tri);
     free(b);
 }
 
@@ -39,6 +46,11 @@ kf_rigid_bvh *kf_rigid_bvh_build(const double *vert, int nvert, const int *tri, 
             if (vert[3 * i + a] > hi[a]) hi[a] = vert[3 * i + a];
         }
     for (int a = 0; a < 3; a++) b->c[a] = 0.5 * (lo[a] + hi[a]);
+    b->vert = malloc(sizeof(double) * 3 * (size_t)nvert);
+    b->tri = malloc(sizeof(int) * 3 * (size_t)ntri);
+    if (!b->vert || !b->tri) return snprintf(err, errlen, "out of memory"), kf_rigid_bvh_free(b), NULL;
+    for (size_t i = 0; i < 3 * (size_t)nvert; i++) b->vert[i] = vert[i] - b->c[i % 3];
+    memcpy(b->tri, tri, sizeof(int) * 3 * (size_t)ntri);
     /* one build thread: the simulation's OpenMP threads own the cores */
     b->dev = rtcNewDevice("threads=1");
     if (!b->dev) {
@@ -95,4 +107,92 @@ int kf_rigid_bvh_first_hit(const kf_rigid_bvh *b, const double p0[3], const doub
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return -1;
     if (t) *t = rh.ray.tfar;
     return (int)rh.hit.primID;
+}
+
+/* ---- closest points -------------------------------------------------------- */
+
+/* The closest point of triangle (a, b, c) to p, and whether it lies inside
+ * the triangle (not on an edge or a corner): Ericson's region test. */
+static void closest_on_triangle(const double p[3], const double a[3], const double b[3], const double c[3],
+                                double q[3], int *interior) {
+    double ab[3], ac[3], ap[3];
+    for (int i = 0; i < 3; i++) ab[i] = b[i] - a[i], ac[i] = c[i] - a[i], ap[i] = p[i] - a[i];
+#define DOT(u, v) ((u)[0] * (v)[0] + (u)[1] * (v)[1] + (u)[2] * (v)[2])
+    double d1 = DOT(ab, ap), d2 = DOT(ac, ap);
+    *interior = 0;
+    if (d1 <= 0 && d2 <= 0) {
+        memcpy(q, a, 3 * sizeof(double));
+        return;
+    }
+    double bp[3] = {p[0] - b[0], p[1] - b[1], p[2] - b[2]}, d3 = DOT(ab, bp), d4 = DOT(ac, bp);
+    if (d3 >= 0 && d4 <= d3) {
+        memcpy(q, b, 3 * sizeof(double));
+        return;
+    }
+    double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+        double v = d1 / (d1 - d3);
+        for (int i = 0; i < 3; i++) q[i] = a[i] + v * ab[i];
+        return;
+    }
+    double cp[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]}, d5 = DOT(ab, cp), d6 = DOT(ac, cp);
+    if (d6 >= 0 && d5 <= d6) {
+        memcpy(q, c, 3 * sizeof(double));
+        return;
+    }
+    double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+        double w = d2 / (d2 - d6);
+        for (int i = 0; i < 3; i++) q[i] = a[i] + w * ac[i];
+        return;
+    }
+    double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+        double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        for (int i = 0; i < 3; i++) q[i] = b[i] + w * (c[i] - b[i]);
+        return;
+    }
+    double den = 1 / (va + vb + vc), v = vb * den, w = vc * den;
+    for (int i = 0; i < 3; i++) q[i] = a[i] + ab[i] * v + ac[i] * w;
+    *interior = 1;
+#undef DOT
+}
+
+typedef struct closest_ctx {
+    const kf_rigid_bvh *b;
+    double p[3];   /* shifted */
+    double best2;
+    int prim, interior;
+    double q[3];   /* shifted */
+} closest_ctx;
+
+static bool closest_cb(struct RTCPointQueryFunctionArguments *args) {
+    closest_ctx *c = args->userPtr;
+    const int *t = &c->b->tri[3 * args->primID];
+    double q[3];
+    int interior;
+    closest_on_triangle(c->p, &c->b->vert[3 * t[0]], &c->b->vert[3 * t[1]], &c->b->vert[3 * t[2]], q, &interior);
+    double d2 = (q[0] - c->p[0]) * (q[0] - c->p[0]) + (q[1] - c->p[1]) * (q[1] - c->p[1]) +
+                (q[2] - c->p[2]) * (q[2] - c->p[2]);
+    if (d2 < c->best2) {
+        c->best2 = d2;
+        c->prim = (int)args->primID;
+        c->interior = interior;
+        memcpy(c->q, q, sizeof q);
+        args->query->radius = (float)sqrt(d2); /* shrink the search */
+        return true;
+    }
+    return false;
+}
+
+int kf_rigid_bvh_closest(const kf_rigid_bvh *b, const double p[3], double radius, double q[3], int *interior) {
+    closest_ctx c = {b, {p[0] - b->c[0], p[1] - b->c[1], p[2] - b->c[2]}, radius * radius, -1, 0, {0, 0, 0}};
+    struct RTCPointQuery pq = {(float)c.p[0], (float)c.p[1], (float)c.p[2], 0, (float)radius};
+    struct RTCPointQueryContext ctx;
+    rtcInitPointQueryContext(&ctx);
+    rtcPointQuery(b->scn, &pq, &ctx, closest_cb, &c);
+    if (c.prim < 0) return -1;
+    for (int a = 0; a < 3; a++) q[a] = c.q[a] + b->c[a];
+    if (interior) *interior = c.interior;
+    return c.prim;
 }

@@ -15,4 +15,10 @@ void kf_rigid_bvh_free(kf_rigid_bvh *b); /* NULL is fine */
  * Thread-safe. */
 int kf_rigid_bvh_first_hit(const kf_rigid_bvh *b, const double p0[3], const double p1[3], double *t);
 
+/* The closest point q of the surface to p within radius (mesh frame), the
+ * triangle's index as returned, or -1 when none is that close. *interior:
+ * q lies inside that triangle, not on an edge or a corner (where the side
+ * of p is not the triangle's to say). Thread-safe. */
+int kf_rigid_bvh_closest(const kf_rigid_bvh *b, const double p[3], double radius, double q[3], int *interior);
+
 #endif

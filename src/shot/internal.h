@@ -111,6 +111,7 @@ enum {
     KF_IDENT = 8,     /* str: a name (letters, digits, _ and -) */
     KF_NONZERO = 16,  /* vec3: not all zero */
     KF_SOFT = 32,     /* `only` not holding is a warning (has no effect), not an error */
+    KF_AUTO = 64,     /* num: the word auto is accepted too, stored as KF_RIGID_AUTO (kerf sizes it) */
 };
 
 typedef struct kf_keydef {

@@ -58,7 +58,11 @@ const kf_keydef kf_keys[] = {
     {"sim.dt_max", KT_NUM, TOP(s.sim.dt_max), GE(0), NULL, "0", "s", NULL, 0,
      "Longest substep allowed (0 = only the CFL rule)."},
     {"sim.dt_fixed", KT_NUM, TOP(s.sim.dt_fixed), GE(0), NULL, "0", "s", NULL, 0,
-     "Fixed substep instead of the CFL rule (0 = adaptive); for tests and benchmarks."},
+     "Fixed substep instead of the CFL rule (0 = adaptive); for tests and benchmarks. Fixed means fixed: "
+     "numerical trouble at it fails the frame naming the step, unless sim.retry_fixed lets a retry halve it."},
+    {"sim.retry_fixed", KT_BOOL, TOP(s.sim.retry_fixed), ANY, NULL, "false", NULL, NULL, 0,
+     "Under sim.dt_fixed, let a frame that runs into numerical trouble be retried at half the fixed step "
+     "(up to sim.max_retries times; each retry is logged with the step it used)."},
     {"sim.gravity", KT_VEC3, TOP(s.sim.gravity), ANY, NULL, "[0, -9.81, 0]", "m/s^2", NULL, 0,
      "Gravitational acceleration."},
     {"sim.kernel", KT_ENUM, TOP(s.sim.kernel), ANY, "quadratic|cubic", "quadratic", NULL, NULL, 0,
@@ -309,11 +313,17 @@ const kf_keydef kf_keys[] = {
      "How material meets the body: sticky, slip (frictionless), separate (can lift off, with friction)."},
     {"rigids[].friction", KT_NUM, RIG(def.friction), GE(0), NULL, "0.3", NULL, "boundary=separate", KF_SOFT,
      "Coulomb friction between the material and the body."},
-    {"rigids[].penalty", KT_NUM, RIG(def.penalty), GE(0), NULL, "0", "1/s", NULL, 0,
-     "Pushes slightly penetrated particles back out (paper Eq. 22): the penetration closes at this rate "
-     "(velocity penalty x depth along the surface normal), never faster than within one substep; 0 = off."},
-    {"rigids[].push", KT_NUM, RIG(def.push), GE(0), NULL, "0", "m/s^2", NULL, 0,
-     "Extra acceleration of colliding material away from the surface (paper section 5.5); 0 = none."},
+    {"rigids[].penalty", KT_NUM, RIG(def.penalty), GE(0), NULL, "auto", "1/s", NULL, KF_AUTO,
+     "Keeps material touching the body half a particle spacing off its surface (paper Eq. 22, measured at the "
+     "particle's extent). auto: a stabilised contact sized from the substep, a particle inside that skin leaves it no "
+     "slower than a fifth of its overlap per substep and is never kicked faster (nothing bounces). A number: the "
+     "paper's velocity penalty, the overlap closing at this rate, never faster than within one substep; 0 = off. "
+     "Whatever it is, no particle passes through the surface: each one's path relative to the body is checked "
+     "against the exact triangles every substep."},
+    {"rigids[].push", KT_NUM, RIG(def.push), GE(0), NULL, "auto", "m/s^2", NULL, KF_AUTO,
+     "Extra acceleration of colliding material away from the surface (paper section 5.5). auto: none, since no "
+     "particle can pass through the surface anyway (a push adds energy, measured as jitter of material at rest); "
+     "a number pushes that hard."},
     {"rigids[].color", KT_VEC3, RIG(color), CC(0, 1), NULL, "0.55", "sRGB", NULL, KF_BROADCAST,
      "Colour of the body in renders."},
 
@@ -527,7 +537,8 @@ static int number_at(const kf_keydef *k, const ky_node *n, const char *what, int
         int quoted_number = n->kind == KY_SCALAR && n->quoted && !parse_number(n->text, out);
         describe(n, got, sizeof got);
         kf_report_at(d, srcs, n, KF_DIAG_ERROR, "%s%s: expected %s, got %s%s", what, ax,
-                     whole ? "a whole number" : "a number", got, quoted_number ? " (drop the quotes)" : "");
+                     whole ? "a whole number" : (k->flags & KF_AUTO) ? "auto or a number" : "a number", got,
+                     quoted_number ? " (drop the quotes)" : "");
         return -1;
     }
     if (k->choices) {
@@ -588,6 +599,10 @@ int kf_key_set(const kf_keydef *k, const ky_node *n, void *base, const char *wha
     double v;
     switch (k->type) {
     case KT_NUM:
+        if ((k->flags & KF_AUTO) && n->kind == KY_SCALAR && !n->quoted && strcmp(n->text, "auto") == 0) {
+            *(double *)dst = KF_RIGID_AUTO;
+            return 0;
+        }
         if (number_at(k, n, what, -1, &v, d, srcs)) return -1;
         *(double *)dst = v;
         return 0;
@@ -679,6 +694,10 @@ int kf_key_default(const kf_keydef *k, void *base) {
     int b;
     switch (k->type) {
     case KT_NUM:
+        if ((k->flags & KF_AUTO) && strcmp(k->def, "auto") == 0) {
+            *(double *)dst = KF_RIGID_AUTO;
+            return 0;
+        }
         if (parse_number(k->def, &v) || !in_bounds(k, v)) return -1;
         *(double *)dst = v;
         return 0;
@@ -718,7 +737,10 @@ static void type_text(const kf_keydef *k, char *out, size_t n) {
     kf_key_bounds_text(k, bt, sizeof bt);
     const char *unit = k->unit ? k->unit : "";
     switch (k->type) {
-    case KT_NUM: snprintf(out, n, "number%s%s%s%s", *bt ? " " : "", bt, *unit ? ", " : "", unit); break;
+    case KT_NUM:
+        snprintf(out, n, "%s%s%s%s%s", k->flags & KF_AUTO ? "auto or number" : "number", *bt ? " " : "", bt,
+                 *unit ? ", " : "", unit);
+        break;
     case KT_INT:
         if (k->choices) choices_text(k, ch, sizeof ch), snprintf(out, n, "%s", ch);
         else snprintf(out, n, "integer%s%s", *bt ? " " : "", bt);
