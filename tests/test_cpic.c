@@ -464,8 +464,9 @@ static void momentum_ball_hits_box(void) {
     double M = kf_model_rigid_mass(m, 0);
     KT_NEAR(M, 500 * 0.001, 1e-9, "box mass = density x volume");
     KT_CHECK(pose.v[0] > 0.2, "the ball pushed the box (v = %g m/s)", pose.v[0]);
-    /* float particle sums over 300 substeps; the exchange itself is exact */
-    KT_NEAR(drift, 0, 1e-5, "relative drift of the total linear momentum");
+    /* float particle sums over 300 substeps; the exchange itself is exact.
+     * Measured 1.12e-6 of |P0| (float): held to about twice that */
+    KT_NEAR(drift, 0, 2.5e-6, "relative drift of the total linear momentum, within 2x the measured 1.12e-6");
     printf("  ball hits box: box v = %.9f m/s, max momentum drift %.2e of |P0| = %.4f kg m/s, cdf %.0f ms, rigid %.0f ms\n",
            pose.v[0], drift, scale, st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID]);
     kf_state_destroy(s);
