@@ -9,10 +9,13 @@
  *   make_meshes --fixtures <outdir>   the small test meshes (tests/meshes/):
  *                                     one torus in OBJ, PLY, STL and OFF, cubes,
  *                                     an octahedron, a 45°-turned square prism,
- *                                     and deliberately broken files
+ *                                     and deliberately broken files (open,
+ *                                     non-manifold, self-intersecting, empty,
+ *                                     garbage)
  *
  * Every solid goes through kf_mesh_from_arrays before it is written: it must
- * come out closed, consistently oriented and of positive volume, and what is
+ * come out closed, consistently oriented, of positive volume and not
+ * intersecting itself (kf_mesh_check_self_intersection), and what is
  * written is that welded, outward-oriented mesh. Coordinates are rounded to
  * float first, so every format holds exactly the same numbers. Units: metres,
  * y up. */
@@ -28,6 +31,7 @@
 #include <sys/stat.h>
 
 #include "scene/mesh.h"
+#include "scene/mesh_isect.h"
 
 static const double PI = 3.14159265358979323846;
 
@@ -250,14 +254,23 @@ static void wheel(build *b, double R, double d, int nteeth, double ri, double W,
 #undef IB
 }
 
-/* bowl: a shell of outer radius R and thickness t with a flat foot; open at
- * the top (a flat rim at y = 0), resting on y = -R cos(foot) */
+/* bowl: a hemispherical shell of outer radius R and thickness t, open at
+ * the top (a flat rim at y = 0), standing on a foot ring: a solid cylinder of
+ * the radius where the outer sphere is foot_deg from the pole, from the
+ * sphere down to a flat base at y = -R, a full wall below the inner bottom
+ * (y = -(R - t)). A foot cut flat across the sphere instead (at -R cos(foot),
+ * as this bowl once had) lies above the inner bottom when the wall is thinner
+ * than R (1 - cos(foot)): the inside poked out through the foot, the mesh
+ * intersected itself and sand leaked through its bottom. The profile runs
+ * counter-clockwise in (r, y): base centre, foot edge, up the foot's side,
+ * the outer arc to the rim, the inner arc down to the inner bottom. */
 static void bowl(build *b, double R, double t, double foot_deg, int ns, int narc) {
     int m = 0;
     double (*prof)[2] = malloc((size_t)(2 * narc + 8) * sizeof *prof);
-    double f = foot_deg * PI / 180;
-    prof[m][0] = 0, prof[m++][1] = -R * cos(f); /* centre of the foot (pole) */
-    for (int i = 0; i <= narc; i++) {           /* outer arc, foot to rim */
+    double f = foot_deg * PI / 180, rf = R * sin(f);
+    prof[m][0] = 0, prof[m++][1] = -R;  /* centre of the base (pole) */
+    prof[m][0] = rf, prof[m++][1] = -R; /* the base's edge */
+    for (int i = 0; i <= narc; i++) {   /* outer arc, from the top of the foot's side to the rim */
         double phi = f + (PI / 2 - f) * i / narc;
         prof[m][0] = R * sin(phi), prof[m++][1] = i == narc ? 0 : -R * cos(phi);
     }
@@ -424,7 +437,7 @@ static void write_text(const char *dir, const char *name, const char *text) {
 
 /* ---- checking ----------------------------------------------------------------- */
 
-/* welded, closed, outward: or the tool stops */
+/* welded, closed, outward and not passing through itself: or the tool stops */
 static void finish(build *b, const char *name, kf_mesh *m, int must_close) {
     char err[512];
     if (kf_mesh_from_arrays(name, b->nv, b->v, b->nt, b->t, m, err, sizeof err)) {
@@ -434,6 +447,10 @@ static void finish(build *b, const char *name, kf_mesh *m, int must_close) {
     if (must_close && (kf_mesh_check_closed(m, err, sizeof err) || !m->oriented || !(m->volume > 0))) {
         fprintf(stderr, "make_meshes: %s: closed %d oriented %d volume %g %s\n", name, m->closed, m->oriented,
                 m->volume, err);
+        exit(1);
+    }
+    if (must_close && kf_mesh_check_self_intersection(m, 0, err, sizeof err)) {
+        fprintf(stderr, "make_meshes: %s\n", err);
         exit(1);
     }
     printf("%-18s %7zu vertices %7zu triangles  volume %.6g m^3  bounds [%.4g %.4g %.4g]..[%.4g %.4g %.4g]%s\n",
@@ -499,7 +516,8 @@ static void make_assets(const char *dir) {
     bowl(&b, 0.5, 0.03, 25, 96, 32);
     finish(&b, "bowl.obj", &m, 1);
     write_obj(dir, "bowl.obj", &m,
-              "bowl about y: outer radius 0.5 m, 30 mm wall, open at y = 0, flat foot at y = -0.453");
+              "bowl about y: outer radius 0.5 m, 30 mm wall, open at y = 0 (the rim), inner bottom at y = -0.47, "
+              "standing on a foot ring of radius 0.211 m with its flat base at y = -0.5");
     kf_mesh_free(&m);
 
     /* thin sheets for CPIC rigid bodies: open surfaces, no thickness */
@@ -585,6 +603,15 @@ static void make_fixtures(const char *dir) {
                "v 1 0 -0.75\nv 0 1 -0.75\nv -1 0 -0.75\nv 0 -1 -0.75\n"
                "v 1 0 0.75\nv 0 1 0.75\nv -1 0 0.75\nv 0 -1 0.75\n"
                "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n");
+    /* closed and outward, but two cubes passing through each other: a solid
+     * that intersects itself ([0, 1]^3 and [0.5, 1.5] x [0.25, 1.25]^2) */
+    write_text(dir, "cubes_crossed.obj",
+               "# two cubes passing through each other: closed and outward, but intersecting itself\n"
+               "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\n"
+               "v 0.5 0.25 0.25\nv 1.5 0.25 0.25\nv 0.5 1.25 0.25\nv 1.5 1.25 0.25\n"
+               "v 0.5 0.25 1.25\nv 1.5 0.25 1.25\nv 0.5 1.25 1.25\nv 1.5 1.25 1.25\n"
+               "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n"
+               "f 9 11 12 10\nf 13 14 16 15\nf 9 10 14 13\nf 11 15 16 12\nf 9 13 15 11\nf 10 12 16 14\n");
     write_text(dir, "empty.obj", "");
     write_text(dir, "garbage.obj", "this is not a mesh\nneither is this 1 2 3\n");
 }

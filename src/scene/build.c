@@ -6,16 +6,18 @@
 
 #include "../core/timer.h"
 #include "build_rigid.h"
+#include "mesh_isect.h"
 #include "mesh_sdf.h"
 #include "sample.h"
 
 /* A mesh collider's distance grid: the mesh placed like an object, checked
- * closed, sampled at spacing dx/2 (padded by 3 dx) in the frame centred on
- * the pivot. */
+ * closed and not passing through itself (in the file's coordinates), sampled
+ * at spacing dx/2 (padded by 3 dx) in the frame centred on the pivot. */
 static int mesh_collider(const kf_shot_collider *c, double dx, int threads, kf_mesh_sdf *sdf, char *err, size_t n) {
     kf_mesh mesh;
     if (kf_mesh_load(c->mesh_path, &mesh, err, n)) return -1;
     int rc = kf_mesh_check_closed(&mesh, err, n);
+    if (rc == 0) rc = kf_mesh_check_self_intersection(&mesh, threads, err, n);
     if (rc == 0) {
         kf_sample_def d = kf_default_sample_def();
         d.kind = KF_SOURCE_MESH;
@@ -31,6 +33,17 @@ static int mesh_collider(const kf_shot_collider *c, double dx, int threads, kf_m
             rc = kf_mesh_sdf_build(&mesh, c->col.center, &sd, sdf, err, n);
         }
     }
+    kf_mesh_free(&mesh);
+    return rc;
+}
+
+/* an object's mesh as kf_sample_shape checks it: it loads, it is closed and
+ * it does not pass through itself. Returns 0, or -1 with the message. */
+static int object_mesh_check(const char *path, int threads, char *err, size_t n) {
+    kf_mesh mesh;
+    if (kf_mesh_load(path, &mesh, err, n)) return -1;
+    int rc = kf_mesh_check_closed(&mesh, err, n);
+    if (rc == 0) rc = kf_mesh_check_self_intersection(&mesh, threads, err, n);
     kf_mesh_free(&mesh);
     return rc;
 }
@@ -110,6 +123,13 @@ int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_
     }
     if (kf_scene_add_rigids(shot, sc->model, diag)) bad = 1; /* rigid bodies and joints (build_rigid.c) */
     sc->state = kf_state_create(sc->model);
+    /* nothing is seeded after a bad body or collider, but every object's mesh
+     * is still checked as seeding would check it, so all problems show at once */
+    for (int i = 0; i < shot->nobjects && bad; i++) {
+        const kf_shot_object *o = &shot->objects[i];
+        if (o->shape == KF_SOURCE_MESH && object_mesh_check(o->mesh_path, sd.threads, err, sizeof err))
+            kf_shot_report(diag, &o->mesh_at, KF_DIAG_ERROR, "object '%s': %s", o->name, err);
+    }
     if (bad || !sc->state) goto fail;
 
     /* seed every object; keep going after a bad one so all are reported */

@@ -8,6 +8,7 @@
 
 #include "../core/euler.h"
 #include "mesh.h"
+#include "mesh_isect.h"
 
 /* a box of edge lengths size centred on the origin: 8 corners, 12 triangles
  * counter-clockwise seen from outside (each quad below runs clockwise, so
@@ -80,18 +81,31 @@ int kf_rigid_surface(const kf_shot_rigid *r, double **vert, int *nv, int **tri, 
 
 /* A solid body (not thin) has an inside, so its mesh must be closed; the
  * rigid compiler checks dynamic ones, this checks static and kinematic ones
- * the same way. Returns 0, or -1 with the message in err. */
-static int solid_is_closed(const kf_shot_rigid *r, char *err, size_t errlen) {
-    if (r->shape != 1 || r->def.thin || r->def.motion == KF_RIGID_DYNAMIC) return 0;
+ * the same way. And its surface must bound that inside once: a mesh that
+ * passes through itself (a bowl whose inner bottom pokes out through its
+ * foot) leaks material, so every solid is checked for self-intersections, in
+ * the file's coordinates (placing it changes nothing). Returns 0, or -1 with
+ * the message in err. */
+static int solid_is_sound(const kf_shot_rigid *r, int threads, char *err, size_t errlen) {
+    if (r->shape != 1 || r->def.thin) return 0;
     kf_mesh mesh;
     char why[900];
     if (kf_mesh_load(r->mesh_path, &mesh, why, sizeof why)) return 0; /* kf_rigid_surface reports it */
-    int rc = kf_mesh_check_closed(&mesh, why, sizeof why);
-    kf_mesh_free(&mesh);
-    if (rc)
+    const char *kind = r->def.motion == KF_RIGID_STATIC      ? "static"
+                       : r->def.motion == KF_RIGID_KINEMATIC ? "kinematic"
+                                                             : "dynamic";
+    int rc = 0;
+    /* an open dynamic mesh is refused by the rigid compiler, in its words */
+    if (r->def.motion != KF_RIGID_DYNAMIC && kf_mesh_check_closed(&mesh, why, sizeof why)) {
         snprintf(err, errlen, "rigid %s: a %s solid must be a closed mesh (or make it thin: true): %s", r->def.name,
-                 r->def.motion == KF_RIGID_STATIC ? "static" : "kinematic", why);
-    return rc ? -1 : 0;
+                 kind, why);
+        rc = -1;
+    } else if (mesh.closed && kf_mesh_check_self_intersection(&mesh, threads, why, sizeof why)) {
+        snprintf(err, errlen, "rigid %s: a %s solid must not intersect itself: %s", r->def.name, kind, why);
+        rc = -1;
+    }
+    kf_mesh_free(&mesh);
+    return rc;
 }
 
 int kf_scene_add_rigids(const kf_shot *shot, kf_model *m, kf_diag *diag) {
@@ -102,7 +116,7 @@ int kf_scene_add_rigids(const kf_shot *shot, kf_model *m, kf_diag *diag) {
         const kf_loc *at = r->shape == 1 ? &r->mesh_at : &r->at;
         double *vert;
         int *tri, nv, nt;
-        if (solid_is_closed(r, err, sizeof err)) {
+        if (solid_is_sound(r, shot->sim.threads, err, sizeof err)) {
             kf_shot_report(diag, at, KF_DIAG_ERROR, "%s", err);
             bad = 1;
             continue;

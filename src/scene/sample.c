@@ -9,6 +9,7 @@
  * count. */
 #include "../core/euler.h"
 #include "sample.h"
+#include "mesh_isect.h"
 
 #include <math.h>
 #include <omp.h>
@@ -379,7 +380,9 @@ int kf_sample_shape(const kf_sample_def *def, kf_points *out, char *err, size_t 
             if (kf_mesh_load(def->mesh_path, &loaded, err, errlen)) return -1;
             mesh = &loaded;
         }
-        if (kf_mesh_check_closed(mesh, err, errlen)) {
+        /* a solid to fill: closed, and bounding its inside once (in the
+         * file's coordinates, before it is placed) */
+        if (kf_mesh_check_closed(mesh, err, errlen) || kf_mesh_check_self_intersection(mesh, def->threads, err, errlen)) {
             kf_mesh_free(&loaded);
             return -1;
         }
