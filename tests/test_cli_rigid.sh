@@ -41,5 +41,26 @@ check "a recoloured body re-renders without re-simulating" \
 check "the plate is drawn: its colour changes the image" bash -c "! cmp -s blue.png o/images/cut.1003.png"
 check "no temporaries left" test -z "$(find o -name '*.tmp-*')"
 
+# solids whose mesh intersects itself (issue 17: sand_stir's bowl leaked through its
+# bottom): refused at each mesh: key with the mesh, two triangles and a point, the
+# line echoed, every one in one pass, exit 2 and nothing written
+mkdir -p shots meshes
+cp "$tests/shots/bad_solid.yaml" shots/
+cp "$tests/meshes/cubes_crossed.obj" "$tests/meshes/cube.obj" meshes/
+where="shots/../meshes/cubes_crossed.obj: intersects itself: triangles 3 and 18 meet at (1, 0.25, 1) (file coordinates); 14 pairs of triangles intersect"
+for cmd in check run; do
+    "$kerf" $cmd shots/bad_solid.yaml --out bad > bad.out 2> bad.err; rc=$?
+    check "kerf $cmd refuses self-intersecting solids with exit 2 (got $rc)" test $rc -eq 2
+    check "kerf $cmd: the static rigid, at its mesh" grep -qxF \
+        "shots/bad_solid.yaml:13:36: error: rigid cup: a static solid must not intersect itself: $where" bad.err
+    check "kerf $cmd: its line echoed" grep -qxF \
+        "   13 |   - {name: cup, shape: mesh, mesh: ../meshes/cubes_crossed.obj, scale: 0.1, center: [0.5, 0.7, 0.5]}" bad.err
+    check "kerf $cmd: the dynamic rigid" grep -qxF \
+        "shots/bad_solid.yaml:14:36: error: rigid lid: a dynamic solid must not intersect itself: $where" bad.err
+    check "kerf $cmd: the object" grep -qxF "shots/bad_solid.yaml:11:37: error: object 'lump': $where" bad.err
+    check "kerf $cmd: three errors in all" test "$(grep -c ': error: ' bad.err)" -eq 3
+    check "kerf $cmd: nothing written" test ! -e bad
+done
+
 echo "$fails failed"
 exit $((fails > 0))

@@ -14,6 +14,7 @@
 #include "scene/build.h"
 #include "scene/build_rigid.h"
 #include "scene/mesh.h"
+#include "scene/mesh_isect.h"
 #include "shot/shot.h"
 
 /* fixtures sit beside this file: tests/shots/NAME */
@@ -334,6 +335,107 @@ static void thin_assets(void) {
     }
 }
 
+/* ---- solids that intersect themselves (issue 17: sand_stir's bowl) -------------------------- */
+
+/* the triangle-triangle test on cases whose answer is known by hand */
+static void tri_tri_cases(void) {
+    double at[3];
+    /* a vertical triangle through the floor triangle z = 0, x + y <= 2: they share the
+       segment y = 0.5, z = 0, x in [0.5, 1.5] */
+    const double floor_tri[9] = {0, 0, 0, 2, 0, 0, 0, 2, 0};
+    const double wall[9] = {0.5, 0.5, -1, 0.5, 0.5, 1, 3, 0.5, 0};
+    KT_CHECK(kf_tri_tri_intersect(floor_tri, wall, at) == 1, "a wall through a floor intersects it");
+    KT_CHECK(at[2] == 0 && fabs(at[1] - 0.5) < 1e-15 && at[0] >= 0.5 - 1e-15 && at[0] <= 1.5 + 1e-15,
+             "the point is on both (%g, %g, %g)", at[0], at[1], at[2]);
+    KT_CHECK(kf_tri_tri_intersect(wall, floor_tri, NULL) == 1, "in either order");
+    /* two triangles of a closed surface folded along their shared edge x in [0, 1]:
+       they touch only along it, which is no intersection */
+    const double a[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, b[9] = {1, 0, 0, 0, 0, 0, 0.3, -1, 0.5};
+    KT_CHECK(kf_tri_tri_intersect(a, b, at) == 0, "neighbours across a shared edge do not intersect");
+    /* sharing one vertex: touching only there is fine, passing through the other is not */
+    const double fan[9] = {0, 0, 0, -1, 0, 0.2, -1, 1, 0.2};
+    KT_CHECK(kf_tri_tri_intersect(a, fan, at) == 0, "triangles meeting only at a shared vertex");
+    const double fold[9] = {0, 0, 0, 0.5, 0.2, 1, 0.5, 0.2, -1};
+    KT_CHECK(kf_tri_tri_intersect(a, fold, at) == 1 && fabs(at[0] - 0.5) < 1e-15 && fabs(at[1] - 0.2) < 1e-15 &&
+                 at[2] == 0,
+             "a triangle from a shared vertex through the other: at (0.5, 0.2, 0), got (%g, %g, %g)", at[0], at[1],
+             at[2]);
+    /* a corner resting on the other's face counts; a parallel face 1e-9 above does not */
+    const double corner[9] = {0.25, 0.25, 0, 0.25, 0.25, 1, 1, 0.25, 1};
+    KT_CHECK(kf_tri_tri_intersect(a, corner, at) == 1, "a corner touching a face");
+    const double above[9] = {0, 0, 1e-9, 1, 0, 1e-9, 0, 1, 1e-9};
+    KT_CHECK(kf_tri_tri_intersect(a, above, at) == 0, "a parallel copy 1e-9 above");
+}
+
+/* kerf's shot error: the mesh, two triangles and a point, at the entry's mesh: key; the
+ * refused solids all reported in one pass; and the bowl make_meshes now writes passes */
+static void self_intersecting_solids(void) {
+    kf_diag d;
+    kf_shot *s = load(fixture("bad_solid.yaml"), NULL, 0, &d);
+    KT_CHECK(s != NULL && d.count == 0, "bad_solid.yaml parses");
+    if (s) {
+        kf_scene sc;
+        int rc = kf_scene_from_shot(s, 1, &sc, NULL, &d);
+        KT_CHECK(rc != 0, "a self-intersecting solid is refused");
+        if (rc == 0) kf_scene_free(&sc);
+        /* every entry uses the same mesh; its path as the shot resolved it */
+        const char *path = s->rigids[0].mesh_path;
+        KT_CHECK(strstr(path, "shots/../meshes/cubes_crossed.obj") != NULL, "mesh relative to the shot: %s", path);
+        char where[1536], want[3][2048];
+        snprintf(where, sizeof where,
+                 "%s: intersects itself: triangles 3 and 18 meet at (1, 0.25, 1) (file coordinates); 14 pairs of "
+                 "triangles intersect",
+                 path);
+        snprintf(want[0], sizeof want[0], "rigid cup: a static solid must not intersect itself: %s", where);
+        snprintf(want[1], sizeof want[1], "rigid lid: a dynamic solid must not intersect itself: %s", where);
+        snprintf(want[2], sizeof want[2], "object 'lump': %s", where);
+        const int line[3] = {13, 14, 11}, col[3] = {36, 36, 37};
+        for (int k = 0; k < 3; k++) {
+            int found = 0;
+            for (int i = 0; i < d.count; i++)
+                found |= d.entry[i].line == line[k] && d.entry[i].col == col[k] &&
+                         d.entry[i].severity == KF_DIAG_ERROR && !strcmp(d.entry[i].message, want[k]);
+            KT_CHECK(found, "no error at %d:%d reading \"%s\"", line[k], col[k], want[k]);
+        }
+        KT_CHECK(d.count == 3, "three errors, the sound box not among them (got %d)", d.count);
+        if (d.count != 3) kf_diag_print(stderr, &d);
+    }
+    kf_shot_free(s);
+    kf_diag_free(&d);
+
+    /* the fixture itself: the pairs found, and the first of them (in triangle order) */
+    char path[1024], err[1024];
+    const char *slash = strrchr(__FILE__, '/');
+    snprintf(path, sizeof path, "%.*s/meshes/cubes_crossed.obj", slash ? (int)(slash - __FILE__) : 1,
+             slash ? __FILE__ : ".");
+    kf_mesh m;
+    int rc = kf_mesh_load(path, &m, err, sizeof err);
+    KT_CHECK(rc == 0 && m.closed && m.oriented && m.volume > 0, "cubes_crossed.obj: closed and outward %s", rc ? err : "");
+    if (rc == 0) {
+        kf_mesh_isect x;
+        for (int threads = 1; threads <= 2; threads++) {
+            KT_CHECK(kf_mesh_self_intersections(&m, threads, &x) == 0, "memory");
+            KT_CHECK(x.pairs == 14 && x.tri[0] == 2 && x.tri[1] == 17 && x.at[0] == 1 && x.at[1] == 0.25 && x.at[2] == 1,
+                     "%d threads: %zu pairs, first %u and %u at (%g, %g, %g)", threads, x.pairs, x.tri[0], x.tri[1],
+                     x.at[0], x.at[1], x.at[2]);
+        }
+        kf_mesh_free(&m);
+    }
+
+    /* the regenerated bowl: closed, outward, and passing the check; standing on its foot
+       ring's base at y = -0.5, a 30 mm wall under the inside's bottom at -0.47 */
+    snprintf(path, sizeof path, "%.*s/../assets/bowl.obj", slash ? (int)(slash - __FILE__) : 1, slash ? __FILE__ : ".");
+    rc = kf_mesh_load(path, &m, err, sizeof err);
+    KT_CHECK(rc == 0 && m.closed && m.oriented && m.flipped_tris == 0, "bowl.obj: closed and outward %s", rc ? err : "");
+    if (rc == 0) {
+        KT_CHECK(kf_mesh_check_self_intersection(&m, 0, err, sizeof err) == 0, "%s", err);
+        KT_NEAR(m.lo[1], -0.5, 1e-7, "the base (float coordinates)");
+        KT_NEAR(m.hi[1], 0, 0, "the rim");
+        KT_NEAR(m.hi[0], 0.5, 1e-7, "outer radius");
+        kf_mesh_free(&m);
+    }
+}
+
 /* the paper's scenes in shots/ load and build (at preview quality: seconds) */
 static void example_shots(void) {
     const char *names[] = {"bunny_split.yaml", "cheese_cut.yaml",   "sand_stir.yaml",   "sand_sweep.yaml",
@@ -370,5 +472,7 @@ int main(int argc, char **argv) {
     KT_RUN(rigid_hash, argc, argv);
     KT_RUN(thin_assets, argc, argv);
     KT_RUN(example_shots, argc, argv);
+    KT_RUN(tri_tri_cases, argc, argv);
+    KT_RUN(self_intersecting_solids, argc, argv);
     return KT_EXIT();
 }
