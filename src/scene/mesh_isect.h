@@ -45,9 +45,10 @@ int kf_tri_tri_intersect(const double a[9], const double b[9], double at[3]);
  * *out filled (out->pairs == 0: no self-intersection), -1 out of memory. */
 int kf_mesh_self_intersections(const kf_mesh *m, int threads, kf_mesh_isect *out);
 
-/* 0 when the mesh does not intersect itself, else -1 and the message above
- * (triangles counted from 1 in the file's order, polygons split into
- * triangles, as OBJ numbers its triangular faces). */
+/* 0 when the mesh does not intersect itself, else -1 and the message above:
+ * triangles counted from 1 in the order they load (the file's order for PLY,
+ * STL, OFF and an OBJ of one material; polygons split into triangles, so an
+ * all-triangle OBJ's face numbers), the point in the mesh's coordinates. */
 int kf_mesh_check_self_intersection(const kf_mesh *m, int threads, char *err, size_t errlen);
 
 #endif
