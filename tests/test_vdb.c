@@ -222,6 +222,40 @@ static void test_sphere_file(void)
         KT_CHECK(s[0] < 0 && s[1] > 0, "inside %g outside %g", s[0], s[1]);
         kf_vdb_free(rg);
     }
+    /* the velocity grid read back from the file: on the surface (within the
+     * band, where vel is active) it is the particles' rigid rotation
+     * v = w x (x - C), w = (0, 2, 0) rad/s, 0.4 m/s at the equator, 0 at
+     * the poles. 26 directions (cube corners, edge and face centres) */
+    {
+        double q[26 * 3], vel[26 * 3], worst = 0, speed = 0;
+        int k = 0;
+        for (int i = -1; i <= 1; i++)
+            for (int j = -1; j <= 1; j++)
+                for (int l = -1; l <= 1; l++) {
+                    if (!i && !j && !l) continue;
+                    double len = sqrt((double)(i * i + j * j + l * l));
+                    q[3 * k] = C[0] + R * i / len, q[3 * k + 1] = C[1] + R * j / len, q[3 * k + 2] = C[2] + R * l / len;
+                    k++;
+                }
+        KT_CHECK(kf_vdb_read_vec3_sample(path, "vel", q, 26, vel, err, sizeof err) == 0, "%s", err);
+        for (k = 0; k < 26; k++) {
+            double want[3] = {2 * (q[3 * k + 2] - C[2]), 0, -2 * (q[3 * k] - C[0])}, d = 0;
+            for (int a = 0; a < 3; a++) d += (vel[3 * k + a] - want[a]) * (vel[3 * k + a] - want[a]);
+            worst = fmax(worst, sqrt(d));
+            speed = fmax(speed, sqrt(want[0] * want[0] + want[2] * want[2]));
+        }
+        printf("  vel read back on the surface: largest |v - w x (x - C)| %.4f m/s (speeds up to %.2f m/s)\n", worst,
+               speed);
+        /* the band's velocity is that of the particles within r = 1.5 h of
+         * it, whose centres lie inside the surface: w x (that offset) is up
+         * to w r = 0.03 m/s (measured largest 0.040); held to twice that */
+        KT_NEAR(worst, 0, 0.08, "vel at the surface is the rotation within 2x the measured 0.040 m/s");
+        /* the level set is not a velocity, and a missing grid is named */
+        KT_CHECK(kf_vdb_read_vec3_sample(path, "surface", q, 1, vel, err, sizeof err) == -1 && strstr(err, "vec3s"),
+                 "surface is not vec3s: '%s'", err);
+        KT_CHECK(kf_vdb_read_vec3_sample(path, "v", q, 1, vel, err, sizeof err) == -1 && strstr(err, "'v'"),
+                 "missing: '%s'", err);
+    }
     /* a grid that is not there is named in the error */
     KT_CHECK(kf_vdb_read_levelset(path, "water", &rg, NULL, err, sizeof err) == -1 && !rg, "missing grid read");
     KT_CHECK(strstr(err, "water") && strstr(err, path), "message '%s'", err);

@@ -191,6 +191,10 @@ int kf_vdb_read_levelset(const char *path, const char *name, kf_vdb_grid **out,
  * trilinear; outside the narrow band it is +/- the band width. */
 int kf_vdb_sample(const kf_vdb_grid *g, const double *xyz, size_t n, double *out,
                   char *err, size_t errlen);
+/* Read the vec3s grid called name (NULL: "vel") and sample it trilinearly
+ * at n world points xyz (n x 3) into out (n x 3); zero where inactive. */
+int kf_vdb_read_vec3_sample(const char *path, const char *name, const double *xyz, size_t n, double *out,
+                            char *err, size_t errlen);
 /* The renderer's path from a .vdb alone: read "surface" and mesh it. */
 int kf_vdb_read_surface_mesh(const char *path, double adaptivity, kf_vdb_trimesh *out,
                              kf_vdb_meta *meta, char *err, size_t errlen);

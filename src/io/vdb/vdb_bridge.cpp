@@ -646,6 +646,25 @@ int kf_vdb_sample(const kf_vdb_grid *g, const double *xyz, size_t n, double *out
     });
 }
 
+int kf_vdb_read_vec3_sample(const char *path, const char *name, const double *xyz, size_t n, double *out,
+                            char *err, size_t errlen)
+{
+    return guard("read", err, errlen, [&] {
+        if (n && (!xyz || !out)) throw bridge_error("no arrays");
+        reader r(path);
+        const char *nm = name && *name ? name : "vel";
+        if (!r.f.hasGrid(nm)) throw bridge_error(fmt("'%s' has no grid named '%s'", path, nm));
+        auto base = r.f.readGrid(nm);
+        auto g = openvdb::gridPtrCast<openvdb::Vec3SGrid>(base);
+        if (!g) throw bridge_error(fmt("'%s': grid '%s' is %s, not vec3s", path, nm, base->valueType().c_str()));
+        openvdb::tools::GridSampler<openvdb::Vec3SGrid, openvdb::tools::BoxSampler> s(*g);
+        for (size_t i = 0; i < n; i++) {
+            openvdb::Vec3s v = s.wsSample(Vec3R(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]));
+            for (int a = 0; a < 3; a++) out[3 * i + a] = v[a];
+        }
+    });
+}
+
 int kf_vdb_read_surface_mesh(const char *path, double adaptivity, kf_vdb_trimesh *out, kf_vdb_meta *meta, char *err,
                              size_t errlen)
 {
