@@ -247,7 +247,8 @@ static int tmpl_run(const char *t, const kf_shot *s, int frame, char *out, size_
             const char *q = spec;
             if (is_shot) return snprintf(msg, msglen, "{shot} takes no format"), -1;
             if (*q == '0') zero = 1, q++;
-            while (isdigit((unsigned char)*q)) width = width * 10 + (*q++ - '0');
+            /* capped as it is read: a long run of digits must not overflow (fuzz_shot) */
+            for (; isdigit((unsigned char)*q); q++) width = width > 12 ? 13 : width * 10 + (*q - '0');
             if (strcmp(q, "d") != 0 || width > 12)
                 return snprintf(msg, msglen, "bad format '%s' in {%s:...}; write e.g. {%s:04d}", spec, field, field), -1;
         }
