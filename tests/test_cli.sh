@@ -60,21 +60,22 @@ check "kerf check accepts a good shot: exit 0 (got $rc), its one line exactly" \
              grep -qxF 'tiny.yaml: ok (tiny, 9192 particles, frames 1001-1012)' check.txt"
 
 # --- a run that fails: exit 1 with the reason, no frame after the last good one ---
-# a fixed step of 0.04 s moves the falling cube a cell a substep: with no
-# retries that is fatal; with the default 4 the frame is retried at 0.02 s
-"$kerf" run tiny.yaml --out trouble --frames 1001-1002 --set sim.dt_fixed=0.04 --set sim.max_retries=0 \
-    > trouble.log 2> trouble.err
+# a fixed step of 0.04 s moves the falling cube a cell a substep: a fixed step
+# is never changed, so that is fatal; with sim.retry_fixed the frame is
+# retried at 0.02 s and passes
+"$kerf" run tiny.yaml --out trouble --frames 1001-1002 --set sim.dt_fixed=0.04 > trouble.log 2> trouble.err
 rc=$?
 check "numerical trouble exits 1 (got $rc)" test $rc -eq 1
 check "it names the frame, the trouble, the particle and the material" grep -qE "^kerf: frame 1002: numerical \
 trouble: CFL violated \(cells moved per substep\) \(value [0-9.]+\) at substep [0-9]+, particle [0-9]+, material 0 \
-'jelly'; still failing after 0 retries at half the CFL number \(last cfl 0.4\)$" trouble.err
+'jelly', at the fixed step sim.dt_fixed = 0.04 s" trouble.err
 check "no checkpoint after the last good frame" bash -c "test -e trouble/checkpoints/tiny.1001.kfc && ! test -e trouble/checkpoints/tiny.1002.kfc"
-"$kerf" run tiny.yaml --out retried --frames 1001-1002 --set sim.dt_fixed=0.04 --set output.surface=false \
-    --set output.images=false > retried.log 2>&1
+"$kerf" run tiny.yaml --out retried --frames 1001-1002 --set sim.dt_fixed=0.04 --set sim.retry_fixed=true \
+    --set output.surface=false --set output.images=false > retried.log 2>&1
 rc=$?
-check "with retries the same frame is retried at half the step and the run exits 0 (got $rc)" \
-    bash -c "test $rc -eq 0 && grep -qE '^frame 1002: .* 1 retries, 1 warnings' retried.log && test -e retried/checkpoints/tiny.1002.kfc"
+check "with sim.retry_fixed the frame is retried at half the step and the run exits 0 (got $rc)" \
+    bash -c "test $rc -eq 0 && grep -qE '^frame 1002: .* 1 retries, 1 warnings' retried.log && \
+             grep -qF 'frame 1002: retried at a fixed step of 0.02 s' retried.log && test -e retried/checkpoints/tiny.1002.kfc"
 
 # --- a full run ---------------------------------------------------------------
 "$kerf" run tiny.yaml --out full > run.log 2>&1
