@@ -111,7 +111,10 @@ int thin_run(const thin_case *c, thin_result *r) {
     /* the substep: the material's elastic CFL number 0.3 (its wave speed at rest) */
     const double wave = kf_mat_wave_speed(&m->mat[mid], 1.0), dt = 0.3 * c->dx / wave;
     const double speed = c->cells * c->dx / dt; /* m/s of the fastest point of the sheet */
-    m->sim.dt_fixed = dt; /* as a shot's sim.dt_fixed */
+    /* as a shot's sim.dt_fixed, or (adaptive) the default CFL rule, which
+     * takes as many substeps within each such step as the body's speed and
+     * the material's state ask for */
+    m->sim.dt_fixed = c->adaptive ? 0 : dt;
 
     kf_rigid_def d;
     memset(&d, 0, sizeof d);
@@ -174,12 +177,21 @@ int thin_run(const thin_case *c, thin_result *r) {
     double t0 = kf_now_ms();
     for (long k = 0; k < total; k++) {
         kf_trouble tr;
-        if (kf_step(m, s, dt, &st, &tr)) {
+        if (c->adaptive) {
+            char msg[256];
+            if (kf_advance(m, s, dt, &st, msg, sizeof msg)) {
+                r->failed = 1;
+                snprintf(r->trouble, sizeof r->trouble, "%s", msg);
+                break;
+            }
+            r->substeps = st.substeps;
+        } else if (kf_step(m, s, dt, &st, &tr)) {
             r->failed = 1;
             snprintf(r->trouble, sizeof r->trouble, "%s (value %g) at substep %ld", tr.what, tr.value, k);
             break;
+        } else {
+            r->substeps++;
         }
-        r->substeps++;
         pv = kf_state_particles_read(s);
         pose = kf_state_rigid(s, 0);
         long across = 0;

@@ -29,11 +29,13 @@ typedef struct thin_case {
     int frames;            /* output frames checked (every frame_substeps substeps) */
     int threads;
     int defaults;          /* 1: the sheet's penalty and push as a shot leaves them (auto); 0: both off */
+    int adaptive;          /* 1: the default CFL rule instead of the fixed step (cells: the body's speed in
+                              cells per rest step, 0.3 dx / c); checked after each rest step's worth */
 } thin_case;
 
 typedef struct thin_result {
     int failed;            /* numerical trouble (message in trouble) */
-    char trouble[160];
+    char trouble[320];
     long particles;
     long substeps;
     long across_frame_max; /* the most particles across at one output frame */

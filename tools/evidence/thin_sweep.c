@@ -5,7 +5,8 @@
  * most across at an output frame, ever across (> 0.1 dx), deepest (dx),
  * across at the end, fastest particle (cells/substep), crossings the guard
  * caught, ms, and the trouble if the run failed. --off: penalty and push off
- * (the shot defaults before issue 17). */
+ * (the shot defaults before issue 17). --adaptive: the default CFL rule
+ * instead of the fixed step (the speed is then cells per rest step). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,14 +16,15 @@
 int main(int argc, char **argv) {
     double dx = 0.02, only_cells = 0;
     const char *only_mat = NULL, *only_motion = NULL;
-    int defaults = 1;
+    int defaults = 1, adaptive = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--dx") && i + 1 < argc) dx = atof(argv[++i]);
         else if (!strcmp(argv[i], "--material") && i + 1 < argc) only_mat = argv[++i];
         else if (!strcmp(argv[i], "--motion") && i + 1 < argc) only_motion = argv[++i];
         else if (!strcmp(argv[i], "--cells") && i + 1 < argc) only_cells = atof(argv[++i]);
         else if (!strcmp(argv[i], "--off")) defaults = 0;
-        else return fprintf(stderr, "usage: %s [--dx DX] [--material M] [--motion M] [--cells C] [--off]\n", argv[0]), 2;
+        else if (!strcmp(argv[i], "--adaptive")) adaptive = 1;
+        else return fprintf(stderr, "usage: %s [--dx DX] [--material M] [--motion M] [--cells C] [--off] [--adaptive]\n", argv[0]), 2;
     }
     static const char *mats[] = {"sand", "goo", "water", "jello", "snow", NULL};
     static const double speeds[] = {0.05, 0.25, 0.5, 1.0, 0};
@@ -35,7 +37,7 @@ int main(int argc, char **argv) {
             for (int v = 0; speeds[v] > 0; v++) {
                 if (only_cells > 0 && speeds[v] != only_cells) continue;
                 if (mo == THIN_REST && v > 0) break;
-                thin_case c = {mats[k], (thin_motion)mo, speeds[v], dx, 10, 0, defaults};
+                thin_case c = {mats[k], (thin_motion)mo, speeds[v], dx, 10, 0, defaults, adaptive};
                 thin_result r;
                 if (thin_run(&c, &r)) return 1;
                 printf("%-6s %-9s %5.2f %7ld %6ld %6ld %6ld %7.3f %5ld %6.2f %7ld %8.0f %s", mats[k],
