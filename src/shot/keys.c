@@ -315,8 +315,8 @@ const kf_keydef kf_keys[] = {
      "Coulomb friction between the material and the body."},
     {"rigids[].penalty", KT_NUM, RIG(def.penalty), GE(0), NULL, "auto", "1/s", NULL, KF_AUTO,
      "Keeps material touching the body half a particle spacing off its surface (paper Eq. 22, measured at the "
-     "particle's extent). auto: a stabilised contact sized from the substep, a particle inside that skin leaves it no "
-     "slower than a fifth of its overlap per substep and is never kicked faster (nothing bounces). A number: the "
+     "particle's extent), so its surface does not poke through the body. auto: the skin is restored by position, a "
+     "fifth of the overlap per substep, without touching the velocity (nothing bounces or jitters). A number: the "
      "paper's velocity penalty, the overlap closing at this rate, never faster than within one substep; 0 = off. "
      "Whatever it is, no particle passes through the surface: each one's path relative to the body is checked "
      "against the exact triangles every substep."},
