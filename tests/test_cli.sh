@@ -163,6 +163,18 @@ cp full/checkpoints/tiny.1012.kfc last.kfc
 check "a current cache exits 0" test $? -eq 0
 check "a current cache is reused and says so" grep -q "nothing to simulate" again.log
 check "a current cache is not rewritten" cmp -s last.kfc full/checkpoints/tiny.1012.kfc
+# the executable's bytes are a cache input: the same kerf reuses a copy of the
+# cache, the same program with one byte more (a rebuilt kerf) simulates again
+for who in same rebuilt; do
+    rm -rf "exe_$who" && cp -r full "exe_$who" && rm -f "exe_$who/.kerf.lock"
+done
+cp "$kerf" kerf_rebuilt && printf 'x' >> kerf_rebuilt && chmod +x kerf_rebuilt
+"$kerf" run tiny.yaml --out exe_same --frames 1001-1003 --set output.surface=false --set output.images=false > exe_same.log 2>&1
+./kerf_rebuilt run tiny.yaml --out exe_rebuilt --frames 1001-1003 --set output.surface=false --set output.images=false \
+    > exe_rebuilt.log 2>&1
+check "the same executable reuses the cache" grep -q "nothing to simulate" exe_same.log
+check "an executable with other bytes simulates again" \
+    bash -c "! grep -q 'nothing to simulate' exe_rebuilt.log && grep -qE '^frame 1003: [0-9]+ particles' exe_rebuilt.log"
 rm full/particles/tiny.1007.ply
 "$kerf" run tiny.yaml --out full > again.log 2>&1
 check "a missing particle frame comes back from its checkpoint" test -e full/particles/tiny.1007.ply
