@@ -163,7 +163,7 @@ void splat_leaf(const sorted_particles &p, Coord leaf, int reach, float w, bool 
 {
     std::fill(b.d, b.d + Leaf::SIZE, w);
     if (track) std::fill(b.who, b.who + Leaf::SIZE, -1);
-    const int ox = leaf.x() << LOG2, oy = leaf.y() << LOG2, oz = leaf.z() << LOG2;
+    const int ox = leaf.x() * DIM, oy = leaf.y() * DIM, oz = leaf.z() * DIM; // not << : leaves may be below 0
     const float fox = float(ox), foy = float(oy), foz = float(oz);
     for (int i = -reach; i <= reach; i++)
         for (int j = -reach; j <= reach; j++)
@@ -248,7 +248,7 @@ void crease_point(const sorted_particles &p, uint32_t q, uint32_t u, float vx, f
 // (0 <= d < 1): on the closest sphere, which outside the union is exact
 void closest_points(const sorted_particles &p, openvdb::Coord lc, const leaf_buffer &b, std::vector<float> &out)
 {
-    const int ox = lc.x() << LOG2, oy = lc.y() << LOG2, oz = lc.z() << LOG2;
+    const int ox = lc.x() * DIM, oy = lc.y() * DIM, oz = lc.z() * DIM;
     for (int v = 0; v < LEAF_SIZE; v++) {
         const float d = b.d[v];
         if (!(d >= 0 && d < 1) || b.who[v] < 0) continue;
@@ -413,7 +413,7 @@ FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, const
             for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < hwv;
             if (!any) continue;
             const Coord lc = unpack(band.key[i]);
-            const Coord origin(lc.x() << LOG2, lc.y() << LOG2, lc.z() << LOG2);
+            const Coord origin(lc.x() * DIM, lc.y() * DIM, lc.z() * DIM);
             auto *leaf = new Leaf(origin, bg, false);
             VelLeaf *vl = track ? new VelLeaf(origin, Vec3s(0.f), false) : nullptr;
             const int32_t *w = who.data() + i * Leaf::SIZE;
