@@ -36,10 +36,13 @@ fi
 # array (out->c before the first crossing), which clang reports on every rigid seeding
 san="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize=pointer-overflow -fno-sanitize-recover=undefined"
 san="$san -fno-omit-frame-pointer"
-cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKERF_FUZZ=ON -DKERF_NATIVE=OFF \
-  -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
-  -DCMAKE_C_FLAGS="$san" -DCMAKE_CXX_FLAGS="$san" >/dev/null
-nice -n 19 cmake --build "$build" -j "$(nproc)" --target fuzz_shot fuzz_mesh fuzz_checkpoint kerf >&2
+# KERF_FUZZ_NOBUILD=1: run the targets as built (e.g. while the tree is being edited)
+if [ -z "${KERF_FUZZ_NOBUILD:-}" ]; then
+  cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKERF_FUZZ=ON -DKERF_NATIVE=OFF \
+    -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
+    -DCMAKE_C_FLAGS="$san" -DCMAKE_CXX_FLAGS="$san" >/dev/null
+  nice -n 19 cmake --build "$build" -j "$(nproc)" --target fuzz_shot fuzz_mesh fuzz_checkpoint kerf >&2
+fi
 
 # ---- seed corpora (read-only; what the fuzzer finds goes to corpus/<target>) ----
 seeds="$build/seeds"
