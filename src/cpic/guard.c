@@ -98,6 +98,13 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     if (!b->bvh || !b->def.thin) return 0;
     to_mesh(&s->rigid[r], xold, p0);
     to_mesh(&c->end[r], x1, p1);
+    /* farther from the surface than its path is long (the MLS fit's distance
+     * at the start, a quarter cell to spare for a curved surface): it cannot
+     * have reached it, and the query is skipped (most of the narrow band) */
+    if (c->near[i] == r + 1) {
+        double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+        if (c->pd[i] > sqrt(rm_dot(d, d)) + 0.25 * m->sim.dx) return 0;
+    }
     int k = kf_rigid_bvh_first_hit(b->bvh, p0, p1, &t);
     if (k < 0) return 0;
     /* a particle that got between the two faces of a blade (through its
