@@ -2,7 +2,7 @@
  * shot gets (penalty and push auto), against the exact geometry of the
  * sheet, not kerf's grid (tools/evidence/thin_problem.c):
  *   - a zero-thickness sheet spanning a channel sweeps through a bed of sand,
- *     goo, water and jelly, then stops dead: no particle is behind it at any
+ *     goo, water, jelly and snow, then stops dead: no particle is behind it at any
  *     output frame, none more than 0.1 cell behind at any substep's end, and
  *     the run has no numerical trouble;
  *   - the same diagonal to the grid, and a blade turning about its edge;
@@ -65,6 +65,15 @@ static void sweep_jelly(void) {
     expect_clean("jello", THIN_SWEEP, 0.05, 0);
     expect_clean("jello", THIN_SWEEP, 0.5, 0);
     expect_clean("jello", THIN_ROTATE, 1.0, 1);
+}
+
+/* snow hardens as it compacts (its wave speed grows with e^{xi (1 - Jp)}),
+ * so a fixed step taken at its wave speed at rest no longer resolves it
+ * once a sheet at 0.5 cell per substep has packed it (issue 17's note) */
+static void sweep_snow(void) {
+    expect_clean("snow", THIN_SWEEP, 0.05, 0);
+    expect_clean("snow", THIN_SWEEP, 0.25, 0);
+    expect_clean("snow", THIN_ROTATE, 0.5, 0);
 }
 
 /* the sheet's normal at 45 degrees to the grid */
@@ -249,6 +258,7 @@ int main(int argc, char **argv) {
     KT_RUN(sweep_goo, argc, argv);
     KT_RUN(sweep_water, argc, argv);
     KT_RUN(sweep_jelly, argc, argv);
+    KT_RUN(sweep_snow, argc, argv);
     KT_RUN(diagonal_sweep, argc, argv);
     KT_RUN(rotating_blade, argc, argv);
     KT_RUN(rest_without_jitter, argc, argv);
