@@ -40,7 +40,7 @@ void band_distance(dense_band &b, const surface_points &s, float exact_out, floa
         for (size_t i = rg.begin(); i != rg.end(); i++) {
             std::fill(d2, d2 + LEAF_SIZE, W2);
             const openvdb::Coord lc = leaf_coord(b.key[i]);
-            const int ox = lc.x() << LEAF_LOG2, oy = lc.y() << LEAF_LOG2, oz = lc.z() << LEAF_LOG2;
+            const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM; // not << : leaves may be below 0
             for (int n = 0; n < 27; n++) {
                 const int32_t j = b.nbr[27 * i + n];
                 if (j < 0) continue;

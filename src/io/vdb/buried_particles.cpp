@@ -46,7 +46,7 @@ std::vector<uint8_t> buried_particles(const float *x, const float *y, const floa
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nb, 16), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t b = rg.begin(); b != rg.end(); b++) {
             const openvdb::Coord lc = leaf_coord(bin_key[b]);
-            const int ox = lc.x() << LEAF_LOG2, oy = lc.y() << LEAF_LOG2, oz = lc.z() << LEAF_LOG2;
+            const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM; // not << : leaves may be below 0
             for (uint32_t q = bin_at[b]; q < bin_at[b + 1]; q++) {
                 const int vx = int(std::floor(x[q] + 0.5f)) - ox, vy = int(std::floor(y[q] + 0.5f)) - oy,
                           vz = int(std::floor(z[q] + 0.5f)) - oz;
@@ -79,7 +79,7 @@ std::vector<uint8_t> buried_particles(const float *x, const float *y, const floa
             erode_axis(box, tmp, S, M, S * S, S, 1);
             erode_axis(box, tmp, S, M, S, S * S, 1);
             erode_axis(box, tmp, S, M, 1, S * S, S);
-            const int lx = (lc.x() << LEAF_LOG2) - M, ly = (lc.y() << LEAF_LOG2) - M, lz = (lc.z() << LEAF_LOG2) - M;
+            const int lx = lc.x() * LEAF_DIM - M, ly = lc.y() * LEAF_DIM - M, lz = lc.z() * LEAF_DIM - M;
             for (uint32_t q = bin_at[b]; q < bin_at[b + 1]; q++) {
                 const int vx = int(std::floor(x[q] + 0.5f)) - lx, vy = int(std::floor(y[q] + 0.5f)) - ly,
                           vz = int(std::floor(z[q] + 0.5f)) - lz;
