@@ -173,6 +173,28 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     return depth;
 }
 
+/* A particle whose tag for thin body r disagrees with the nodes around it
+ * (the fit put it behind the surface) takes the side of the exact closest
+ * triangle, as a node takes the side of its closest primitive (cdf.c). With
+ * the guard nothing is behind a thin body for real, so the disagreement is a
+ * stale tag: one bit per body cannot name the side of every plate of a fold
+ * (crossing plates, a paddle wheel), and a particle that slid from one plate
+ * to the other kept the first one's side. */
+static void retag(const kf_model *m, kf_state *s, int r, size_t i) {
+    const kf_rigid_body *b = &m->rigid[r];
+    if (!b->bvh || !b->def.thin) return;
+    kf_particles *p = &s->p;
+    double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, pm[3], q[3], nrm[3], off;
+    to_mesh(&s->cpic->end[r], x, pm);
+    int interior = 0, k = kf_rigid_bvh_closest(b->bvh, pm, 1.5 * m->sim.dx, q, &interior);
+    if (k < 0 || !interior) return;
+    tri_plane(b, b->guard_tri[k], nrm, &off);
+    const double u = rm_dot(nrm, pm) - off;
+    const uint32_t tbit = 1u << (2 * r);
+    if (u < 0) p->colour[i] |= tbit;
+    else if (u > 0) p->colour[i] &= ~tbit;
+}
+
 void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const chunk *ck, size_t i0,
                    const kf_real *xold) {
     kf_cpic *c = s->cpic;
@@ -193,6 +215,8 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
             if (depth > 0) {
                 c->guard_caught[slot]++;
                 if (depth > c->guard_depth[slot]) c->guard_depth[slot] = depth;
+            } else if (c->near[i0 + (size_t)j] == r + 1 && c->pd[i0 + (size_t)j] < 0) {
+                retag(m, s, r, i0 + (size_t)j);
             }
         }
     }
