@@ -394,12 +394,13 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
         double depth = m->rigid[r].def.thin ? dx : 2 * dx, half = 0.5 * cbrt((double)p->vol0[i]);
         if (k == 0 || !(d < half && d > -depth)) continue;
         d -= half;
-        /* auto, around a solid: the paper's penalty closing a quarter of the
-         * overlap per substep (k = 1000/s at the 2.5e-4 s step of water at
-         * 64 cells/m, where a floating block takes its Archimedes draft);
-         * the skin contact below, measured, let the block sink half a cell
-         * deeper (the support under a loaded face comes from these kicks) */
-        if (k == KF_RIGID_AUTO && !m->rigid[r].def.thin) k = 0.25 / c->dt;
+        /* auto, around a solid: off, as before issue 17. Measured: the skin
+         * contact below let a floating block sink half a cell deeper than
+         * with no penalty (the support under a loaded face is the grid's),
+         * and the paper's kick sized to a quarter of the overlap per substep
+         * blew sand_stir up (sand pressed by the stirrer into the bowl: NaN
+         * velocity at frame 1007). A number still gives the paper's kick. */
+        if (k == KF_RIGID_AUTO && !m->rigid[r].def.thin) continue;
         if (k == KF_RIGID_AUTO) {
             /* auto, on a thin body: the skin is a contact, not a spring. A particle found
              * inside it (d, from P2G's fit at the substep's start, carried to

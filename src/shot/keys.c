@@ -315,8 +315,9 @@ const kf_keydef kf_keys[] = {
      "Coulomb friction between the material and the body."},
     {"rigids[].penalty", KT_NUM, RIG(def.penalty), GE(0), NULL, "auto", "1/s", NULL, KF_AUTO,
      "Keeps material touching the body half a particle spacing off its surface (paper Eq. 22, measured at the "
-     "particle's extent), so its surface does not poke through the body. auto: the skin is restored by position, a "
-     "fifth of the overlap per substep, without touching the velocity (nothing bounces or jitters). A number: the "
+     "particle's extent), so its surface does not poke through the body. auto: on a thin body a contact, a particle "
+     "inside that skin is put back on it and loses its approach (nothing bounces or jitters); around a solid off. "
+     "A number: the "
      "paper's velocity penalty, the overlap closing at this rate, never faster than within one substep; 0 = off. "
      "Whatever it is, no particle passes through the surface: each one's path relative to the body is checked "
      "against the exact triangles every substep."},
