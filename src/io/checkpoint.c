@@ -314,10 +314,11 @@ int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_chec
     }
     for (size_t i = 0; i < n; i++)
         if (p.mat[i] >= m->nmat) {
+            /* the material read before the arrays are freed (fuzz_checkpoint found the read after) */
+            unsigned mat = p.mat[i];
             kf_particles_free(&p);
             free(rsim);
-            snprintf(err, errlen, "%s: particle %zu uses material %u but the shot defines %d", path, i, p.mat[i],
-                     m->nmat);
+            snprintf(err, errlen, "%s: particle %zu uses material %u but the shot defines %d", path, i, mat, m->nmat);
             return -1;
         }
     p.n = n;

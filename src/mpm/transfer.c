@@ -227,10 +227,16 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
             /* where the step deforms by more than a few percent (a body
              * driving material a large fraction of a cell per substep), the
              * exact step exp(Δt L) F instead: det stays positive (expm.h) */
+            kf_real a2[KF_CHUNK];
+            int any_large = 0;
             for (int j = 0; j < n; j++) {
-                kf_real a2 = 0;
-                for (int k = 0; k < 9; k++) a2 += L[k][j] * L[k][j];
-                if (!(a2 * dt * dt > (kf_real)KF_EXPM_FROM2)) continue;
+                kf_real sum = 0;
+                for (int k = 0; k < 9; k++) sum += L[k][j] * L[k][j];
+                a2[j] = sum * dt * dt;
+                any_large |= a2[j] > (kf_real)KF_EXPM_FROM2;
+            }
+            for (int j = 0; j < (any_large ? n : 0); j++) {
+                if (!(a2[j] > (kf_real)KF_EXPM_FROM2)) continue;
                 size_t i = i0 + (size_t)j;
                 double A[9], E[9];
                 for (int k = 0; k < 9; k++) A[k] = (double)dt * L[k][j];
