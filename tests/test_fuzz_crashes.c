@@ -35,13 +35,14 @@ static void shot_error(const char *path, char *err, size_t errlen, int *loaded) 
 }
 
 static kf_scene cut;
+static kf_shot *cut_shot; /* the scene points into it: both live to the end of main */
 static int cut_built = 0;
 
 static int checkpoint_error(const char *path, char *err, size_t errlen) {
     if (!cut_built) {
         kf_diag diag;
         kf_diag_init(&diag);
-        kf_shot *shot = kf_shot_load(tu_repo_path("tests/cli/cut.yaml"), NULL, 0, NULL, NULL, &diag);
+        kf_shot *shot = cut_shot = kf_shot_load(tu_repo_path("tests/cli/cut.yaml"), NULL, 0, NULL, NULL, &diag);
         KT_CHECK(shot && kf_scene_from_shot(shot, 1, &cut, NULL, &diag) == 0, "cut.yaml builds");
         kf_diag_free(&diag);
         cut_built = 1; /* the scene points into the shot: both live to the end */
@@ -94,5 +95,6 @@ static void every_crash_is_refused(void) {
 int main(int argc, char **argv) {
     KT_RUN(every_crash_is_refused, argc, argv);
     if (cut_built) kf_scene_free(&cut);
+    kf_shot_free(cut_shot);
     return KT_EXIT();
 }
