@@ -213,9 +213,6 @@ int thin_run(const thin_case *c, thin_result *r) {
             double behind = -held * w / c->dx; /* cells behind the surface */
             if (behind <= 0) continue;
             across++;
-            if (getenv("KF_THIN_DEBUG") && behind > 1 && across < 4)
-                fprintf(stderr, "step %ld: a %.3f b %.3f w %.4f (cells %.2f) colour %x\n", k, a / c->dx, b / c->dx, w,
-                        behind, pv.colour[i]);
             if (behind > r->deepest) r->deepest = behind;
             if (behind > 0.1 && !ever[pv.id[i]]) ever[pv.id[i]] = 1, r->across_ever++;
         }
@@ -239,11 +236,6 @@ int thin_run(const thin_case *c, thin_result *r) {
             cnt++;
         }
         r->jitter = cnt ? sqrt(v2 / cnt) : 0;
-        if (getenv("KF_THIN_DEBUG")) {
-            double ymin = 1e9, ymean = 0;
-            for (size_t i = 0; i < pv.n; i++) ymean += pv.x[1][i], ymin = pv.x[1][i] < ymin ? pv.x[1][i] : ymin;
-            fprintf(stderr, "rest: y mean %.4f min %.4f\n", ymean / pv.n, ymin);
-        }
     }
     free(side0);
     free(ever);
