@@ -69,6 +69,9 @@ static void penalty_auto(void) {
     KT_CHECK(s == NULL && d.errors == 1, "a word other than auto is an error (%d errors)", d.errors);
     KT_CHECK(d.count == 1 && strstr(d.entry[0].message, "rigids[0].penalty: expected auto or a number, got 'fast'"),
              "message: %s", d.count ? d.entry[0].message : "(none)");
+    /* at the value in the --set text: "rigids.blade.penalty=" is 21 characters */
+    KT_CHECK(d.count == 1 && d.entry[0].line == 1 && d.entry[0].col == 22, "at --set:1:22 (got %d:%d)",
+             d.count ? d.entry[0].line : 0, d.count ? d.entry[0].col : 0);
     kf_shot_free(s);
     kf_diag_free(&d);
 }
