@@ -9,6 +9,8 @@ build=${1:-"$here/build"}
 packages=(build-essential cmake pkg-config file
           libopenvdb-dev libboost-iostreams-dev libtbb-dev libembree-dev libassimp-dev
           libosmesa6-dev libegl-dev libegl-mesa0 libfyaml-dev libpng-dev libmujoco-dev libqhull-dev
+          libmicrohttpd-dev     # kerf view's web server
+          chromium chromium-driver  # the tests of kerf view drive a headless browser
           gnuplot-nox)  # gnuplot: the figures of tools/evidence/run.sh
 missing=()
 for p in "${packages[@]}"; do

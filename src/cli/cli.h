@@ -54,6 +54,7 @@ int kf_cmd_turntable(int argc, char **argv);
 int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render);
 int kf_cmd_check(int argc, char **argv);
 int kf_cmd_info(int argc, char **argv);
+int kf_cmd_view(int argc, char **argv); /* cmd_view.c: the web page of src/view */
 void kf_cli_usage(FILE *f, const char *cmd);
 
 #endif

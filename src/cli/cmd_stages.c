@@ -10,6 +10,7 @@
 #include "../io/checkpoint.h"
 #include "../io/vdb_bridge.h"
 #include "cli.h"
+#include "run_record.h"
 #include "stages.h"
 
 /* The camera frames the shot's first frame, whichever command renders:
@@ -179,6 +180,11 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
                 made_r++;
             } else kept++;
         }
+        /* where the run stands, for watchers: frames surfaced and rendered so far */
+        if (made_s || made_r)
+            kf_record_progress(first.dir, do_render ? "render" : "surface", f, shot->first, shot->last,
+                               f - shot->first + 1, shot->last - shot->first + 1,
+                               (t_s + t_r) / 1e3 / (f - shot->first + 1) * (shot->last - f));
         if (!o->quiet && (made_s || made_r))
             fprintf(stderr, "frame %d: surface %.0f ms, render %.0f ms (averages so far)\n", f,
                     made_s ? t_s / made_s : 0, made_r ? t_r / made_r : 0);

@@ -21,6 +21,9 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                 "                      K views orbiting frame N (end exclusive: the sequence loops)\n"
                 "  check <shot.yaml>   validate the shot (all problems at once) and seed it; simulate nothing\n"
                 "  info <shot.yaml>    what the shot compiles to: particles, grid, materials, memory, substeps\n"
+                "  view <shot.yaml | dir> [--port N]\n"
+                "                      a local web page: play the frames, compare versions, plot the frame\n"
+                "                      records, edit keys and re-run at preview quality\n"
                 "  help [shot|run|check|info]\n"
                 "                      this text; `kerf help shot` lists every shot-file key\n"
                 "\n"
@@ -69,6 +72,7 @@ int main(int argc, char **argv) {
     if (!strcmp(cmd, "surface")) return kf_cmd_surface(argc - 2, argv + 2);
     if (!strcmp(cmd, "render")) return kf_cmd_render(argc - 2, argv + 2);
     if (!strcmp(cmd, "turntable")) return kf_cmd_turntable(argc - 2, argv + 2);
+    if (!strcmp(cmd, "view")) return kf_cmd_view(argc - 2, argv + 2);
     if (!strcmp(cmd, "help") || !strcmp(cmd, "--help") || !strcmp(cmd, "-h")) {
         const char *topic = argc > 2 ? argv[2] : NULL;
         if (topic && !strcmp(topic, "shot")) kf_shot_help(stdout);

@@ -233,6 +233,27 @@ double kf_shot_frame_time(const kf_shot *shot, int frame);
  * out is too small (out then holds "" ). */
 int kf_shot_expand(const char *tmpl, const kf_shot *shot, int frame, char *out, size_t outlen);
 
+/* One key of a loaded shot as a tool that shows and edits values lists it
+ * (kerf view): from the key table, with the loaded value printed the way
+ * --set takes it back. */
+typedef struct kf_shot_keyview {
+    const char *key;     /* the table's path: "materials.*.E" */
+    char path[160];      /* the --set path: "materials.jelly.E" */
+    const char *type;    /* number, integer, bool, string, enum, vec3, preset, material */
+    const char *choices; /* "a|b|c", or NULL */
+    const char *def;     /* the default as text, or NULL */
+    const char *unit;    /* "m", "Pa", ... or NULL */
+    const char *doc;     /* the help text */
+    char bounds[96];     /* "> 0", "in [0, 0.5)", or "" */
+    char value[256];     /* the value the shot has */
+    int applies;         /* 0: the key's condition (shape=box, ...) does not hold here */
+    int editable;        /* 0: names, paths, templates, version: not a value to tweak */
+} kf_shot_keyview;
+typedef int (*kf_shot_key_fn)(const kf_shot_keyview *k, void *ctx);
+/* Call fn for every key of the top level, each material, object and rigid
+ * body, in table order; stops at the first non-zero return and returns it. */
+int kf_shot_keys_each(const kf_shot *shot, kf_shot_key_fn fn, void *ctx);
+
 /* `kerf help shot`: every key, generated from the key table. */
 void kf_shot_help(FILE *f);
 
