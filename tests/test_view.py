@@ -264,7 +264,7 @@ def token_tests(work, port):
     check('... materials.jelly.E with its unit', e.get('unit') == 'Pa' and e.get('editable'), e)
 
 
-def browser_flipbook(b, port):
+def browser_flipbook(b, port, root):
     b.go('http://127.0.0.1:%d/' % port)
     first = wait_for(lambda: shown(b)[0] == 1001 and shown(b), 30)
     check('the page shows frame 1001 first', bool(first), shown(b))
@@ -337,6 +337,21 @@ def browser_flipbook(b, port):
     b.keys('\uE014')
     ok = wait_for(lambda: shown(b)[0] == 1 and close_to(shown(b)[1], colour(3, 1)), 5)
     check('... and steps to its second', bool(ok), shown(b))
+
+    # live: a run (this process stands in for it) writes a new frame and its progress
+    b.js("const s = document.getElementById('seqA'); s.value = [...s.options].find(o => o.value.startsWith('v001/images')).value;"
+         "s.dispatchEvent(new Event('change'));")
+    png(os.path.join(root, 'v001/images/shot.1009.png'), 64, 36, colour(1, 1009))
+    with open(os.path.join(root, 'v001/run.json'), 'w') as f:
+        json.dump({'pid': os.getpid(), 'stage': 'sim', 'frame': 1009, 'first': 1001, 'last': 1010, 'done': 8, 'todo': 9,
+                   'eta_s': 65.0}, f)
+    want = 'v001: simulating frame 1009 (8/9), ETA 1m05s'
+    got = wait_for(lambda: b.js("return document.getElementById('status').textContent") == want, 10)
+    check('live: the run\'s progress and ETA are shown (%r)' % want, bool(got),
+          b.js("return document.getElementById('status').textContent"))
+    b.keys('\uE010')  # End
+    ok = wait_for(lambda: shown(b)[0] == 1009 and close_to(shown(b)[1], colour(1, 1009)), 10)
+    check('live: the frame written meanwhile (1009) plays', bool(ok), shown(b))
 
 
 def browser_tweak(b, port, work):
@@ -420,7 +435,7 @@ def main():
 
         b = Browser(work)
         p2, port2 = start_view(root, work)
-        browser_flipbook(b, port2)
+        browser_flipbook(b, port2, root)
         browser_tweak(b, port, work)
     except Exception as e:  # a broken harness is a failure too, said plainly
         check('the test ran to its end', False, repr(e))

@@ -297,8 +297,9 @@ function markVersions() {
 const PLOTS = [
   {title: 'substeps', get: (r) => [r.substeps]},
   {title: 'max CFL', get: (r) => [r.max_cfl]},
-  {title: 'ms: p2g grid g2p stress cdf rigid', get: (r) => ['p2g', 'grid', 'g2p', 'stress', 'cdf', 'rigid'].map((k) => r.ms_stage[k])},
-  {title: 'retries, warnings', get: (r) => [r.retries, r.warnings]},
+  {title: 'ms per stage', legend: ['p2g', 'grid', 'g2p', 'stress', 'cdf', 'rigid'],
+   get: (r) => ['p2g', 'grid', 'g2p', 'stress', 'cdf', 'rigid'].map((k) => (r.ms_stage || {})[k])},
+  {title: 'retries, warnings', legend: ['retries', 'warnings'], get: (r) => [r.retries, r.warnings]},
   {title: 'thin crossings caught', get: (r) => [r.thin_caught]},
 ];
 const COLOURS = ['#6fb3ff', '#ffb36f', '#9fd39f', '#e07be0', '#e0e070', '#ff7b72'];
@@ -365,9 +366,9 @@ function plot(cv, p, fs, recs) {
     return;
   }
   const series = fs.map((f) => p.get(recs[f]).map(Number));
-  let hi = 0;
-  for (const v of series) for (const x of v) if (x > hi) hi = x;
-  hi = hi > 0 ? hi * 1.1 : 1;
+  let top = 0;
+  for (const v of series) for (const x of v) if (x > top) top = x;
+  const hi = top > 0 ? top * 1.1 : 1;
   const pad = 4, W = cv.width - 2 * pad, H = cv.height - 2 * pad - 10;
   const f0 = fs[0], f1 = fs[fs.length - 1];
   const X = (f) => pad + (f1 > f0 ? (f - f0) / (f1 - f0) : 0.5) * W;
@@ -385,13 +386,21 @@ function plot(cv, p, fs, recs) {
   }
   g.fillStyle = '#aaa';
   const cur = recs[S.frame];
-  g.fillText('max ' + +(hi / 1.1).toPrecision(3) + (cur ? '   ' + S.frame + ': ' + p.get(cur).map((x) => +Number(x).toPrecision(3)).join(' ') : ''), pad, pad + 8);
+  g.fillText('max ' + +top.toPrecision(3) + (cur ? '   ' + S.frame + ': ' + p.get(cur).map((x) => +Number(x).toPrecision(3)).join(' ') : ''), pad, pad + 8);
+  // which colour is which
+  let lx = pad;
+  (p.legend || []).forEach((name, k) => {
+    g.fillStyle = COLOURS[k % COLOURS.length];
+    g.fillText(name, lx, cv.height - pad);
+    lx += g.measureText(name).width + 6;
+  });
   cv._frameAt = (x) => fs.reduce((best, f) => (Math.abs(X(f) - x) < Math.abs(X(best) - x) ? f : best), fs[0]);
 }
 
 // ---- tweak -------------------------------------------------------------------------
 function section(path) {
   const p = path.split('.');
+  if (p.length === 1) return 'shot';
   return p[0] === 'materials' || p[0] === 'objects' || p[0] === 'rigids' ? p[0] + '.' + p[1] : p[0];
 }
 
@@ -426,7 +435,7 @@ function keyRow(k) {
   row.className = 'key' + (k.editable ? '' : ' fixed');
   row.dataset.path = k.path;
   const label = document.createElement('label');
-  label.textContent = k.path.slice(section(k.path).length + 1) || k.path;
+  label.textContent = k.path.includes('.') ? k.path.slice(section(k.path).length + 1) : k.path;
   label.title = k.path;
   row.appendChild(label);
   let input;
