@@ -256,6 +256,11 @@ def token_tests(work, port):
     want = 'sim.cfl must be in (0, 2], got 5'
     check('a check gives --set\'s own message at --set:1:9', st == 200 and not j['ok'] and
           j['errors'][0]['message'] == want and j['errors'][0]['where'] == '--set:1:9', data[:200])
+    st, data = request(port, 'POST', '/api/run', b'sim.dx=0.0004', {'X-Kerf-Token': token_of(port)})
+    j = json.loads(data)
+    check('a run kerf run would refuse (memory budget) is refused at its key, nothing started (400, got %d)' % st,
+          st == 400 and j['errors'][0]['set'] == 0 and 'more than this machine' in j['errors'][0]['message'] and
+          sorted(os.listdir(os.path.join(work, 'tiny'))) == before, data[:300])
     st, data = request(port, 'GET', '/api/keys')
     keys = {k['path']: k for k in json.loads(data)['keys']}
     cfl, e = keys.get('sim.cfl', {}), keys.get('materials.jelly.E', {})

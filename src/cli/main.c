@@ -24,7 +24,7 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                 "  view <shot.yaml | dir> [--port N]\n"
                 "                      a local web page: play the frames, compare versions, plot the frame\n"
                 "                      records, edit keys and re-run at preview quality\n"
-                "  help [shot|run|check|info]\n"
+                "  help [shot|run|check|info|view]\n"
                 "                      this text; `kerf help shot` lists every shot-file key\n"
                 "\n"
                 "exit codes: 0 ok, 1 the run failed (numerical trouble, I/O), 2 bad usage or bad shot\n");
@@ -76,11 +76,12 @@ int main(int argc, char **argv) {
     if (!strcmp(cmd, "help") || !strcmp(cmd, "--help") || !strcmp(cmd, "-h")) {
         const char *topic = argc > 2 ? argv[2] : NULL;
         if (topic && !strcmp(topic, "shot")) kf_shot_help(stdout);
+        else if (topic && !strcmp(topic, "view")) return kf_cmd_view(1, (char *[]){"--help", NULL});
         else if (topic && (!strcmp(topic, "run") || !strcmp(topic, "check") || !strcmp(topic, "info") ||
                            !strcmp(topic, "surface") || !strcmp(topic, "render") || !strcmp(topic, "turntable")))
             kf_cli_usage(stdout, topic);
         else if (topic) {
-            fprintf(stderr, "kerf help: no topic '%s' (shot, run, check, info, surface, render, turntable)\n", topic);
+            fprintf(stderr, "kerf help: no topic '%s' (shot, run, check, info, surface, render, turntable, view)\n", topic);
             return KF_EXIT_USAGE;
         } else
             kf_cli_usage(stdout, NULL);

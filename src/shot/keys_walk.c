@@ -3,6 +3,7 @@
  *
  * A value is printed the way --set takes it back, so an edit round-trips
  * through the same validation as the command line. */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -33,18 +34,31 @@ static void num_text(double v, int auto_ok, char *out, size_t n) {
     if (sscanf(out, "%lf", &back) != 1 || back != v) snprintf(out, n, "%.17g", v);
 }
 
-/* the field at base + off as --set text */
+/* a number the key's bounds allow (a field outside them holds "unset: computed") */
+static int allowed(const kf_keydef *k, double v) {
+    if (k->flags & KF_AUTO && v == KF_RIGID_AUTO) return 1;
+    if (!isfinite(v)) return 0;
+    if (k->bounds & KB_LO && (k->bounds & KB_LO_OPEN ? !(v > k->lo) : !(v >= k->lo))) return 0;
+    if (k->bounds & KB_HI && (k->bounds & KB_HI_OPEN ? !(v < k->hi) : !(v <= k->hi))) return 0;
+    return 1;
+}
+
+/* the field at base + off as --set text; "" when it holds no value of the key's
+ * (a colour left to the material's kind): the default applies */
 static void value_text(const kf_keydef *k, const void *base, char *out, size_t n) {
     const char *p = (const char *)base + k->off;
     char a[40], b[40], c[40];
     out[0] = 0;
     switch (k->type) {
-    case KT_NUM: num_text(*(const double *)p, (k->flags & KF_AUTO) != 0, out, n); break;
+    case KT_NUM:
+        if (allowed(k, *(const double *)p)) num_text(*(const double *)p, (k->flags & KF_AUTO) != 0, out, n);
+        break;
     case KT_INT: snprintf(out, n, "%d", *(const int *)p); break;
     case KT_BOOL: snprintf(out, n, "%s", *(const int *)p ? "true" : "false"); break;
     case KT_ENUM: kf_key_choice(k, *(const int *)p, out, n); break;
     case KT_VEC3: {
         const double *v = (const double *)p;
+        if (!allowed(k, v[0]) || !allowed(k, v[1]) || !allowed(k, v[2])) break;
         num_text(v[0], 0, a, sizeof a);
         num_text(v[1], 0, b, sizeof b);
         num_text(v[2], 0, c, sizeof c);
@@ -109,6 +123,11 @@ static int walk(const kf_shot *shot, const char *prefix, const char *name, const
             snprintf(v.value, sizeof v.value, "%s",
                      !shot->sim.walls ? "none" : (const char *[]){"sticky", "slip", "separate"}[shot->sim.wall_boundary]);
         else if (k->off + k->size <= base_size) value_text(k, base, v.value, sizeof v.value);
+        /* a camera or pivot left out is computed: no value of its own to show */
+        if ((!strcmp(k->path, "render.eye") && !shot->render_eye_set) ||
+            (!strcmp(k->path, "render.target") && !shot->render_target_set) ||
+            (!strcmp(k->path, "rigids[].pivot") && !((const kf_shot_rigid *)base)->pivot_set))
+            v.value[0] = 0;
         /* names, paths, templates and the version are the tool's to choose, not an edit's */
         v.editable = k->type != KT_STR && strcmp(k->path, "version") && strncmp(k->path, "output.", 7) &&
                      strcmp(k->path, "sim.threads");

@@ -116,7 +116,8 @@ static void walk_dir(walk *w, const char *root, const char *rel, int depth) {
             if (!strcmp(e->d_name, "images") || !strcmp(e->d_name, "checkpoints")) add_out(w, rel);
             if (depth < MAX_DEPTH) walk_dir(w, root, crel, depth + 1);
         } else if (S_ISREG(st.st_mode)) {
-            if (!strcmp(e->d_name, "frames.jsonl") || !strcmp(e->d_name, "run.json")) add_out(w, rel);
+            if (!strcmp(e->d_name, "frames.jsonl") || !strcmp(e->d_name, "run.json") || !strcmp(e->d_name, "view.json"))
+                add_out(w, rel);
             png p;
             if (!split_frame(e->d_name, &p) || !kf_view_plain_path(crel)) continue;
             snprintf(p.dir, sizeof p.dir, "%s", rel);

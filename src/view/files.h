@@ -20,7 +20,7 @@ int kf_view_open(const char *root_real, const char *rel, int *fd, size_t *size);
 int kf_view_plain_path(const char *rel);
 
 /* What lies under root, as JSON:
- *   "outputs": [{"dir", "records", "run", "alive", "view"}...]   directories a run wrote into
+ *   "outputs": [{"dir", "records", "run", "alive", "view"}...]   directories a run (or a view) wrote into
  *   "sequences": [{"dir", "out", "kind", "prefix", "frames": [...], "names": [...]}...]
  * A sequence is the PNGs of one directory whose names differ only in their
  * last number (the frame); `out` is the output directory it belongs to.

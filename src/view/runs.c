@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "../io/atomic_file.h"
+#include "../scene/budget.h"
 #include "internal.h"
 
 extern char **environ;
@@ -66,7 +67,9 @@ static int diag_json(const kf_diag *d, kf_buf *out) {
     return d->errors;
 }
 
-int kf_view_check(const kf_view *v, char **sets, int n, kf_buf *out) {
+/* the check; with budget, also what kerf run refuses before seeding (memory,
+ * substeps a frame), reported at the value that causes it */
+static int check(const kf_view *v, char **sets, int n, int budget, kf_buf *out) {
     if (!v->shot) {
         kf_buf_printf(out, "{\"ok\":false,\"errors\":[{\"set\":-1,\"severity\":\"error\",\"where\":\"\","
                            "\"message\":\"a directory is being viewed, not a shot: nothing to re-run\"}]}");
@@ -75,6 +78,9 @@ int kf_view_check(const kf_view *v, char **sets, int n, kf_buf *out) {
     kf_diag d;
     kf_diag_init(&d);
     kf_shot *s = load_with(v, sets, n, &d);
+    kf_budget b;
+    char err[1024];
+    if (s && budget && kf_budget_estimate(s, &b, err, sizeof err) == 0) kf_budget_check(s, &b, &d);
     kf_diag_sort(&d);
     int errors = diag_json(&d, out);
     kf_buf_put(out, "}", 1);
@@ -82,6 +88,8 @@ int kf_view_check(const kf_view *v, char **sets, int n, kf_buf *out) {
     kf_diag_free(&d);
     return errors;
 }
+
+int kf_view_check(const kf_view *v, char **sets, int n, kf_buf *out) { return check(v, sets, n, 0, out); }
 
 /* the output directory of version `version` (absolute or relative to where kerf runs) */
 static int version_dir(const kf_shot *shot, int version, char *out, size_t n) {
@@ -118,7 +126,7 @@ static void reap(kf_view *v) {
 
 int kf_view_start_run(kf_view *v, char **sets, int n, kf_buf *out) {
     reap(v); /* a slot may have freed */
-    if (kf_view_check(v, sets, n, out)) return 400;
+    if (check(v, sets, n, 1, out)) return 400;
     int live = 0;
     for (int i = 0; i < v->nruns; i++) live += v->runs[i].pid > 0;
     if (live >= 2 || v->nruns == KF_VIEW_MAX_RUNS) {

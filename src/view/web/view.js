@@ -242,12 +242,17 @@ function versions() {
     const run = o && o.run && o.run.stage !== 'done' ? ' ' + (o.alive ? o.run.stage + ' ' + o.run.frame : 'stopped') : '';
     cards.push({id: seqId(s), url: frameUrl(s, mid), label: (s.out || 'root') + run, sets});
   }
-  // runs that have no frames yet show too, so a new version appears at once
+  // runs that have no frames yet show too, so a new version appears at once;
+  // one that ended before writing any says how, with its log
+  const mine = new Map((st.runs || []).map((r) => [r.dir, r]));
   for (const o of st.outputs) {
     if (main.some((s) => s.out === o.dir)) continue;
     const sets = o.view && o.view.sets ? o.view.sets.join(' ') : '';
-    const what = o.run ? (o.alive ? o.run.stage + ' ' + o.run.frame : o.run.stage) : 'starting';
-    cards.push({id: '', url: '', label: (o.dir || 'root') + ' ' + what, sets, dir: o.dir});
+    const r = mine.get(o.dir);
+    let what = o.run ? (o.alive ? o.run.stage + ' ' + o.run.frame : o.run.stage) : 'starting';
+    if (r && !r.running && r.status !== 0) what = 'failed (exit ' + r.status + ')';
+    cards.push({id: '', url: '', label: (o.dir || 'root') + ' ' + what, sets, dir: o.dir,
+                log: o.view ? fileUrl((o.dir ? o.dir + '/' : '') + 'view.log') : ''});
   }
   const sig = JSON.stringify(cards);
   if (box.dataset.sig === sig) return markVersions();
@@ -272,6 +277,13 @@ function versions() {
       u.textContent = c.sets;
       u.title = c.sets;
       d.appendChild(u);
+    }
+    if (c.log) {
+      const a = document.createElement('a');
+      a.href = c.log;
+      a.target = '_blank';
+      a.textContent = 'its log';
+      d.appendChild(a);
     }
     d.addEventListener('click', (ev) => {
       if (!c.id) return;
@@ -450,6 +462,7 @@ function keyRow(k) {
   } else {
     input = document.createElement('input');
     input.value = k.value;
+    input.placeholder = k.default || '';  // empty: the default (often computed) applies
     input.spellcheck = false;
   }
   input.id = 'key-' + k.path;
