@@ -442,6 +442,21 @@ def main():
         p2, port2 = start_view(root, work)
         browser_flipbook(b, port2, root)
         browser_tweak(b, port, work)
+
+        # stopping the view stops the run it started (the run can be resumed)
+        st, data = request(port, 'POST', '/api/run', b'frames.end=1012', {'X-Kerf-Token': token_of(port)})
+        child = json.loads(data).get('pid', 0)
+        ok = wait_for(lambda: os.path.exists(os.path.join(work, 'tiny/v003/run.json')), 60, 0.2)
+        p.send_signal(signal.SIGTERM)
+        check('SIGTERM during a run: kerf view exits 0', p.wait(timeout=30) == 0)
+        def gone():
+            try:
+                os.kill(child, 0)
+                return False
+            except ProcessLookupError:
+                return True
+        check('... and the run it started (pid %d) is stopped' % child, st == 200 and bool(ok) and child > 0 and
+              bool(wait_for(gone, 10)))
     except Exception as e:  # a broken harness is a failure too, said plainly
         check('the test ran to its end', False, repr(e))
     finally:

@@ -1,13 +1,25 @@
 /* cmd_view.c — `kerf view [shot.yaml | output dir]`: serve the flipbook and
  * tweak page (src/view) on 127.0.0.1 until Ctrl-C. */
-#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "../view/view.h"
 #include "cli.h"
+
+/* the end of the view: a signal handler writes a byte here. A handler, not a
+ * blocked-signal wait, because libraries start threads of their own before
+ * main (a signal could land on one of those and kill the process without
+ * stopping the runs the view started). */
+static int stop_pipe[2] = {-1, -1};
+
+static void on_stop(int sig) {
+    char c = (char)sig;
+    ssize_t w = write(stop_pipe[1], &c, 1);
+    (void)w;
+}
 
 static void usage(FILE *f) {
     fprintf(f, "usage: kerf view <shot.yaml | output directory> [--port N]\n"
@@ -48,13 +60,18 @@ int kf_cmd_view(int argc, char **argv) {
         fprintf(stderr, "kerf view: which shot or output directory? (kerf view shots/demo.yaml)\n");
         return KF_EXIT_USAGE;
     }
-    /* the signals that end it are waited for here, not delivered to the server's thread */
-    sigset_t stop;
-    sigemptyset(&stop);
-    sigaddset(&stop, SIGINT);
-    sigaddset(&stop, SIGTERM);
-    sigaddset(&stop, SIGHUP);
-    pthread_sigmask(SIG_BLOCK, &stop, NULL);
+    if (pipe(stop_pipe) != 0) {
+        perror("kerf view: pipe");
+        return KF_EXIT_FAIL;
+    }
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_stop;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL);
     signal(SIGPIPE, SIG_IGN);
 
     kf_diag diag;
@@ -70,8 +87,8 @@ int kf_cmd_view(int argc, char **argv) {
     }
     printf("kerf view: %s  (serving %s; Ctrl-C to stop)\n", kf_view_url(v), kf_view_root(v));
     fflush(stdout);
-    int sig;
-    sigwait(&stop, &sig);
+    char c;
+    while (read(stop_pipe[0], &c, 1) < 0) continue; /* interrupted: read again */
     kf_view_stop(v);
     fprintf(stderr, "kerf view: stopped\n");
     return KF_EXIT_OK;
