@@ -227,6 +227,12 @@ typedef struct kf_sim_def {
     double j_min, j_max;  /* sane range of det F; outside it is numerical trouble */
     double max_cells_per_step; /* CFL violation: |v| Δt / Δx above this is trouble */
     int threads;          /* 0 = OpenMP default */
+    /* contact between objects (mpm/contact.h): 1 = each shot object (kf_particles_view.obj) moves on its own
+     * velocity field where objects share grid nodes, and fields touch only where their surfaces meet:
+     * they slide with Coulomb friction contact_friction and pull apart freely. 0 = one shared field (objects
+     * that come within a kernel of each other move together). Explicit integration only. */
+    int contact;
+    double contact_friction;
     /* implicit integration (integrator == KF_INTEGRATOR_IMPLICIT) */
     kf_integrator integrator;
     double newton_tol;    /* residual relative to the momentum scale (0 = default) */

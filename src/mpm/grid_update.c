@@ -17,6 +17,36 @@
 #include "collider.h"
 #include "model.h"
 
+/* the walls' and the nearby colliders' conditions on the velocity vd of the
+ * node at x, in that order */
+static inline void node_boundaries(const kf_sim_def *sd, const kf_collider_frame *frame, const int *near, int nnear,
+                                   const double x[3], double vd[3]) {
+    if (sd->walls) {
+        for (int a = 0; a < 3; a++) {
+            double n[3] = {0, 0, 0};
+            if (x[a] <= sd->domain_min[a]) n[a] = 1;
+            else if (x[a] >= sd->domain_max[a]) n[a] = -1;
+            else continue;
+            kf_project_velocity(vd, n, sd->wall_boundary, sd->wall_friction);
+        }
+    }
+    for (int i = 0; i < nnear; i++) {
+        const kf_collider_frame *f = &frame[near[i]];
+        double n[3], vc[3];
+        if (kf_collider_sdf(f, x, NULL) > 0) continue;
+        kf_collider_sdf(f, x, n); /* constrained: now its normal */
+        kf_collider_velocity(f, x, vc);
+        double rel[3] = {vd[0] - vc[0], vd[1] - vc[1], vd[2] - vc[2]};
+        kf_project_velocity(rel, n, f->c->boundary, f->c->friction);
+        for (int a = 0; a < 3; a++) vd[a] = rel[a] + vc[a];
+    }
+}
+
+void kf_grid_node_boundaries(const kf_model *m, const kf_collider_frame *frame, const int *near, int nnear,
+                             const double x[3], double vd[3]) {
+    node_boundaries(&m->sim, frame, near, nnear, x, vd);
+}
+
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
     kf_grid *g = &s->g;
     const kf_sim_def *sd = &m->sim;
@@ -47,25 +77,7 @@ void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
                 double x[3] = {(bc[0] * KF_BLOCK + (l >> 4)) * dx, (bc[1] * KF_BLOCK + ((l >> 2) & 3)) * dx,
                                (bc[2] * KF_BLOCK + (l & 3)) * dx};
                 double vd[3] = {v[0], v[1], v[2]};
-                if (sd->walls) {
-                    for (int a = 0; a < 3; a++) {
-                        double n[3] = {0, 0, 0};
-                        if (x[a] <= sd->domain_min[a]) n[a] = 1;
-                        else if (x[a] >= sd->domain_max[a]) n[a] = -1;
-                        else continue;
-                        kf_project_velocity(vd, n, sd->wall_boundary, sd->wall_friction);
-                    }
-                }
-                for (int i = 0; i < nnear; i++) {
-                    const kf_collider_frame *f = &frame[near[i]];
-                    double n[3], vc[3];
-                    if (kf_collider_sdf(f, x, NULL) > 0) continue;
-                    kf_collider_sdf(f, x, n); /* constrained: now its normal */
-                    kf_collider_velocity(f, x, vc);
-                    double rel[3] = {vd[0] - vc[0], vd[1] - vc[1], vd[2] - vc[2]};
-                    kf_project_velocity(rel, n, f->c->boundary, f->c->friction);
-                    for (int a = 0; a < 3; a++) vd[a] = rel[a] + vc[a];
-                }
+                node_boundaries(sd, frame, near, nnear, x, vd);
                 v = (kf_v4){(kf_real)vd[0], (kf_real)vd[1], (kf_real)vd[2], mass};
             }
             node[l] = v;

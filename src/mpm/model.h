@@ -50,6 +50,7 @@ struct kf_state {
     double drive_cells; /* the fastest rigid surface so far, cells per substep (step.c's speed bound) */
     int fault_done;    /* the testing fault (kf_sim_def.fault_substep) has happened */
     struct kf_cpic *cpic; /* CPIC scratch (grid colored distance field, particle distances), src/cpic */
+    struct kf_contact *contact; /* contact between objects: per-field node slots (contact.h) */
     /* implicit midpoint: per particle (dv, dC) the G2P of the grid's
      * v_{n+1} − v_{n+½} adds after kf_g2p (12 floats a particle) */
     kf_real *mid_dv;

@@ -29,12 +29,14 @@ kf_state *kf_state_create(const kf_model *m) {
 }
 
 void kf_cpic_free(struct kf_cpic *c);
+void kf_contact_free(struct kf_contact *c);
 
 void kf_state_destroy(kf_state *s) {
     if (!s) return;
     kf_rigid_sim_destroy(s->rsim);
     free(s->snapshot_rsim);
     kf_cpic_free(s->cpic);
+    kf_contact_free(s->contact);
     free(s->mid_dv);
     kf_particles_free(&s->p);
     kf_particles_free(&s->snapshot);

@@ -12,6 +12,7 @@
 
 #include "../core/timer.h"
 #include "../cpic/cpic.h"
+#include "contact.h"
 #include "model.h"
 
 const char *kf_stage_name(kf_stage s) {
@@ -72,6 +73,12 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
         t1 = t0;
     }
 
+    /* contact between objects: the owners where fields meet (contact.h) */
+    if (m->sim.contact && kf_contact_prepare(m, s)) {
+        set_trouble(trouble, s, 0, "out of memory preparing contact between objects", 0);
+        return 1;
+    }
+
     if (m->sim.integrator == KF_INTEGRATOR_IMPLICIT) {
         /* backward Euler (issue 7, implicit.h): P2G of mass and momentum,
          * Newton-Krylov on the grid velocities, boundaries; leaves the grid
@@ -96,6 +103,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
         }
 
         kf_grid_update(m, s, rdt);
+        if (m->sim.contact) kf_contact_grid(m, s, rdt);
         t1 = kf_now_ms();
         if (st) st->ms[KF_STAGE_GRID] += t1 - t0;
     }

@@ -27,6 +27,7 @@
 #include "model.h"
 
 #include "transfer_chunk.h"
+#include "contact.h"
 #include "../cpic/cpic.h"
 
 /* ---- P2G ---------------------------------------------------------------------- */
@@ -41,7 +42,7 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const kf_real minv = (kf_real)(1.0 / kf_model_dfactor(m));
     const int apic = m->sim.transfer == KF_TRANSFER_APIC;
     const int32_t *bc = &g->bcoord[3 * r];
-    const int band = kf_cpic_band(s, r);
+    const int band = kf_cpic_band(s, r), fields = kf_contact_owner(s, r);
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     memset(cache, 0, sizeof(kf_v4) * CD * CD * CD);
@@ -86,13 +87,11 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         }
 
         /* near a rigid surface: compatible nodes only, impulses on the bodies */
-        if (band) {
-            kf_cpic_p2g_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
-            continue;
-        }
-
+        if (band) kf_cpic_p2g_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
         /* scatter: one node row per vector op, Q d as three column FMAs */
-        for (int j = 0; j < n; j++) scatter_one(KW, CLASSIC, ck, j, cache);
+        else for (int j = 0; j < n; j++) scatter_one(KW, CLASSIC, ck, j, cache);
+        /* where objects meet: each particle's share into its own field too */
+        if (fields) kf_contact_p2g_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
     }
 
     /* flush the cache into the 8 blocks of the neighbourhood */
@@ -157,7 +156,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     const kf_real minv = (kf_real)(1.0 / kf_model_dfactor(m));
     const int32_t *bc = &g->bcoord[3 * r];
     const kf_real jmin = (kf_real)m->sim.j_min, jmax = (kf_real)m->sim.j_max;
-    const int band = kf_cpic_band(s, r);
+    const int band = kf_cpic_band(s, r), fields = kf_contact_owner(s, r);
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     kf_real max_v2 = 0;
@@ -180,6 +179,8 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
          * near a rigid surface, ghost velocities on incompatible nodes */
         if (band) kf_cpic_g2p_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
         for (int j = 0; j < (band ? 0 : n); j++) gather_one(KW, CLASSIC, ck, j, cache);
+        /* where objects meet: each particle's own field's velocity */
+        if (fields) kf_contact_g2p_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
 
         /* C = D⁻¹ B; velocity gradient L = C (MLS) or Σ v_i ∇wᵀ (classic) */
         for (int k = 0; k < 9; k++) {

@@ -228,7 +228,7 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
                     s->domain_min[2], s->domain_max[0], s->domain_max[1], s->domain_max[2], s->wall_boundary,
                     s->wall_friction, s->max_retries, s->j_min, s->j_max, s->max_cells_per_step,
                     s->integrator, s->newton_tol, s->newton_max, s->krylov_tol, s->krylov_max, s->precond,
-                    s->implicit_scheme, s->retry_fixed,
+                    s->implicit_scheme, s->retry_fixed, s->contact, s->contact_friction,
                     shot->ppc, shot->jitter, shot->seed, shot->fps, shot->frame_start, sizeof(kf_real)};
     hash_vals(&h, sim, (int)(sizeof sim / sizeof *sim));
     for (int i = 0; i < shot->nmaterials; i++) {

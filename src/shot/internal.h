@@ -133,6 +133,7 @@ typedef struct kf_keydef {
 typedef struct kf_top {
     kf_shot s;
     int walls; /* index into domain.walls' choices: none, sticky, slip, separate */
+    int contact; /* index into sim.contact's choices: on, off, auto */
 } kf_top;
 
 typedef struct kf_rawkey {

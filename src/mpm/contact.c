@@ -1,0 +1,227 @@
+/* contact.c — contact between objects: which owners take the field path,
+ * and the grid rule (contact.h says why and how). The field scatter and
+ * gather are in contact_transfer.c. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "collider.h"
+#include "contact.h"
+
+void kf_grid_node_boundaries(const kf_model *m, const kf_collider_frame *frame, const int *near, int nnear,
+                             const double x[3], double vd[3]);
+
+void kf_contact_free(kf_contact *c) {
+    if (!c) return;
+    free(c->mv);
+    free(c->vol);
+    free(c->fid);
+    free(c->blk);
+    free(c->bmin);
+    free(c->bmax);
+    free(c->own);
+    free(c->omin);
+    free(c->omax);
+    free(c);
+}
+
+static int grow(void **p, size_t n, size_t size) {
+    void *q = realloc(*p, n * size);
+    if (!q) return -1;
+    *p = q;
+    return 0;
+}
+
+/* room for the grid's blocks and owners */
+static int reserve(kf_contact *c, size_t nblocks, size_t nowner) {
+    if (nblocks > c->cap_blocks) {
+        size_t n = nblocks + nblocks / 4 + 16;
+        if (grow((void **)&c->mv, n * KF_BLOCK_NODES * 2, sizeof(kf_v4)) ||
+            grow((void **)&c->vol, n * KF_BLOCK_NODES * 2, sizeof(kf_v4)) ||
+            grow((void **)&c->fid, n * KF_BLOCK_NODES * 2, sizeof(uint16_t)) || grow((void **)&c->blk, n, 1) ||
+            grow((void **)&c->bmin, n, sizeof(uint16_t)) || grow((void **)&c->bmax, n, sizeof(uint16_t)))
+            return -1;
+        c->cap_blocks = n;
+    }
+    if (nowner > c->cap_owner) {
+        size_t n = nowner + nowner / 4 + 16;
+        if (grow((void **)&c->own, n, 1) || grow((void **)&c->omin, n, sizeof(uint16_t)) ||
+            grow((void **)&c->omax, n, sizeof(uint16_t)))
+            return -1;
+        c->cap_owner = n;
+    }
+    return 0;
+}
+
+int kf_contact_prepare(const kf_model *m, kf_state *s) {
+    if (!m->sim.contact || m->sim.integrator != KF_INTEGRATOR_EXPLICIT) {
+        if (s->contact) s->contact->active = 0;
+        return 0;
+    }
+    if (!s->contact && !(s->contact = calloc(1, sizeof(kf_contact)))) return -1;
+    kf_contact *c = s->contact;
+    const kf_grid *g = &s->g;
+    const kf_particles *p = &s->p;
+    c->active = 0;
+    c->owners = c->two_field_nodes = c->touching_nodes = 0;
+    if (reserve(c, g->nblocks, g->nowner)) return -1;
+    const size_t nowner = g->nowner, nblocks = g->nblocks;
+
+    /* the range of fields among each owner's particles */
+    uint16_t *omin = c->omin, *omax = c->omax;
+    int any_two = 0;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(| : any_two)
+    for (size_t k = 0; k < nowner; k++) {
+        uint16_t lo = KF_FIELD_NONE, hi = 0;
+        for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
+            uint16_t f = p->obj[i];
+            lo = f < lo ? f : lo;
+            hi = f > hi ? f : hi;
+        }
+        omin[k] = lo, omax[k] = hi;
+        any_two |= hi > lo;
+    }
+    /* a block's nodes receive from the owners whose neighbourhood holds it;
+     * fields meet only where those owners' ranges span two or more. Owners
+     * with two fields of their own are not needed to find the neighbours:
+     * the block range below catches them. */
+    for (size_t b = 0; b < nblocks; b++) c->bmin[b] = KF_FIELD_NONE, c->bmax[b] = 0;
+    for (size_t k = 0; k < nowner; k++)
+        for (int e = 0; e < 8; e++) {
+            int32_t b = g->nb[k][e];
+            if (omin[k] < c->bmin[b]) c->bmin[b] = omin[k];
+            if (omax[k] > c->bmax[b]) c->bmax[b] = omax[k];
+        }
+    (void)any_two;
+    memset(c->blk, 0, nblocks);
+    long owners = 0;
+    for (size_t k = 0; k < nowner; k++) {
+        int two = 0;
+        for (int e = 0; e < 8; e++) {
+            int32_t b = g->nb[k][e];
+            two |= c->bmax[b] > c->bmin[b];
+        }
+        c->own[k] = (uint8_t)two;
+        if (!two) continue;
+        owners++;
+        for (int e = 0; e < 8; e++) c->blk[g->nb[k][e]] = 1;
+    }
+    c->owners = owners;
+    if (!owners) return 0;
+    c->active = 1;
+    /* the slots of every block a field-path owner scatters into, emptied */
+#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    for (size_t b = 0; b < nblocks; b++) {
+        if (!c->blk[b]) continue;
+        size_t n0 = b * KF_BLOCK_NODES * 2;
+        memset(&c->mv[n0], 0, sizeof(kf_v4) * KF_BLOCK_NODES * 2);
+        memset(&c->vol[n0], 0, sizeof(kf_v4) * KF_BLOCK_NODES * 2);
+        memset(&c->fid[n0], 0xFF, sizeof(uint16_t) * KF_BLOCK_NODES * 2);
+    }
+    return 0;
+}
+
+/* ---- where surfaces are ---------------------------------------------------------
+ * The integral of the B-spline from -infinity to x (cells): the fraction of
+ * a kernel centred at a node that lies below a flat surface x cells above
+ * it. */
+static double kernel_cdf(double x, int kw) {
+    if (kw == 3) {
+        if (x <= -1.5) return 0;
+        if (x >= 1.5) return 1;
+        if (x < -0.5) return (1.5 + x) * (1.5 + x) * (1.5 + x) / 6;
+        if (x <= 0.5) return 1.0 / 6 + 0.75 * (x + 0.5) - (x * x * x + 0.125) / 3;
+        return 1 - (1.5 - x) * (1.5 - x) * (1.5 - x) / 6;
+    }
+    if (x <= -2) return 0;
+    if (x >= 2) return 1;
+    double a = x < 0 ? x : -x, k; /* the lower half, then by symmetry */
+    if (a < -1) k = (2 + a) * (2 + a) * (2 + a) * (2 + a) / 24;
+    else k = 1.0 / 24 + 2.0 / 3 * (a + 1) - (a * a * a + 1) / 3 - (a * a * a * a - 1) / 8;
+    return x < 0 ? k : 1 - k;
+}
+
+double kf_contact_fill_distance(double fill, int kw) {
+    /* material fills the kernel up to the surface: fill = cdf(-s), s the
+     * node's distance outside; bisection (the cdf is monotone) */
+    double half = kw == 3 ? 1.5 : 2.0;
+    if (fill >= 1) return -half;
+    if (fill <= 0) return half;
+    double lo = -half, hi = half; /* in s */
+    for (int it = 0; it < 40; it++) {
+        double mid = 0.5 * (lo + hi);
+        if (kernel_cdf(-mid, kw) > fill) lo = mid;
+        else hi = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+/* ---- the grid rule ----------------------------------------------------------- */
+
+/* two fields at a node: their velocities after gravity, in contact where the
+ * gap between their surfaces has closed and they approach (Eq. 25's separate
+ * rule on the relative velocity, with friction mu); the change is shared so
+ * that the node's momentum stays */
+static int node_rule(kf_v4 *mv, const kf_v4 *vol, const double gdt[3], double cell, int kw, double mu, double v[2][3]) {
+    double m0 = mv[0][3], m1 = mv[1][3];
+    for (int f = 0; f < 2; f++)
+        for (int a = 0; a < 3; a++) v[f][a] = (double)mv[f][a] / (double)mv[f][3] + gdt[a];
+    double n[3], n2 = 0;
+    for (int a = 0; a < 3; a++) n[a] = (double)vol[1][a] - (double)vol[0][a], n2 += n[a] * n[a];
+    if (!(n2 > 0)) return 0;
+    double gap = kf_contact_fill_distance((double)vol[0][3] / cell, kw) + kf_contact_fill_distance((double)vol[1][3] / cell, kw);
+    if (gap > 0) return 0;
+    double inv = 1 / sqrt(n2), out[3], w[3], w0[3];
+    /* field 1's outward normal points toward field 0: -n */
+    for (int a = 0; a < 3; a++) out[a] = -n[a] * inv, w[a] = w0[a] = v[0][a] - v[1][a];
+    kf_project_velocity(w, out, KF_BOUNDARY_SEPARATE, mu);
+    double M = m0 + m1;
+    for (int a = 0; a < 3; a++) {
+        double dw = w[a] - w0[a];
+        v[0][a] += m1 / M * dw;
+        v[1][a] -= m0 / M * dw;
+    }
+    return 1;
+}
+
+void kf_contact_grid(const kf_model *m, kf_state *s, kf_real dt) {
+    kf_contact *c = s->contact;
+    if (!c || !c->active) return;
+    const kf_grid *g = &s->g;
+    const double dx = m->sim.dx, t1 = s->time + dt, cell = dx * dx * dx, mu = m->sim.contact_friction;
+    const int kw = m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3;
+    const double gdt[3] = {(double)(kf_real)(dt * m->sim.gravity[0]), (double)(kf_real)(dt * m->sim.gravity[1]),
+                           (double)(kf_real)(dt * m->sim.gravity[2])};
+    kf_collider_frame frame[KF_MAX_COLLIDERS];
+    for (int k = 0; k < m->ncol; k++) kf_collider_frame_at(&m->col[k], t1, &frame[k]);
+    long two = 0, touching = 0;
+    const size_t nb = g->nblocks;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(m->nthreads) reduction(+ : two, touching)
+    for (size_t b = 0; b < nb; b++) {
+        if (!c->blk[b]) continue;
+        const int32_t *bc = &g->bcoord[3 * b];
+        int near[KF_MAX_COLLIDERS], nnear = kf_colliders_near_block(frame, m->ncol, bc, dx, near);
+        for (int l = 0; l < KF_BLOCK_NODES; l++) {
+            size_t q = b * KF_BLOCK_NODES + (size_t)l;
+            kf_v4 *mv = &c->mv[2 * q];
+            const uint16_t *id = &c->fid[2 * q];
+            if (id[1] == KF_FIELD_NONE) continue; /* one field: the total is its velocity */
+            if (!(mv[0][3] > 0 && mv[1][3] > 0)) {
+                /* a slot with no weight (a particle on its kernel's edge): the total */
+                mv[0] = mv[1] = g->node[q];
+                continue;
+            }
+            two++;
+            double v[2][3];
+            touching += node_rule(mv, &c->vol[2 * q], gdt, cell, kw, mu, v);
+            double x[3] = {(bc[0] * KF_BLOCK + (l >> 4)) * dx, (bc[1] * KF_BLOCK + ((l >> 2) & 3)) * dx,
+                           (bc[2] * KF_BLOCK + (l & 3)) * dx};
+            for (int f = 0; f < 2; f++) {
+                if (m->sim.walls || nnear) kf_grid_node_boundaries(m, frame, near, nnear, x, v[f]);
+                mv[f] = (kf_v4){(kf_real)v[f][0], (kf_real)v[f][1], (kf_real)v[f][2], mv[f][3]};
+            }
+        }
+    }
+    c->two_field_nodes = two;
+    c->touching_nodes = touching;
+}
