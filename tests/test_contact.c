@@ -30,6 +30,8 @@ typedef struct sphere_run {
     double min_gap;                  /* closest surfaces on the line of centres (facing particles minus their spacing), m */
     double gap_at_touch;             /* the same when δ first became positive, m */
     double min_centres;              /* closest particle centres of the two anywhere, m */
+    double force_duration;           /* while momentum passes between them (force above 2% of its peak), s */
+    double force_approach;           /* how much closer the centres came meanwhile, m */
     double v_after;                  /* closing speed after, m/s (negative: separating) */
     double seconds;
 } sphere_run;
@@ -61,6 +63,8 @@ static sphere_run run_spheres(int contact, double gap_cells) {
     out.duration_hertz = 2.9432 * out.approach_hertz / vrel;
 
     double t = 0, t_in = -1, t_out = -1, dmax = -1, gmin = 1e30;
+    size_t hcap = 8192, nh = 0;
+    double *ht = malloc(sizeof(double) * hcap), *hp = malloc(sizeof(double) * hcap), *hd = malloc(sizeof(double) * hcap);
     size_t cap = 4096, na = 0, nb = 0;
     double *A = malloc(sizeof(double) * 3 * cap), *B = malloc(sizeof(double) * 3 * cap);
     double t0 = kf_now_ms();
@@ -118,6 +122,7 @@ static sphere_run run_spheres(int contact, double gap_cells) {
         if (getenv("KF_TRACE") && t_in >= 0 && t_out < 0)
             printf("t %.4f delta %.3f mm axis gap %.3f cells closest centres %.3f cells\n", t, 1e3 * delta, gap / dx,
                    sqrt(best) / dx);
+        if (nh < hcap) ht[nh] = t, hp[nh] = mom[0], hd[nh] = dist, nh++;
         if (delta > 0 && t_in < 0) t_in = t, out.gap_at_touch = gap;
         if (delta > dmax) dmax = delta;
         if (t_in >= 0 && delta <= 0 && t_out < 0) t_out = t;
@@ -127,11 +132,30 @@ static sphere_run run_spheres(int contact, double gap_cells) {
         }
     }
     out.seconds = (kf_now_ms() - t0) / 1000;
+    /* as the spheres feel each other: while momentum passes between them (the
+     * force above 2% of its peak), and how much closer they came meanwhile */
+    double fpeak = 0;
+    for (size_t k = 1; k < nh; k++) fpeak = fmax(fpeak, fabs(hp[k] - hp[k - 1]) / (ht[k] - ht[k - 1]));
+    long kin = -1, kout = -1;
+    for (size_t k = 1; k < nh; k++)
+        if (fabs(hp[k] - hp[k - 1]) / (ht[k] - ht[k - 1]) > 0.02 * fpeak) {
+            if (kin < 0) kin = (long)k - 1;
+            kout = (long)k;
+        }
+    if (kin >= 0) {
+        double dmin = 1e30;
+        for (long k = kin; k <= kout; k++) dmin = fmin(dmin, hd[k]);
+        out.force_duration = ht[kout] - ht[kin];
+        out.force_approach = hd[kin] - dmin;
+    }
     out.duration = t_in >= 0 && t_out >= 0 ? t_out - t_in : -1;
     out.approach = dmax;
     out.min_gap = gmin;
     free(A);
     free(B);
+    free(ht);
+    free(hp);
+    free(hd);
     kf_state_destroy(s);
     kf_model_destroy(m);
     return out;
@@ -140,10 +164,13 @@ static sphere_run run_spheres(int contact, double gap_cells) {
 static void print_run(const char *what, const sphere_run *r) {
     printf("  %s: duration %.4f s (Hertz %.4f, %+.1f%%), approach %.2f mm (Hertz %.2f, %+.1f%%), surfaces on the "
            "axis at closest %.2f mm (%.2f cells; %.2f at first touch), closest particle centres %.2f mm, closing "
-           "speed after %.3f m/s, %.1f s\n",
+           "speed after %.3f m/s, %.1f s\n"
+           "    by the force between them: lasted %.4f s (%+.1f%% off Hertz), centres came %.2f mm closer (%+.1f%%)\n",
            what, r->duration, r->duration_hertz, 100 * (r->duration / r->duration_hertz - 1), 1e3 * r->approach,
            1e3 * r->approach_hertz, 100 * (r->approach / r->approach_hertz - 1), 1e3 * r->min_gap, r->min_gap / 0.01,
-           r->gap_at_touch / 0.01, 1e3 * r->min_centres, r->v_after, r->seconds);
+           r->gap_at_touch / 0.01, 1e3 * r->min_centres, r->v_after, r->seconds, r->force_duration,
+           100 * (r->force_duration / r->duration_hertz - 1), 1e3 * r->force_approach,
+           100 * (r->force_approach / r->approach_hertz - 1));
 }
 
 static void hertz_spheres(void) {
