@@ -103,9 +103,9 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
 void kf_render_destroy(kf_render_ctx *r);
 
 /* The key light's shadow map, texels a side (by default about the image's
- * long side, 512..2048). The preview preset (render.quality: preview) uses
- * KF_RENDER_PREVIEW_SHADOW. -1 + err when the GL cannot make it. */
-#define KF_RENDER_PREVIEW_SHADOW 1024
+ * long side, 512..2048). The preview preset (render.quality: preview) sets
+ * the shot's render_shadow to KF_RENDER_PREVIEW_SHADOW (shot/shot.h). -1 + err
+ * when the GL cannot make it. */
 int kf_render_set_shadow_size(kf_render_ctx *r, int texels, char *err, size_t errlen);
 int kf_render_shadow_size(const kf_render_ctx *r);
 

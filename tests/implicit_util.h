@@ -5,7 +5,7 @@
 #ifndef KF_TEST_IMPLICIT_UTIL_H
 #define KF_TEST_IMPLICIT_UTIL_H
 
-#include "mpm/implicit.h"
+#include "implicit/implicit.h"
 #include "mpm/model.h"
 
 static inline double urand(unsigned *s) { return 2 * tu_uniform(s) - 1; }

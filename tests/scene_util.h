@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "mpm/model.h"
 
 /* A model with the given settings and one material from a preset, with

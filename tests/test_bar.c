@@ -37,7 +37,7 @@
 #include <stdlib.h>
 
 #include "core/timer.h"
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "kt.h"
 
 #define PI 3.14159265358979323846

@@ -13,7 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "kt.h"
 #include "mesh_util.h"
 #include "mpm/collider.h"

@@ -50,7 +50,7 @@
 #include <stdlib.h>
 
 #include "core/timer.h"
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "kt.h"
 
 #define CUBE_RHO 1.0

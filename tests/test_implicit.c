@@ -21,7 +21,7 @@
 
 #include "core/mat3.h"
 #include "kt.h"
-#include "mpm/implicit.h"
+#include "implicit/implicit.h"
 #include "scene_util.h"
 #include "implicit_util.h"
 
@@ -71,7 +71,7 @@ static void energy_derivatives(void) {
     }
 }
 
-/* the corotated stress by the polar decomposition (implicit_energy.c) is the
+/* the corotated stress by the polar decomposition (implicit/energy.c) is the
  * SVD's P = U diag(∂ψ/∂σ) Vᵀ and Ψ = ψ(σ), for strong deformations, and an
  * inverted F (which takes the SVD path) keeps its signed-SVD stress */
 static void corotated_polar_matches_svd(void) {

@@ -1,5 +1,5 @@
 /* test_implicit_mg.c — the multigrid preconditioner of the implicit solve
- * (implicit_mg_build.c, implicit_mg_cycle.c).
+ * (implicit/mg_build.c, implicit/mg_cycle.c).
  *
  * CG needs a symmetric positive-definite preconditioner: the cycle is
  * checked for x·By = y·Bx to round-off and x·Bx > 0 on random vectors that
@@ -15,7 +15,7 @@
 #include <stdlib.h>
 
 #include "kt.h"
-#include "mpm/implicit.h"
+#include "implicit/implicit.h"
 #include "scene_util.h"
 #include "implicit_util.h"
 
@@ -71,7 +71,7 @@ static void random_field(const kf_implicit *w, double *x, unsigned *seed) {
 /* x·By = y·Bx to round-off and x·Bx > 0, at a large step (stiffness far
  * above the mass, where the coarse levels matter), with one quadrature
  * point per coarse cell (dt 2e-2) and with eight (dt 0.2: the stiffness
- * outweighs the mass past implicit_mg_build.c's switch) */
+ * outweighs the mass past implicit/mg_build.c's switch) */
 static void vcycle_symmetric_definite_at(double dt, int full_quadrature) {
     scene sc = floor_block(KF_PRECOND_MULTIGRID);
     kf_implicit w;
@@ -193,7 +193,7 @@ static double cantilever_cg_per_newton(kf_precond pc, int k) {
 /* Measured on the evidence cantilever over its first half frame on 2
  * threads: multigrid 6.6 CG iterations per Newton iteration at 5x and 17.9
  * at 20x; Jacobi 8.4 and 28.9 (since CG stops at half the Newton tolerance,
- * implicit_solve.c: multigrid 4.6 and 11.1, Jacobi 6.1 and 20.9). The bound 24 at 20x is the measurement with
+ * implicit/solve.c: multigrid 4.6 and 11.1, Jacobi 6.1 and 20.9). The bound 24 at 20x is the measurement with
  * a third of headroom (jitter, thread count and build move it by an
  * iteration or two). Jacobi's iterations grow like Δt c / Δx (3.4x from 5x
  * to 20x here); multigrid's grow too but slower (2.7x), asserted below 3x. */
@@ -209,8 +209,8 @@ static void iterations_bounded_at_20x(void) {
 
 /* An artist's large step on a very stiff body: E = 1e9, 4 steps per frame
  * (1200x the explicit step), the first frame from rest, 2 threads. Before
- * the pre-gravity start (implicit_solve.c) and the full coarse quadrature
- * (implicit_mg_build.c): 12.5 Newton iterations a step, 190 CG iterations
+ * the pre-gravity start (implicit/solve.c) and the full coarse quadrature
+ * (implicit/mg_build.c): 12.5 Newton iterations a step, 190 CG iterations
  * per Newton iteration (CG stopping at its cap of 200 in most). After:
  * 2.75 and 31.9. Asserted: the last step converges, at most 4 Newton
  * iterations a step and 45 CG iterations per Newton iteration (the

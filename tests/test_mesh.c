@@ -10,7 +10,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "kt.h"
 #include "mesh_util.h"
 #include "scene/inside.h"

@@ -1,11 +1,12 @@
 /* test_recovery.c — the NaN-recovery path with a fault injected inside an
- * interval (kf_sim_def.fault_substep): the step catches it, kf_advance
+ * interval (kf_model_set_fault_substep, a private test hook): the step catches it, kf_advance
  * restarts the interval at half the CFL number, and the result is the run
  * made directly at that smaller step, to the bit. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
+#include "mpm/model.h"
 #include "kt.h"
 #include "scene_util.h"
 
@@ -24,7 +25,6 @@ static void fault_is_retried_exactly(void) {
     int mat;
     /* A: a fault in the second frame */
     kf_sim_def sa = sd;
-    sa.fault_substep = 0; /* set below, once the first frame's substeps are known */
     kf_model *plain = tu_model(&sd, "jello", 0, -1, 0, &mat);
     kf_state *probe = jello_drop(plain, mat);
     kf_step_stats st;
@@ -32,8 +32,9 @@ static void fault_is_retried_exactly(void) {
     char msg[256];
     KT_CHECK(kf_advance(plain, probe, frame, &st, msg, sizeof msg) == 0, "%s", msg);
     long first = st.substeps;
-    sa.fault_substep = first + 3; /* the fourth substep of frame 2 */
+    const long fault_substep = first + 3; /* the fourth substep of frame 2 */
     kf_model *faulty = tu_model(&sa, "jello", 0, -1, 0, &mat);
+    kf_model_set_fault_substep(faulty, fault_substep);
     kf_state *a = jello_drop(faulty, mat);
     kf_step_stats sta;
     memset(&sta, 0, sizeof sta);
@@ -52,7 +53,7 @@ static void fault_is_retried_exactly(void) {
     int finite = 1;
     for (size_t i = 0; i < pa.n; i++) finite &= isfinite(pa.v[0][i]) && isfinite(pa.x[1][i]);
     KT_CHECK(finite, "no NaN survives the retry");
-    printf("  fault at substep %ld: %d retry, %ld substeps in 3 frames, state hashes %s\n", sa.fault_substep, sta.retries,
+    printf("  fault at substep %ld: %d retry, %ld substeps in 3 frames, state hashes %s\n", fault_substep, sta.retries,
            sta.substeps, kf_state_hash(a) == kf_state_hash(b) ? "equal" : "differ");
     kf_state_destroy(probe), kf_state_destroy(a), kf_state_destroy(b);
     kf_model_destroy(plain), kf_model_destroy(faulty), kf_model_destroy(half);

@@ -11,7 +11,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "kt.h"
 #include "render.h"
 

@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "kt.h"
 #include "mesh_util.h"
 #include "random_util.h"

@@ -44,7 +44,7 @@
 #include <stdlib.h>
 
 #include "core/timer.h"
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "kt.h"
 
 #define SPH_PI 3.14159265358979323846

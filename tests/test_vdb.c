@@ -14,7 +14,7 @@
  * by r - h/2. */
 #include "kt.h"
 #include "io/vdb_bridge.h"
-#include "kerf.h"
+#include <kerf/kerf.h>
 
 #include <stdint.h>
 #include <stdlib.h>

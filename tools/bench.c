@@ -38,7 +38,8 @@
 #include "../render/render.h"
 #include "../src/core/timer.h"
 #include "../src/io/vdb_bridge.h"
-#include "../src/kerf.h"
+#include "../src/shot/shot.h" /* the preview presets */
+#include <kerf/kerf.h>
 #include "../src/scene/builtin.h"
 #include "median.h"
 

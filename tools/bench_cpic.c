@@ -23,7 +23,7 @@
 #include <time.h>
 
 #include "cpic/cpic.h"
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "median.h"
 #include "rigid/rigid.h"
 #include "rigid/seed_crossings.h"

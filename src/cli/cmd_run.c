@@ -18,8 +18,8 @@
 #include "../io/points_ply.h"
 #include "cli.h"
 #include "rigid_log.h"
+#include "../pipeline/stages.h"
 #include "run_record.h"
-#include "stages.h"
 
 /* the last frame up to `from` with a readable checkpoint made from the same inputs */
 static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint64_t hash, int from, int *frame) {
@@ -160,7 +160,7 @@ static int write_frame(const kf_shot *shot, const char *out, kf_scene *sc, int f
         }
     }
     if (shot->output_points && frame >= shot->first &&
-        kf_stage_points(shot, sc->state, rp.points, frame, err, sizeof err)) {
+        kf_pipeline_points(shot, sc->state, rp.points, frame, err, sizeof err)) {
         fprintf(stderr, "kerf: %s\n", err);
         return 1;
     }

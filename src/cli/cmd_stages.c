@@ -10,8 +10,8 @@
 #include "../io/checkpoint.h"
 #include "../io/vdb_bridge.h"
 #include "cli.h"
+#include "../pipeline/stages.h"
 #include "run_record.h"
-#include "stages.h"
 
 /* The camera frames the shot's first frame, whichever command renders:
  * load that frame's checkpoint (the initial state) and size the view on it. */
@@ -85,7 +85,7 @@ static int png_complete(const char *path) {
 static int surface_frame(const kf_shot *shot, kf_scene *sc, const kf_frame_paths *fp, int f, double *ms) {
     char err[4200];
     double t0 = kf_now_ms();
-    if (kf_stage_surface(shot, sc, fp, f, err, sizeof err)) {
+    if (kf_pipeline_surface(shot, sc, fp, f, err, sizeof err)) {
         fprintf(stderr, "kerf: frame %d: surface: %s\n", f, err);
         return 1;
     }
@@ -100,7 +100,7 @@ static int render_frame(const kf_shot *shot, kf_scene *sc, const kf_frame_paths 
                         double *ms_s, double *ms_r, int *made_s) {
     char err[4200], why[4200];
     double t0 = kf_now_ms();
-    if (kf_stage_render(shot, sc, fp->surface, fp->image, f, ro, err, sizeof err) == 0) {
+    if (kf_pipeline_render(shot, sc, fp->surface, fp->image, f, ro, err, sizeof err) == 0) {
         *ms_r += kf_now_ms() - t0;
         return 0;
     }
@@ -115,7 +115,7 @@ static int render_frame(const kf_shot *shot, kf_scene *sc, const kf_frame_paths 
     if (surface_frame(shot, sc, fp, f, ms_s)) return 1;
     (*made_s)++;
     t0 = kf_now_ms();
-    if (kf_stage_render(shot, sc, fp->surface, fp->image, f, ro, err, sizeof err)) {
+    if (kf_pipeline_render(shot, sc, fp->surface, fp->image, f, ro, err, sizeof err)) {
         fprintf(stderr, "kerf: frame %d: render: %s\n", f, err);
         return 1;
     }
@@ -263,7 +263,7 @@ int kf_cmd_turntable(int argc, char **argv) {
             char png[4200];
             snprintf(png, sizeof png, "%s/turntable/%s.f%d.%04d.png", fp.dir, shot->name, frame, k);
             ro.turntable_k = k;
-            if (kf_stage_render(shot, &sc, fp.surface, png, frame, &ro, err, sizeof err)) {
+            if (kf_pipeline_render(shot, &sc, fp.surface, png, frame, &ro, err, sizeof err)) {
                 fprintf(stderr, "kerf turntable: %s\n", err);
                 rc = KF_EXIT_FAIL;
             }

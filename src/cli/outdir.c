@@ -7,7 +7,7 @@
 
 #include "../io/atomic_file.h"
 #include "cli.h"
-#include "stages.h"
+#include "../pipeline/stages.h"
 
 int kf_cli_claim_output(const kf_cli_opts *o, const kf_shot *shot, kf_dir_lock *lock) {
     kf_frame_paths fp;

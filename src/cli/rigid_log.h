@@ -5,7 +5,7 @@
 
 #include <stdio.h>
 
-#include "../kerf.h"
+#include <kerf/kerf.h>
 #include "../shot/shot.h"
 
 /* One line per body: "  rigid NAME: thin kinematic mesh, 1234 seeds" (and

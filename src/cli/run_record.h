@@ -10,7 +10,7 @@
 
 #include <stddef.h>
 
-#include "../kerf.h"
+#include <kerf/kerf.h>
 
 /* Start the records of a run in dir: a run from the first frame empties
  * frames.jsonl (a resume keeps it). */

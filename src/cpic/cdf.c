@@ -28,6 +28,10 @@
 
 #include "cpic.h"
 
+int kf_cpic_band(const kf_state *s, size_t owner) {
+    return s->cpic && owner < s->cpic->cap_owner && s->cpic->slot[owner] >= 0;
+}
+
 void kf_cpic_free(kf_cpic *c) {
     if (!c) return;
     free(c->node_d);

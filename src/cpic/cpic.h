@@ -36,18 +36,22 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "../mpm/cpic_seam.h" /* what the step calls: splat, chunk transfers, guard, finish */
 #include "../mpm/model.h"
 
 #define KF_CPIC_RSTAR_SHIFT 28
 #define KF_CPIC_BITS_MASK ((1u << KF_CPIC_RSTAR_SHIFT) - 1)
 #define KF_CPIC_AFFINITY 0xAAAAAAAu /* the A bits of the 14 bodies */
-#define KF_CPIC_NB 6                /* quadratic owner cache edge: 4 + 3 - 1 */
 
 /* A body's primitives in world space for this substep (plane data per triangle). */
 typedef struct kf_cpic_tri {
     float v0[3], e1[3], e2[3], n[3]; /* corner, edges, unit normal */
     float g11, g12, g22;             /* inverse Gram matrix of (e1, e2) */
 } kf_cpic_tri;
+
+/* The crossing guard's pose pass (guard.c): every body's pose at the
+ * substep's end, called by the splat. */
+void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt);
 
 typedef struct kf_cpic {
     uint32_t epoch;       /* one per splat: a block's CDF is valid iff stamp == epoch */
@@ -89,38 +93,6 @@ typedef struct kf_cpic {
     double caught_depth;
 } kf_cpic;
 
-void kf_cpic_free(kf_cpic *c);
-
-/* Build the grid CDF for the current bin (after kf_grid_bin). Returns 0 or -1
- * (out of memory). */
-int kf_cpic_splat(const kf_model *m, kf_state *s, double dt);
-
-/* CPIC transfers of one owner block in the band (cpic_transfer.c). The
- * chunk's stencil, q, mv (and t for classic) are computed by the caller as
- * in the ordinary path; these replace the scatter and the gather. */
-/* The CDF of one owner's 2x2x2 block neighbourhood, laid out like the
- * transfer's node cache; made once per owner block and read by each chunk. */
-typedef struct kf_cpic_owner {
-    uint32_t col[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
-    float dist[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
-} kf_cpic_owner;
-void kf_cpic_owner_cdf(const kf_state *s, size_t owner, kf_cpic_owner *oc);
-
-struct chunk;
-void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, struct chunk *ck,
-                       size_t i0, void *cache, int classic);
-void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, struct chunk *ck,
-                       size_t i0, const void *cache, int classic);
-/* after G2P's advection: the penalty on slightly penetrated particles (Eq. 22) */
-void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, int n);
-
-/* The crossing guard (guard.c): the bodies' poses at the substep's end
- * (called by the splat), and after a chunk's advection, every particle whose
- * path relative to a body passed through it put back on its own side.
- * xold: the chunk's positions before advection, [3][KF_CHUNK] flat. */
-void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt);
-void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const struct chunk *ck,
-                   size_t i0, const kf_real *xold);
 
 /* J (linear impulse at world point x) and its moment about the body's com, added to imp[6] */
 static inline void kf_cpic_add_impulse(double *imp, const kf_rigid_state *st, const double x[3], const double J[3]) {
@@ -133,18 +105,10 @@ static inline void kf_cpic_add_impulse(double *imp, const kf_rigid_state *st, co
     imp[5] += r0 * J[1] - r1 * J[0];
 }
 
-/* Sum the impulses and advance the rigid bodies to t + dt. */
-void kf_cpic_finish(const kf_model *m, kf_state *s, double dt);
-
 /* compatible (§5.3.4): equal tags on every body both node and particle have affinity to */
 static inline int kf_cpic_compatible(uint32_t node, uint32_t part) {
     uint32_t shared = (node & part & KF_CPIC_AFFINITY) >> 1;
     return ((node ^ part) & shared) == 0;
-}
-
-/* Is this owner block in the narrow band (valid between splat and finish)? */
-static inline int kf_cpic_band(const kf_state *s, size_t owner) {
-    return s->cpic && owner < s->cpic->cap_owner && s->cpic->slot[owner] >= 0;
 }
 
 #endif

@@ -463,3 +463,8 @@ void kf_cpic_finish(const kf_model *m, kf_state *s, double dt) {
     }
     kf_rigid_sim_step(s->rsim, m->rigid, m->nrigid, s->rigid, s->time, dt, (const double(*)[6])c->impulse);
 }
+
+void kf_cpic_caught(const kf_state *s, long *caught, double *depth) {
+    *caught = s->cpic ? s->cpic->caught : 0;
+    *depth = s->cpic ? s->cpic->caught_depth : 0;
+}

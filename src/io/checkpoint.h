@@ -18,7 +18,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "../kerf.h"
+#include <kerf/kerf.h>
 
 #define KF_CHECKPOINT_VERSION 2 /* 2: object ids, CPIC colours, rigid bodies */
 

@@ -3,7 +3,7 @@
 #ifndef KF_POINTS_PLY_H
 #define KF_POINTS_PLY_H
 
-#include "../kerf.h"
+#include <kerf/kerf.h>
 
 /* Written atomically. Returns 0, or -1 with a message in err. */
 int kf_write_points_ply(const char *path, const kf_state *s, char *err, size_t errlen);

@@ -56,14 +56,6 @@ extern "C" {
 #define KF_VDB_RMIN_VOXELS 1.5   /* OpenVDB's smallest rasterised radius, voxels */
 #define KF_VDB_MAX_GRIDS 32
 
-/* The preview surfacing preset (a shot's surface.quality: preview): voxel and
- * radius in particle spacings, twice the final defaults (0.75 and 1.2), so the
- * sphere is the same 1.6 voxels and the grid has 1/8 the voxels; one
- * mean-curvature pass instead of three. */
-#define KF_VDB_PREVIEW_VOXEL 1.5
-#define KF_VDB_PREVIEW_RADIUS 2.4
-#define KF_VDB_PREVIEW_ITERATIONS 1
-
 /* An opaque float level set (plus an optional velocity grid). */
 typedef struct kf_vdb_grid kf_vdb_grid;
 

@@ -28,18 +28,11 @@
 #include <stdint.h>
 
 #include "../core/euler.h"
-#include "../kerf.h"
+#include "../core/keys.h"
+#include <kerf/kerf.h>
 
-/* the motion at a time: pivot, orientation, scale and their rates */
-typedef struct kf_collider_pose {
-    double p[3];      /* pivot, m */
-    double dp[3];     /* its velocity, m/s */
-    double deg[3];    /* keyed rotation, degrees about x, y, z */
-    double R[9];      /* Rz Ry Rx of deg, row-major */
-    double omega[3];  /* angular velocity, rad/s (world) */
-    double s[3];      /* scale factors */
-    double ds[3];     /* their rates, 1/s */
-} kf_collider_pose;
+/* the motion at a time (the shared key interpolation, core/keys.h) */
+typedef kf_key_pose kf_collider_pose;
 
 /* everything a node needs, computed once per collider per substep */
 typedef struct kf_collider_frame {
@@ -71,7 +64,7 @@ void kf_collider_velocity(const kf_collider_frame *f, const double x[3], double 
 
 /* Whether the block of nodes spanning [lo, hi] may hold a node with φ <= 0. */
 /* Eq. 25: project v (relative to the boundary) for outward normal n: the
- * one rule for walls and colliders (grid_update.c, implicit_boundary.c) and
+ * one rule for walls and colliders (grid_update.c, implicit/boundary.c) and
  * CPIC's rigid bodies (cpic_transfer.c) */
 static inline void kf_project_velocity(double v[3], const double n[3], kf_boundary type, double mu) {
     if (type == KF_BOUNDARY_STICKY) {

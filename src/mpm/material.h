@@ -14,7 +14,7 @@
 #ifndef KF_MATERIAL_H
 #define KF_MATERIAL_H
 
-#include "../kerf.h"
+#include <kerf/kerf.h>
 
 typedef struct kf_mat {
     kf_material_model model;

@@ -6,14 +6,11 @@
 #ifndef KF_MODEL_H
 #define KF_MODEL_H
 
-#include "../kerf.h"
+#include <kerf/kerf.h>
 #include "grid.h"
 #include "material.h"
 #include "particles.h"
 #include "../rigid/rigid.h"
-
-#define KF_MAX_MATERIALS 64
-#define KF_MAX_COLLIDERS 64
 
 struct kf_model {
     kf_sim_def sim;
@@ -28,6 +25,10 @@ struct kf_model {
     kf_rigid_body rigid[KF_MAX_RIGIDS];
     int njoint;
     kf_joint_def joint[KF_MAX_JOINTS];
+    /* testing the recovery path: at this substep count (kf_state's substeps
+     * since creation) one particle's velocity becomes NaN, once per state; the
+     * step must catch it and kf_advance retry the interval (0 = never) */
+    long fault_substep;
 };
 
 struct kf_state {
@@ -48,7 +49,7 @@ struct kf_state {
     void *snapshot_rsim; /* kf_rigid_sim_save bytes */
     size_t snapshot_rsim_size;
     double drive_cells; /* the fastest rigid surface so far, cells per substep (step.c's speed bound) */
-    int fault_done;    /* the testing fault (kf_sim_def.fault_substep) has happened */
+    int fault_done;    /* the testing fault (kf_model.fault_substep) has happened */
     struct kf_cpic *cpic; /* CPIC scratch (grid colored distance field, particle distances), src/cpic */
     struct kf_contact *contact; /* contact between objects: per-field node slots (contact.h) */
     /* implicit midpoint: per particle (dv, dC) the G2P of the grid's
@@ -57,6 +58,10 @@ struct kf_state {
     size_t mid_cap;
     int mid_pending;
 };
+
+/* The recovery path's test hook (kf_model.fault_substep): set after
+ * kf_model_create, before the first step. */
+static inline void kf_model_set_fault_substep(kf_model *m, long substep) { m->fault_substep = substep; }
 
 /* MLS inertia-like tensor D_p = d I: d = Δx²/4 (quadratic), Δx²/3 (cubic) */
 static inline double kf_model_dfactor(const kf_model *m) {
@@ -80,7 +85,7 @@ typedef struct kf_g2p_result {
 
 /* P2G; trouble (may be NULL) receives the first particle with non-finite stress */
 void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble);
-/* implicit integration instead of kf_p2g + kf_grid_update (implicit_solve.c):
+/* implicit integration instead of kf_p2g + kf_grid_update (implicit/solve.c):
  * P2G of mass and momentum, backward Euler by Newton-Krylov on the grid
  * velocities, boundaries; the grid ends as kf_grid_update leaves it.
  * Returns 0, or 1 with trouble filled. Adds iteration counts to st. */

@@ -6,7 +6,7 @@
 #ifndef KF_SDF_GRID_H
 #define KF_SDF_GRID_H
 
-#include "../kerf.h"
+#include <kerf/kerf.h>
 
 /* φ at X (the grid's frame, metres) by trilinear interpolation, and its
  * gradient (the trilinear interpolant's, exact within a cell) in grad.

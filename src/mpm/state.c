@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "../core/mat3.h"
+#include "cpic_seam.h"
 #include "model.h"
 
 /* rigid bodies at time 0 and their solver (none without rigid bodies) */
@@ -28,7 +29,6 @@ kf_state *kf_state_create(const kf_model *m) {
     return s;
 }
 
-void kf_cpic_free(struct kf_cpic *c);
 void kf_contact_free(struct kf_contact *c);
 
 void kf_state_destroy(kf_state *s) {

@@ -11,8 +11,8 @@
 #include <string.h>
 
 #include "../core/timer.h"
-#include "../cpic/cpic.h"
 #include "contact.h"
+#include "cpic_seam.h"
 #include "model.h"
 
 const char *kf_stage_name(kf_stage s) {
@@ -57,7 +57,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     if (st) st->ms[KF_STAGE_SORT] += t1 - t0;
 
     /* testing the recovery path: one particle's velocity goes bad, once */
-    if (m->sim.fault_substep > 0 && s->substep == m->sim.fault_substep && !s->fault_done && s->p.n) {
+    if (m->fault_substep > 0 && s->substep == m->fault_substep && !s->fault_done && s->p.n) {
         s->fault_done = 1;
         s->p.v[0][0] = (kf_real)NAN;
     }
@@ -124,8 +124,11 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     if (m->nrigid) {
         kf_cpic_finish(m, s, dt);
         if (st) {
-            st->thin_caught += s->cpic->caught;
-            double deep = s->cpic->caught_depth / m->sim.dx;
+            long caught;
+            double depth;
+            kf_cpic_caught(s, &caught, &depth);
+            st->thin_caught += caught;
+            double deep = depth / m->sim.dx;
             if (deep > st->thin_deepest) st->thin_deepest = deep;
         }
         t0 = kf_now_ms();

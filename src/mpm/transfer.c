@@ -28,7 +28,7 @@
 
 #include "transfer_chunk.h"
 #include "contact.h"
-#include "../cpic/cpic.h"
+#include "cpic_seam.h"
 
 /* ---- P2G ---------------------------------------------------------------------- */
 

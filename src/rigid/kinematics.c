@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "../core/euler.h"
-#include "../mpm/collider.h"
+#include "../core/keys.h"
 #include "rigid.h"
 #include "rmath.h"
 
@@ -22,15 +22,11 @@ static void place(kf_rigid_state *st, const double p[3], const double c[3], cons
     }
 }
 
-/* keyed motion: the collider's key interpolation, without scale */
+/* keyed motion: the colliders' key interpolation, without scale */
 static void keyed(const kf_rigid_def *d, double t, kf_rigid_state *st) {
-    kf_collider c;
-    memset(&c, 0, sizeof c);
-    c.interp = d->interp;
-    c.nkeys = d->nkeys > KF_MAX_KEYS ? KF_MAX_KEYS : d->nkeys;
-    memcpy(c.keys, d->keys, sizeof(kf_key) * (size_t)c.nkeys);
-    kf_collider_pose pose;
-    kf_collider_pose_at(&c, t, &pose);
+    static const double zero[3] = {0, 0, 0};
+    kf_key_pose pose;
+    kf_keys_pose_at(d->keys, d->nkeys > KF_MAX_KEYS ? KF_MAX_KEYS : d->nkeys, d->interp, zero, zero, t, &pose);
     memcpy(st->R, pose.R, sizeof st->R);
     place(st, pose.p, d->center, d->center);
     memcpy(st->v, pose.dp, sizeof st->v);

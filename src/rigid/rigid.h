@@ -19,9 +19,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "../kerf.h"
-
-#define KF_MAX_JOINTS 32
+#include <kerf/kerf.h>
 
 typedef struct kf_rigid_body {
     kf_rigid_def def;   /* as given; def.vertices / def.triangles point at vert / tri below */

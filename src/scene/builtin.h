@@ -3,7 +3,7 @@
 #ifndef KF_BUILTIN_H
 #define KF_BUILTIN_H
 
-#include "../kerf.h"
+#include <kerf/kerf.h>
 
 typedef struct kf_scene {
     kf_model *model;

@@ -23,7 +23,7 @@
 
 #include <stddef.h>
 
-#include "../kerf.h"
+#include <kerf/kerf.h>
 #include "mesh.h"
 
 /* the default node budget: 2^24 nodes, 64 MB of floats */

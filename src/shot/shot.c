@@ -4,8 +4,6 @@
  * kf_shot. Every problem is reported and the walk goes on, so one run shows
  * them all; nothing is returned unless there were none. */
 #include "../core/euler.h"
-#include "../io/vdb_bridge.h"
-#include "../../render/render.h"
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
@@ -14,8 +12,6 @@
 #include <strings.h>
 #include <sys/stat.h>
 
-#include "../mpm/model.h" /* KF_MAX_MATERIALS, KF_MAX_COLLIDERS */
-#include "../rigid/rigid.h" /* KF_MAX_JOINTS */
 #include "internal.h"
 
 #define KF_PI 3.14159265358979323846

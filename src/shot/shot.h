@@ -26,13 +26,25 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#include "../kerf.h"
-#include "../scene/sample.h" /* kf_source_kind, kf_placement: what the sampler takes */
+#include <kerf/kerf.h>
 #include "diag.h"
+#include "source.h" /* kf_source_kind, kf_placement */
 
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* The preview surfacing preset (a shot's surface.quality: preview): voxel and
+ * radius in particle spacings, twice the final defaults (0.75 and 1.2), so the
+ * sphere is the same 1.6 voxels and the grid has 1/8 the voxels; one
+ * mean-curvature pass instead of three. The spec holds the numbers; the
+ * surfacing and the renderer only read the shot's values. */
+#define KF_VDB_PREVIEW_VOXEL 1.5
+#define KF_VDB_PREVIEW_RADIUS 2.4
+#define KF_VDB_PREVIEW_ITERATIONS 1
+/* the preview render preset (render.quality: preview): the key light's
+ * shadow map, texels a side */
+#define KF_RENDER_PREVIEW_SHADOW 1024
 
 typedef enum kf_quality {
     KF_QUALITY_FINAL = 0, /* the shot as written */

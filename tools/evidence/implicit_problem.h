@@ -18,8 +18,8 @@
 
 #include <stdio.h>
 
-#include "kerf.h"
-#include "mpm/implicit.h" /* the solve's per-stage profile */
+#include <kerf/kerf.h>
+#include "implicit/implicit.h" /* the solve's per-stage profile */
 
 #define FPS 24.0
 #define FRAMES 6

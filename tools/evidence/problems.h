@@ -19,7 +19,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "kerf.h"
+#include <kerf/kerf.h>
 
 #define EV_PI 3.14159265358979323846
 

@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "core/timer.h"
-#include "kerf.h"
+#include <kerf/kerf.h>
 #include "mpm/material.h"
 #include "mpm/model.h"
 

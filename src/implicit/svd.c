@@ -1,4 +1,4 @@
-/* implicit_svd.c — double-precision 3x3 symmetric eigensolver and
+/* svd.c — double-precision 3x3 symmetric eigensolver and
  * sign-fixed SVD for the implicit solve's energies.
  *
  * The library's kf_svd3 rounds its output to kf_real; the Newton solve and

@@ -1,4 +1,4 @@
-/* implicit_mg_build.c — the coarse levels of the multigrid preconditioner
+/* mg_build.c — the coarse levels of the multigrid preconditioner
  * (implicit.h): their nodes, masses, quadrature points and the trilinear
  * prolongation from each level to the next finer one.
  *

@@ -142,6 +142,10 @@ typedef enum kf_rigid_motion { KF_RIGID_STATIC = 0, KF_RIGID_KINEMATIC, KF_RIGID
 /* One grid node stores 2 bits per body (affinity, side) and the closest
  * body's index in one 32-bit word beside its distance (paper §5.2.3). */
 #define KF_MAX_RIGIDS 14
+/* the model's other fixed limits: materials, kinematic colliders, joints */
+#define KF_MAX_MATERIALS 64
+#define KF_MAX_COLLIDERS 64
+#define KF_MAX_JOINTS 32
 
 /* penalty and push left to kerf: sized from the substep, the grid and the material */
 #define KF_RIGID_AUTO (-1.0)
@@ -241,10 +245,6 @@ typedef struct kf_sim_def {
     int krylov_max;       /* CG iterations per Newton step (0 = default) */
     kf_precond precond;   /* CG preconditioner */
     kf_implicit_scheme implicit_scheme;
-    /* testing the recovery path: at this substep count (kf_state's substeps
-     * since creation) one particle's velocity becomes NaN, once per state; the
-     * step must catch it and kf_advance retry the interval (0 = never) */
-    long fault_substep;
 } kf_sim_def;
 
 kf_sim_def kf_default_sim_def(void);

@@ -1,14 +1,14 @@
-/* implicit_solve.c — backward Euler on the grid velocities: Newton's method
+/* solve.c — backward Euler on the grid velocities: Newton's method
  * on the incremental potential E(v) (implicit.h), each step solved by CG
  * on the projected (positive semi-definite) Hessian, preconditioned by the
- * multigrid cycle (implicit_mg_cycle.c, the default) or by Jacobi
+ * multigrid cycle (implicit/mg_cycle.c, the default) or by Jacobi
  * (sim.precond), then a backtracking line search on E.
  *
  * The Hessian is never assembled: its action is a gather of G_p from the
  * increment, the per-particle 9x9 block Kp (the energy's projected second
  * derivative mapped to G), and a scatter (Eq. 19). Walls and colliders are
  * linear constraints: the solve starts admissible and every direction is
- * projected onto the free directions (implicit_boundary.c). Convergence is
+ * projected onto the free directions (implicit/boundary.c). Convergence is
  * the residual ‖P g‖ in the inverse-mass norm relative to the momentum
  * scale √M · v_scale, v_scale the RMS speed of v* (at least |g| Δt). */
 #include <math.h>
@@ -215,7 +215,7 @@ static int stress_of_fn(kf_implicit *w) {
 /* ---- Newton–Krylov ------------------------------------------------------------ */
 
 /* z = P D⁻¹ r: the Jacobi preconditioner restricted to the free directions;
- * or the multigrid V-cycle (implicit_mg_cycle.c) */
+ * or the multigrid V-cycle (implicit/mg_cycle.c) */
 static void precondition(kf_implicit *w, const double *r, double *z) {
     if (w->mg) {
         kf_imp_mg_apply_active(w, r, z);

@@ -13,16 +13,16 @@
  *
  * The midpoint scheme (kf_implicit_scheme) runs the same solve over Δt/2:
  * its v is v_{n+½}, with which kf_g2p moves and deforms the particles over
- * Δt; their velocity then ends at 2 v_{n+½} − v_n (implicit_solve.c).
+ * Δt; their velocity then ends at 2 v_{n+½} − v_n (implicit/solve.c).
  *
  * Everything here is double: the solve's symmetry and convergence checks
  * need it even when the particles are float. */
 #ifndef KF_IMPLICIT_H
 #define KF_IMPLICIT_H
 
-#include "model.h"
+#include "../mpm/model.h"
 
-/* ---- double 3x3 algebra for the energies (implicit_svd.c) ------------------ */
+/* ---- double 3x3 algebra for the energies (implicit/svd.c) ------------------ */
 
 /* Sign-fixed SVD F = U diag(σ) Vᵀ, det U = det V = +1, |σ0| >= |σ1| >= |σ2|,
  * σ0, σ1 >= 0 and σ2 carrying the sign of det F (so an inverted F keeps a
@@ -31,7 +31,7 @@ void kf_imp_svd(const double F[9], double U[9], double sigma[3], double V[9]);
 /* Symmetric eigen-decomposition A = Q diag(w) Qᵀ (Jacobi, to round-off). */
 void kf_imp_sym_eig3(const double A[9], double w[3], double Q[9]);
 
-/* ---- energies (implicit_energy.c) ------------------------------------------
+/* ---- energies (implicit/energy.c) ------------------------------------------
  * Every elastic model of kerf is isotropic: Ψ(F) = ψ(σ). The stress is
  * P = U diag(∂ψ/∂σ) Vᵀ and the Hessian, in the rotated frame δF̂ = Uᵀ δF V,
  * splits into the 3x3 block ∂²ψ/∂σ² on the diagonal entries and one 2x2
@@ -93,7 +93,7 @@ typedef struct kf_implicit {
     double *S;         /* (9 np) Δt V⁰ P Fⁿᵀ: what a particle scatters into the gradient */
     double *S_alt;     /* (9 np) scratch for a second S (the solve swaps the two) */
     double *psi;       /* (np) V⁰ Ψ at the last linearisation */
-    /* boundary conditions (implicit_boundary.c): constrained nodes, each with
+    /* boundary conditions (implicit/boundary.c): constrained nodes, each with
      * the orthogonal projection onto its free directions */
     size_t ncon;
     int32_t *con_node;
@@ -111,7 +111,7 @@ typedef struct kf_implicit {
     double residual;
 } kf_implicit;
 
-/* ---- transfers (implicit_transfer.c) ------------------------------------------- */
+/* ---- transfers (implicit/transfer.c) ------------------------------------------- */
 
 /* The stencils of every particle (after kf_grid_bin) and the P2G of mass
  * and momentum without the stress term; fills mass, vstar (with gravity)
@@ -133,7 +133,7 @@ void kf_imp_scatter_product(const kf_implicit *w, const double *x, double *out);
  * Hessian's diagonal (the Jacobi preconditioner). */
 void kf_imp_scatter_diag(const kf_implicit *w, double *out);
 
-/* ---- the potential and its derivatives (implicit_solve.c) --------------------- */
+/* ---- the potential and its derivatives (implicit/solve.c) --------------------- */
 
 /* F_p(v), Ψ, and the per-particle Hessian blocks (projected or exact).
  * Returns E(v), or NaN when some particle's F is not finite. */
@@ -146,7 +146,7 @@ void kf_imp_hessian_action(kf_implicit *w, const double *x, double *y);
  * elsewhere), deterministic. */
 double kf_imp_dot(kf_implicit *w, const double *x, const double *y);
 
-/* ---- boundary conditions (implicit_boundary.c) --------------------------------- */
+/* ---- boundary conditions (implicit/boundary.c) --------------------------------- */
 
 /* Walls and colliders at the substep's end: which nodes are constrained,
  * and v (4 nnode) set to v* projected (sticky: the boundary's velocity; slip
@@ -160,14 +160,14 @@ void kf_imp_project(const kf_implicit *w, double *x);
  * the solve removed. */
 void kf_imp_friction(const kf_implicit *w, double *v);
 
-/* ---- the multigrid preconditioner (implicit_mg_build.c, implicit_mg_cycle.c) ----
+/* ---- the multigrid preconditioner (implicit/mg_build.c, implicit/mg_cycle.c) ----
  * In the style of HOT (Wang et al. 2020): level 0 is the solve's grid and
  * operator (matrix-free, boundary-projected); level l >= 1 re-discretises
  * the same energy on a grid of spacing 2^l Δx, with the particles' masses
  * re-transferred to its nodes and their per-particle Hessian blocks Kp
  * summed into one quadrature point per cell of the level (the particles'
  * centroid; eight per cell, one per cell of half the spacing, when
- * stiffness outweighs mass: implicit_mg_build.c), so a coarse product
+ * stiffness outweighs mass: implicit/mg_build.c), so a coarse product
  * costs a fraction of a fine one. Levels are
  * joined by trilinear prolongation P and restriction Pᵀ, each level's
  * boundary projection applied after P and before Pᵀ (coarse levels inherit

@@ -11,7 +11,7 @@
 #include "../io/atomic_file.h"
 #include "../io/checkpoint.h"
 #include "../io/vdb_bridge.h"
-#include "../kerf.h"
+#include <kerf/kerf.h>
 #include "../mpm/collider.h"
 #include "../scene/mesh.h"
 #include "../scene/sample.h"
@@ -81,7 +81,7 @@ static const char *group_name(const kf_shot *shot, int g) {
     return g < shot->nmaterials ? shot->materials[g].mat.name : "material";
 }
 
-int kf_stage_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
+int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
                      size_t errlen) {
     kf_checkpoint_info info;
     if (kf_checkpoint_read(fp->checkpoint, sc->model, sc->state, &info, err, errlen)) return -1;
@@ -151,7 +151,7 @@ done:
 
 /* ---- points ----------------------------------------------------------------- */
 
-int kf_stage_points(const kf_shot *shot, const kf_state *s, const char *path, int frame, char *err, size_t errlen) {
+int kf_pipeline_points(const kf_shot *shot, const kf_state *s, const char *path, int frame, char *err, size_t errlen) {
     kf_particles_view p = kf_state_particles_read(s);
     float *x = malloc(sizeof(float) * 3 * (p.n + 1)), *v = malloc(sizeof(float) * 3 * (p.n + 1));
     float *jp = malloc(sizeof(float) * (p.n + 1));
@@ -384,7 +384,7 @@ static void surface_look(const kf_shot *shot, const char *grid, kf_render_materi
     material_look(shot, mat, m);
 }
 
-int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
+int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
                     const kf_render_opts *ro, char *err, size_t errlen) {
     (void)sc;
     kf_vdb_file_info info;

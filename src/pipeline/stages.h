@@ -33,7 +33,7 @@ int kf_output_current(const char *output, const char *input);
  * velocity grid: `surface` (and `vel`) when there is one group, else
  * `surface_<name>` (and `surface_<name>_vel`) each → .vdb. Returns 0, or -1
  * with a message. */
-int kf_stage_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
+int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
                      size_t errlen);
 
 /* Render settings that are not in the shot file yet: size and sampling. */
@@ -46,13 +46,13 @@ typedef struct kf_render_opts {
 } kf_render_opts;
 
 /* particles as OpenVDB points (output.points) */
-int kf_stage_points(const kf_shot *shot, const kf_state *s, const char *path, int frame, char *err, size_t errlen);
+int kf_pipeline_points(const kf_shot *shot, const kf_state *s, const char *path, int frame, char *err, size_t errlen);
 /* The shot's render settings; the camera frames the initial particles of sc
  * (widened, since material spreads), clipped to the domain when walled. */
 kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc);
 
 /* .vdb → a mesh per group surface, each in its group's colour and shading → PNG at `png`. */
-int kf_stage_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
+int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
                     const kf_render_opts *ro, char *err, size_t errlen);
 
 #endif

@@ -1,4 +1,4 @@
-/* implicit_energy.c — Ψ, P = ∂Ψ/∂F and the (projected) Hessian ∂²Ψ/∂F² of
+/* energy.c — Ψ, P = ∂Ψ/∂F and the (projected) Hessian ∂²Ψ/∂F² of
  * kerf's elastic models, for the implicit solve.
  *
  * All of them are isotropic, Ψ(F) = ψ(σ) on the signed singular values, so

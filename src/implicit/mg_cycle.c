@@ -1,9 +1,9 @@
-/* implicit_mg_cycle.c — the multigrid preconditioner of the implicit
+/* mg_cycle.c — the multigrid preconditioner of the implicit
  * solve's CG (implicit.h).
  *
  * Level 0's operator is the solve's own projected Hessian action P H P;
  * level l >= 1's is P_l (M_l + Σ_q Γ_qᵀ K_q Γ_q) P_l over its quadrature
- * points (implicit_mg_build.c), refreshed from the per-particle blocks Kp
+ * points (implicit/mg_build.c), refreshed from the per-particle blocks Kp
  * at every Newton iteration. Coarse levels smooth with damped Jacobi,
  * x += ω D⁻¹ (b − A x), ω = OMEGA / λ with λ a power-iteration estimate of
  * λmax(D⁻¹A) taken at the substep's first Newton iteration: one pre- and

@@ -1,4 +1,4 @@
-/* implicit_boundary.c — walls and colliders inside the implicit solve.
+/* boundary.c — walls and colliders inside the implicit solve.
  *
  * The explicit grid update projects each node's velocity once (Eq. 25). In
  * the solve the same conditions become constraints: a node on or beyond a
@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "collider.h"
+#include "../mpm/collider.h"
 #include "implicit.h"
 
 /* the constraint a node collects: an orthonormal basis of fixed directions */

@@ -1,4 +1,4 @@
-/* implicit_transfer.c — the implicit solve's transfers, in double.
+/* transfer.c — the implicit solve's transfers, in double.
  *
  * Once per substep each particle's stencil is laid out flat: the grid node
  * of every stencil entry and its γ_ip (MLS: w_ip D⁻¹ (x_i − x_p), classic:

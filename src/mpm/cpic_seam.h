@@ -1,0 +1,67 @@
+/* cpic_seam.h — what the explicit step asks of CPIC (src/cpic), and nothing
+ * more: the seam between the MPM core and the rigid coupling.
+ *
+ * The step (step.c) and the transfers (transfer.c) call these; src/cpic
+ * implements them against the model and state it reads through mpm/model.h.
+ * So the dependency runs one way, cpic → mpm: this header names the state
+ * only by its public type and the transfer's chunk by a forward declaration.
+ *
+ * Order within a substep with rigid bodies: kf_cpic_splat after the bin; per
+ * owner block in the band (kf_cpic_band), kf_cpic_owner_cdf, then the
+ * chunk transfers; after G2P's advection kf_cpic_penalty and kf_cpic_guard;
+ * kf_cpic_finish after the stress pass. */
+#ifndef KF_MPM_CPIC_SEAM_H
+#define KF_MPM_CPIC_SEAM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <kerf/kerf.h>
+#include "../core/real.h"
+
+#define KF_CPIC_NB 6 /* quadratic owner cache edge: 4 + 3 - 1 */
+
+struct kf_cpic;
+struct chunk;
+
+/* The CDF of one owner's 2x2x2 block neighbourhood, laid out like the
+ * transfer's node cache; made once per owner block and read by each chunk. */
+typedef struct kf_cpic_owner {
+    uint32_t col[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
+    float dist[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
+} kf_cpic_owner;
+
+void kf_cpic_free(struct kf_cpic *c);
+
+/* Build the grid CDF for the current bin (after kf_grid_bin). Returns 0 or -1
+ * (out of memory). */
+int kf_cpic_splat(const kf_model *m, kf_state *s, double dt);
+
+/* Is this owner block in the narrow band (valid between splat and finish)? */
+int kf_cpic_band(const kf_state *s, size_t owner);
+
+/* CPIC transfers of one owner block in the band (cpic_transfer.c). The
+ * chunk's stencil, q, mv (and t for classic) are computed by the caller as
+ * in the ordinary path; these replace the scatter and the gather. */
+void kf_cpic_owner_cdf(const kf_state *s, size_t owner, kf_cpic_owner *oc);
+void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, struct chunk *ck,
+                       size_t i0, void *cache, int classic);
+void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, struct chunk *ck,
+                       size_t i0, const void *cache, int classic);
+/* after G2P's advection: the penalty on slightly penetrated particles (Eq. 22) */
+void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, int n);
+
+/* The crossing guard (guard.c): after a chunk's advection, every particle
+ * whose path relative to a body passed through it put back on its own side.
+ * xold: the chunk's positions before advection, [3][KF_CHUNK] flat. */
+void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const struct chunk *ck,
+                   size_t i0, const kf_real *xold);
+
+/* Sum the impulses and advance the rigid bodies to t + dt. */
+void kf_cpic_finish(const kf_model *m, kf_state *s, double dt);
+
+/* The crossing guard's totals of the substep kf_cpic_finish closed:
+ * particles put back, and the deepest crossing (m). */
+void kf_cpic_caught(const kf_state *s, long *caught, double *depth);
+
+#endif
