@@ -111,6 +111,10 @@ class Browser:
                 break
         caps = {'capabilities': {'alwaysMatch': {'browserName': 'chrome', 'goog:chromeOptions': opts}}}
         self.sid = self.call('POST', '/session', caps)['value']['sessionId']
+        # the page at exactly 1280x720 CSS pixels, whatever the window's frame takes
+        self.s('POST', '/goog/cdp/execute', {'cmd': 'Emulation.setDeviceMetricsOverride',
+                                             'params': {'width': 1280, 'height': 720, 'deviceScaleFactor': 1,
+                                                        'mobile': False}})
 
     def call(self, method, path, body=None):
         c = http.client.HTTPConnection('127.0.0.1', self.port, timeout=120)
@@ -275,6 +279,12 @@ def browser_flipbook(b, port, root):
     check('the page shows frame 1001 first', bool(first), shown(b))
     f, rgb = shown(b)
     check('... with frame 1001\'s pixels %s' % (colour(1, 1001),), close_to(rgb, colour(1, 1001)), rgb)
+    lay = b.js("const r = (id) => document.getElementById(id).getBoundingClientRect();"
+               "return [innerWidth, innerHeight, document.documentElement.scrollWidth, document.documentElement.scrollHeight,"
+               "r('view').width, r('view').height, r('plot0').bottom, r('keys').bottom, r('transport').bottom];")
+    check('usable at 1280x720: nothing spills out, the picture at least 800x300, plots and keys on screen (%s)' % lay,
+          lay[:2] == [1280, 720] and lay[2] <= 1280 and lay[3] <= 720 and lay[4] >= 800 and lay[5] >= 300 and
+          max(lay[6:]) <= 720)
     check('fps is the shot\'s (frames.fps of the directory view: 24)', b.js("return document.getElementById('fps').value") == '24')
 
     # play: frames advance at the fps and loop back to the first
