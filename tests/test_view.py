@@ -285,7 +285,7 @@ def browser_flipbook(b, port, root):
     check('usable at 1280x720: nothing spills out, the picture at least 800x300, plots and keys on screen (%s)' % lay,
           lay[:2] == [1280, 720] and lay[2] <= 1280 and lay[3] <= 720 and lay[4] >= 800 and lay[5] >= 300 and
           max(lay[6:]) <= 720)
-    check('fps is the shot\'s (frames.fps of the directory view: 24)', b.js("return document.getElementById('fps').value") == '24')
+    check('fps of a directory: the rate its run recorded (run.json: 30)', b.js("return document.getElementById('fps').value") == '30')
 
     # play: frames advance at the fps and loop back to the first
     b.js("document.getElementById('fps').value = '12'")
@@ -423,6 +423,9 @@ def main():
                                      'warnings': 0, 'thin_caught': 0, 'ms_stage': {k: 0.1 for k in
                                      ('sort', 'p2g', 'grid', 'g2p', 'stress', 'cdf', 'rigid')}}) + '\n')
             fr.write('{"frame": 1009, "subst')  # a line cut short by a kill
+        with open(os.path.join(root, 'v002/run.json'), 'w') as f:
+            json.dump({'pid': 0, 'shot': 'shot', 'stage': 'done', 'frame': 1008, 'first': 1001, 'last': 1008,
+                       'fps': 30, 'done': 7, 'todo': 7, 'eta_s': 0}, f)
         with open(os.path.join(work, 'outside.txt'), 'w') as f:
             f.write('secret\n')
         os.symlink(os.path.join(work, 'outside.txt'), os.path.join(root, 'v001/leak.png'))
@@ -442,8 +445,8 @@ def main():
         check('kerf run writes a record per simulated frame (1002, 1003)', [x['frame'] for x in recs] == [1002, 1003] and
               all(x['substeps'] > 0 and 0 < x['max_cfl'] <= 0.4 + 1e-6 for x in recs), recs)
         run = json.load(open(os.path.join(work, 'tiny/v001/run.json')))
-        check('... and run.json says done, frames 1001-1003', run['stage'] == 'done' and run['first'] == 1001 and
-              run['last'] == 1003, run)
+        check('... and run.json says done, frames 1001-1003 of tiny at 24 fps', run['stage'] == 'done' and
+              run['first'] == 1001 and run['last'] == 1003 and run['shot'] == 'tiny' and run['fps'] == 24, run)
 
         p, port = start_view('tiny.yaml', work)
         token_tests(work, port)

@@ -214,8 +214,7 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
             rc = c > 0 ? kf_cli_post(&o, shot, &sc, 1, 1) : KF_EXIT_FAIL;
             kf_frame_paths cp;
             if (c > 0 && kf_frame_paths_make(shot, o.out, shot->first, &cp) == 0)
-                kf_record_progress(cp.dir, rc == KF_EXIT_OK ? "done" : "failed", shot->last, shot->first, shot->last,
-                                   0, 0, 0);
+                kf_record_progress(cp.dir, shot, rc == KF_EXIT_OK ? "done" : "failed", shot->last, 0, 0, 0);
             return rc;
         }
         if (damaged && matched > 0) {
@@ -247,7 +246,7 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
 
     /* the records watchers read (kerf view): a run from the first frame starts them afresh */
     kf_record_begin(rp.dir, frame == shot->frame_start);
-    kf_record_progress(rp.dir, "sim", frame, shot->first, shot->last, 0, shot->last - frame, -1);
+    kf_record_progress(rp.dir, shot, "sim", frame, 0, shot->last - frame, -1);
 
     /* the initial state is the first frame's output */
     if (frame == shot->frame_start && write_frame(shot, o.out, &sc, frame, hash)) rc = KF_EXIT_FAIL;
@@ -273,7 +272,7 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         }
         double elapsed = (kf_now_ms() - start) / 1e3;
         kf_record_frame(rp.dir, frame, kf_state_count(sc.state), &st, frame_ms);
-        kf_record_progress(rp.dir, "sim", frame, shot->first, shot->last, done, todo, elapsed / done * (todo - done));
+        kf_record_progress(rp.dir, shot, "sim", frame, done, todo, elapsed / done * (todo - done));
         if (o.quiet) continue;
         char eta[32];
         fmt_eta(eta, sizeof eta, elapsed / done * (todo - done));
@@ -329,6 +328,6 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         fprintf(stderr, "kerf: %s: nothing left to simulate after frame %d in %s/\n", shot->name, resumed, rp.dir);
     /* simulate → surface → render */
     if (rc == KF_EXIT_OK) rc = kf_cli_post(&o, shot, &sc, 1, 1);
-    kf_record_progress(rp.dir, rc == KF_EXIT_OK ? "done" : "failed", frame, shot->first, shot->last, done, todo, 0);
+    kf_record_progress(rp.dir, shot, rc == KF_EXIT_OK ? "done" : "failed", frame, done, todo, 0);
     return rc;
 }

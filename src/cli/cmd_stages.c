@@ -182,7 +182,7 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
         }
         /* where the run stands, for watchers: frames surfaced and rendered so far */
         if (made_s || made_r)
-            kf_record_progress(first.dir, do_render ? "render" : "surface", f, shot->first, shot->last,
+            kf_record_progress(first.dir, shot, do_render ? "render" : "surface", f,
                                f - shot->first + 1, shot->last - shot->first + 1,
                                (t_s + t_r) / 1e3 / (f - shot->first + 1) * (shot->last - f));
         if (!o->quiet && (made_s || made_r))

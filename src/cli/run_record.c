@@ -42,15 +42,23 @@ void kf_record_frame(const char *dir, int frame, size_t particles, const kf_step
     close(fd);
 }
 
-void kf_record_progress(const char *dir, const char *stage, int frame, int first, int last, int done, int todo,
+void kf_record_progress(const char *dir, const kf_shot *shot, const char *stage, int frame, int done, int todo,
                         double eta_s) {
     char path[2200];
     snprintf(path, sizeof path, "%s/run.json", dir);
+    /* the name is the file's stem when the shot gives none: keep it a JSON string */
+    char name[2 * sizeof shot->name], *q = name;
+    for (const char *p = shot->name; *p; p++) {
+        if (*p == '"' || *p == '\\') *q++ = '\\';
+        *q++ = (unsigned char)*p < 0x20 ? '?' : *p;
+    }
+    *q = 0;
     kf_atomic_file a;
     if (kf_atomic_open(&a, path)) return;
     fprintf(a.f,
-            "{\"pid\":%ld,\"stage\":\"%s\",\"frame\":%d,\"first\":%d,\"last\":%d,\"done\":%d,\"todo\":%d,"
-            "\"eta_s\":%.1f,\"time\":%lld}\n",
-            (long)getpid(), stage, frame, first, last, done, todo, eta_s, (long long)time(NULL));
+            "{\"pid\":%ld,\"shot\":\"%s\",\"stage\":\"%s\",\"frame\":%d,\"first\":%d,\"last\":%d,\"fps\":%g,"
+            "\"done\":%d,\"todo\":%d,\"eta_s\":%.1f,\"time\":%lld}\n",
+            (long)getpid(), name, stage, frame, shot->first, shot->last, shot->fps, done, todo, eta_s,
+            (long long)time(NULL));
     kf_atomic_commit(&a);
 }

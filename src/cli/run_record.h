@@ -11,6 +11,7 @@
 #include <stddef.h>
 
 #include <kerf/kerf.h>
+#include "../shot/shot.h"
 
 /* Start the records of a run in dir: a run from the first frame empties
  * frames.jsonl (a resume keeps it). */
@@ -19,9 +20,10 @@ void kf_record_begin(const char *dir, int fresh);
 /* One frame's statistics, appended to <dir>/frames.jsonl. */
 void kf_record_frame(const char *dir, int frame, size_t particles, const kf_step_stats *st, double frame_ms);
 
-/* Where the run stands: stage "sim", "surface", "render", "done" or "failed";
- * frame the last one finished; done of todo in this stage; eta_s < 0 unknown. */
-void kf_record_progress(const char *dir, const char *stage, int frame, int first, int last, int done, int todo,
+/* Where the run of shot stands: stage "sim", "surface", "render", "done" or
+ * "failed"; frame the last one finished; done of todo in this stage; eta_s < 0
+ * unknown. The shot's name, frame range and fps go with it. */
+void kf_record_progress(const char *dir, const kf_shot *shot, const char *stage, int frame, int done, int todo,
                         double eta_s);
 
 #endif

@@ -113,7 +113,7 @@ static enum MHD_Result send_state(kf_view *v, struct MHD_Connection *c) {
     if (v->shot)
         kf_buf_printf(&b, ",\"fps\":%g,\"first\":%d,\"last\":%d,\"tweak\":true", v->shot->fps, v->shot->frame_start,
                       v->shot->frame_end);
-    else kf_buf_printf(&b, ",\"fps\":24,\"tweak\":false");
+    else kf_buf_printf(&b, ",\"tweak\":false"); /* the page takes the rate from the run's record */
     kf_buf_put(&b, ",\"runs\":", 8);
     kf_view_runs_json(v, &b);
     kf_buf_put(&b, ",", 1);

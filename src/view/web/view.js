@@ -204,8 +204,13 @@ async function poll() {
     const st = await (await fetch('/api/state')).json();
     S.state = st;
     $('shot').textContent = st.shot ? st.shot + '  (' + st.root + ')' : st.root;
-    if (!$('fps').dataset.set && st.fps) $('fps').value = String(st.fps);
-    $('fps').dataset.set = '1';
+    // the shot's rate; a directory's from what its run recorded
+    const rec = st.outputs.find((o) => o.run && o.run.fps);
+    const fps = st.fps || (rec && rec.run.fps);
+    if (!$('fps').dataset.set && fps) {
+      $('fps').value = String(fps);
+      $('fps').dataset.set = '1';
+    }
     S.seqs = new Map(st.sequences.map((s) => [seqId(s), s]));
     if (!S.seqs.has(S.a)) S.a = st.sequences.length ? seqId(st.sequences[0]) : null;
     if (!S.seqs.has(S.b)) S.b = st.sequences.length > 1 ? seqId(st.sequences[1]) : S.a;
