@@ -202,6 +202,8 @@ def http_tests(work):
     check('a symlinked directory out of the root is refused (403, got %d)' % st, st == 403)
     st, data = request(port, 'GET', '/files/v001/inside.png')
     check('a symlink inside the root is followed (200, got %d)' % st, st == 200 and data[:4] == b'\x89PNG')
+    st, _ = request(port, 'GET', '/files/v001/fifo.png')
+    check('a FIFO under the root is not served, and does not hang the server (404, got %d)' % st, st == 404)
     st, _ = request(port, 'GET', '/files/v001/none.png')
     check('a missing file is 404 (got %d)' % st, st == 404)
     st, _ = request(port, 'GET', '/', host='evil.example:%d' % port)
@@ -334,6 +336,14 @@ def browser_flipbook(b, port, root):
     check('wipe at the middle: A left of it, B right of it', bool(ok), (shown(b, 0.3), shown(b, 0.7)))
     b.js("const m = document.getElementById('mode'); m.value = 'single'; m.dispatchEvent(new Event('change'));")
 
+    # a wedge set: its contact sheet heads the grid, each wedge labelled with its value
+    sheet = wait_for(lambda: b.js("const d = document.querySelector('#versions .sheet img');"
+                                  "return d && d.complete && d.naturalWidth === 128 && d.getAttribute('src')"), 10)
+    check('the contact sheet heads the versions grid (%s)' % sheet, sheet == '/files/v003/contact_sheet.png')
+    labels = b.js("return [...document.querySelectorAll('#versions .version')].map(d => d.textContent)")
+    check('wedges are labelled with their values', any(l.startswith('v003/w01') and 'sim.cfl=0.2' in l for l in labels) and
+          any(l.startswith('v003/w02') and 'sim.cfl=0.4' in l for l in labels), labels)
+
     # stats: the plots have the records; a click on the right end jumps to the last frame
     ok = wait_for(lambda: b.js("return document.getElementById('plot0')._frameAt !== undefined"), 10)
     check('the substeps plot has the frame records', bool(ok))
@@ -423,6 +433,12 @@ def main():
                                      'warnings': 0, 'thin_caught': 0, 'ms_stage': {k: 0.1 for k in
                                      ('sort', 'p2g', 'grid', 'g2p', 'stress', 'cdf', 'rigid')}}) + '\n')
             fr.write('{"frame": 1009, "subst')  # a line cut short by a kill
+        # a wedge set as kerf run --wedge leaves it: w01, w02, their labels, the contact sheet
+        for k in (1, 2):
+            png(os.path.join(root, 'v003/w%02d/images/shot.1001.png' % k), 64, 36, colour(3 + k, 1001))
+        with open(os.path.join(root, 'v003/wedges.txt'), 'w') as f:
+            f.write('w01\tsim.cfl=0.2\t--set sim.cfl=0.2\nw02\tsim.cfl=0.4\t--set sim.cfl=0.4\n')
+        png(os.path.join(root, 'v003/contact_sheet.png'), 128, 72, (200, 200, 200))
         with open(os.path.join(root, 'v002/run.json'), 'w') as f:
             json.dump({'pid': 0, 'shot': 'shot', 'stage': 'done', 'frame': 1008, 'first': 1001, 'last': 1008,
                        'fps': 30, 'done': 7, 'todo': 7, 'eta_s': 0}, f)
@@ -431,6 +447,7 @@ def main():
         os.symlink(os.path.join(work, 'outside.txt'), os.path.join(root, 'v001/leak.png'))
         os.symlink('/etc', os.path.join(root, 'v001/etc'))
         os.symlink('images/shot.1001.png', os.path.join(root, 'v001/inside.png'))
+        os.mkfifo(os.path.join(root, 'v001/fifo.png'))
         http_tests(work)
 
         # a small real shot, run once at preview quality (v001), viewed as a shot

@@ -42,7 +42,8 @@ int kf_view_open(const char *root_real, const char *rel, int *fd, size_t *size) 
     /* a symlink may point anywhere: what it resolves to must still be inside */
     size_t rl = strlen(root_real);
     if (strncmp(real, root_real, rl) != 0 || real[rl] != '/') return 403;
-    int f = open(real, O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+    /* non-blocking: a FIFO under the root must not hang the server (it is refused below) */
+    int f = open(real, O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
     if (f < 0) return 404;
     struct stat st;
     if (fstat(f, &st) != 0 || !S_ISREG(st.st_mode)) {
@@ -63,11 +64,17 @@ typedef struct png {
     long frame;
 } png;
 
+/* a set of relative paths */
+typedef struct names {
+    char (*v)[512];
+    size_t n, cap;
+} names;
+
 typedef struct walk {
     png *v;
     size_t n, cap;
-    char (*outs)[512]; /* output directories, relative */
-    size_t nouts, capouts;
+    names outs;   /* output directories */
+    names sheets; /* contact sheets of wedge sets */
 } walk;
 
 enum { MAX_DEPTH = 4, MAX_FILES = 50000 };
@@ -85,17 +92,17 @@ static int split_frame(const char *name, png *p) {
     return 1;
 }
 
-static void add_out(walk *w, const char *rel) {
-    for (size_t i = 0; i < w->nouts; i++)
-        if (!strcmp(w->outs[i], rel)) return;
-    if (w->nouts == w->capouts) {
-        size_t cap = w->capouts ? 2 * w->capouts : 16;
-        void *v = realloc(w->outs, cap * sizeof *w->outs);
+static void add_name(names *l, const char *rel) {
+    for (size_t i = 0; i < l->n; i++)
+        if (!strcmp(l->v[i], rel)) return;
+    if (l->n == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 16;
+        void *v = realloc(l->v, cap * sizeof *l->v);
         if (!v) return;
-        w->outs = v;
-        w->capouts = cap;
+        l->v = v;
+        l->cap = cap;
     }
-    snprintf(w->outs[w->nouts++], sizeof *w->outs, "%s", rel);
+    snprintf(l->v[l->n++], sizeof *l->v, "%s", rel);
 }
 
 static void walk_dir(walk *w, const char *root, const char *rel, int depth) {
@@ -113,11 +120,12 @@ static void walk_dir(walk *w, const char *root, const char *rel, int depth) {
         char crel[512];
         if (snprintf(crel, sizeof crel, "%s%s%s", rel, rel[0] ? "/" : "", e->d_name) >= (int)sizeof crel) continue;
         if (S_ISDIR(st.st_mode)) {
-            if (!strcmp(e->d_name, "images") || !strcmp(e->d_name, "checkpoints")) add_out(w, rel);
+            if (!strcmp(e->d_name, "images") || !strcmp(e->d_name, "checkpoints")) add_name(&w->outs, rel);
             if (depth < MAX_DEPTH) walk_dir(w, root, crel, depth + 1);
         } else if (S_ISREG(st.st_mode)) {
             if (!strcmp(e->d_name, "frames.jsonl") || !strcmp(e->d_name, "run.json") || !strcmp(e->d_name, "view.json"))
-                add_out(w, rel);
+                add_name(&w->outs, rel);
+            if (!strcmp(e->d_name, "contact_sheet.png") && kf_view_plain_path(crel)) add_name(&w->sheets, crel);
             png p;
             if (!split_frame(e->d_name, &p) || !kf_view_plain_path(crel)) continue;
             snprintf(p.dir, sizeof p.dir, "%s", rel);
@@ -162,26 +170,53 @@ static void inline_json(kf_buf *out, const char *root, const char *dir, const ch
     if (p) *pid = strtol(p + 6, NULL, 10);
 }
 
+/* A wedge's label: a wedge set's directory lists its wedges in wedges.txt,
+ * a line each: "w01<TAB>label<TAB>--set ..." (the wedge is its subdirectory). */
+static int wedge_label(const char *root, const char *rel, char *label, size_t n) {
+    const char *slash = strrchr(rel, '/'), *base = slash ? slash + 1 : rel;
+    char path[PATH_MAX], line[1024];
+    snprintf(path, sizeof path, "%s/%.*s%swedges.txt", root, (int)(slash ? slash - rel : 0), rel, slash ? "/" : "");
+    FILE *f = fopen(path, "r");
+    if (!f) return 0;
+    size_t bl = strlen(base);
+    int found = 0;
+    while (!found && fgets(line, sizeof line, f))
+        if (!strncmp(line, base, bl) && line[bl] == '\t') {
+            snprintf(label, n, "%.*s", (int)strcspn(line + bl + 1, "\t\n"), line + bl + 1);
+            found = 1;
+        }
+    fclose(f);
+    return found;
+}
+
 void kf_view_scan(const char *root, kf_buf *out) {
     walk w = {0};
     walk_dir(&w, root, "", 0);
     qsort(w.v, w.n, sizeof *w.v, png_order);
-    if (w.nouts) qsort(w.outs, w.nouts, sizeof *w.outs, str_order);
+    if (w.outs.n) qsort(w.outs.v, w.outs.n, sizeof *w.outs.v, str_order);
+    if (w.sheets.n) qsort(w.sheets.v, w.sheets.n, sizeof *w.sheets.v, str_order);
 
     kf_buf_put(out, "\"outputs\":[", 11);
-    for (size_t i = 0; i < w.nouts; i++) {
-        char path[PATH_MAX];
+    for (size_t i = 0; i < w.outs.n; i++) {
+        const char *dir = w.outs.v[i];
+        char path[PATH_MAX], label[512];
         kf_buf_printf(out, "%s{", i ? "," : "");
-        kf_buf_kv(out, "dir", w.outs[i]);
-        snprintf(path, sizeof path, "%s%s%s/frames.jsonl", root, w.outs[i][0] ? "/" : "", w.outs[i]);
+        kf_buf_kv(out, "dir", dir);
+        kf_buf_kv(out, "wedge", wedge_label(root, dir, label, sizeof label) ? label : NULL);
+        snprintf(path, sizeof path, "%s%s%s/frames.jsonl", root, dir[0] ? "/" : "", dir);
         kf_buf_printf(out, ",\"records\":%s,\"run\":", access(path, R_OK) == 0 ? "true" : "false");
         long pid = 0;
-        inline_json(out, root, w.outs[i], "run.json", &pid);
+        inline_json(out, root, dir, "run.json", &pid);
         /* the run that wrote run.json still alive (a stopped run never wrote done) */
         int alive = pid > 0 && (kill((pid_t)pid, 0) == 0 || errno == EPERM);
         kf_buf_printf(out, ",\"alive\":%s,\"view\":", alive ? "true" : "false");
-        inline_json(out, root, w.outs[i], "view.json", NULL);
+        inline_json(out, root, dir, "view.json", NULL);
         kf_buf_put(out, "}", 1);
+    }
+    kf_buf_put(out, "],\"sheets\":[", 12);
+    for (size_t i = 0; i < w.sheets.n; i++) {
+        if (i) kf_buf_put(out, ",", 1);
+        kf_buf_str(out, w.sheets.v[i]);
     }
     kf_buf_put(out, "],\"sequences\":[", 15);
     for (size_t i = 0, nseq = 0; i < w.n;) {
@@ -211,5 +246,6 @@ void kf_view_scan(const char *root, kf_buf *out) {
     }
     kf_buf_put(out, "]", 1);
     free(w.v);
-    free(w.outs);
+    free(w.outs.v);
+    free(w.sheets.v);
 }

@@ -20,7 +20,10 @@ int kf_view_open(const char *root_real, const char *rel, int *fd, size_t *size);
 int kf_view_plain_path(const char *rel);
 
 /* What lies under root, as JSON:
- *   "outputs": [{"dir", "records", "run", "alive", "view"}...]   directories a run (or a view) wrote into
+ *   "outputs": [{"dir", "wedge", "records", "run", "alive", "view"}...]
+ *                    directories a run (or a view) wrote into; wedge: its label in
+ *                    its wedge set's wedges.txt, else null
+ *   "sheets": ["v001/contact_sheet.png"...]                    contact sheets of wedge sets
  *   "sequences": [{"dir", "out", "kind", "prefix", "frames": [...], "names": [...]}...]
  * A sequence is the PNGs of one directory whose names differ only in their
  * last number (the frame); `out` is the output directory it belongs to.

@@ -243,7 +243,7 @@ function versions() {
   for (const s of main) {
     const o = outputOf(s.out);
     const mid = s.frames[Math.floor(s.frames.length / 2)];
-    const sets = o && o.view && o.view.sets ? o.view.sets.join(' ') : '';
+    const sets = o && o.view && o.view.sets ? o.view.sets.join(' ') : (o && o.wedge) || '';
     const run = o && o.run && o.run.stage !== 'done' ? ' ' + (o.alive ? o.run.stage + ' ' + o.run.frame : 'stopped') : '';
     cards.push({id: seqId(s), url: frameUrl(s, mid), label: (s.out || 'root') + run, sets});
   }
@@ -252,17 +252,30 @@ function versions() {
   const mine = new Map((st.runs || []).map((r) => [r.dir, r]));
   for (const o of st.outputs) {
     if (main.some((s) => s.out === o.dir)) continue;
-    const sets = o.view && o.view.sets ? o.view.sets.join(' ') : '';
+    const sets = o.view && o.view.sets ? o.view.sets.join(' ') : o.wedge || '';
     const r = mine.get(o.dir);
     let what = o.run ? (o.alive ? o.run.stage + ' ' + o.run.frame : o.run.stage) : 'starting';
     if (r && !r.running && r.status !== 0) what = 'failed (exit ' + r.status + ')';
     cards.push({id: '', url: '', label: (o.dir || 'root') + ' ' + what, sets, dir: o.dir,
                 log: o.view ? fileUrl((o.dir ? o.dir + '/' : '') + 'view.log') : ''});
   }
-  const sig = JSON.stringify(cards);
+  const sig = JSON.stringify([cards, st.sheets]);
   if (box.dataset.sig === sig) return markVersions();
   box.dataset.sig = sig;
   box.innerHTML = '';
+  // a wedge set's contact sheet first, the width of the grid; a click opens it whole
+  for (const sh of st.sheets || []) {
+    const d = document.createElement('div');
+    d.className = 'version sheet';
+    const im = document.createElement('img');
+    im.src = fileUrl(sh);
+    im.alt = 'contact sheet ' + sh;
+    const t = document.createElement('div');
+    t.textContent = 'contact sheet: ' + sh;
+    d.append(im, t);
+    d.addEventListener('click', () => window.open(fileUrl(sh), '_blank'));
+    box.appendChild(d);
+  }
   for (const c of cards) {
     const d = document.createElement('div');
     d.className = 'version';
