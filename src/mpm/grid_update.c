@@ -83,4 +83,6 @@ void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
             node[l] = v;
         }
     }
+    /* walls between nodes: the first node past each plane mirrors its inner neighbour */
+    kf_wall_ghosts(m, s);
 }

@@ -94,6 +94,10 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
  * backward Euler or explicit) */
 void kf_implicit_g2p_finish(const kf_model *m, kf_state *s);
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt);
+/* after the walls' projection: the first node past a wall plane that lies
+ * between nodes mirrors its inner neighbour, so material stops at the plane
+ * (wall_ghost.c) */
+void kf_wall_ghosts(const kf_model *m, kf_state *s);
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F */
 void kf_stress(const kf_model *m, kf_state *s, int project);

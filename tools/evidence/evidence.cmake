@@ -5,3 +5,7 @@ foreach(prog accuracy stability energy table2)
   add_executable(kf_evid_${prog} ${CMAKE_CURRENT_LIST_DIR}/${prog}.c)
   target_link_libraries(kf_evid_${prog} PRIVATE kerf_core)
 endforeach()
+
+# water at rest in a tank: its level over time
+add_executable(kf_evid_tank_rest ${CMAKE_CURRENT_LIST_DIR}/tank_rest.c)
+target_link_libraries(kf_evid_tank_rest PRIVATE kerf_core)
