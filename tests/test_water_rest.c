@@ -35,7 +35,7 @@
 
 #include "kt.h"
 
-#include "kerf.h"
+#include <kerf/kerf.h>
 
 typedef struct tank_out {
     double level0, level_end;         /* m, at 0 s and 10 s */

@@ -83,6 +83,6 @@ void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
             node[l] = v;
         }
     }
-    /* walls between nodes: the first node past each plane mirrors its inner neighbour */
+    /* walls between nodes: the nodes within a cell of each plane take a linear profile through zero on it */
     kf_wall_ghosts(m, s);
 }

@@ -20,7 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "kerf.h"
+#include <kerf/kerf.h>
 
 int main(int argc, char **argv) {
     double cells = 40;

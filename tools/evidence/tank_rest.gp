@@ -13,8 +13,8 @@ set key bottom left font ",10"
 set grid
 set yrange [0.160:0.178]
 # hydrostatic: ((1 + a H0)^(1-1/g) - 1) / (a (1 - 1/g)), a = rho g / kappa
-a = 1000 * 9.81 / 1e4; g = 7; H0 = 0.17
-H = ((1 + a * H0)**(1 - 1 / g) - 1) / (a * (1 - 1 / g))
+a = 1000 * 9.81 / 1e4; g = 7.0; H0 = 0.17
+H = ((1 + a * H0)**(1 - 1.0 / g) - 1) / (a * (1 - 1.0 / g))
 set title "water at rest in a tank: level (top particles + 1/4 cell) and the volume J claims"
 plot dir."/before.dat" u 1:2 w l lw 2 lc rgb "#c03020" title "level, before", \
      dir."/before.dat" u 1:3 w l dt 2 lc rgb "#c03020" title "J's level, before", \
