@@ -1,7 +1,7 @@
 /* test_contact.c — contact between objects (src/mpm/contact.h): two elastic
  * spheres against Hertz's analytic contact, a block on an incline against
- * Coulomb's law, pieces pulled apart without a bridge, and the single-object
- * path unchanged bit for bit.
+ * Coulomb's law, objects and pieces a blade cut pulled apart without a
+ * bridge, and the single-object path unchanged bit for bit.
  *
  *   test_contact                  every case
  *   test_contact <case>           one case
@@ -180,6 +180,8 @@ static void hertz_spheres(void) {
     KT_CHECK(r.duration > 0, "the spheres touched and came apart (duration %g)", r.duration);
     KT_NEAR(r.duration / r.duration_hertz, 1, 0.15, "issue 19: contact duration within 15% of Hertz at R/dx = 10");
     KT_NEAR(r.approach / r.approach_hertz, 1, 0.20, "issue 19: greatest approach within 20% of Hertz at R/dx = 10");
+    KT_NEAR(r.force_duration / r.duration_hertz, 1, 0.15, "the same, timed by the force between the spheres");
+    KT_NEAR(r.force_approach / r.approach_hertz, 1, 0.20, "the same, from where the force begins");
     KT_NEAR(r.min_gap / 0.01, 0, 0.5, "issue 19: surfaces within half a cell of each other at contact (closest)");
     KT_NEAR(r.gap_at_touch / 0.01, 0, 0.5, "issue 19: surfaces within half a cell of each other when contact starts");
     /* elastic: they part again (not glued), at most at the speed they met */
@@ -287,6 +289,72 @@ static void no_bridge(void) {
     KT_CHECK(on == 0, "with contact the blocks part cleanly: %ld particles between", on);
 }
 
+/* ---- a cut, then pulled apart: no bridge ----------------------------------------
+ * A thin blade comes down through a floating goo block (one object, no
+ * gravity) in the plane x = 0.5 and leaves below it; then the halves are
+ * pulled apart at 0.5 m/s each. Without contact the halves weld again
+ * through the nodes they share once the blade is gone, and the pull draws a
+ * bridge; with contact the cut made two pieces (two fields) and they part
+ * cleanly: no particle in the middle 10 cm after 0.2 s. */
+static long cut_and_pulled(int contact, int *pieces) {
+    kf_sim_def sd = kf_default_sim_def();
+    sd.dx = 0.02;
+    sd.gravity[1] = 0;
+    sd.contact = contact;
+    int mat;
+    kf_model *m = tu_model(&sd, "goo", 0, -1, 0, &mat);
+    /* the blade: a 0.4 x 0.2 m sheet in x = x0, its centre from y = 0.65 to 0.15 in 0.25 s */
+    const double x0 = 0.5 + 0.37 * sd.dx;
+    static const int tri[6] = {0, 1, 2, 0, 2, 3};
+    double vert[12] = {x0, -0.1, 0.3, x0, -0.1, 0.7, x0, 0.1, 0.7, x0, 0.1, 0.3};
+    kf_rigid_def d;
+    memset(&d, 0, sizeof d);
+    snprintf(d.name, sizeof d.name, "blade");
+    d.vertices = vert, d.nvertices = 4, d.triangles = tri, d.ntriangles = 2;
+    d.thin = 1;
+    d.motion = KF_RIGID_KINEMATIC;
+    d.boundary = KF_BOUNDARY_SEPARATE;
+    d.nkeys = 2;
+    d.keys[0].time = 0, d.keys[0].position[1] = 0.65;
+    d.keys[1].time = 0.25, d.keys[1].position[1] = 0.15;
+    d.interp = KF_INTERP_LINEAR;
+    char err[256];
+    if (kf_model_add_rigid(m, &d, err, sizeof err) < 0) {
+        fprintf(stderr, "rigid: %s\n", err);
+        exit(99);
+    }
+    kf_state *s = kf_state_create(m);
+    double lo[3] = {0.35, 0.3, 0.4}, hi[3] = {0.65, 0.5, 0.6}, zero[3] = {0, 0, 0};
+    kf_state_fill_box(s, m, lo, hi, mat, zero, 2, 9);
+    char msg[256];
+    if (kf_advance(m, s, 0.3, NULL, msg, sizeof msg)) fprintf(stderr, "advance: %s\n", msg);
+    /* the blade is below the block now: pull the halves apart */
+    kf_particles_view pv = kf_state_particles(s);
+    uint32_t seen = 0;
+    for (size_t i = 0; i < pv.n; i++) {
+        pv.v[0][i] = pv.x[0][i] < x0 ? -0.5f : 0.5f;
+        seen |= 1u << (pv.colour[i] >> 28);
+    }
+    *pieces = __builtin_popcount(seen);
+    if (kf_advance(m, s, 0.2, NULL, msg, sizeof msg)) fprintf(stderr, "advance: %s\n", msg);
+    pv = kf_state_particles(s);
+    long between = 0;
+    for (size_t i = 0; i < pv.n; i++) between += fabs(pv.x[0][i] - 0.5) < 0.05;
+    kf_state_destroy(s);
+    kf_model_destroy(m);
+    return between;
+}
+
+static void cut_no_bridge(void) {
+    int pieces_off, pieces_on;
+    long off = cut_and_pulled(0, &pieces_off), on = cut_and_pulled(1, &pieces_on);
+    printf("  cut, then pulled apart: %ld particles in the middle 10 cm without contact, %ld with (%d pieces)\n", off,
+           on, pieces_on);
+    KT_CHECK(pieces_on == 2, "the blade cut the block in two pieces (%d)", pieces_on);
+    KT_CHECK(off > 0, "the control: without contact the halves weld again and draw a bridge (%ld between)", off);
+    KT_CHECK(on == 0, "with contact the cut pieces part cleanly: %ld particles between", on);
+}
+
 /* ---- single object: nothing changes ---------------------------------------------
  * contact on with one object takes no field path: bit for bit the run
  * without it. */
@@ -366,5 +434,6 @@ int main(int argc, char **argv) {
     KT_RUN(hertz_spheres, argc, argv);
     KT_RUN(incline, argc, argv);
     KT_RUN(no_bridge, argc, argv);
+    KT_RUN(cut_no_bridge, argc, argv);
     return KT_EXIT();
 }

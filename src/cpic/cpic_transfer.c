@@ -163,8 +163,9 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++)
             for (int k = 0; k < 3; k++) B |= col[o + (a * NB + b) * NB + k] & AFF;
-    /* drop bodies no kernel node is close to; keep the rest as they are */
-    uint32_t cp = p->colour[i] & ((B | B >> 1));
+    /* drop bodies no kernel node is close to; keep the rest as they are (and
+     * the bits above the bodies', the piece a cut made: contact.h) */
+    uint32_t cp = p->colour[i] & ((B | B >> 1) | ~KF_CPIC_BITS_MASK);
     /* ... unless every node near body r says the particle is on its other
      * side: with the crossing guard (guard.c) nothing passes through a
      * surface, so such a tag is stale, kept by a particle that went around

@@ -22,6 +22,12 @@ void kf_contact_free(kf_contact *c) {
     free(c->own);
     free(c->omin);
     free(c->omax);
+    free(c->pc_node);
+    free(c->pc_parent);
+    free(c->pc_list);
+    free(c->pc_start);
+    free(c->pc_keep);
+    free(c->pc_used);
     free(c);
 }
 
@@ -65,6 +71,11 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
     c->active = 0;
     c->owners = c->two_field_nodes = c->touching_nodes = 0;
     if (reserve(c, g->nblocks, g->nowner)) return -1;
+    /* pieces a thin body cut apart: fields of their own from now on */
+    int thin = 0, solid = 0;
+    for (int r = 0; r < m->nrigid; r++) thin |= m->rigid[r].def.thin != 0;
+    for (int k = 0; k < m->nmat; k++) solid |= kf_contact_cuts(&m->mat[k]);
+    if (thin && solid && kf_contact_pieces(m, s)) return -1;
     const size_t nowner = g->nowner, nblocks = g->nblocks;
 
     /* the range of fields among each owner's particles */
@@ -74,7 +85,7 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
     for (size_t k = 0; k < nowner; k++) {
         uint16_t lo = KF_FIELD_NONE, hi = 0;
         for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
-            uint16_t f = p->obj[i];
+            uint16_t f = kf_contact_field(p, i);
             lo = f < lo ? f : lo;
             hi = f > hi ? f : hi;
         }

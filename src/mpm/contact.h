@@ -70,7 +70,27 @@ typedef struct kf_contact {
     uint16_t *omin, *omax;
     /* the last substep, for the frame log and tests */
     long owners, two_field_nodes, touching_nodes;
+    /* pieces (contact_pieces.c): scratch, and how many substeps split a field */
+    uint32_t *pc_node, *pc_parent, *pc_list, *pc_start, *pc_keep, *pc_used;
+    size_t pc_node_cap, pc_parent_cap, pc_list_cap, pc_start_cap;
+    long pieces_made;
 } kf_contact;
+
+/* A particle's field: its object (low 12 bits) and the piece of it a thin
+ * body cut off (the colour word's bits 28..31, contact_pieces.c). */
+static inline uint16_t kf_contact_field(const kf_particles *p, size_t i) {
+    return (uint16_t)((p->obj[i] & 0x0FFFu) | (p->colour[i] >> 28) << 12);
+}
+
+/* Does a thin body cut this material into pieces (solids: elastic, von
+ * Mises, snow), or does it flow together again (sand, water)? */
+static inline int kf_contact_cuts(const kf_mat *mat) {
+    return mat->model != KF_MAT_WATER && mat->model != KF_MAT_SAND;
+}
+
+/* Split fields that a thin body has cut apart into pieces (each substep
+ * when the model has a thin body). Returns 0 or -1 (out of memory). */
+int kf_contact_pieces(const kf_model *m, kf_state *s);
 
 void kf_contact_free(kf_contact *c);
 

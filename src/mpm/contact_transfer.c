@@ -43,7 +43,7 @@ void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const ui
     const kf_real inv_dx = kf_model_inv_dx(m);
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
-        const uint16_t f = p->obj[i];
+        const uint16_t f = kf_contact_field(p, i);
         const uint32_t cp = col ? p->colour[i] : 0;
         const kf_real V = (kf_real)volume_now(m, p, i);
         const int l0 = ck->l[0][j], l1 = ck->l[1][j], l2 = ck->l[2][j];
@@ -94,7 +94,7 @@ void kf_contact_g2p_chunk(const kf_model *m, const kf_state *s, size_t owner, co
     (void)m;
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
-        const uint16_t f = p->obj[i];
+        const uint16_t f = kf_contact_field(p, i);
         const uint32_t cp = col ? p->colour[i] : 0;
         const int l0 = ck->l[0][j], l1 = ck->l[1][j], l2 = ck->l[2][j];
         kf_real dv[3] = {0, 0, 0}, dB[9] = {0}, dG[9] = {0};

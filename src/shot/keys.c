@@ -80,8 +80,10 @@ const kf_keydef kf_keys[] = {
      "Contact between objects: on gives each object its own velocity on the grid nodes it shares with another, "
      "so objects touch where their surfaces meet (within a fraction of a cell), slide on each other with "
      "sim.contact_friction and pull apart freely; off lets objects share one velocity, so they push each other "
-     "from about 1.4 cells before their surfaces meet and stay glued where they come close. auto is on where the "
-     "shot has more than one object. Pieces of one object (cut by a thin body) are one object to it. Measured on "
+     "from about 1.4 cells before their surfaces meet and stay glued where they come close. Pieces a thin body cuts from an object (parts no longer connected "
+     "but through the blade) become objects of their own, 16 per object, so cut pieces part without a bridge "
+     "(solids only: sand and water flow together again). auto is on where the shot has more than one object, "
+     "or a thin body and a solid to cut. Measured on "
      "two jelly spheres 10 cells in radius meeting at 0.2 m/s: off, the contact lasted 1.4x the elastic (Hertz) "
      "duration and the surfaces stayed 1.4 cells apart; on, see tools/evidence/contact_results.md. Explicit "
      "integration only (sim.integrator: implicit ignores it)."},

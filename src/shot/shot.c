@@ -960,9 +960,18 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
                          "word)", L.v[i].label, nr, KF_MAX_RIGIDS);
     if (nj > KF_MAX_JOINTS) report_inst(&L, T, "joints", KF_DIAG_ERROR, "too many joints (at most 32)");
     check_unique(&L, KS_OBJECT, "objects[].name", s->objects[0].name, sizeof *s->objects, no);
-    /* sim.contact auto: on where objects can touch each other */
+    /* sim.contact auto: on where objects can touch each other, or a thin
+     * body can cut a solid into pieces that then touch (sand and water flow
+     * together again) */
     const int contact_mode = ((const kf_top *)T->base)->contact;
-    s->sim.contact = contact_mode == 0 || (contact_mode == 2 && s->nobjects > 1);
+    int cutter = 0, solid = 0;
+    for (int i = 0; i < s->nrigids; i++) cutter |= s->rigids[i].def.thin != 0;
+    for (int i = 0; i < s->nobjects; i++) {
+        int k = s->objects[i].material;
+        if (k >= 0 && k < s->nmaterials)
+            solid |= s->materials[k].mat.model != KF_MAT_WATER && s->materials[k].mat.model != KF_MAT_SAND;
+    }
+    s->sim.contact = contact_mode == 0 || (contact_mode == 2 && (s->nobjects > 1 || (cutter && solid)));
     check_unique(&L, KS_COLLIDER, "colliders[].name", s->colliders[0].name, sizeof *s->colliders, nc);
     if (no == 0)
         report_inst(&L, T, "objects", KF_DIAG_ERROR, "the shot has no objects: nothing would be simulated");

@@ -1,0 +1,180 @@
+/* contact_pieces.c — pieces a thin body cut from an object become fields of
+ * their own (contact.h), so that once the blade has gone they touch and part
+ * as two objects do instead of welding again through the nodes they share.
+ *
+ * A piece is a connected part of one field: each substep the particles are
+ * linked to the others of their field at their nearest grid node and the
+ * next node along +x, +y and +z, unless a thin body separates them (their
+ * CPIC colours disagree on a side: kf_cpic_compatible). A field that falls
+ * apart this way keeps its number on its largest part; every other part gets
+ * a new piece number. A blade that cuts through and stays between the halves
+ * separates them at once; one that only nicks an object leaves it connected
+ * around the cut (material beyond the blade's edge, more than about two
+ * cells, links both sides), so it stays one field. Pieces never merge again.
+ *
+ * The piece number lives in the 4 bits of the particle's colour word above
+ * Only solids come apart in pieces: sand and water that a paddle parted
+ * flow together again as one (kf_contact_cuts).
+ *
+ * The piece number lives in the 4 bits of the particle's colour word above
+ * CPIC's (28..31; CPIC keeps them): checkpointed and re-sorted with the
+ * particle, 16 pieces per object (a 17th part joins piece 15). The field of
+ * a particle is its object in the low 12 bits and its piece above. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "contact.h"
+
+#define PIECE_SHIFT 28
+/* the fewest particles a part needs to become a piece: four cells at 8 per cell */
+#define KF_PIECE_MIN 32
+
+static inline int compatible(uint32_t a, uint32_t b) {
+    uint32_t shared = (a & b & 0xAAAAAAAu) >> 1;
+    return ((a ^ b) & shared) == 0;
+}
+
+static uint32_t find(uint32_t *parent, uint32_t i) {
+    while (parent[i] != i) {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    return i;
+}
+
+/* the smaller index becomes the root: the same forest for any order of links */
+static void unite(uint32_t *parent, uint32_t a, uint32_t b) {
+    a = find(parent, a), b = find(parent, b);
+    if (a == b) return;
+    if (a < b) parent[b] = a;
+    else parent[a] = b;
+}
+
+static int reserve(void **p, size_t *cap, size_t n, size_t size) {
+    if (n <= *cap) return 0;
+    size_t c = n + n / 4 + 64;
+    void *q = realloc(*p, c * size);
+    if (!q) return -1;
+    *p = q;
+    *cap = c;
+    return 0;
+}
+
+int kf_contact_pieces(const kf_model *m, kf_state *s) {
+    kf_contact *c = s->contact;
+    kf_particles *p = &s->p;
+    const kf_grid *g = &s->g;
+    const size_t n = p->n, nodes = g->nblocks * KF_BLOCK_NODES;
+    if (!n || n >= UINT32_MAX) return 0;
+    if (reserve((void **)&c->pc_node, &c->pc_node_cap, n, sizeof(uint32_t)) ||
+        reserve((void **)&c->pc_parent, &c->pc_parent_cap, n, sizeof(uint32_t)) ||
+        reserve((void **)&c->pc_list, &c->pc_list_cap, n, sizeof(uint32_t)) ||
+        reserve((void **)&c->pc_start, &c->pc_start_cap, nodes + 1, sizeof(uint32_t)))
+        return -1;
+    uint32_t *node_of = c->pc_node, *parent = c->pc_parent, *list = c->pc_list, *start = c->pc_start;
+    const kf_real inv_dx = kf_model_inv_dx(m);
+
+    /* each particle's nearest node, inside its owner's neighbourhood */
+    memset(start, 0, sizeof(uint32_t) * (nodes + 1));
+    for (size_t k = 0; k < g->nowner; k++) {
+        const int32_t *bc = &g->bcoord[3 * k]; /* an owner is the block of the same index */
+        for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
+            int l[3];
+            for (int a = 0; a < 3; a++) {
+                l[a] = (int)kf_floor(p->x[a][i] * inv_dx + KF_R(0.5)) - KF_BLOCK * bc[a];
+                l[a] = l[a] < 0 ? 0 : l[a] > 7 ? 7 : l[a];
+            }
+            int blk = g->nb[k][(l[0] >> 2) << 2 | (l[1] >> 2) << 1 | (l[2] >> 2)];
+            uint32_t q = (uint32_t)blk * KF_BLOCK_NODES + (uint32_t)((l[0] & 3) << 4 | (l[1] & 3) << 2 | (l[2] & 3));
+            node_of[i] = q;
+            start[q + 1]++;
+        }
+    }
+    for (size_t q = 0; q < nodes; q++) start[q + 1] += start[q];
+    for (size_t i = 0; i < n; i++) list[start[node_of[i]]++] = (uint32_t)i;
+    for (size_t q = nodes; q > 0; q--) start[q] = start[q - 1];
+    start[0] = 0;
+    for (size_t i = 0; i < n; i++) parent[i] = (uint32_t)i;
+
+    /* links: same field, no thin body between, same node or the next along an axis */
+    for (size_t b = 0; b < g->nblocks; b++) {
+        const int32_t *bc = &g->bcoord[3 * b];
+        int32_t next[3];
+        for (int a = 0; a < 3; a++)
+            next[a] = kf_grid_find(g, bc[0] + (a == 0), bc[1] + (a == 1), bc[2] + (a == 2));
+        for (int l = 0; l < KF_BLOCK_NODES; l++) {
+            size_t q = b * KF_BLOCK_NODES + (size_t)l;
+            if (start[q] == start[q + 1]) continue;
+            size_t other[4] = {q, 0, 0, 0};
+            int no = 1;
+            int lc[3] = {l >> 4, (l >> 2) & 3, l & 3};
+            for (int a = 0; a < 3; a++) {
+                int t[3] = {lc[0], lc[1], lc[2]};
+                t[a]++;
+                int32_t blk = (int32_t)b;
+                if (t[a] == KF_BLOCK) {
+                    if (next[a] < 0) continue;
+                    blk = next[a];
+                    t[a] = 0;
+                }
+                other[no++] = (size_t)blk * KF_BLOCK_NODES + (size_t)(t[0] << 4 | t[1] << 2 | t[2]);
+            }
+            for (uint32_t u = start[q]; u < start[q + 1]; u++) {
+                uint32_t i = list[u];
+                uint16_t fi = kf_contact_field(p, i);
+                for (int e = 0; e < no; e++) {
+                    size_t r = other[e];
+                    for (uint32_t w = e ? start[r] : u + 1; w < start[r + 1]; w++) {
+                        uint32_t j = list[w];
+                        if (kf_contact_field(p, j) == fi && compatible(p->colour[i], p->colour[j])) unite(parent, i, j);
+                    }
+                }
+            }
+        }
+    }
+
+    /* the size of each part; the largest part of each field keeps its number */
+    uint32_t *size = list; /* reused: the node lists are done */
+    memset(size, 0, sizeof(uint32_t) * n);
+    for (size_t i = 0; i < n; i++) size[find(parent, (uint32_t)i)]++;
+    uint32_t *keep = c->pc_keep, *used = c->pc_used;
+    if (!keep) {
+        keep = c->pc_keep = malloc(sizeof(uint32_t) * 65536);
+        used = c->pc_used = malloc(sizeof(uint32_t) * 4096);
+        if (!keep || !used) return -1;
+    }
+    memset(used, 0, sizeof(uint32_t) * 4096);
+    for (size_t i = 0; i < n; i++) {
+        uint16_t f = kf_contact_field(p, i);
+        keep[f] = UINT32_MAX;
+        used[f & 0x0FFF] |= 1u << (f >> 12);
+    }
+    for (size_t i = 0; i < n; i++) {
+        if (parent[i] != i) continue;
+        uint16_t f = kf_contact_field(p, i);
+        if (keep[f] == UINT32_MAX || size[i] > size[keep[f]]) keep[f] = (uint32_t)i;
+    }
+    /* every other part of a few cells or more: the next free piece number of
+     * its object (roots in index order, so the numbering does not depend on
+     * threads); a stray particle or two cut off stays with its field */
+    uint32_t *piece = node_of; /* per root: its new piece + 1, 0 = keeps its own (the node numbers are done) */
+    int split = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (parent[i] != i) continue;
+        uint16_t f = kf_contact_field(p, i);
+        piece[i] = 0;
+        if (keep[f] == (uint32_t)i || size[i] < KF_PIECE_MIN || !kf_contact_cuts(&m->mat[p->mat[i]])) continue;
+        uint32_t obj = f & 0x0FFF, free_mask = ~used[obj] & 0xFFFFu;
+        uint32_t k = free_mask ? (uint32_t)__builtin_ctz(free_mask) : 15;
+        used[obj] |= 1u << k;
+        piece[i] = k + 1;
+        split = 1;
+    }
+    if (!split) return 0;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t k = piece[find(parent, (uint32_t)i)];
+        if (k) p->colour[i] = (p->colour[i] & ((1u << PIECE_SHIFT) - 1)) | (k - 1) << PIECE_SHIFT;
+    }
+    c->pieces_made++;
+    return 0;
+}
