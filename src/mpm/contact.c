@@ -17,15 +17,16 @@ void kf_contact_free(kf_contact *c) {
     free(c->vol);
     free(c->fid);
     free(c->blk);
-    free(c->bmin);
-    free(c->bmax);
+    free(c->ncontrib);
+    free(c->contrib);
     free(c->own);
-    free(c->omin);
-    free(c->omax);
+    free(c->ofield);
+    free(c->obox);
     free(c->pc_node);
     free(c->pc_parent);
     free(c->pc_list);
     free(c->pc_start);
+    free(c->pc_nrep);
     free(c->pc_keep);
     free(c->pc_used);
     free(c);
@@ -45,14 +46,14 @@ static int reserve(kf_contact *c, size_t nblocks, size_t nowner) {
         if (grow((void **)&c->mv, n * KF_BLOCK_NODES * 2, sizeof(kf_v4)) ||
             grow((void **)&c->vol, n * KF_BLOCK_NODES * 2, sizeof(kf_v4)) ||
             grow((void **)&c->fid, n * KF_BLOCK_NODES * 2, sizeof(uint16_t)) || grow((void **)&c->blk, n, 1) ||
-            grow((void **)&c->bmin, n, sizeof(uint16_t)) || grow((void **)&c->bmax, n, sizeof(uint16_t)))
+            grow((void **)&c->ncontrib, n, 1) || grow((void **)&c->contrib, n, sizeof *c->contrib))
             return -1;
         c->cap_blocks = n;
     }
     if (nowner > c->cap_owner) {
         size_t n = nowner + nowner / 4 + 16;
-        if (grow((void **)&c->own, n, 1) || grow((void **)&c->omin, n, sizeof(uint16_t)) ||
-            grow((void **)&c->omax, n, sizeof(uint16_t)))
+        if (grow((void **)&c->own, n, 1) || grow((void **)&c->ofield, n, sizeof(uint16_t)) ||
+            grow((void **)&c->obox, n, sizeof *c->obox))
             return -1;
         c->cap_owner = n;
     }
@@ -77,50 +78,55 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
     for (int k = 0; k < m->nmat; k++) solid |= kf_contact_cuts(&m->mat[k]);
     if (thin && solid && kf_contact_pieces(m, s)) return -1;
     const size_t nowner = g->nowner, nblocks = g->nblocks;
+    const kf_real inv_dx = kf_model_inv_dx(m);
+    const int cubic = m->sim.kernel == KF_KERNEL_CUBIC, kw = cubic ? 4 : 3;
 
-    /* the range of fields among each owner's particles */
-    uint16_t *omin = c->omin, *omax = c->omax;
-    int any_two = 0;
-#pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(| : any_two)
+    /* each owner's field (KF_FIELD_MANY: two or more of its own) and the box
+     * of nodes its particles' stencils cover */
+#pragma omp parallel for schedule(static) num_threads(m->nthreads)
     for (size_t k = 0; k < nowner; k++) {
-        uint16_t lo = KF_FIELD_NONE, hi = 0;
+        uint16_t f0 = kf_contact_field(p, g->pstart[k]), f = f0;
+        int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
         for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
-            uint16_t f = kf_contact_field(p, i);
-            lo = f < lo ? f : lo;
-            hi = f > hi ? f : hi;
+            if (kf_contact_field(p, i) != f0) f = KF_FIELD_MANY;
+            for (int a = 0; a < 3; a++) {
+                int32_t base = kf_base_node(p->x[a][i], inv_dx, cubic);
+                lo[a] = base < lo[a] ? base : lo[a];
+                hi[a] = base > hi[a] ? base : hi[a];
+            }
         }
-        omin[k] = lo, omax[k] = hi;
-        any_two |= hi > lo;
+        c->ofield[k] = f;
+        for (int a = 0; a < 3; a++) c->obox[k][a] = lo[a], c->obox[k][3 + a] = hi[a] + kw - 1;
+        c->own[k] = f == KF_FIELD_MANY;
     }
-    /* a block's nodes receive from the owners whose neighbourhood holds it;
-     * fields meet only where those owners' ranges span two or more. Owners
-     * with two fields of their own are not needed to find the neighbours:
-     * the block range below catches them. */
-    for (size_t b = 0; b < nblocks; b++) c->bmin[b] = KF_FIELD_NONE, c->bmax[b] = 0;
+    /* fields may meet at a node only where the boxes of owners of two fields
+     * overlap; owners that scatter into a common block are the candidates
+     * (at most 8 per block) */
+    memset(c->ncontrib, 0, nblocks);
     for (size_t k = 0; k < nowner; k++)
         for (int e = 0; e < 8; e++) {
             int32_t b = g->nb[k][e];
-            if (omin[k] < c->bmin[b]) c->bmin[b] = omin[k];
-            if (omax[k] > c->bmax[b]) c->bmax[b] = omax[k];
+            c->contrib[b][c->ncontrib[b]++] = (int32_t)k;
         }
-    (void)any_two;
+    for (size_t b = 0; b < nblocks; b++)
+        for (int u = 0; u < c->ncontrib[b]; u++)
+            for (int v = u + 1; v < c->ncontrib[b]; v++) {
+                int32_t k1 = c->contrib[b][u], k2 = c->contrib[b][v];
+                if (c->ofield[k1] == c->ofield[k2] && c->ofield[k1] != KF_FIELD_MANY) continue;
+                int overlap = 1;
+                for (int a = 0; a < 3; a++)
+                    overlap &= c->obox[k1][a] <= c->obox[k2][3 + a] && c->obox[k2][a] <= c->obox[k1][3 + a];
+                if (overlap) c->own[k1] = c->own[k2] = 1;
+            }
     memset(c->blk, 0, nblocks);
     long owners = 0;
     for (size_t k = 0; k < nowner; k++) {
-        int two = 0;
-        for (int e = 0; e < 8; e++) {
-            int32_t b = g->nb[k][e];
-            two |= c->bmax[b] > c->bmin[b];
-        }
-        c->own[k] = (uint8_t)two;
-        if (!two) continue;
+        if (!c->own[k]) continue;
         owners++;
         for (int e = 0; e < 8; e++) c->blk[g->nb[k][e]] = 1;
     }
-    c->owners = owners;
     if (!owners) return 0;
-    c->active = 1;
-    /* the slots of every block a field-path owner scatters into, emptied */
+    /* the slots of every block a candidate owner scatters into, emptied */
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
     for (size_t b = 0; b < nblocks; b++) {
         if (!c->blk[b]) continue;
@@ -129,6 +135,54 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
         memset(&c->vol[n0], 0, sizeof(kf_v4) * KF_BLOCK_NODES * 2);
         memset(&c->fid[n0], 0xFF, sizeof(uint16_t) * KF_BLOCK_NODES * 2);
     }
+    /* which fields reach each node: every candidate particle claims a slot at
+     * its stencil's nodes (CPIC's separation aside, so that every node two
+     * fields may share is found); the transfers then spend their field work
+     * only where a node has two. Colour by colour, as P2G: race-free, and the
+     * same claims for any thread count. */
+#pragma omp parallel num_threads(m->nthreads)
+    for (int col = 0; col < 8; col++) {
+#pragma omp for schedule(dynamic, 4)
+        for (size_t o = g->colour_start[col]; o < g->colour_start[col + 1]; o++) {
+            size_t k = (size_t)g->owner[o];
+            if (!c->own[k]) continue;
+            const int32_t *bc = &g->bcoord[3 * k], *nb = g->nb[k];
+            for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
+                const uint16_t f = kf_contact_field(p, i);
+                int l[3];
+                for (int a = 0; a < 3; a++) l[a] = kf_base_node(p->x[a][i], inv_dx, cubic) - KF_BLOCK * bc[a];
+                for (int a = 0; a < kw; a++)
+                    for (int b = 0; b < kw; b++)
+                        for (int e = 0; e < kw; e++) {
+                            int x = l[0] + a, y = l[1] + b, z = l[2] + e;
+                            int blk = nb[(x >> 2) << 2 | (y >> 2) << 1 | (z >> 2)];
+                            uint16_t *id = &c->fid[2 * ((size_t)blk * KF_BLOCK_NODES +
+                                                        (size_t)((x & 3) << 4 | (y & 3) << 2 | (z & 3)))];
+                            if (id[0] == f || id[1] == f) continue;
+                            if (id[0] == KF_FIELD_NONE) id[0] = f;
+                            else if (id[1] == KF_FIELD_NONE) id[1] = f;
+                        }
+            }
+        }
+    }
+    /* only owners that scatter into a block with a node of two fields take
+     * the field path (the others' particles reach no such node) */
+#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    for (size_t b = 0; b < nblocks; b++) {
+        uint8_t two = 0;
+        if (c->blk[b])
+            for (int l = 0; l < KF_BLOCK_NODES; l++) two |= c->fid[2 * (b * KF_BLOCK_NODES + (size_t)l) + 1] != KF_FIELD_NONE;
+        c->blk[b] = two;
+    }
+    owners = 0;
+    for (size_t k = 0; k < nowner; k++) {
+        uint8_t two = 0;
+        for (int e = 0; e < 8; e++) two |= c->blk[g->nb[k][e]];
+        c->own[k] = c->own[k] && two;
+        owners += c->own[k];
+    }
+    c->owners = owners;
+    c->active = owners > 0;
     return 0;
 }
 

@@ -15,13 +15,14 @@
  *   them move together there). A slot holds momentum and mass, and the
  *   volume and its gradient for the contact test. Two slots, not one per
  *   object: memory stays 64 bytes a node whatever the number of objects.
- * - Only where fields can meet: each substep, every owner block notes the
- *   range of fields among its particles; a node block whose 8 possible
- *   owners hold one field only cannot have two, and the owners that scatter
- *   into a block with two or more take the field path (an extra scatter and
- *   gather of their own field). Everywhere else the transfers are the
- *   ordinary ones, and a shot with one object never gets here (bitwise the
- *   results of no contact, and no cost).
+ * - Only where fields meet: each substep, every owner block notes its field
+ *   and the box of nodes its particles' stencils cover; owners of different
+ *   fields whose boxes overlap are candidates, and their particles mark the
+ *   fields at their stencils' nodes. Owners that scatter into a block with a
+ *   node of two fields take the field path (an extra scatter and gather at
+ *   those nodes only). Everywhere else the transfers are the ordinary ones,
+ *   and a shot with one object (and no cut) never gets here: bitwise the
+ *   results of no contact.
  * - The slots' momenta are the very contributions of the total (the same
  *   MLS momentum and stress force), so the total stays what it is without
  *   contact: gravity, walls and colliders act on it as before, and on each
@@ -54,6 +55,7 @@
 #include "model.h"
 
 #define KF_FIELD_NONE 0xFFFFu
+#define KF_FIELD_MANY 0xFFFEu
 
 typedef struct kf_contact {
     int active;           /* this substep takes the field path somewhere */
@@ -62,17 +64,19 @@ typedef struct kf_contact {
     kf_v4 *mv;            /* (cap_blocks x 64 x 2) momentum xyz, mass; after kf_contact_grid: velocity xyz, mass */
     kf_v4 *vol;           /* (cap_blocks x 64 x 2) volume gradient xyz (m²), volume (m³) */
     uint16_t *fid;        /* (cap_blocks x 64 x 2) the slot's field, KF_FIELD_NONE = empty */
-    uint8_t *blk;         /* (cap_blocks) 1 = some field-path owner scatters here: slots valid */
-    uint16_t *bmin, *bmax;/* (cap_blocks) range of fields of the owners that scatter into the block */
+    uint8_t *blk;         /* (cap_blocks) 1 = a node of the block has two fields: slots valid */
+    uint8_t *ncontrib;    /* (cap_blocks) owners that scatter into the block */
+    int32_t (*contrib)[8];/* (cap_blocks) their indices */
     /* per owner block (cap_owner) */
     size_t cap_owner;
     uint8_t *own;         /* 1 = the owner's particles take the field path */
-    uint16_t *omin, *omax;
+    uint16_t *ofield;     /* the owner's field, KF_FIELD_MANY for two or more */
+    int32_t (*obox)[6];   /* the nodes its particles' stencils cover: lo xyz, hi xyz (inclusive) */
     /* the last substep, for the frame log and tests */
     long owners, two_field_nodes, touching_nodes;
     /* pieces (contact_pieces.c): scratch, and how many substeps split a field */
-    uint32_t *pc_node, *pc_parent, *pc_list, *pc_start, *pc_keep, *pc_used;
-    size_t pc_node_cap, pc_parent_cap, pc_list_cap, pc_start_cap;
+    uint32_t *pc_node, *pc_parent, *pc_list, *pc_start, *pc_nrep, *pc_keep, *pc_used;
+    size_t pc_node_cap, pc_parent_cap, pc_list_cap, pc_start_cap, pc_nrep_cap;
     long pieces_made;
 } kf_contact;
 

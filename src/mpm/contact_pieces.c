@@ -69,7 +69,8 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
     if (reserve((void **)&c->pc_node, &c->pc_node_cap, n, sizeof(uint32_t)) ||
         reserve((void **)&c->pc_parent, &c->pc_parent_cap, n, sizeof(uint32_t)) ||
         reserve((void **)&c->pc_list, &c->pc_list_cap, n, sizeof(uint32_t)) ||
-        reserve((void **)&c->pc_start, &c->pc_start_cap, nodes + 1, sizeof(uint32_t)))
+        reserve((void **)&c->pc_start, &c->pc_start_cap, nodes + 1, sizeof(uint32_t)) ||
+        reserve((void **)&c->pc_nrep, &c->pc_nrep_cap, nodes, sizeof(uint32_t)))
         return -1;
     uint32_t *node_of = c->pc_node, *parent = c->pc_parent, *list = c->pc_list, *start = c->pc_start;
     const kf_real inv_dx = kf_model_inv_dx(m);
@@ -96,7 +97,31 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
     start[0] = 0;
     for (size_t i = 0; i < n; i++) parent[i] = (uint32_t)i;
 
-    /* links: same field, no thin body between, same node or the next along an axis */
+    /* at each node, particles of one field and one CPIC colour are one class
+     * (compatible with each other): linked at once, and only the first of
+     * each class, moved to the front of the node's list, is compared below */
+    const uint32_t cmask = (1u << PIECE_SHIFT) - 1;
+    uint32_t *nrep = c->pc_nrep;
+    for (size_t q = 0; q < nodes; q++) {
+        uint32_t s0 = start[q], k = s0;
+        for (uint32_t u = s0; u < start[q + 1]; u++) {
+            uint32_t i = list[u], ci = p->colour[i] & cmask, w = s0;
+            uint16_t fi = kf_contact_field(p, i);
+            for (; w < k; w++) {
+                uint32_t j = list[w];
+                if (kf_contact_field(p, j) == fi && (p->colour[j] & cmask) == ci) break;
+            }
+            if (w < k) {
+                unite(parent, i, list[w]);
+            } else {
+                list[u] = list[k], list[k++] = i;
+            }
+        }
+        nrep[q] = k - s0;
+    }
+
+    /* links between classes: same field, no thin body between, same node or
+     * the next along an axis */
     for (size_t b = 0; b < g->nblocks; b++) {
         const int32_t *bc = &g->bcoord[3 * b];
         int32_t next[3];
@@ -104,7 +129,7 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
             next[a] = kf_grid_find(g, bc[0] + (a == 0), bc[1] + (a == 1), bc[2] + (a == 2));
         for (int l = 0; l < KF_BLOCK_NODES; l++) {
             size_t q = b * KF_BLOCK_NODES + (size_t)l;
-            if (start[q] == start[q + 1]) continue;
+            if (!nrep[q]) continue;
             size_t other[4] = {q, 0, 0, 0};
             int no = 1;
             int lc[3] = {l >> 4, (l >> 2) & 3, l & 3};
@@ -119,12 +144,12 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
                 }
                 other[no++] = (size_t)blk * KF_BLOCK_NODES + (size_t)(t[0] << 4 | t[1] << 2 | t[2]);
             }
-            for (uint32_t u = start[q]; u < start[q + 1]; u++) {
+            for (uint32_t u = start[q]; u < start[q] + nrep[q]; u++) {
                 uint32_t i = list[u];
                 uint16_t fi = kf_contact_field(p, i);
                 for (int e = 0; e < no; e++) {
                     size_t r = other[e];
-                    for (uint32_t w = e ? start[r] : u + 1; w < start[r + 1]; w++) {
+                    for (uint32_t w = e ? start[r] : u + 1; w < start[r] + nrep[r]; w++) {
                         uint32_t j = list[w];
                         if (kf_contact_field(p, j) == fi && compatible(p->colour[i], p->colour[j])) unite(parent, i, j);
                     }

@@ -50,6 +50,11 @@ void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const ui
         for (int a = 0; a < kw; a++)
             for (int b = 0; b < kw; b++)
                 for (int k = 0; k < kw; k++) {
+                    /* only where two fields meet (kf_contact_prepare claimed the slots): one field's
+                     * velocity is the total's */
+                    size_t q = node_index(nb, l0 + a, l1 + b, l2 + k);
+                    uint16_t *id = &c->fid[2 * q];
+                    if (id[1] == KF_FIELD_NONE) continue;
                     /* where CPIC separates the particle from the node, nothing (as for the total) */
                     if (col && !compatible(col[((l0 + a) * NB + l1 + b) * NB + l2 + k], cp)) continue;
                     const kf_real w = ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
@@ -65,17 +70,8 @@ void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const ui
                             add[r] += ck->t[3 * r][j] * gw[0] + ck->t[3 * r + 1][j] * gw[1] + ck->t[3 * r + 2][j] * gw[2];
                     }
                     add[3] = w * ck->mv[3][j];
-                    /* the particle's field claims the first free slot; a third field joins the second */
-                    size_t q = node_index(nb, l0 + a, l1 + b, l2 + k);
-                    uint16_t *id = &c->fid[2 * q];
-                    int slot;
-                    if (id[0] == f) slot = 0;
-                    else if (id[1] == f) slot = 1;
-                    else if (id[0] == KF_FIELD_NONE) id[0] = f, slot = 0;
-                    else {
-                        if (id[1] == KF_FIELD_NONE) id[1] = f;
-                        slot = 1;
-                    }
+                    /* the particle's slot; a third field at the node joins the second */
+                    const int slot = id[0] == f ? 0 : 1;
                     c->mv[2 * q + (size_t)slot] += add;
                     /* volume, and its gradient at the node: ∂w/∂x_i = -∂w/∂x_p (dw is the latter, in
                      * grid units); it points into the field */
