@@ -71,6 +71,7 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
     const kf_particles *p = &s->p;
     c->active = 0;
     c->owners = c->two_field_nodes = c->touching_nodes = 0;
+    if (!g->nowner || !p->n) return 0;
     if (reserve(c, g->nblocks, g->nowner)) return -1;
     /* pieces a thin body cut apart: fields of their own from now on */
     int thin = 0, solid = 0;
@@ -81,21 +82,30 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
     const kf_real inv_dx = kf_model_inv_dx(m);
     const int cubic = m->sim.kernel == KF_KERNEL_CUBIC, kw = cubic ? 4 : 3;
 
-    /* each owner's field (KF_FIELD_MANY: two or more of its own) and the box
-     * of nodes its particles' stencils cover */
-#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    /* each owner's field (KF_FIELD_MANY: two or more of its own); one field
+     * in all of them (one object, nothing cut): nothing to do */
+    int uniform = 1;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(& : uniform)
     for (size_t k = 0; k < nowner; k++) {
         uint16_t f0 = kf_contact_field(p, g->pstart[k]), f = f0;
+        for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++)
+            if (kf_contact_field(p, i) != f0) f = KF_FIELD_MANY;
+        c->ofield[k] = f;
+        uniform &= f == kf_contact_field(p, g->pstart[0]);
+    }
+    if (uniform) return 0;
+    /* the box of nodes each owner's particles' stencils cover */
+#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    for (size_t k = 0; k < nowner; k++) {
+        const uint16_t f = c->ofield[k];
         int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
         for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
-            if (kf_contact_field(p, i) != f0) f = KF_FIELD_MANY;
             for (int a = 0; a < 3; a++) {
                 int32_t base = kf_base_node(p->x[a][i], inv_dx, cubic);
                 lo[a] = base < lo[a] ? base : lo[a];
                 hi[a] = base > hi[a] ? base : hi[a];
             }
         }
-        c->ofield[k] = f;
         for (int a = 0; a < 3; a++) c->obox[k][a] = lo[a], c->obox[k][3 + a] = hi[a] + kw - 1;
         c->own[k] = f == KF_FIELD_MANY;
     }
