@@ -143,8 +143,18 @@ typedef struct kf_rawkey {
     double scale[3];
 } kf_rawkey;
 
+/* One constant per key of key_list.h, in table order: kf_keys[KK_SIM_DX] is
+ * the row of "sim.dx". Code names keys by these; a path typed at run time
+ * (--set, the walk) goes through kf_key_find. */
+typedef enum kf_key_id {
+#define KF_KEY(id, ...) KK_##id,
+#include "key_list.h"
+#undef KF_KEY
+    KK_COUNT
+} kf_key_id;
+
 extern const kf_keydef kf_keys[];
-extern const int kf_nkeys;
+extern const int kf_nkeys; /* KK_COUNT */
 
 /* The entry with this full path, or -1. */
 int kf_key_find(const char *path);

@@ -301,17 +301,14 @@ static void check_presence(loader *L, inst *I) {
 
 /* ---- resolving: what the table cannot see on its own --------------------------------- */
 
-static int K(const char *path) { return kf_key_find(path); }
-
 /* the node to point at for a key of an instance: its value, else the instance */
-static const ky_node *node_for(const inst *I, const char *path) {
-    int e = K(path);
-    if (e >= 0 && I->at[e]) return I->at[e];
+static const ky_node *node_for(const inst *I, int key) {
+    if (key >= 0 && I->at[key]) return I->at[key];
     return I->name ? I->name : I->map;
 }
 
-static void report_inst(loader *L, const inst *I, const char *path, kf_severity sev, const char *msg) {
-    const ky_node *n = node_for(I, path);
+static void report_inst(loader *L, const inst *I, int key, kf_severity sev, const char *msg) {
+    const ky_node *n = node_for(I, key);
     if (n) kf_report_at(L->d, &L->srcs, n, sev, "%s", msg);
     else kf_report(L->d, &L->srcs, 0, 1, 1, sev, "%s", msg);
 }
@@ -338,7 +335,7 @@ static kf_loc loc_of(loader *L, kf_shot *s, const ky_node *n) {
 /* preset, then every key given over it; then the model's own check */
 static void resolve_material(loader *L, inst *I, kf_shot *s, kf_shot_material *out) {
     const kf_shot_material *raw = I->base;
-    int pk = K("materials.*.preset"), mk = K("materials.*.model");
+    int pk = KK_MATERIALS_PRESET, mk = KK_MATERIALS_MODEL;
     char msg[512];
     memset(out, 0, sizeof *out);
     out->color[0] = out->color[1] = out->color[2] = -1; /* by kind unless given */
@@ -351,7 +348,7 @@ static void resolve_material(loader *L, inst *I, kf_shot *s, kf_shot_material *o
         based = I->ok[mk];
     } else {
         snprintf(msg, sizeof msg, "%s needs a preset (or a model and its parameters)", I->label);
-        report_inst(L, I, "materials.*.preset", KF_DIAG_ERROR, msg);
+        report_inst(L, I, KK_MATERIALS_PRESET, KF_DIAG_ERROR, msg);
         I->errors++;
     }
     for (int e = 0; e < kf_nkeys; e++) {
@@ -360,11 +357,11 @@ static void resolve_material(loader *L, inst *I, kf_shot *s, kf_shot_material *o
             memcpy((char *)out + k->off, (const char *)raw + k->off, k->size);
     }
     /* an explicit friction angle means "this angle", not the hardening curve */
-    if (I->at[K("materials.*.friction_angle")] && !I->at[K("materials.*.hardening")]) out->mat.hardening = 0;
+    if (I->at[KK_MATERIALS_FRICTION_ANGLE] && !I->at[KK_MATERIALS_HARDENING]) out->mat.hardening = 0;
     snprintf(out->mat.name, sizeof out->mat.name, "%s", I->name->text);
     out->at = loc_of(L, s, I->name);
-    out->stiffness_at = loc_of(L, s, node_for(I, out->mat.model == KF_MAT_WATER ? "materials.*.bulk_modulus"
-                                                                                 : "materials.*.E"));
+    out->stiffness_at = loc_of(L, s, node_for(I, out->mat.model == KF_MAT_WATER ? KK_MATERIALS_BULK_MODULUS
+                                                                                 : KK_MATERIALS_E));
     if (!based) return;
     ((kf_shot_material *)I->base)->mat.model = out->mat.model; /* what `only: model=...` reads */
     check_presence(L, I);
@@ -377,13 +374,13 @@ static void resolve_material(loader *L, inst *I, kf_shot *s, kf_shot_material *o
         snprintf(key, sizeof key, "%.*s", (int)(n < sizeof key ? n : sizeof key - 1), bad);
         snprintf(path, sizeof path, "materials.*.%s", key);
         snprintf(msg, sizeof msg, "%s: %s", I->label, bad);
-        report_inst(L, I, path, KF_DIAG_ERROR, msg);
+        report_inst(L, I, kf_key_find(path), KF_DIAG_ERROR, msg);
     }
 }
 
-static void default_name(char *name, size_t n, const inst *I, const char *shape_path, int index) {
+static void default_name(char *name, size_t n, const inst *I, kf_key_id shape_key, int index) {
     char shape[32];
-    const kf_keydef *k = &kf_keys[K(shape_path)];
+    const kf_keydef *k = &kf_keys[shape_key];
     kf_key_choice(k, *(const int *)((const char *)I->base + k->off), shape, sizeof shape);
     snprintf(name, n, "%s%d", shape, index);
 }
@@ -440,7 +437,7 @@ static void placement(kf_shot_object *o) {
 
 /* a mesh path relative to the shot's folder, checked to exist (reported at
  * the key's value) */
-static void resolve_mesh_path(loader *L, inst *I, const kf_shot *s, const char *key, const char *mesh, char *path,
+static void resolve_mesh_path(loader *L, inst *I, const kf_shot *s, kf_key_id key, const char *mesh, char *path,
                               size_t n) {
     char msg[1600];
     if (mesh[0] == '/' || strcmp(s->dir, ".") == 0) snprintf(path, n, "%s", mesh);
@@ -460,9 +457,9 @@ static void resolve_object(loader *L, inst *I, int index, kf_shot *s, kf_shot_ob
     char msg[1600];
     *o = *(const kf_shot_object *)I->base;
     check_presence(L, I);
-    if (!I->at[K("objects[].name")]) default_name(o->name, sizeof o->name, I, "objects[].shape", index);
+    if (!I->at[KK_OBJECTS_NAME]) default_name(o->name, sizeof o->name, I, KK_OBJECTS_SHAPE, index);
     /* the material, by name */
-    int mk = K("objects[].material");
+    int mk = KK_OBJECTS_MATERIAL;
     if (I->ok[mk]) {
         const char *names[KF_MAX_MATERIALS * 4];
         int nm = 0;
@@ -485,14 +482,14 @@ static void resolve_object(loader *L, inst *I, int index, kf_shot *s, kf_shot_ob
                                   o->material_name, list);
             else snprintf(msg, sizeof msg, "%s: material '%s' is not defined (the shot has no materials:)", I->label,
                           o->material_name);
-            report_inst(L, I, "objects[].material", KF_DIAG_ERROR, msg);
+            report_inst(L, I, KK_OBJECTS_MATERIAL, KF_DIAG_ERROR, msg);
         }
     }
     /* a mesh must exist now, not after an hour of simulation */
-    int meshk = K("objects[].mesh");
+    int meshk = KK_OBJECTS_MESH;
     if (o->shape == KF_SOURCE_MESH && I->ok[meshk])
-        resolve_mesh_path(L, I, s, "objects[].mesh", o->mesh, o->mesh_path, sizeof o->mesh_path);
-    o->fit = I->at[K("objects[].fit")] != NULL && o->shape == KF_SOURCE_MESH;
+        resolve_mesh_path(L, I, s, KK_OBJECTS_MESH, o->mesh, o->mesh_path, sizeof o->mesh_path);
+    o->fit = I->at[KK_OBJECTS_FIT] != NULL && o->shape == KF_SOURCE_MESH;
     placement(o);
     if (o->fit) memcpy(o->center, o->place.fit_center, sizeof o->center);
     o->at = loc_of(L, s, I->map);
@@ -506,7 +503,7 @@ static void collider_placement(const inst *I, kf_shot_collider *c) {
     kf_placement *p = &c->place;
     memset(p, 0, sizeof *p);
     if (c->col.shape != KF_SHAPE_MESH) return;
-    c->fit = I->at[K("colliders[].fit")] != NULL;
+    c->fit = I->at[KK_COLLIDERS_FIT] != NULL;
     memcpy(p->rotate, c->rotate, sizeof p->rotate);
     memcpy(p->scale, c->scale, sizeof p->scale);
     for (int a = 0; a < 3; a++) {
@@ -515,8 +512,46 @@ static void collider_placement(const inst *I, kf_shot_collider *c) {
     }
     p->fit = c->fit;
     p->fit_size = c->fit ? c->fit_size : 0;
-    if (I->at[K("colliders[].pivot")]) memcpy(c->col.center, c->pivot, sizeof c->col.center);
+    if (I->at[KK_COLLIDERS_PIVOT]) memcpy(c->col.center, c->pivot, sizeof c->col.center);
     else memcpy(c->col.center, c->fit ? p->fit_center : p->translate, sizeof c->col.center);
+}
+
+/* The keys of a collider or rigid body (the key instances under instance
+ * ii): frames → seconds from the shot's start, offsets from origin →
+ * absolute pivot positions, scale from the key (scaled) or 1. Frames must
+ * increase and there are at most KF_MAX_KEYS. Returns how many were made. */
+static int resolve_keys(loader *L, int ii, const kf_shot *s, int times_ok, kf_key_id frame_key, const double origin[3],
+                        int scaled, kf_key *keys) {
+    const inst *I = &L->v[ii];
+    char msg[512];
+    int nk = 0;
+    double prev = 0;
+    for (int j = 0; j < L->n; j++) {
+        inst *KI = &L->v[j];
+        if (KI->scope != KS_KEY || KI->parent != ii) continue;
+        check_presence(L, KI);
+        const kf_rawkey *rk = KI->base;
+        if (nk == KF_MAX_KEYS) {
+            snprintf(msg, sizeof msg, "%s: too many keys (at most %d)", I->label, KF_MAX_KEYS);
+            report_inst(L, KI, frame_key, KF_DIAG_ERROR, msg);
+            break;
+        }
+        if (KI->ok[frame_key] && nk > 0 && !(rk->frame > prev)) {
+            snprintf(msg, sizeof msg, "%s.frame must come after the previous key's frame %g, got %g", KI->label, prev,
+                     rk->frame);
+            report_inst(L, KI, frame_key, KF_DIAG_ERROR, msg);
+        }
+        if (KI->ok[frame_key]) prev = rk->frame;
+        kf_key *key = &keys[nk];
+        if (times_ok) key->time = (rk->frame - s->frame_start) / s->fps;
+        for (int a = 0; a < 3; a++) {
+            key->position[a] = origin[a] + rk->translate[a];
+            key->rotate[a] = rk->rotate[a];
+            key->scale[a] = scaled ? rk->scale[a] : 1;
+        }
+        nk++;
+    }
+    return nk;
 }
 
 static void resolve_collider(loader *L, int ii, int index, kf_shot *s, int times_ok, kf_shot_collider *c) {
@@ -525,7 +560,7 @@ static void resolve_collider(loader *L, int ii, int index, kf_shot *s, int times
     *c = *(const kf_shot_collider *)I->base;
     c->at = loc_of(L, s, I->map);
     check_presence(L, I);
-    if (!I->at[K("colliders[].name")]) default_name(c->name, sizeof c->name, I, "colliders[].shape", index);
+    if (!I->at[KK_COLLIDERS_NAME]) default_name(c->name, sizeof c->name, I, KK_COLLIDERS_SHAPE, index);
     if (c->col.shape == KF_SHAPE_PLANE) {
         double len = sqrt(c->col.normal[0] * c->col.normal[0] + c->col.normal[1] * c->col.normal[1] +
                           c->col.normal[2] * c->col.normal[2]);
@@ -535,48 +570,21 @@ static void resolve_collider(loader *L, int ii, int index, kf_shot *s, int times
     for (int a = 0; a < 3; a++) c->col.half[a] = 0.5 * c->size[a];
     /* a box's rest orientation is the collider's; a mesh's goes into its placement */
     if (c->col.shape == KF_SHAPE_BOX) memcpy(c->col.rotate, c->rotate, sizeof c->col.rotate);
-    int meshk = K("colliders[].mesh");
+    int meshk = KK_COLLIDERS_MESH;
     if (c->col.shape == KF_SHAPE_MESH && I->ok[meshk])
-        resolve_mesh_path(L, I, s, "colliders[].mesh", c->mesh, c->mesh_path, sizeof c->mesh_path);
+        resolve_mesh_path(L, I, s, KK_COLLIDERS_MESH, c->mesh, c->mesh_path, sizeof c->mesh_path);
     collider_placement(I, c);
     if (I->at[meshk]) c->mesh_at = loc_of(L, s, I->at[meshk]);
     /* keys: frames → seconds, offsets → absolute pivot positions */
-    int nk = 0;
-    double prev = 0;
-    for (int j = 0; j < L->n; j++) {
-        inst *KI = &L->v[j];
-        if (KI->scope != KS_KEY || KI->parent != ii) continue;
-        check_presence(L, KI);
-        const kf_rawkey *rk = KI->base;
-        int fk = K("colliders[].keys[].frame");
-        if (nk == KF_MAX_KEYS) {
-            snprintf(msg, sizeof msg, "%s: too many keys (at most %d)", I->label, KF_MAX_KEYS);
-            report_inst(L, KI, "colliders[].keys[].frame", KF_DIAG_ERROR, msg);
-            break;
-        }
-        if (KI->ok[fk] && nk > 0 && !(rk->frame > prev)) {
-            snprintf(msg, sizeof msg, "%s.frame must come after the previous key's frame %g, got %g", KI->label, prev,
-                     rk->frame);
-            report_inst(L, KI, "colliders[].keys[].frame", KF_DIAG_ERROR, msg);
-        }
-        if (KI->ok[fk]) prev = rk->frame;
-        kf_key *key = &c->col.keys[nk];
-        if (times_ok) key->time = (rk->frame - s->frame_start) / s->fps;
-        for (int a = 0; a < 3; a++) {
-            key->position[a] = c->col.center[a] + rk->translate[a];
-            key->rotate[a] = rk->rotate[a];
-            key->scale[a] = rk->scale[a];
-        }
-        nk++;
-    }
-    if (nk > 0 && I->at[K("colliders[].velocity")]) {
+    int nk = resolve_keys(L, ii, s, times_ok, KK_COLLIDERS_KEYS_FRAME, c->col.center, 1, c->col.keys);
+    if (nk > 0 && I->at[KK_COLLIDERS_VELOCITY]) {
         snprintf(msg, sizeof msg, "%s: give velocity or keys, not both (keys define the motion)", I->label);
-        report_inst(L, I, "colliders[].velocity", KF_DIAG_ERROR, msg);
+        report_inst(L, I, KK_COLLIDERS_VELOCITY, KF_DIAG_ERROR, msg);
     }
-    if (nk < 2 && I->at[K("colliders[].interpolation")]) {
+    if (nk < 2 && I->at[KK_COLLIDERS_INTERPOLATION]) {
         snprintf(msg, sizeof msg, "%s.interpolation has no effect with %s", I->label,
                  nk ? "one key (the collider is held there)" : "no keys");
-        report_inst(L, I, "colliders[].interpolation", KF_DIAG_WARNING, msg);
+        report_inst(L, I, KK_COLLIDERS_INTERPOLATION, KF_DIAG_WARNING, msg);
     }
     c->col.nkeys = nk; /* one key: held there */
 }
@@ -589,67 +597,40 @@ static void resolve_rigid(loader *L, int ii, int index, kf_shot *s, int times_ok
     *r = *(const kf_shot_rigid *)I->base;
     r->at = loc_of(L, s, I->map);
     check_presence(L, I);
-    if (!I->at[K("rigids[].name")]) {
+    if (!I->at[KK_RIGIDS_NAME]) {
         char name[64];
-        default_name(name, sizeof name, I, "rigids[].shape", index);
+        default_name(name, sizeof name, I, KK_RIGIDS_SHAPE, index);
         snprintf(r->def.name, sizeof r->def.name, "%.31s", name);
     }
-    int meshk = K("rigids[].mesh");
+    int meshk = KK_RIGIDS_MESH;
     if (r->shape == 1 && I->ok[meshk])
-        resolve_mesh_path(L, I, s, "rigids[].mesh", r->mesh, r->mesh_path, sizeof r->mesh_path);
+        resolve_mesh_path(L, I, s, KK_RIGIDS_MESH, r->mesh, r->mesh_path, sizeof r->mesh_path);
     if (I->at[meshk]) r->mesh_at = loc_of(L, s, I->at[meshk]);
-    r->pivot_set = I->at[K("rigids[].pivot")] != NULL;
-    kf_key_choice(&kf_keys[K("rigids[].motion")], (int)r->def.motion, motion, sizeof motion);
-    int nk = 0;
-    double prev = 0;
-    for (int j = 0; j < L->n; j++) {
-        inst *KI = &L->v[j];
-        if (KI->scope != KS_KEY || KI->parent != ii) continue;
-        check_presence(L, KI);
-        const kf_rawkey *rk = KI->base;
-        int fk = K("rigids[].keys[].frame");
-        if (nk == KF_MAX_KEYS) {
-            snprintf(msg, sizeof msg, "%s: too many keys (at most %d)", I->label, KF_MAX_KEYS);
-            report_inst(L, KI, "rigids[].keys[].frame", KF_DIAG_ERROR, msg);
-            break;
-        }
-        if (KI->ok[fk] && nk > 0 && !(rk->frame > prev)) {
-            snprintf(msg, sizeof msg, "%s.frame must come after the previous key's frame %g, got %g", KI->label, prev,
-                     rk->frame);
-            report_inst(L, KI, "rigids[].keys[].frame", KF_DIAG_ERROR, msg);
-        }
-        if (KI->ok[fk]) prev = rk->frame;
-        kf_key *key = &r->def.keys[nk];
-        if (times_ok) key->time = (rk->frame - s->frame_start) / s->fps;
-        for (int a = 0; a < 3; a++) {
-            key->position[a] = r->def.position[a] + rk->translate[a];
-            key->rotate[a] = rk->rotate[a];
-            key->scale[a] = 1;
-        }
-        nk++;
-    }
-    int keysk = K("rigids[].keys");
+    r->pivot_set = I->at[KK_RIGIDS_PIVOT] != NULL;
+    kf_key_choice(&kf_keys[KK_RIGIDS_MOTION], (int)r->def.motion, motion, sizeof motion);
+    int nk = resolve_keys(L, ii, s, times_ok, KK_RIGIDS_KEYS_FRAME, r->def.position, 0, r->def.keys);
+    int keysk = KK_RIGIDS_KEYS;
     if (I->at[keysk] && r->def.motion != KF_RIGID_KINEMATIC) {
         snprintf(msg, sizeof msg, "%s.keys: only a kinematic body follows keys (this one is %s; add motion: kinematic)",
                  I->label, motion);
-        report_inst(L, I, "rigids[].keys", KF_DIAG_ERROR, msg);
+        report_inst(L, I, KK_RIGIDS_KEYS, KF_DIAG_ERROR, msg);
     }
-    if (nk > 0 && (I->at[K("rigids[].velocity")] || I->at[K("rigids[].angular_velocity")])) {
+    if (nk > 0 && (I->at[KK_RIGIDS_VELOCITY] || I->at[KK_RIGIDS_ANGULAR_VELOCITY])) {
         snprintf(msg, sizeof msg, "%s: give velocities or keys, not both (keys define the motion)", I->label);
-        report_inst(L, I, I->at[K("rigids[].velocity")] ? "rigids[].velocity" : "rigids[].angular_velocity",
+        report_inst(L, I, I->at[KK_RIGIDS_VELOCITY] ? KK_RIGIDS_VELOCITY : KK_RIGIDS_ANGULAR_VELOCITY,
                     KF_DIAG_ERROR, msg);
     }
-    if (nk < 2 && I->at[K("rigids[].interpolation")] && r->def.motion == KF_RIGID_KINEMATIC) {
+    if (nk < 2 && I->at[KK_RIGIDS_INTERPOLATION] && r->def.motion == KF_RIGID_KINEMATIC) {
         snprintf(msg, sizeof msg, "%s.interpolation has no effect with %s", I->label,
                  nk ? "one key (the body is held there)" : "no keys");
-        report_inst(L, I, "rigids[].interpolation", KF_DIAG_WARNING, msg);
+        report_inst(L, I, KK_RIGIDS_INTERPOLATION, KF_DIAG_WARNING, msg);
     }
     r->def.nkeys = r->def.motion == KF_RIGID_KINEMATIC ? nk : 0;
 }
 
 /* A joint names its bodies: each must be a dynamic rigid body of the shot
  * (or the world for `to`), and not the same one twice. */
-static int joint_body(loader *L, inst *I, const kf_shot *s, const char *path, const char *name, int world_ok) {
+static int joint_body(loader *L, inst *I, const kf_shot *s, kf_key_id key, const char *name, int world_ok) {
     char msg[900];
     const char *names[KF_MAX_RIGIDS + 64] = {0};
     int n = 0, found = -1;
@@ -669,15 +650,15 @@ static int joint_body(loader *L, inst *I, const kf_shot *s, const char *path, co
         else if (n) snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined; rigid bodies: %s%s", I->label, name,
                              list, world_ok ? " (or world)" : "");
         else snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined (the shot has no rigids:)", I->label, name);
-        report_inst(L, I, path, KF_DIAG_ERROR, msg);
+        report_inst(L, I, key, KF_DIAG_ERROR, msg);
         return -2;
     }
     if (s->rigids[found].def.motion != KF_RIGID_DYNAMIC) {
         char motion[32];
-        kf_key_choice(&kf_keys[K("rigids[].motion")], (int)s->rigids[found].def.motion, motion, sizeof motion);
+        kf_key_choice(&kf_keys[KK_RIGIDS_MOTION], (int)s->rigids[found].def.motion, motion, sizeof motion);
         snprintf(msg, sizeof msg, "%s: rigid body '%s' is %s; joints connect dynamic bodies (and the world)", I->label,
                  name, motion);
-        report_inst(L, I, path, KF_DIAG_ERROR, msg);
+        report_inst(L, I, key, KF_DIAG_ERROR, msg);
         return -2;
     }
     return found;
@@ -688,14 +669,14 @@ static void resolve_joint(loader *L, inst *I, int index, kf_shot *s, kf_shot_joi
     *j = *(const kf_shot_joint *)I->base;
     j->at = loc_of(L, s, I->map);
     check_presence(L, I);
-    if (!I->at[K("joints[].name")]) default_name(j->name, sizeof j->name, I, "joints[].type", index);
-    int bk = K("joints[].body"), tk = K("joints[].to");
-    int a = I->ok[bk] ? joint_body(L, I, s, "joints[].body", j->body, 0) : -2;
-    int b = !I->at[tk] || I->ok[tk] ? joint_body(L, I, s, "joints[].to", j->to, 1) : -2;
+    if (!I->at[KK_JOINTS_NAME]) default_name(j->name, sizeof j->name, I, KK_JOINTS_TYPE, index);
+    int bk = KK_JOINTS_BODY, tk = KK_JOINTS_TO;
+    int a = I->ok[bk] ? joint_body(L, I, s, KK_JOINTS_BODY, j->body, 0) : -2;
+    int b = !I->at[tk] || I->ok[tk] ? joint_body(L, I, s, KK_JOINTS_TO, j->to, 1) : -2;
     if (a >= 0 && a == b) {
         snprintf(msg, sizeof msg, "%s: a joint connects two different bodies ('%s' twice; use to: world for an axle)",
                  I->label, j->body);
-        report_inst(L, I, "joints[].to", KF_DIAG_ERROR, msg);
+        report_inst(L, I, KK_JOINTS_TO, KF_DIAG_ERROR, msg);
     }
     j->def.body_a = a;
     j->def.body_b = b;
@@ -705,7 +686,7 @@ static void resolve_joint(loader *L, inst *I, int index, kf_shot *s, kf_shot_joi
 }
 
 /* two objects (or colliders) must not share a name: --set addresses by it */
-static void check_unique(loader *L, kf_scope scope, const char *path, const char *names, size_t stride, int n) {
+static void check_unique(loader *L, kf_scope scope, kf_key_id key, const char *names, size_t stride, int n) {
     for (int i = 0, ii = 0; ii < L->n; ii++) {
         if (L->v[ii].scope != scope) continue;
         const char *a = names + (size_t)i * stride;
@@ -713,7 +694,7 @@ static void check_unique(loader *L, kf_scope scope, const char *path, const char
             if (strcmp(a, names + (size_t)j * stride) == 0) {
                 char msg[256];
                 snprintf(msg, sizeof msg, "%s: the name '%s' is taken by an earlier item", L->v[ii].label, a);
-                report_inst(L, &L->v[ii], path, KF_DIAG_ERROR, msg);
+                report_inst(L, &L->v[ii], key, KF_DIAG_ERROR, msg);
                 break;
             }
         if (++i == n) break;
@@ -732,14 +713,14 @@ static int has_dotdot(const char *p) {
  * that climbs out with ".." writes where the log does not say. */
 static void check_output_paths(loader *L, inst *T, const kf_shot *s) {
     char msg[700];
-    if (T->at[K("output.dir")] && T->ok[K("output.dir")] && strspn(s->output_dir, " \t") == strlen(s->output_dir)) {
+    if (T->at[KK_OUTPUT_DIR] && T->ok[KK_OUTPUT_DIR] && strspn(s->output_dir, " \t") == strlen(s->output_dir)) {
         snprintf(msg, sizeof msg, "output.dir is empty: give a directory, relative to where kerf runs (e.g. out/{shot})");
-        report_inst(L, T, "output.dir", KF_DIAG_ERROR, msg);
+        report_inst(L, T, KK_OUTPUT_DIR, KF_DIAG_ERROR, msg);
     }
-    if (T->at[K("output.name")] && T->ok[K("output.name")] && has_dotdot(s->output_name)) {
+    if (T->at[KK_OUTPUT_NAME] && T->ok[KK_OUTPUT_NAME] && has_dotdot(s->output_name)) {
         snprintf(msg, sizeof msg, "output.name must stay inside the output directory ('..' climbs out of it), got '%s'",
                  s->output_name);
-        report_inst(L, T, "output.name", KF_DIAG_ERROR, msg);
+        report_inst(L, T, KK_OUTPUT_NAME, KF_DIAG_ERROR, msg);
     }
 }
 
@@ -753,17 +734,17 @@ static void resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
     const char *slash = strrchr(path, '/');
     if (slash) snprintf(s->dir, sizeof s->dir, "%.*s", (int)(slash - path + (slash == path)), path);
     else snprintf(s->dir, sizeof s->dir, ".");
-    if (!T->at[K("shot")]) {
+    if (!T->at[KK_SHOT]) {
         const char *base = slash ? slash + 1 : path, *dot = strrchr(base, '.');
         snprintf(s->name, sizeof s->name, "%.*s", (int)(dot && dot != base ? dot - base : (long)strlen(base)), base);
     }
-    int sk = K("frames.start"), ek = K("frames.end");
+    int sk = KK_FRAMES_START, ek = KK_FRAMES_END;
     if (T->at[ek] && T->ok[ek] && (!T->at[sk] || T->ok[sk]) && s->frame_end < s->frame_start) {
         snprintf(msg, sizeof msg, "frames.end must not be before frames.start (%d), got %d", s->frame_start, s->frame_end);
-        report_inst(L, T, "frames.end", KF_DIAG_ERROR, msg);
+        report_inst(L, T, KK_FRAMES_END, KF_DIAG_ERROR, msg);
     }
     /* a camera must look somewhere: eye and target may not coincide */
-    int ek2 = K("render.eye"), tk = K("render.target");
+    int ek2 = KK_RENDER_EYE, tk = KK_RENDER_TARGET;
     s->render_eye_set = T->at[ek2] != NULL;
     s->render_target_set = T->at[tk] != NULL;
     if (s->render_eye_set && T->ok[ek2] && (!s->render_target_set || T->ok[tk])) {
@@ -772,20 +753,20 @@ static void resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
         if (s->render_target_set && !(d2 > 1e-12)) {
             snprintf(msg, sizeof msg, "render.eye is at render.target (%g, %g, %g): the camera looks nowhere",
                      s->render_eye[0], s->render_eye[1], s->render_eye[2]);
-            report_inst(L, T, "render.eye", KF_DIAG_ERROR, msg);
+            report_inst(L, T, KK_RENDER_EYE, KF_DIAG_ERROR, msg);
         }
     }
-    if (T->at[K("output.images")] && s->output_images && !s->output_surface) {
+    if (T->at[KK_OUTPUT_IMAGES] && s->output_images && !s->output_surface) {
         snprintf(msg, sizeof msg, "output.images renders the surfaces: it needs output.surface: true");
-        report_inst(L, T, "output.images", KF_DIAG_ERROR, msg);
+        report_inst(L, T, KK_OUTPUT_IMAGES, KF_DIAG_ERROR, msg);
     }
-    int mk = K("domain.min"), xk = K("domain.max");
+    int mk = KK_DOMAIN_MIN, xk = KK_DOMAIN_MAX;
     if ((!T->at[mk] || T->ok[mk]) && (!T->at[xk] || T->ok[xk]))
         for (int a = 0; a < 3; a++)
             if (!(s->sim.domain_max[a] > s->sim.domain_min[a])) {
                 snprintf(msg, sizeof msg, "domain.max must be above domain.min on every axis (%c: %g <= %g)", "xyz"[a],
                          s->sim.domain_max[a], s->sim.domain_min[a]);
-                report_inst(L, T, T->at[xk] ? "domain.max" : "domain.min", KF_DIAG_ERROR, msg);
+                report_inst(L, T, T->at[xk] ? KK_DOMAIN_MAX : KK_DOMAIN_MIN, KF_DIAG_ERROR, msg);
                 break;
             }
     s->sim.walls = t->walls != 0;
@@ -793,13 +774,13 @@ static void resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
     s->ppc_axis = (int)lround(cbrt((double)s->ppc));
     if (!strstr(s->output_name, "{frame")) {
         snprintf(msg, sizeof msg, "output.name must contain {frame} (or {frame:04d}) so frames do not overwrite each other");
-        report_inst(L, T, "output.name", KF_DIAG_ERROR, msg);
+        report_inst(L, T, KK_OUTPUT_NAME, KF_DIAG_ERROR, msg);
     }
     check_output_paths(L, T, s);
-    s->dx_at = loc_of(L, s, node_for(T, "sim.dx"));
-    s->cfl_at = loc_of(L, s, node_for(T, "sim.cfl"));
-    s->dt_fixed_at = loc_of(L, s, node_for(T, "sim.dt_fixed"));
-    s->dt_max_at = loc_of(L, s, node_for(T, "sim.dt_max"));
+    s->dx_at = loc_of(L, s, node_for(T, KK_SIM_DX));
+    s->cfl_at = loc_of(L, s, node_for(T, KK_SIM_CFL));
+    s->dt_fixed_at = loc_of(L, s, node_for(T, KK_SIM_DT_FIXED));
+    s->dt_max_at = loc_of(L, s, node_for(T, KK_SIM_DT_MAX));
     s->resolution_scale = 1;
 }
 
@@ -914,8 +895,8 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
     walk_map(&L, top, root, "");
     resolve_top(&L, &L.v[top], path, s);
     inst *T = &L.v[top];
-    int times_ok = T->ok[K("frames")] && (!T->at[K("frames.start")] || T->ok[K("frames.start")]) &&
-                   (!T->at[K("frames.fps")] || T->ok[K("frames.fps")]);
+    int times_ok = T->ok[KK_FRAMES] && (!T->at[KK_FRAMES_START] || T->ok[KK_FRAMES_START]) &&
+                   (!T->at[KK_FRAMES_FPS] || T->ok[KK_FRAMES_FPS]);
 
     /* count, allocate, resolve each kind in file order */
     int nm = 0, no = 0, nc = 0, nr = 0, nj = 0;
@@ -951,23 +932,23 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
             resolve_joint(&L, &L.v[i], s->njoints, s, &s->joints[s->njoints]);
             s->njoints++;
         }
-    check_unique(&L, KS_RIGID, "rigids[].name", s->rigids[0].def.name, sizeof *s->rigids, nr);
-    check_unique(&L, KS_JOINT, "joints[].name", s->joints[0].name, sizeof *s->joints, nj);
+    check_unique(&L, KS_RIGID, KK_RIGIDS_NAME, s->rigids[0].def.name, sizeof *s->rigids, nr);
+    check_unique(&L, KS_JOINT, KK_JOINTS_NAME, s->joints[0].name, sizeof *s->joints, nj);
     for (int i = 0, r = 0; i < L.n && nr > KF_MAX_RIGIDS; i++) /* reported at the first body over the limit */
         if (L.v[i].scope == KS_RIGID && r++ == KF_MAX_RIGIDS)
             kf_report_at(d, &L.srcs, L.v[i].map, KF_DIAG_ERROR,
                          "%s: too many rigid bodies: %d (at most %d: a grid node holds 2 bits per body in one 32-bit "
                          "word)", L.v[i].label, nr, KF_MAX_RIGIDS);
-    if (nj > KF_MAX_JOINTS) report_inst(&L, T, "joints", KF_DIAG_ERROR, "too many joints (at most 32)");
-    check_unique(&L, KS_OBJECT, "objects[].name", s->objects[0].name, sizeof *s->objects, no);
+    if (nj > KF_MAX_JOINTS) report_inst(&L, T, KK_JOINTS, KF_DIAG_ERROR, "too many joints (at most 32)");
+    check_unique(&L, KS_OBJECT, KK_OBJECTS_NAME, s->objects[0].name, sizeof *s->objects, no);
     /* sim.contact auto: on where objects can touch each other */
     const int contact_mode = ((const kf_top *)T->base)->contact;
     s->sim.contact = contact_mode == 0 || (contact_mode == 2 && s->nobjects > 1);
-    check_unique(&L, KS_COLLIDER, "colliders[].name", s->colliders[0].name, sizeof *s->colliders, nc);
+    check_unique(&L, KS_COLLIDER, KK_COLLIDERS_NAME, s->colliders[0].name, sizeof *s->colliders, nc);
     if (no == 0)
-        report_inst(&L, T, "objects", KF_DIAG_ERROR, "the shot has no objects: nothing would be simulated");
-    if (nm > KF_MAX_MATERIALS) report_inst(&L, T, "materials", KF_DIAG_ERROR, "too many materials (at most 64)");
-    if (nc > KF_MAX_COLLIDERS) report_inst(&L, T, "colliders", KF_DIAG_ERROR, "too many colliders (at most 64)");
+        report_inst(&L, T, KK_OBJECTS, KF_DIAG_ERROR, "the shot has no objects: nothing would be simulated");
+    if (nm > KF_MAX_MATERIALS) report_inst(&L, T, KK_MATERIALS, KF_DIAG_ERROR, "too many materials (at most 64)");
+    if (nc > KF_MAX_COLLIDERS) report_inst(&L, T, KK_COLLIDERS, KF_DIAG_ERROR, "too many colliders (at most 64)");
     for (int i = 0, m = 0; i < L.n; i++) { /* unused materials are probably a typo elsewhere */
         if (L.v[i].scope != KS_MATERIAL) continue;
         int used = 0;
@@ -992,18 +973,18 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
     /* the preview presets (surface.quality, render.quality): what the shot
      * sets itself wins; the numbers live beside the code they drive */
     if (s->surface_quality == 1) {
-        if (!T->at[K("surface.voxel")]) s->surface_voxel = KF_VDB_PREVIEW_VOXEL;
-        if (!T->at[K("surface.radius")]) s->surface_radius = KF_VDB_PREVIEW_RADIUS;
-        if (!T->at[K("surface.iterations")]) s->surface_iterations = KF_VDB_PREVIEW_ITERATIONS;
+        if (!T->at[KK_SURFACE_VOXEL]) s->surface_voxel = KF_VDB_PREVIEW_VOXEL;
+        if (!T->at[KK_SURFACE_RADIUS]) s->surface_radius = KF_VDB_PREVIEW_RADIUS;
+        if (!T->at[KK_SURFACE_ITERATIONS]) s->surface_iterations = KF_VDB_PREVIEW_ITERATIONS;
     }
     if (s->render_quality == 1) {
-        if (!T->at[K("render.samples")] || s->quality == KF_QUALITY_PREVIEW) s->render_samples = 1;
+        if (!T->at[KK_RENDER_SAMPLES] || s->quality == KF_QUALITY_PREVIEW) s->render_samples = 1;
         s->render_shadow = KF_RENDER_PREVIEW_SHADOW;
     }
     s->first = s->frame_start;
     s->last = s->frame_end;
-    int range_ok = (!T->at[K("frames.start")] || T->ok[K("frames.start")]) && T->at[K("frames.end")] &&
-                   T->ok[K("frames.end")] && s->frame_end >= s->frame_start;
+    int range_ok = (!T->at[KK_FRAMES_START] || T->ok[KK_FRAMES_START]) && T->at[KK_FRAMES_END] &&
+                   T->ok[KK_FRAMES_END] && s->frame_end >= s->frame_start;
     if (frames && range_ok) kf_frames_parse(frames, &L.srcs, s->frame_start, s->frame_end, &s->first, &s->last, d);
 
 done:
