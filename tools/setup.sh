@@ -11,6 +11,7 @@ packages=(build-essential cmake pkg-config file
           libosmesa6-dev libegl-dev libegl-mesa0 libfyaml-dev libpng-dev libmujoco-dev libqhull-dev
           libmicrohttpd-dev     # kerf view's web server
           chromium chromium-driver  # the tests of kerf view drive a headless browser
+          clang-format  # tools/format.sh
           gnuplot-nox)  # gnuplot: the figures of tools/evidence/run.sh
 missing=()
 for p in "${packages[@]}"; do
