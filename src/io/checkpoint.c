@@ -42,8 +42,9 @@ static void put(hashed_writer *w, const void *p, size_t n) {
     if (fwrite(p, 1, n, w->f) != n) w->failed = 1;
 }
 
-int kf_checkpoint_write(const char *path, const kf_state *s, int frame, uint64_t inputs_hash, char *err, size_t errlen) {
+int kf_checkpoint_write(const char *path, kf_state *s, int frame, uint64_t inputs_hash, char *err, size_t errlen) {
     const kf_particles *p = &s->p;
+    kf_grid_invalidate(&s->g); /* a resume sorts from scratch: so does the run from here */
     kf_atomic_file af;
     if (kf_atomic_open(&af, path)) {
         snprintf(err, errlen, "%s: cannot write checkpoint: %s", path, kf_io_reason(errno));
