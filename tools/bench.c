@@ -1,7 +1,7 @@
 /* bench.c — kerf's speed figures, printed, never asserted.
  *
  *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes]
- *              [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T]
+ *              [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--set k=v]
  *
  * cube:  the paper's Table 2 setup (grid 125³, a 100³-cell cube, 2x2x2
  *        particles per cell = 8M particles, E = 100, ν = 0.3, Δt = 1e-2, no
@@ -284,6 +284,8 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--frames") && i + 1 < argc) so.frames = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--scenes") && i + 1 < argc) so.only = argv[++i];
         else if (!strcmp(argv[i], "--paper-dx")) so.paper_dx = 1;
+        else if (!strcmp(argv[i], "--hash")) so.hash = 1;
+        else if (!strcmp(argv[i], "--set") && i + 1 < argc && so.nset < 8) so.set[so.nset++] = argv[++i];
         else if (!strcmp(argv[i], "--scale") && i + 1 < argc) so.scale = atof(argv[++i]);
         else if (!strcmp(argv[i], "--threads") && i + 1 < argc) so.threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--quick")) quick = 1;
@@ -291,7 +293,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
         else {
             fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes]\n"
-                            "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T]\n");
+                            "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--set k=v]\n");
             return 2;
         }
     }

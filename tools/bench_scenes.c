@@ -1,6 +1,8 @@
 /* bench_scenes.c — the paper's scenes as kerf ships them, at the paper's
  * size: `kerf_bench --only scenes [--frames N] [--scenes a,b] [--paper-dx]
- * [--scale S] [--threads T]`.
+ * [--scale S] [--threads T] [--hash] [--set k=v]`. --set passes an override
+ * to every scene's shot (`--set 'rigids=[]'`: the scene without its bodies,
+ * the baseline of CPIC's overhead).
  *
  * Each shipped shot that reproduces a Table 3 example runs its first N frames
  * (default 2) from the shot's start, in a child process of its own so that
@@ -11,7 +13,8 @@
  * --paper-dx uses Table 3's Δx as printed. --scale multiplies the chosen Δx
  * (2 = an eighth of the particles) for a quick run.
  *
- * Printed per scene: particles, substeps per frame, seconds per frame,
+ * Printed per scene: particles, substeps per frame, seconds per frame (wall
+ * and process CPU),
  * particle-steps/s, ms per stage per frame, peak RSS (and bytes per
  * particle), Table 3's seconds per frame (4-core i7-7700K at 4.2 GHz) and a
  * per-core comparison: core-seconds per frame per million particles for kerf
@@ -25,6 +28,7 @@
 #include <string.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "../src/core/timer.h"
@@ -54,7 +58,8 @@ typedef struct scene_result {
     char msg[200];
     double dx, particles, est_particles, substeps_per_frame, s_per_frame, mpsteps;
     double ms_per_frame[KF_STAGE_COUNT];
-    double peak_mb;
+    double peak_mb, cpu_s_per_frame;
+    unsigned long long hash; /* kf_state_hash after the frames */
     int threads, frames;
 } scene_result;
 
@@ -64,7 +69,7 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
     snprintf(path, sizeof path, "%s/%s.yaml", shot_dir, ps->shot);
     kf_diag diag;
     kf_diag_init(&diag);
-    kf_shot *shot = kf_shot_load(path, NULL, 0, NULL, NULL, &diag);
+    kf_shot *shot = kf_shot_load(path, o->set, o->nset, NULL, NULL, &diag);
     if (!shot) {
         snprintf(r->msg, sizeof r->msg, "cannot load %.150s", path);
         return;
@@ -83,8 +88,9 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
     dx *= o->scale;
     kf_shot_free(shot);
     snprintf(set, sizeof set, "sim.dx=%.6g", dx);
-    const char *ov[1] = {set};
-    shot = kf_shot_load(path, ov, 1, NULL, NULL, &diag);
+    const char *ov[9] = {set};
+    for (int k = 0; k < o->nset; k++) ov[1 + k] = o->set[k];
+    shot = kf_shot_load(path, ov, 1 + o->nset, NULL, NULL, &diag);
     kf_scene sc;
     if (!shot || kf_scene_from_shot(shot, o->threads, &sc, NULL, &diag)) {
         snprintf(r->msg, sizeof r->msg, "cannot build %.120s at %.60s", path, set);
@@ -99,6 +105,8 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
     kf_step_stats st;
     memset(&st, 0, sizeof st);
     char msg[512];
+    struct timespec c0, c1;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c0);
     double t0 = kf_now_ms();
     int f = 0;
     for (; f < o->frames; f++)
@@ -107,14 +115,18 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
             break;
         }
     double sec = (kf_now_ms() - t0) / 1e3;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c1);
+    double cpu = (double)(c1.tv_sec - c0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - c0.tv_nsec);
     r->frames = f;
     if (f > 0) {
         r->ok = 1;
         r->s_per_frame = sec / f;
+        r->cpu_s_per_frame = cpu / f;
         r->substeps_per_frame = (double)st.substeps / f;
         r->mpsteps = (double)st.particle_steps / sec / 1e6;
         for (int k = 0; k < KF_STAGE_COUNT; k++) r->ms_per_frame[k] = st.ms[k] / f;
     }
+    r->hash = kf_state_hash(sc.state);
     kf_scene_free(&sc);
     kf_shot_free(shot);
     kf_diag_free(&diag);
@@ -164,7 +176,7 @@ int bench_scenes(const bench_scenes_opts *o) {
     const char *dir = o->shot_dir ? o->shot_dir : "shots";
     printf("paper scenes, %d frame(s) each from the shot's start, %s%s\n", o->frames,
            o->paper_dx ? "Table 3's dx" : "dx matching Table 3's particle count", o->scale != 1 ? " (scaled)" : "");
-    printf("%-12s %8s %9s %8s %9s %8s", "scene", "dx", "particles", "substeps", "s/frame", "Mp-st/s");
+    printf("%-12s %8s %9s %8s %9s %9s %8s", "scene", "dx", "particles", "substeps", "s/frame", "cpu s/f", "Mp-st/s");
     for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %8s", kf_stage_name((kf_stage)k));
     printf(" %8s %6s %9s %9s %9s %6s\n", "peak MB", "B/p", "paper s", "kerf c-s", "paper c-s", "ratio");
     int fails = 0;
@@ -180,15 +192,17 @@ int bench_scenes(const bench_scenes_opts *o) {
         /* core-seconds per frame per million particles: kerf's threads, the paper's 4 cores */
         double kcs = r.s_per_frame * r.threads / (r.particles / 1e6);
         double pcs = paper[i].match_count ? paper[i].s_per_frame * 4 / (paper[i].particles / 1e6) : NAN;
-        printf("%-12s %8.5f %9.0f %8.1f %9.2f %8.2f", paper[i].shot, r.dx, r.particles, r.substeps_per_frame,
-               r.s_per_frame, r.mpsteps);
+        printf("%-12s %8.5f %9.0f %8.1f %9.2f %9.2f %8.2f", paper[i].shot, r.dx, r.particles, r.substeps_per_frame,
+               r.s_per_frame, r.cpu_s_per_frame, r.mpsteps);
         for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %8.0f", r.ms_per_frame[k]);
         printf(" %8.0f %6.0f %9.1f %9.2f %9.2f %6.2f\n", r.peak_mb, r.peak_mb * 1048576.0 / r.particles,
                paper[i].s_per_frame, kcs, pcs, kcs / pcs);
+        if (o->hash) printf("  state hash after %d frame(s): %016llx\n", r.frames, r.hash);
         if (r.msg[0]) printf("  (%s)\n", r.msg);
         fflush(stdout);
     }
-    printf("stage columns: ms per frame. kerf c-s / paper c-s: core-seconds per frame per million particles "
+    printf("s/frame: wall; cpu s/f: the process's CPU seconds per frame (the honest figure at 1 thread on a busy "
+           "machine; with idle OpenMP threads spinning it overstates). stage columns: ms per frame (wall). kerf c-s / paper c-s: core-seconds per frame per million particles "
            "(kerf: wall x threads; Table 3: wall x 4 cores of an i7-7700K at 4.2 GHz); ratio < 1: kerf "
            "spends less per core.\n");
     return fails ? 1 : 0;

@@ -9,6 +9,9 @@ typedef struct bench_scenes_opts {
     double scale;         /* multiplies the dx (2: an eighth of the particles) */
     const char *only;     /* comma-separated shot names, or NULL for all */
     const char *shot_dir; /* NULL: shots */
+    const char *set[8];   /* extra shot overrides, "a.b=value", as kerf's --set */
+    int nset;
+    int hash;             /* print each scene's state hash (bit-for-bit checks across builds and threads) */
 } bench_scenes_opts;
 
 /* Print the table; returns 0, or 1 if a scene failed (its row says why). */

@@ -62,6 +62,13 @@ typedef struct kf_cpic {
     uint32_t *stamp;      /* per block */
     float *best;          /* per node: the closest |u| of the body being splatted */
     uint32_t *best_stamp; /* per block: epoch * 16 + body of `best` */
+    uint32_t *mark;       /* per node: the last triangle (numbered across bodies, from 1) that visited it */
+    /* the splat's per-seed scratch (cap_seed) and its x-block bins (cap_bins) */
+    size_t cap_seed, cap_bins;
+    double *seed_x;       /* (3 x seeds) world position */
+    int32_t *seed_bin;    /* x-block bin of its node box, -1: touches no block */
+    int32_t *seed_order;  /* seeds grouped by bin, in seed order within one */
+    int32_t *bin_start;   /* (bins + 1) */
     /* owner blocks in the narrow band and their impulse accumulators */
     size_t cap_owner;
     int32_t *slot;        /* per owner: index into imp, or -1 outside the band */
@@ -76,6 +83,7 @@ typedef struct kf_cpic {
     uint8_t *near;        /* the MLS fit succeeded */
     /* world primitives, per body */
     kf_cpic_tri *tri[KF_MAX_RIGIDS];
+    uint32_t *tri_stamp[KF_MAX_RIGIDS]; /* == epoch: tri[r][k] holds this substep's pose */
     int cap_tri[KF_MAX_RIGIDS];
     /* the substep's totals per body: J[3], L[3] about the com */
     double impulse[KF_MAX_RIGIDS][6];
