@@ -32,7 +32,7 @@
 #include <unistd.h>
 
 #include "../src/core/timer.h"
-#include "../src/kerf.h"
+#include <kerf/kerf.h>
 #include "../src/scene/budget.h"
 #include "../src/scene/build.h"
 #include "../src/shot/shot.h"

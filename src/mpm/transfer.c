@@ -28,9 +28,11 @@
 
 #include "transfer_chunk.h"
 
-_Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like the transfer's");
 #include "contact.h"
 #include "cpic_seam.h"
+
+/* CPIC's per-owner colour cache is indexed like the node cache */
+_Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like the transfer's");
 
 /* ---- P2G ---------------------------------------------------------------------- */
 
