@@ -82,8 +82,9 @@ void kf_grid_free(kf_grid *g);
 int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle);
 
 /* The next kf_grid_bin re-sorts every particle (recentred in its owner), as
- * after loading a checkpoint: writing one calls this, so that a run and its
- * resume bin alike. */
+ * after loading a checkpoint or restoring an interval's start: writing a
+ * checkpoint and starting an interval (kf_advance) call this, so that a run,
+ * its resume and its retry group particles alike. */
 static inline void kf_grid_invalidate(kf_grid *g) { g->valid = 0; }
 
 /* The block with this block coordinate, or -1 if there is none. */
