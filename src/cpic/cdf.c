@@ -359,12 +359,16 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     memset(c->imp, 0, c->nslot * sizeof c->imp[0]);
     memset(c->guard_caught, 0, c->nslot * sizeof(long));
     memset(c->guard_depth, 0, c->nslot * sizeof(double));
-    /* particles outside the band touch no coloured node: their colour lapses (§5.3.3) */
+    /* particles outside the band touch no coloured node: their colour lapses
+     * (§5.3.3), all but the scar (cpic.h: the side of the last blade) */
     kf_particles *p = &s->p;
     for (size_t k = 0; k < g->nowner; k++)
         if (c->slot[k] < 0)
-            for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++)
-                if (p->colour[i]) p->colour[i] = 0;
+            for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
+                uint32_t col = p->colour[i], sc = col >> KF_CPIC_RSTAR_SHIFT;
+                uint32_t keep = sc ? (col & ~KF_CPIC_BITS_MASK) | (col & 1u << (2 * (sc - 1))) : 0;
+                if (col != keep) p->colour[i] = keep;
+            }
     c->dt = dt;
     for (int a = 0; a < 3; a++) c->gdt[a] = dt * m->sim.gravity[a];
     kf_cpic_guard_poses(m, s, dt);

@@ -113,6 +113,26 @@ static inline void kf_cpic_add_impulse(double *imp, const kf_rigid_state *st, co
     imp[5] += r0 * J[1] - r1 * J[0];
 }
 
+/* The scar: which side of a thin body (a blade) a particle was on, kept
+ * after the body has left, so the surfacer can tell the two sides of a cut
+ * apart however close they lie. Bits 28..31 of a particle's colour hold
+ * r + 1 of the thin body it last had affinity to (0: none), and bit 2r its
+ * side then. Without the affinity bit 2r + 1 that side bit is a label only:
+ * compatibility (below) reads side bits under shared affinity alone. New
+ * colour cp (low bits) from the old word: the lowest thin body it now has
+ * affinity to, else the old scar with its side. */
+static inline uint32_t kf_cpic_scar(uint32_t cp, uint32_t old, const uint8_t *thin_body) {
+    cp &= KF_CPIC_BITS_MASK;
+    for (uint32_t held = cp & KF_CPIC_AFFINITY; held; held &= held - 1) {
+        int r = __builtin_ctz(held) / 2;
+        if (thin_body[r]) return cp | (uint32_t)(r + 1) << KF_CPIC_RSTAR_SHIFT;
+    }
+    uint32_t s = old >> KF_CPIC_RSTAR_SHIFT;
+    if (!s) return cp;
+    uint32_t side = 1u << (2 * (s - 1));
+    return (cp & ~side) | (old & side) | (s << KF_CPIC_RSTAR_SHIFT);
+}
+
 /* compatible (§5.3.4): equal tags on every body both node and particle have affinity to */
 static inline int kf_cpic_compatible(uint32_t node, uint32_t part) {
     uint32_t shared = (node & part & KF_CPIC_AFFINITY) >> 1;

@@ -141,6 +141,8 @@ typedef struct kf_rawkey {
     double translate[3];
     double rotate[3];
     double scale[3];
+    double eye[3], target[3]; /* render.camera_keys: camera position and aim, m */
+    double fov;               /* render.camera_keys: degrees (0: render.fov) */
 } kf_rawkey;
 
 /* One constant per key of key_list.h, in table order: kf_keys[KK_SIM_DX] is

@@ -362,18 +362,23 @@
      "How particles become OpenVDB level sets (changing these never re-simulates).")
     KF_KEY(SURFACE_VOXEL, "surface.voxel", KT_NUM, TOP(s.surface_voxel), CC(0.1, 4), NULL, "0.75", "particle spacings", NULL, 0,
      "Voxel size of the level set, in particle spacings (dx / cube root of ppc).")
-    KF_KEY(SURFACE_RADIUS, "surface.radius", KT_NUM, TOP(s.surface_radius), CC(0.5, 4), NULL, "1.2", "particle spacings", NULL, 0,
+    KF_KEY(SURFACE_RADIUS, "surface.radius", KT_NUM, TOP(s.surface_radius), CC(0.5, 4), NULL, "2", "particle spacings", NULL, 0,
      "Radius of each particle's sphere; at least 1.5 voxels (smaller ones are raised and counted).")
     KF_KEY(SURFACE_SMOOTH, "surface.smooth", KT_ENUM, TOP(s.surface_smooth), ANY, "none|mean_curvature|gaussian|laplacian",
      "mean_curvature", NULL, NULL, 0, "Smoothing filter between dilation and erosion.")
-    KF_KEY(SURFACE_ITERATIONS, "surface.iterations", KT_INT, TOP(s.surface_iterations), CC(0, 100), NULL, "3", NULL, NULL, 0,
+    KF_KEY(SURFACE_ITERATIONS, "surface.iterations", KT_INT, TOP(s.surface_iterations), CC(0, 100), NULL, "1", NULL, NULL, 0,
      "Smoothing passes.")
+    KF_KEY(SURFACE_AVERAGE, "surface.average", KT_NUM, TOP(s.surface_average), CC(0, 1), NULL, "1", NULL, NULL, 0,
+     "Before surfacing, move each particle's centre this far toward the weighted mean of its neighbours "
+     "(Yu & Turk 2013): flattens the jitter of the seeding lattice on faces (0 = off); the surface stays on the material.")
+    KF_KEY(SURFACE_AVERAGE_RADIUS, "surface.average_radius", KT_NUM, TOP(s.surface_average_radius), CC(1, 6), NULL, "3",
+     "particle spacings", NULL, 0, "Neighbourhood of surface.average: larger is flatter, but rounds edges more.")
     KF_KEY(SURFACE_DILATE, "surface.dilate", KT_NUM, TOP(s.surface_dilate), GE(0), NULL, "0", "m", NULL, 0,
      "Grow the surface before smoothing (fills small gaps).")
     KF_KEY(SURFACE_ERODE, "surface.erode", KT_NUM, TOP(s.surface_erode), GE(-1), NULL, "-1", "m", NULL, 0,
      "Shrink it after smoothing; -1 = back onto the material (radius - half a spacing, plus dilate).")
     KF_KEY(SURFACE_QUALITY, "surface.quality", KT_ENUM, TOP(s.surface_quality), ANY, "final|preview", "final", NULL, NULL, 0,
-     "Preset: preview doubles voxel and radius (1.5 and 2.4 spacings: 1/8 the voxels) and smooths once; "
+     "Preset: preview doubles the voxel (1.5 spacings: 1/8 the voxels), spheres of 2.4 spacings, one smoothing pass; "
      "surface keys the shot sets itself win.")
     KF_KEY(SURFACE_GROUP, "surface.group", KT_ENUM, TOP(s.surface_group), ANY, "material|object", "material", NULL, NULL, 0,
      "One level set (and render colour) per material, or per object (objects of one material stay apart).")
@@ -389,11 +394,52 @@
      "render.samples set in the shot wins.")
     KF_KEY(RENDER_SAMPLES, "render.samples", KT_INT, TOP(s.render_samples), CC(1, 16), NULL, "4", NULL, NULL, 0,
      "Anti-aliasing samples per pixel (1 = none; preview uses 1).")
-    KF_KEY(RENDER_EYE, "render.eye", KT_VEC3, TOP(s.render_eye), ANY, NULL, "(framed to the first frame)", "m", NULL, 0,
-     "Camera position; without it the camera frames the first frame from the front right.")
+    KF_KEY(RENDER_EYE, "render.eye", KT_VEC3, TOP(s.render_eye), ANY, NULL, "(framed to the whole shot)", "m", NULL, 0,
+     "Camera position; without it (and without camera keys) the camera frames where the material goes over the "
+     "whole shot, from the front right.")
     KF_KEY(RENDER_TARGET, "render.target", KT_VEC3, TOP(s.render_target), ANY, NULL, "(the framed centre)", "m", NULL, 0,
      "Point the camera looks at.")
     KF_KEY(RENDER_FOV, "render.fov", KT_NUM, TOP(s.render_fov), OO(1, 170), NULL, "35", "degrees", NULL, 0,
      "Vertical field of view.")
     KF_KEY(RENDER_GROUND, "render.ground", KT_BOOL, TOP(s.render_ground), ANY, NULL, "true", NULL, NULL, 0,
      "Draw a ground plane that catches shadows (at the floor when there are walls).")
+    KF_KEY(RENDER_CAMERA_KEYS, "render.camera_keys", KT_LIST, KS_KEY, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
+     "Keyframed camera: eye, target and fov per key; held before the first key and after the last; frames "
+     "increase. Replaces render.eye and render.target.")
+    KF_KEY(RENDER_CAMERA_KEYS_FRAME, "render.camera_keys[].frame", KT_NUM, KEY(frame), CC(-9999999, 9999999), NULL, NULL,
+     NULL, NULL, KF_REQ, "Frame of the key (may be fractional).")
+    KF_KEY(RENDER_CAMERA_KEYS_EYE, "render.camera_keys[].eye", KT_VEC3, KEY(eye), ANY, NULL, NULL, "m", NULL, KF_REQ,
+     "Camera position at that frame.")
+    KF_KEY(RENDER_CAMERA_KEYS_TARGET, "render.camera_keys[].target", KT_VEC3, KEY(target), ANY, NULL, NULL, "m", NULL,
+     KF_REQ, "Point looked at.")
+    KF_KEY(RENDER_CAMERA_KEYS_FOV, "render.camera_keys[].fov", KT_NUM, KEY(fov), OO(1, 170), NULL, "(render.fov)",
+     "degrees", NULL, 0, "Vertical field of view at that frame.")
+    KF_KEY(RENDER_INTERPOLATION, "render.interpolation", KT_ENUM, TOP(s.render_interp), ANY, "linear|smooth", "smooth",
+     NULL, NULL, 0,
+     "Between camera keys, per channel: linear, or smooth (cubic Hermite, easing in and out at the first and last key).")
+    /* the three lights; directions point towards the light in camera space, so
+     * a moving camera keeps its lighting */
+    KF_KEY(RENDER_KEY_LIGHT, "render.key_light", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
+     "The key light: the main light, casting shadows.")
+    KF_KEY(RENDER_KEY_LIGHT_DIRECTION, "render.key_light.direction", KT_VEC3, TOP(s.lights[0].dir), ANY, NULL,
+     "[-0.55, 0.75, 0.6]", NULL, NULL, 0, "Towards the light, in camera space (x right, y up, z towards the viewer).")
+    KF_KEY(RENDER_KEY_LIGHT_COLOR, "render.key_light.color", KT_VEC3, TOP(s.lights[0].color), CC(0, 1), NULL,
+     "[1, 0.96, 0.89]", NULL, NULL, 0, "Colour (linear RGB, scaled by intensity).")
+    KF_KEY(RENDER_KEY_LIGHT_INTENSITY, "render.key_light.intensity", KT_NUM, TOP(s.lights[0].intensity), CC(0, 100), NULL,
+     "1.35", NULL, NULL, 0, "Strength (1: a white surface facing it is lit to white).")
+    KF_KEY(RENDER_FILL_LIGHT, "render.fill_light", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
+     "The fill light: softens the key's shadow side.")
+    KF_KEY(RENDER_FILL_LIGHT_DIRECTION, "render.fill_light.direction", KT_VEC3, TOP(s.lights[1].dir), ANY, NULL,
+     "[0.8, 0.2, 0.45]", NULL, NULL, 0, "Towards the light, in camera space.")
+    KF_KEY(RENDER_FILL_LIGHT_COLOR, "render.fill_light.color", KT_VEC3, TOP(s.lights[1].color), CC(0, 1), NULL,
+     "[0.73, 0.83, 1]", NULL, NULL, 0, "Colour (linear RGB).")
+    KF_KEY(RENDER_FILL_LIGHT_INTENSITY, "render.fill_light.intensity", KT_NUM, TOP(s.lights[1].intensity), CC(0, 100),
+     NULL, "0.3", NULL, NULL, 0, "Strength.")
+    KF_KEY(RENDER_RIM_LIGHT, "render.rim_light", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
+     "The rim light: from behind, outlining the silhouette against the background.")
+    KF_KEY(RENDER_RIM_LIGHT_DIRECTION, "render.rim_light.direction", KT_VEC3, TOP(s.lights[2].dir), ANY, NULL,
+     "[0.2, 0.5, -1]", NULL, NULL, 0, "Towards the light, in camera space (z < 0: behind the subject).")
+    KF_KEY(RENDER_RIM_LIGHT_COLOR, "render.rim_light.color", KT_VEC3, TOP(s.lights[2].color), CC(0, 1), NULL, "[1, 1, 1]",
+     NULL, NULL, 0, "Colour (linear RGB).")
+    KF_KEY(RENDER_RIM_LIGHT_INTENSITY, "render.rim_light.intensity", KT_NUM, TOP(s.lights[2].intensity), CC(0, 100), NULL,
+     "0.45", NULL, NULL, 0, "Strength (0: no rim light).")

@@ -459,6 +459,41 @@ void kf_resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
             kf_report_inst(L, T, KK_RENDER_EYE, KF_DIAG_ERROR, msg);
         }
     }
+    /* camera keys (render.camera_keys): frames increase, each looks somewhere */
+    s->ncamera_keys = 0;
+    for (int j = 0, ti = (int)(T - L->v); j < L->n; j++) {
+        inst *KI = &L->v[j];
+        if (KI->scope != KS_KEY || KI->parent != ti) continue;
+        kf_check_presence(L, KI);
+        const kf_rawkey *rk = KI->base;
+        int n = s->ncamera_keys;
+        if (n == KF_MAX_KEYS) {
+            snprintf(msg, sizeof msg, "render.camera_keys: too many keys (at most %d)", KF_MAX_KEYS);
+            kf_report_inst(L, KI, KK_RENDER_CAMERA_KEYS_FRAME, KF_DIAG_ERROR, msg);
+            break;
+        }
+        if (KI->ok[KK_RENDER_CAMERA_KEYS_FRAME] && n > 0 && !(rk->frame > s->camera_keys[n - 1].frame)) {
+            snprintf(msg, sizeof msg, "%s.frame must come after the previous key's frame %g, got %g", KI->label,
+                     s->camera_keys[n - 1].frame, rk->frame);
+            kf_report_inst(L, KI, KK_RENDER_CAMERA_KEYS_FRAME, KF_DIAG_ERROR, msg);
+        }
+        double d2 = 0;
+        for (int a = 0; a < 3; a++) d2 += (rk->eye[a] - rk->target[a]) * (rk->eye[a] - rk->target[a]);
+        if (KI->ok[KK_RENDER_CAMERA_KEYS_EYE] && KI->ok[KK_RENDER_CAMERA_KEYS_TARGET] && !(d2 > 1e-12)) {
+            snprintf(msg, sizeof msg, "%s.eye is at its target (%g, %g, %g): the camera looks nowhere", KI->label,
+                     rk->eye[0], rk->eye[1], rk->eye[2]);
+            kf_report_inst(L, KI, KK_RENDER_CAMERA_KEYS_EYE, KF_DIAG_ERROR, msg);
+        }
+        s->camera_keys[n].frame = rk->frame;
+        memcpy(s->camera_keys[n].eye, rk->eye, sizeof rk->eye);
+        memcpy(s->camera_keys[n].target, rk->target, sizeof rk->target);
+        s->camera_keys[n].fov = rk->fov;
+        s->ncamera_keys++;
+    }
+    if (s->ncamera_keys && (s->render_eye_set || s->render_target_set)) {
+        snprintf(msg, sizeof msg, "give render.eye/render.target or render.camera_keys, not both (keys move the camera)");
+        kf_report_inst(L, T, s->render_eye_set ? KK_RENDER_EYE : KK_RENDER_TARGET, KF_DIAG_ERROR, msg);
+    }
     if (T->at[KK_OUTPUT_IMAGES] && s->output_images && !s->output_surface) {
         snprintf(msg, sizeof msg, "output.images renders the surfaces: it needs output.surface: true");
         kf_report_inst(L, T, KK_OUTPUT_IMAGES, KF_DIAG_ERROR, msg);
