@@ -441,6 +441,35 @@ static void surface_look(const kf_shot *shot, const char *grid, kf_render_materi
     material_look(shot, mat, m);
 }
 
+/* The automatic camera moved along its line of sight until the box's eight
+ * corners just fit the frame (5 % margin), both ways: the bounding sphere
+ * leaves a wide, flat subject small in a 16:9 frame. */
+static void fit_box(kf_camera *c, const float lo[3], const float hi[3], float aspect) {
+    float d[3], r[3], u[3], len = 0;
+    for (int a = 0; a < 3; a++) d[a] = c->target[a] - c->eye[a], len += d[a] * d[a];
+    len = sqrtf(len);
+    if (!(len > 0)) return;
+    for (int a = 0; a < 3; a++) d[a] /= len;
+    r[0] = d[1] * c->up[2] - d[2] * c->up[1], r[1] = d[2] * c->up[0] - d[0] * c->up[2], r[2] = d[0] * c->up[1] - d[1] * c->up[0];
+    float rl = sqrtf(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    if (!(rl > 0)) return;
+    for (int a = 0; a < 3; a++) r[a] /= rl;
+    u[0] = r[1] * d[2] - r[2] * d[1], u[1] = r[2] * d[0] - r[0] * d[2], u[2] = r[0] * d[1] - r[1] * d[0];
+    const float ty = tanf(c->fov_deg * 3.14159265f / 360.0f), tx = ty * aspect;
+    float need = 0;
+    for (int k = 0; k < 8; k++) {
+        float p[3] = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]}, v[3];
+        for (int a = 0; a < 3; a++) v[a] = p[a] - c->target[a];
+        float x = v[0] * r[0] + v[1] * r[1] + v[2] * r[2], y = v[0] * u[0] + v[1] * u[1] + v[2] * u[2];
+        float z = v[0] * d[0] + v[1] * d[1] + v[2] * d[2]; /* depth beyond the target */
+        float dx = fabsf(x) / (0.95f * tx) - z, dy = fabsf(y) / (0.95f * ty) - z;
+        need = dx > need ? dx : need;
+        need = dy > need ? dy : need;
+    }
+    if (need > 0)
+        for (int a = 0; a < 3; a++) c->eye[a] = c->target[a] - d[a] * need;
+}
+
 int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
                     const kf_render_opts *ro, char *err, size_t errlen) {
     (void)sc;
@@ -521,6 +550,7 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
     float view[3] = {-0.55f, -0.45f, -1.0f}, fov = (float)shot->render_fov;
     kf_camera cam = ro->turntable_n > 0 ? kf_camera_turntable(lo, hi, ro->turntable_k, ro->turntable_n, 25.0f, fov)
                                          : kf_camera_frame_bounds(lo, hi, view, fov);
+    if (ro->turntable_n == 0) fit_box(&cam, lo, hi, (float)ro->width / (float)ro->height);
     if (shot->ncamera_keys > 0 && ro->turntable_n == 0) {
         /* the keyed camera (render.camera_keys) */
         kf_camera_key keys[KF_MAX_KEYS];
