@@ -91,6 +91,22 @@ int kf_pieces_classes(size_t n, const float *x, const uint32_t *colour, double h
                     }
                 }
     }
+    /* every scarred particle in one piece (material a blade stirred, which
+     * closed up behind it): nothing is parted, one class */
+    {
+        size_t root = (size_t)-1;
+        int one = 1;
+        for (size_t i = 0; i < n && one; i++)
+            if (colour[i] >> SCAR_SHIFT) {
+                size_t r = find(parent, i);
+                if (root == (size_t)-1) root = r;
+                one = r == root;
+            }
+        if (one) {
+            free(e), free(parent), free(cuts);
+            return 1;
+        }
+    }
     /* the cuts between pieces: scarred particles on opposite sides of one
      * blade within the surfacer's reach of each other, in different
      * pieces, as (smaller root, larger root); searched among the scarred
