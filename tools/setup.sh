@@ -12,7 +12,8 @@ packages=(build-essential cmake pkg-config file
           libmicrohttpd-dev     # kerf view's web server
           chromium chromium-driver  # the tests of kerf view drive a headless browser
           clang-format  # tools/format.sh
-          gnuplot-nox)  # gnuplot: the figures of tools/evidence/run.sh
+          gnuplot-nox   # gnuplot: the figures of tools/evidence/run.sh
+          slurm-wlm munge openmpi-bin)  # kerf farm and its tests (tools/slurm_local.sh); MPI ranks
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

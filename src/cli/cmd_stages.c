@@ -99,6 +99,28 @@ static int png_complete(const char *path) {
     return ok;
 }
 
+int kf_cli_frame_current(const kf_cli_opts *o, const kf_shot *shot, int f) {
+    kf_frame_paths fp, first;
+    kf_checkpoint_info info;
+    char err[4200], now[4096], stamp[2200];
+    if (kf_frame_paths_make(shot, o->out, f, &fp) || kf_frame_paths_make(shot, o->out, shot->first, &first)) return 0;
+    if (kf_checkpoint_peek(fp.checkpoint, &info, err, sizeof err) || info.inputs_hash != kf_shot_sim_hash(shot) ||
+        info.frame != f)
+        return 0;
+    if (shot->output_surface) {
+        surface_settings(shot, now, sizeof now);
+        snprintf(stamp, sizeof stamp, "%s/surface/.settings", first.dir);
+        if (settings_changed(stamp, now) || !kf_output_current(fp.surface, fp.checkpoint)) return 0;
+    }
+    if (shot->output_images) {
+        render_settings(shot, now, sizeof now);
+        snprintf(stamp, sizeof stamp, "%s/images/.settings", first.dir);
+        if (settings_changed(stamp, now) || !kf_output_current(fp.image, fp.surface) || !png_complete(fp.image))
+            return 0;
+    }
+    return 1;
+}
+
 /* surface frame f again (its .vdb was missing, stale or damaged); 0 or prints and returns 1 */
 static int surface_frame(const kf_shot *shot, kf_scene *sc, const kf_frame_paths *fp, int f, double *ms) {
     char err[4200];
