@@ -85,6 +85,8 @@ static int write_task_script(const char *farm, const char *name, const char *ste
     fprintf(f, "log=");
     sh_word(f, farm);
     fprintf(f, "/logs/%s.${SLURM_ARRAY_JOB_ID}_${SLURM_ARRAY_TASK_ID}.log\n", name);
+    /* when the task started (seconds since the epoch): the queue's delay, read from the logs */
+    fprintf(f, "echo \"kerf farm: %s task $SLURM_ARRAY_TASK_ID (frames $lo-$hi) started at $(date +%%s.%%N)\"\n", name);
     fprintf(f, "step() {\n    ");
     sh_word(f, kerf);
     fprintf(f, " farm task %s ", step);
