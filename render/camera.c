@@ -115,3 +115,47 @@ kf_camera kf_camera_turntable(const float lo[3], const float hi[3], int k, int N
     float view[3] = {-out[0], -out[1], -out[2]};
     return kf_camera_frame_bounds(lo, hi, view, fov_deg);
 }
+
+/* ---- keys ------------------------------------------------------------------ */
+
+/* channel ch of a key: 0-2 eye, 3-5 target, 6 fov */
+static double cam_channel(const kf_camera_key *k, int ch) {
+    return ch < 3 ? k->eye[ch] : ch < 6 ? k->target[ch - 3] : k->fov_deg;
+}
+
+/* Hermite tangent at key i (per frame): central difference over the
+ * neighbouring keys, zero at the ends (the motion eases in and out) */
+static double cam_tangent(const kf_camera_key *k, int n, int i, int ch) {
+    if (i <= 0 || i >= n - 1) return 0;
+    return (cam_channel(&k[i + 1], ch) - cam_channel(&k[i - 1], ch)) / (k[i + 1].frame - k[i - 1].frame);
+}
+
+kf_camera kf_camera_keyed(const kf_camera_key *k, int n, double frame, int smooth) {
+    kf_camera c;
+    memset(&c, 0, sizeof c);
+    c.up[1] = 1;
+    c.fov_deg = 35;
+    if (n <= 0) return c;
+    double val[7];
+    if (n == 1 || frame <= k[0].frame || frame >= k[n - 1].frame) {
+        const kf_camera_key *e = (n == 1 || frame <= k[0].frame) ? &k[0] : &k[n - 1];
+        for (int ch = 0; ch < 7; ch++) val[ch] = cam_channel(e, ch);
+    } else {
+        int i = 0;
+        while (i + 2 < n && frame >= k[i + 1].frame) i++;
+        const double h = k[i + 1].frame - k[i].frame, u = (frame - k[i].frame) / h;
+        for (int ch = 0; ch < 7; ch++) {
+            double p0 = cam_channel(&k[i], ch), p1 = cam_channel(&k[i + 1], ch);
+            if (smooth) {
+                double m0 = cam_tangent(k, n, i, ch) * h, m1 = cam_tangent(k, n, i + 1, ch) * h;
+                double u2 = u * u, u3 = u2 * u;
+                val[ch] = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
+            } else {
+                val[ch] = p0 + u * (p1 - p0);
+            }
+        }
+    }
+    for (int a = 0; a < 3; a++) c.eye[a] = (float)val[a], c.target[a] = (float)val[3 + a];
+    c.fov_deg = (float)(val[6] > 1 && val[6] < 179 ? val[6] : 35);
+    return c;
+}

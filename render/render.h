@@ -59,6 +59,8 @@ typedef struct kf_render_scene {
     float key_color[3]; /* linear intensity */
     float fill_dir[3];
     float fill_color[3];
+    float rim_dir[3];   /* towards a light behind the subject (outlines it) */
+    float rim_color[3]; /* linear intensity (default 0: off) */
     float ambient;  /* sky ambient, linear */
     int shadows;    /* 1 = the key light casts shadows (shadow map) */
 } kf_render_scene;
@@ -91,6 +93,20 @@ kf_camera kf_camera_frame_bounds(const float lo[3], const float hi[3], const flo
  * horizon. Frame 0 looks from +Z towards -Z. */
 kf_camera kf_camera_turntable(const float lo[3], const float hi[3], int k, int N,
                               float elevation_deg, float fov_deg);
+
+/* A camera key: where the camera is, what it looks at and its vertical
+ * field of view at a frame. */
+typedef struct kf_camera_key {
+    double frame;
+    float eye[3], target[3];
+    float fov_deg;
+} kf_camera_key;
+
+/* The camera at `frame` from n keys (frames increasing): held before the
+ * first and after the last; between keys each channel (eye, target, fov)
+ * linear, or with smooth = 1 a cubic Hermite through the keys (Catmull-Rom
+ * tangents, zero at the first and last key: it eases in and out). Up is +Y. */
+kf_camera kf_camera_keyed(const kf_camera_key *keys, int n, double frame, int smooth);
 
 /* ---- drawing ------------------------------------------------------------- */
 

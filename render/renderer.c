@@ -52,7 +52,7 @@ static const char *vs_main =
 static const char *fs_main =
     "#version 330 core\n"
     "in vec3 v_wpos, v_nrm; in vec4 v_lpos;\n"
-    "uniform vec3 u_eye, u_key_dir, u_key_col, u_fill_dir, u_fill_col;\n"
+    "uniform vec3 u_eye, u_key_dir, u_key_col, u_fill_dir, u_fill_col, u_rim_dir, u_rim_col;\n"
     "uniform float u_ambient;\n"
     "uniform vec3 u_diffuse; uniform float u_spec, u_rough;\n"
     "uniform int u_flat, u_shadows, u_ground;\n"
@@ -89,6 +89,10 @@ static const char *fs_main =
     "  vec3 c = albedo * (amb + u_key_col * ndk * sh + u_fill_col * ndf);\n"
     "  c += u_spec * (u_key_col * ndk * sh * blinn(n, u_key_dir, v, shin)\n"
     "               + u_fill_col * ndf * blinn(n, u_fill_dir, v, shin));\n"
+    /* the rim: light from behind grazing the silhouette, strongest where the
+     * surface turns away from the eye */
+    "  float edge = 1.0 - max(dot(n, v), 0.0);\n"
+    "  c += u_rim_col * max(dot(n, u_rim_dir), 0.0) * edge * edge * (albedo + vec3(u_spec));\n"
     "  c = c / (1.0 + 0.15 * c);\n" /* a gentle shoulder so highlights do not clip hard */
     "  c = pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2));\n"
     "  if (u_ground != 0) {\n"
@@ -374,6 +378,8 @@ kf_render_scene kf_render_scene_default(void) {
     s.fill_dir[0] = 0.8f, s.fill_dir[1] = 0.2f, s.fill_dir[2] = 0.45f;
     s.fill_color[0] = 0.22f, s.fill_color[1] = 0.25f, s.fill_color[2] = 0.3f;
     s.ambient = 0.16f;
+    /* a rim light from behind, off unless asked for */
+    s.rim_dir[0] = 0.2f, s.rim_dir[1] = 0.5f, s.rim_dir[2] = -1.0f;
     s.shadows = 1;
     return s;
 }
@@ -518,9 +524,10 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
     kf_m4_mul(viewproj, proj, view);
 
     /* lights in world space */
-    float key[3], fill[3];
+    float key[3], fill[3], rim[3];
     to_world(key, sc->key_dir, view, sc->lights_in_world);
     to_world(fill, sc->fill_dir, view, sc->lights_in_world);
+    to_world(rim, sc->rim_dir, view, sc->lights_in_world);
 
     /* upload meshes (every frame: the caller's arrays may have changed) */
     if (grow_buffers(r, sc->nmeshes) != 0) {
@@ -617,6 +624,8 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
     gl->Uniform3fv(U("u_key_col"), 1, sc->key_color);
     gl->Uniform3fv(U("u_fill_dir"), 1, fill);
     gl->Uniform3fv(U("u_fill_col"), 1, sc->fill_color);
+    gl->Uniform3fv(U("u_rim_dir"), 1, rim);
+    gl->Uniform3fv(U("u_rim_col"), 1, sc->rim_color);
     gl->Uniform1f(U("u_ambient"), sc->ambient);
     gl->Uniform1i(U("u_shadows"), shadows);
     gl->Uniform1f(U("u_texel"), 1.0f / r->shadow_size);

@@ -178,8 +178,10 @@ check "an executable with other bytes simulates again" \
 rm full/particles/tiny.1007.ply
 "$kerf" run tiny.yaml --out full > again.log 2>&1
 check "a missing particle frame comes back from its checkpoint" test -e full/particles/tiny.1007.ply
-"$kerf" run tiny.yaml --out full --set sim.cfl=0.3 > changed.log 2>&1
-check "a changed sim value simulates again" grep -q "^frame 1012" changed.log
+# the shot file's own values changed (not a --set experiment): the cache simulates again
+sed 's/cfl: 0.4/cfl: 0.3/' tiny.yaml > tiny_cfl.yaml
+"$kerf" run tiny_cfl.yaml --out full > changed.log 2>&1
+check "a changed sim value in the shot file simulates again" grep -q "^frame 1012" changed.log
 # a mesh's bytes are an input: the same geometry with an edited file re-simulates
 mkdir -p m && cp "$tests"/meshes/cube.obj m/ && cp "$tests"/cli/mesh.yaml m/
 (cd m && "$kerf" run mesh.yaml --out o --quiet && "$kerf" run mesh.yaml --out o > same.log 2>&1 &&
@@ -209,8 +211,25 @@ check "resumed final checkpoint equals the uninterrupted one" \
     cmp -s full/checkpoints/tiny.1012.kfc killed/checkpoints/tiny.1012.kfc
 
 # --- a resume refuses checkpoints made from other settings --------------------
-"$kerf" run tiny.yaml --out full --resume --set materials.jelly.E=3e4 > other.log 2>&1
+"$kerf" run tiny_cfl.yaml --out full --resume > other.log 2>&1
 check "changed settings are not resumed from" grep -q "different shot settings" other.log
+
+# --- a version holds one experiment: another --set value does not replace it -----
+"$kerf" run tiny.yaml --frames 1001-1002 --set materials.jelly.E=1e3 --set output.images=false --quiet
+cp tiny/v001/checkpoints/tiny.1002.kfc first.kfc
+"$kerf" run tiny.yaml --frames 1001-1002 --set materials.jelly.E=4e3 --set output.images=false > second.log 2>&1
+rc=$?
+check "a second --set run into the same version exits 2 (got $rc)" test $rc -eq 2
+check "... names what the version holds and the next free version" \
+    bash -c "grep -qF 'kerf: tiny/v001/ holds tiny simulated with other values (--set materials.jelly.E=1e3); this run (--set materials.jelly.E=4e3) would replace it, so nothing was written' second.log &&
+             grep -qF 'kerf: keep both: --set version=2 (the next free version); replace it: --force' second.log"
+check "... and the first run's frames are untouched" cmp -s first.kfc tiny/v001/checkpoints/tiny.1002.kfc
+"$kerf" run tiny.yaml --frames 1001-1002 --set materials.jelly.E=4e3 --set output.images=false --set version=2 --quiet
+check "--set version=2 keeps both" bash -c "test -e tiny/v002/checkpoints/tiny.1002.kfc && cmp -s first.kfc tiny/v001/checkpoints/tiny.1002.kfc"
+"$kerf" run tiny.yaml --frames 1001-1002 --set materials.jelly.E=1e3 --set output.images=false --set render.width=64 \
+    > same.log 2>&1
+check "the same experiment again (a render value aside) reuses its version" grep -q "nothing to simulate" same.log
+rm -rf tiny
 
 echo "$fails failed"
 exit $((fails > 0))

@@ -333,7 +333,7 @@ static long cut_and_pulled(int contact, int *pieces) {
     uint32_t seen = 0;
     for (size_t i = 0; i < pv.n; i++) {
         pv.v[0][i] = pv.x[0][i] < x0 ? -0.5f : 0.5f;
-        seen |= 1u << (pv.colour[i] >> 28);
+        seen |= 1u << (pv.obj[i] >> 12);
     }
     *pieces = __builtin_popcount(seen);
     if (kf_advance(m, s, 0.2, NULL, msg, sizeof msg)) fprintf(stderr, "advance: %s\n", msg);

@@ -91,7 +91,7 @@ static void corotated_polar_matches_svd(void) {
             for (int i = 6; i < 9; i++) F[i] = -F[i];
         kf_imp_energy e;
         KT_CHECK(kf_imp_energy_eval(&mat, F, ps, 0, 0, &e) == 0, "evaluated");
-        kf_imp_svd(F, U, sg, V);
+        kf_svd3d(F, U, sg, V);
         double J = sg[0] * sg[1] * sg[2], d[3], psi = 0.5 * la * (J - 1) * (J - 1);
         inverted += J < 0;
         for (int k = 0; k < 3; k++) {
@@ -625,7 +625,7 @@ static void plastic_after_solve(void) {
         for (size_t i = 0; i < pv.n; i++) {
             double F[9], U[9], sg[3], V[9], e[3];
             for (int k = 0; k < 9; k++) F[k] = pv.F[k][i];
-            kf_imp_svd(F, U, sg, V);
+            kf_svd3d(F, U, sg, V);
             for (int a = 0; a < 3; a++) e[a] = log(sg[a]);
             double tr = (e[0] + e[1] + e[2]) / 3, dev = 0;
             for (int a = 0; a < 3; a++) dev += (e[a] - tr) * (e[a] - tr);

@@ -1,6 +1,7 @@
 /* bench.c — kerf's speed figures, printed, never asserted.
  *
- *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame]
+ *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes]
+ *              [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--set k=v]
  *
  * cube:  the paper's Table 2 setup (grid 125³, a 100³-cell cube, 2x2x2
  *        particles per cell = 8M particles, E = 100, ν = 0.3, Δt = 1e-2, no
@@ -26,6 +27,8 @@
  *        default spins (measured: 4.3 CPU s instead of 0.5 for the preview
  *        frame on 2 busy cores), so `--only frame` re-runs itself with
  *        OMP_WAIT_POLICY=passive unless it is set.
+ * scenes: the paper's scenes at the paper's size, N frames each (only with
+ *        --only scenes; see bench_scenes.c for the options).
  * --quick shrinks them (24³ and 16³ cubes, a 100k-particle block) for a smoke run. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -41,6 +44,7 @@
 #include "../src/shot/shot.h" /* the preview presets */
 #include <kerf/kerf.h>
 #include "../src/scene/builtin.h"
+#include "bench_scenes.h"
 #include "median.h"
 
 static double peak_rss_mb(void) {
@@ -274,17 +278,33 @@ static int bench_block(long n, int frames, block_result *out) {
 int main(int argc, char **argv) {
     int json = 0, runs = 5, quick = 0;
     const char *only = NULL;
+    bench_scenes_opts so = {.frames = 2, .scale = 1};
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json")) json = 1;
+        else if (!strcmp(argv[i], "--frames") && i + 1 < argc) so.frames = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--scenes") && i + 1 < argc) so.only = argv[++i];
+        else if (!strcmp(argv[i], "--paper-dx")) so.paper_dx = 1;
+        else if (!strcmp(argv[i], "--hash")) so.hash = 1;
+        else if (!strcmp(argv[i], "--set") && i + 1 < argc && so.nset < 8) so.set[so.nset++] = argv[++i];
+        else if (!strcmp(argv[i], "--scale") && i + 1 < argc) so.scale = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--threads") && i + 1 < argc) so.threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--quick")) quick = 1;
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
         else {
-            fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame]\n");
+            fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes]\n"
+                            "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--set k=v]\n");
             return 2;
         }
     }
     if (runs < 1) runs = 1;
+    if (only && !strcmp(only, "scenes")) {
+        if (so.frames < 1 || !(so.scale > 0)) {
+            fprintf(stderr, "kerf_bench: --frames must be >= 1 and --scale > 0\n");
+            return 2;
+        }
+        return bench_scenes(&so);
+    }
     /* the frame figures are CPU seconds: idle OpenMP threads must sleep, not spin */
     if (only && !strcmp(only, "frame") && !getenv("OMP_WAIT_POLICY")) {
         setenv("OMP_WAIT_POLICY", "passive", 1);

@@ -11,7 +11,9 @@ packages=(build-essential cmake pkg-config file
           libosmesa6-dev libegl-dev libegl-mesa0 libfyaml-dev libpng-dev libmujoco-dev libqhull-dev
           libmicrohttpd-dev     # kerf view's web server
           chromium chromium-driver  # the tests of kerf view drive a headless browser
-          gnuplot-nox)  # gnuplot: the figures of tools/evidence/run.sh
+          clang-format  # tools/format.sh
+          gnuplot-nox   # gnuplot: the figures of tools/evidence/run.sh
+          slurm-wlm munge openmpi-bin)  # kerf farm and its tests (tools/slurm_local.sh); MPI ranks
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

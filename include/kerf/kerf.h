@@ -290,6 +290,7 @@ double kf_state_time(const kf_state *s);
 /* The particle arrays (SoA, length kf_state_count()), for reading and
  * writing: the state recomputes its cached stress before the next substep.
  * Order changes when particles are re-sorted; id[] is the stable index. */
+#define KF_OBJECT_MASK 0x0FFFu /* kf_particles_view.obj: the object, without its piece */
 typedef struct kf_particles_view {
     size_t n;
     kf_real *x[3], *v[3], *C[9], *F[9]; /* C and F row-major: C[3*i+j][p] */
@@ -297,7 +298,9 @@ typedef struct kf_particles_view {
     kf_real *ps[2];       /* plastic state: Jp / J (water) / log-volume correction, q */
     uint16_t *mat;
     uint32_t *id;
-    uint16_t *obj;        /* the shot object a particle came from (surfacing per object), 0 by default */
+    uint16_t *obj;        /* the shot object a particle came from (surfacing per object), 0 by default: the
+                             low 12 bits (KF_OBJECT_MASK); the 4 above number the pieces a thin body cut it
+                             into (sim.contact) */
     uint32_t *colour;     /* CPIC: 2 bits (affinity, side) per rigid body; persists between substeps */
 } kf_particles_view;
 kf_particles_view kf_state_particles(kf_state *s);

@@ -24,6 +24,14 @@ typedef struct kf_cli_opts {
     int threads;           /* --threads N (0: the shot's) */
     int quiet;             /* --quiet */
     int help;              /* --help */
+    const char *wedges[16]; /* --wedge KEY=V1,V2,... (kerf run, kerf farm submit), in order */
+    int nwedges;
+    /* set by the farm's sim task, never by options: simulate only (the farm's
+     * array tasks surface and render), and hear of each frame of [first, last]
+     * whose checkpoint is durably on disk, cached frames included */
+    int sim_only;
+    void (*frame_ready)(void *ctx, int frame);
+    void *frame_ctx;
 } kf_cli_opts;
 
 /* Parse argv (after the command word). Returns 0, or 2 with a message. */
@@ -46,6 +54,21 @@ int kf_cli_start(const char *cmd, int argc, char **argv, kf_cli_opts *o, kf_shot
 int kf_cli_claim_output(const kf_cli_opts *o, const kf_shot *shot, kf_dir_lock *lock);
 
 int kf_cmd_run(int argc, char **argv);
+/* `kerf run` after its options are parsed: load, claim the output, simulate,
+ * surface and render (cmd_run.c) */
+int kf_cli_run(const kf_cli_opts *o);
+/* A version directory holds one experiment: when a checkpoint of the shot's
+ * range in it was made from other inputs AND the directory was simulated
+ * with other command-line values (--set, --quality; <dir>/.kerf-values),
+ * say so (naming the next free version) and return 1: the run would replace
+ * another experiment. The same values with other inputs (the shot file, a
+ * mesh or kerf changed) return 0: the cache simulates again, as always.
+ * --force returns 0 (the run replaces them). */
+int kf_cli_version_taken(const kf_cli_opts *o, const kf_shot *shot);
+/* 1 when frame f's image is current: its checkpoint from these inputs, its
+ * surface and image newer than what they were made from, under the same
+ * surface and render settings (cmd_stages.c) */
+int kf_cli_frame_current(const kf_cli_opts *o, const kf_shot *shot, int f);
 int kf_cmd_surface(int argc, char **argv);
 int kf_cmd_render(int argc, char **argv);
 int kf_cmd_turntable(int argc, char **argv);

@@ -15,6 +15,7 @@
 #include "../core/timer.h"
 #include "../io/atomic_file.h"
 #include "../io/checkpoint.h"
+#include "../farm/farm.h"
 #include "../io/points_ply.h"
 #include "cli.h"
 #include "rigid_log.h"
@@ -181,19 +182,147 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp);
 
 int kf_cmd_run(int argc, char **argv) {
     kf_cli_opts o;
+    int rc = kf_cli_parse("run", argc, argv, &o);
+    if (rc) return rc;
+    if (o.help) {
+        kf_cli_usage(stdout, "run");
+        return KF_EXIT_OK;
+    }
+    /* wedges: the shot once per value, one after another (farm/wedge_run.c) */
+    if (o.nwedges) return kf_farm_run_wedges(&o);
+    return kf_cli_run(&o);
+}
+
+int kf_cli_run(const kf_cli_opts *o) {
     kf_shot *shot;
     kf_scene sc;
     kf_build_stats bs;
-    int rc = kf_cli_start("run", argc, argv, &o, &shot, &sc, &bs);
+    int rc = kf_cli_load(o, &shot, &sc, &bs);
     if (!shot) return rc;
     /* one run per output directory, held until this one ends */
     kf_dir_lock lock;
-    rc = kf_cli_claim_output(&o, shot, &lock);
-    if (rc == KF_EXIT_OK) rc = run_claimed(&o, shot, &sc);
+    rc = kf_cli_claim_output(o, shot, &lock);
+    if (rc == KF_EXIT_OK) rc = run_claimed(o, shot, &sc);
     kf_dir_lock_release(&lock);
     kf_scene_free(&sc);
     kf_shot_free(shot);
     return rc;
+}
+
+/* the first frame of the shot's range whose checkpoint in `out` was made
+ * from inputs other than `hash`; 0 when none */
+static int other_inputs(const kf_shot *shot, const char *out, uint64_t hash) {
+    for (int f = shot->frame_start; f <= shot->frame_end; f++) {
+        kf_frame_paths fp;
+        kf_checkpoint_info info;
+        char err[4200];
+        if (kf_frame_paths_make(shot, out, f, &fp) || access(fp.checkpoint, F_OK) != 0) continue;
+        if (kf_checkpoint_peek(fp.checkpoint, &info, err, sizeof err) == 0 && info.inputs_hash != hash) return f;
+    }
+    return 0;
+}
+
+/* 1 when --set value `skip` changes the simulation: the shot loaded without
+ * it hashes differently (a render or output value does not) */
+static int set_moves_sim(const kf_cli_opts *o, int skip, uint64_t hash) {
+    const char *sets[128];
+    int n = 0;
+    for (int i = 0; i < o->nsets; i++)
+        if (i != skip) sets[n++] = o->sets[i];
+    kf_diag d;
+    kf_diag_init(&d);
+    kf_shot *s = kf_shot_load(o->shot, sets, n, o->quality, o->frames, &d);
+    kf_diag_free(&d);
+    int moves = !s || kf_shot_sim_hash(s) != hash;
+    if (s) kf_shot_free(s);
+    return moves;
+}
+
+/* The command-line values a version was simulated with (--quality, and the
+ * --set values that change the simulation, sorted, one a line), kept in
+ * <dir>/.kerf-values: they tell an experiment from the command line (other
+ * values: another version) from the shot's own iteration (the file, a mesh
+ * or kerf changed: simulate again, as the cache always has). */
+static void values_text(const kf_cli_opts *o, uint64_t hash, char *buf, size_t n) {
+    const char *v[130];
+    int k = 0, len = 0;
+    for (int i = 0; i < o->nsets; i++)
+        if (set_moves_sim(o, i, hash)) v[k++] = o->sets[i];
+    for (int i = 1; i < k; i++) /* insertion sort: a handful of values */
+        for (int j = i; j > 0 && strcmp(v[j - 1], v[j]) > 0; j--) {
+            const char *t = v[j];
+            v[j] = v[j - 1], v[j - 1] = t;
+        }
+    buf[0] = 0;
+    if (o->quality && strcmp(o->quality, "final"))
+        len += snprintf(buf + len, n - (size_t)len, "--quality %s\n", o->quality);
+    for (int i = 0; i < k && len < (int)n; i++) len += snprintf(buf + len, n - (size_t)len, "--set %s\n", v[i]);
+}
+
+static void values_path(const kf_cli_opts *o, const kf_shot *shot, char *path, size_t n) {
+    kf_frame_paths fp;
+    if (kf_frame_paths_make(shot, o->out, shot->frame_start, &fp)) path[0] = 0;
+    else snprintf(path, n, "%s/.kerf-values", fp.dir);
+}
+
+/* the values as one line for a message: "--set a=1 --set b=2", or "none" */
+static void values_line(char *text) {
+    size_t n = strlen(text);
+    while (n && text[n - 1] == '\n') text[--n] = 0;
+    for (char *p = text; *p; p++)
+        if (*p == '\n') *p = ' ';
+    if (!text[0]) strcpy(text, "no --set values");
+}
+
+int kf_cli_version_taken(const kf_cli_opts *o, const kf_shot *shot) {
+    if (o->force) return 0;
+    uint64_t hash = kf_shot_sim_hash(shot);
+    int f = other_inputs(shot, o->out, hash);
+    if (!f) return 0;
+    /* the same values: the shot file, a mesh or kerf changed, and the cache simulates again */
+    char path[4200], now[8192], had[8192] = "";
+    values_path(o, shot, path, sizeof path);
+    values_text(o, hash, now, sizeof now);
+    FILE *vf = fopen(path, "r");
+    if (vf) {
+        had[fread(had, 1, sizeof had - 1, vf)] = 0;
+        fclose(vf);
+    }
+    if (!strcmp(had, now)) return 0;
+    kf_frame_paths fp, np;
+    kf_frame_paths_make(shot, o->out, f, &fp);
+    /* the next version whose directory is another one and holds no other inputs */
+    kf_shot *next = malloc(sizeof *next);
+    int v = 0;
+    if (next) {
+        memcpy(next, shot, sizeof *next);
+        for (int t = shot->version + 1; t <= 9999 && !v; t++) {
+            next->version = t;
+            if (kf_frame_paths_make(next, o->out, shot->frame_start, &np) || !strcmp(np.dir, fp.dir)) break;
+            if (!other_inputs(next, o->out, hash)) v = t;
+        }
+        free(next);
+    }
+    values_line(had);
+    values_line(now);
+    fprintf(stderr, "kerf: %s/ holds %s simulated with other values (%s); this run (%s) would replace it, so "
+                    "nothing was written\n", fp.dir, shot->name, had, now);
+    if (v) fprintf(stderr, "kerf: keep both: --set version=%d (the next free version); replace it: --force\n", v);
+    else
+        fprintf(stderr, "kerf: keep both: another --out DIR (or {version} in it and --set version=N); replace it: "
+                        "--force\n");
+    return 1;
+}
+
+/* write <dir>/.kerf-values for the run about to simulate into <dir> */
+static void values_record(const kf_cli_opts *o, const kf_shot *shot, uint64_t hash) {
+    char path[4200], now[8192];
+    kf_atomic_file af;
+    values_path(o, shot, path, sizeof path);
+    values_text(o, hash, now, sizeof now);
+    if (!path[0] || kf_ensure_parent(path) || kf_atomic_open(&af, path)) return;
+    fputs(now, af.f);
+    if (kf_atomic_commit(&af)) kf_atomic_abort(&af);
 }
 
 /* simulate, then surface and render, in a directory this run holds */
@@ -204,6 +333,9 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     uint64_t hash = kf_shot_sim_hash(shot);
     int frame = shot->frame_start; /* the frame the state is at */
     int resume_from = o.resume ? shot->last : 0; /* the latest frame a resume may start from; 0: none */
+    /* a version holds one set of inputs: a run from others does not silently replace it */
+    if (kf_cli_version_taken(&o, shot)) return KF_EXIT_USAGE;
+    values_record(&o, shot, hash);
     if (!o.force && !o.resume) {
         int matched, damaged, c = cache_current(shot, o.out, &sc, hash, &matched, &damaged);
         if (c != 0) {
@@ -211,6 +343,9 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                 fprintf(stderr, "kerf: %s: frames %d-%d are cached from the same inputs; nothing to simulate "
                                 "(--force to simulate anyway)\n", shot->name, shot->first, shot->last);
             /* the later stages still run: their own outputs may be missing or stale */
+            if (c > 0 && o.frame_ready)
+                for (int f = shot->first; f <= shot->last; f++) o.frame_ready(o.frame_ctx, f);
+            if (c > 0 && o.sim_only) return KF_EXIT_OK;
             rc = c > 0 ? kf_cli_post(&o, shot, &sc, 1, 1) : KF_EXIT_FAIL;
             kf_frame_paths cp;
             if (c > 0 && kf_frame_paths_make(shot, o.out, shot->first, &cp) == 0)
@@ -235,6 +370,9 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         }
     }
     const int resumed = frame != shot->frame_start ? frame : 0; /* the frame the simulation continued after */
+    /* the frames a resume keeps are ready for the later stages now */
+    if (o.frame_ready)
+        for (int f = shot->first; f <= frame && resumed; f++) o.frame_ready(o.frame_ctx, f);
     if (frame < shot->last) remove_stale_after(shot, o.out, hash);
     kf_frame_paths rp;
     kf_frame_paths_make(shot, o.out, shot->first, &rp);
@@ -250,6 +388,7 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
 
     /* the initial state is the first frame's output */
     if (frame == shot->frame_start && write_frame(shot, o.out, &sc, frame, hash)) rc = KF_EXIT_FAIL;
+    else if (frame == shot->frame_start && o.frame_ready && frame >= shot->first) o.frame_ready(o.frame_ctx, frame);
 
     double start = kf_now_ms();
     int todo = shot->last - frame, done = 0;
@@ -270,6 +409,7 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
             rc = KF_EXIT_FAIL;
             break;
         }
+        if (o.frame_ready && frame >= shot->first) o.frame_ready(o.frame_ctx, frame);
         double elapsed = (kf_now_ms() - start) / 1e3;
         kf_record_frame(rp.dir, frame, kf_state_count(sc.state), &st, frame_ms);
         kf_record_progress(rp.dir, shot, "sim", frame, done, todo, elapsed / done * (todo - done));
@@ -326,8 +466,8 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     }
     else if (rc == KF_EXIT_OK && !o.quiet)
         fprintf(stderr, "kerf: %s: nothing left to simulate after frame %d in %s/\n", shot->name, resumed, rp.dir);
-    /* simulate → surface → render */
-    if (rc == KF_EXIT_OK) rc = kf_cli_post(&o, shot, &sc, 1, 1);
+    /* simulate → surface → render (on a farm, the array tasks do the last two) */
+    if (rc == KF_EXIT_OK && !o.sim_only) rc = kf_cli_post(&o, shot, &sc, 1, 1);
     kf_record_progress(rp.dir, shot, rc == KF_EXIT_OK ? "done" : "failed", frame, done, todo, 0);
     return rc;
 }

@@ -13,14 +13,21 @@
 #include "../pipeline/stages.h"
 #include "run_record.h"
 
-/* The camera frames the shot's first frame, whichever command renders:
- * load that frame's checkpoint (the initial state) and size the view on it. */
+/* The camera frames where the material goes over the whole shot, whichever
+ * command renders and whichever frames it renders: the particles of up to
+ * 12 checkpoints spread over frames.start..frames.end (those that exist). */
 static kf_render_opts framing(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc) {
-    kf_frame_paths fp;
+    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+    const int span = shot->frame_end - shot->frame_start, nsample = span < 11 ? span + 1 : 12;
     char err[4200];
-    if (kf_frame_paths_make(shot, o->out, shot->frame_start, &fp) == 0)
-        kf_checkpoint_read(fp.checkpoint, sc->model, sc->state, NULL, err, sizeof err);
-    return kf_render_opts_for(shot, sc);
+    for (int k = 0; k < nsample; k++) {
+        int f = shot->frame_start + (nsample > 1 ? (int)((long)span * k / (nsample - 1)) : 0);
+        kf_frame_paths fp;
+        if (kf_frame_paths_make(shot, o->out, f, &fp) == 0 && access(fp.checkpoint, R_OK) == 0 &&
+            kf_checkpoint_read(fp.checkpoint, sc->model, sc->state, NULL, err, sizeof err) == 0)
+            kf_particle_bounds_add(sc, lo, hi);
+    }
+    return kf_render_opts_for(shot, lo, hi);
 }
 
 /* The render settings as text: images made under other settings are stale
@@ -31,6 +38,16 @@ static void render_settings(const kf_shot *shot, char *buf, size_t n) {
                        shot->render_eye[0], shot->render_eye[1], shot->render_eye[2], shot->render_target[0],
                        shot->render_target[1], shot->render_target[2], shot->render_fov, shot->render_ground,
                        shot->render_shadow);
+    /* the camera's keys and the lights */
+    for (int i = 0; i < shot->ncamera_keys && len > 0 && (size_t)len < n; i++)
+        len += snprintf(buf + len, n - (size_t)len, " k%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d",
+                        shot->camera_keys[i].frame, shot->camera_keys[i].eye[0], shot->camera_keys[i].eye[1],
+                        shot->camera_keys[i].eye[2], shot->camera_keys[i].target[0], shot->camera_keys[i].target[1],
+                        shot->camera_keys[i].target[2], shot->camera_keys[i].fov, shot->render_interp);
+    for (int i = 0; i < 3 && len > 0 && (size_t)len < n; i++)
+        len += snprintf(buf + len, n - (size_t)len, " l%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g", shot->lights[i].dir[0],
+                        shot->lights[i].dir[1], shot->lights[i].dir[2], shot->lights[i].color[0],
+                        shot->lights[i].color[1], shot->lights[i].color[2], shot->lights[i].intensity);
     /* looks too: a recoloured or reshaded material or collider is a new picture */
     for (int i = 0; i < shot->nmaterials && len > 0 && (size_t)len < n; i++)
         len += snprintf(buf + len, n - (size_t)len, " m%.4g,%.4g,%.4g,%.4g,%.4g", shot->materials[i].color[0],
@@ -65,8 +82,9 @@ static void write_stamp(const char *stamp, const char *now) {
 
 /* the surface settings as text, for <dir>/surface/.settings */
 static void surface_settings(const kf_shot *shot, char *buf, size_t n) {
-    snprintf(buf, n, "%.9g %.9g %d %d %.9g %.9g %d\n", shot->surface_voxel, shot->surface_radius, shot->surface_smooth,
-             shot->surface_iterations, shot->surface_dilate, shot->surface_erode, shot->surface_group);
+    snprintf(buf, n, "%.9g %.9g %d %d %.9g %.9g %d %.9g %.9g\n", shot->surface_voxel, shot->surface_radius,
+             shot->surface_smooth, shot->surface_iterations, shot->surface_dilate, shot->surface_erode, shot->surface_group,
+             shot->surface_average, shot->surface_average_radius);
 }
 
 /* A PNG ends with its IEND chunk; one cut short (a full disk under an old
@@ -79,6 +97,28 @@ static int png_complete(const char *path) {
     int ok = fseek(f, -12, SEEK_END) == 0 && fread(tail, 1, 12, f) == 12 && memcmp(tail, iend, 12) == 0;
     fclose(f);
     return ok;
+}
+
+int kf_cli_frame_current(const kf_cli_opts *o, const kf_shot *shot, int f) {
+    kf_frame_paths fp, first;
+    kf_checkpoint_info info;
+    char err[4200], now[4096], stamp[2200];
+    if (kf_frame_paths_make(shot, o->out, f, &fp) || kf_frame_paths_make(shot, o->out, shot->first, &first)) return 0;
+    if (kf_checkpoint_peek(fp.checkpoint, &info, err, sizeof err) || info.inputs_hash != kf_shot_sim_hash(shot) ||
+        info.frame != f)
+        return 0;
+    if (shot->output_surface) {
+        surface_settings(shot, now, sizeof now);
+        snprintf(stamp, sizeof stamp, "%s/surface/.settings", first.dir);
+        if (settings_changed(stamp, now) || !kf_output_current(fp.surface, fp.checkpoint)) return 0;
+    }
+    if (shot->output_images) {
+        render_settings(shot, now, sizeof now);
+        snprintf(stamp, sizeof stamp, "%s/images/.settings", first.dir);
+        if (settings_changed(stamp, now) || !kf_output_current(fp.image, fp.surface) || !png_complete(fp.image))
+            return 0;
+    }
+    return 1;
 }
 
 /* surface frame f again (its .vdb was missing, stale or damaged); 0 or prints and returns 1 */

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "../scene/budget.h"
+#include "../farm/farm.h"
 #include "cli.h"
 
 void kf_cli_usage(FILE *f, const char *cmd) {
@@ -19,6 +20,8 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                 "  render <shot.yaml>  PNG images from the .vdb surfaces: <dir>/images/<name>.png\n"
                 "  turntable <shot.yaml> --frame N --frames K\n"
                 "                      K views orbiting frame N (end exclusive: the sequence loops)\n"
+                "  farm submit|status|cancel <shot.yaml>\n"
+                "                      the shot (and its wedges) as Slurm jobs: kerf farm --help\n"
                 "  check <shot.yaml>   validate the shot (all problems at once) and seed it; simulate nothing\n"
                 "  info <shot.yaml>    what the shot compiles to: particles, grid, materials, memory, substeps\n"
                 "  view <shot.yaml | dir> [--port N]\n"
@@ -48,6 +51,9 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                "                      this machine has or more than %.0f substeps a frame is refused)\n",
             KF_BUDGET_SUBSTEPS_PER_FRAME);
     if (!strcmp(cmd, "run"))
+        fprintf(f, "  --wedge KEY=V1,V2   run the shot once per value, each into <dir>/w01, w02, ... and end\n"
+                   "                      with <dir>/contact_sheet.png (repeatable: every combination)\n");
+    if (!strcmp(cmd, "run"))
         fprintf(f, "  --resume            continue after the last good checkpoint of an interrupted run\n"
                    "  --quiet             no progress output\n"
                    "\nA terminal gets a live progress bar with ETA; a log gets one line per frame with\n"
@@ -73,6 +79,7 @@ int main(int argc, char **argv) {
     if (!strcmp(cmd, "render")) return kf_cmd_render(argc - 2, argv + 2);
     if (!strcmp(cmd, "turntable")) return kf_cmd_turntable(argc - 2, argv + 2);
     if (!strcmp(cmd, "view")) return kf_cmd_view(argc - 2, argv + 2);
+    if (!strcmp(cmd, "farm")) return kf_cmd_farm(argc - 2, argv + 2);
     if (!strcmp(cmd, "help") || !strcmp(cmd, "--help") || !strcmp(cmd, "-h")) {
         const char *topic = argc > 2 ? argv[2] : NULL;
         if (topic && !strcmp(topic, "shot")) kf_shot_help(stdout);

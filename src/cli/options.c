@@ -32,7 +32,7 @@ int kf_cli_parse(const char *cmd, int argc, char **argv, kf_cli_opts *o) {
             eq = NULL;
         }
         int takes = !strcmp(a, "--set") || !strcmp(a, "--quality") || !strcmp(a, "--frames") || !strcmp(a, "--out") ||
-                    !strcmp(a, "--threads");
+                    !strcmp(a, "--threads") || !strcmp(a, "--wedge");
         if (takes && !val) {
             fprintf(stderr, "kerf %s: %s needs a value (see kerf %s --help)\n", cmd, a, cmd);
             return KF_EXIT_USAGE;
@@ -44,6 +44,17 @@ int kf_cli_parse(const char *cmd, int argc, char **argv, kf_cli_opts *o) {
                 return KF_EXIT_USAGE;
             }
             o->sets[o->nsets++] = val;
+        } else if (!strcmp(a, "--wedge")) {
+            /* a wedge runs the shot once per value: only run and farm submit do */
+            if (strcmp(cmd, "run") && strncmp(cmd, "farm ", 5)) {
+                fprintf(stderr, "kerf %s: --wedge is for kerf run and kerf farm submit\n", cmd);
+                return KF_EXIT_USAGE;
+            }
+            if (o->nwedges == (int)(sizeof o->wedges / sizeof *o->wedges)) {
+                fprintf(stderr, "kerf %s: too many --wedge options\n", cmd);
+                return KF_EXIT_USAGE;
+            }
+            o->wedges[o->nwedges++] = val;
         } else if (!strcmp(a, "--quality")) o->quality = val;
         else if (!strcmp(a, "--frames")) o->frames = val;
         else if (!strcmp(a, "--out")) {

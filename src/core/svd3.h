@@ -14,4 +14,10 @@ void kf_svd3(const kf_real F[9], kf_real U[9], kf_real sigma[3], kf_real V[9]);
 /* Rotation R = U Vᵀ of the sign-fixed SVD (det R = +1 even for inverted F). */
 void kf_polar3(const kf_real F[9], kf_real R[9]);
 
+/* The same decomposition in double to round-off (the eigenvalue route; see
+ * svd3.c), for the implicit solve's energies and Hessians. */
+void kf_svd3d(const double F[9], double U[9], double sigma[3], double V[9]);
+/* Symmetric eigen-decomposition A = Q diag(w) Qᵀ (cyclic Jacobi, to round-off). */
+void kf_sym_eig3d(const double A[9], double w[3], double Q[9]);
+
 #endif

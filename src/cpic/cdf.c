@@ -39,6 +39,11 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->stamp);
     free(c->best);
     free(c->best_stamp);
+    free(c->mark);
+    free(c->seed_x);
+    free(c->seed_bin);
+    free(c->seed_order);
+    free(c->bin_start);
     free(c->slot);
     free(c->imp);
     free(c->guard_caught);
@@ -46,7 +51,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->pd);
     free(c->pn);
     free(c->near);
-    for (int r = 0; r < KF_MAX_RIGIDS; r++) free(c->tri[r]);
+    for (int r = 0; r < KF_MAX_RIGIDS; r++) free(c->tri[r]), free(c->tri_stamp[r]);
     free(c);
 }
 
@@ -64,7 +69,7 @@ static int reserve(kf_cpic *c, const kf_state *s) {
         size_t cap = nb + nb / 2 + 16;
         if (grow((void **)&c->node_d, sizeof(float) * 64, cap) || grow((void **)&c->node_c, sizeof(uint32_t) * 64, cap) ||
             grow((void **)&c->stamp, sizeof(uint32_t), cap) || grow((void **)&c->best, sizeof(float) * 64, cap) ||
-            grow((void **)&c->best_stamp, sizeof(uint32_t), cap))
+            grow((void **)&c->best_stamp, sizeof(uint32_t), cap) || grow((void **)&c->mark, sizeof(uint32_t) * 64, cap))
             return -1;
         memset(c->stamp, 0, cap * sizeof(uint32_t));
         memset(c->best_stamp, 0, cap * sizeof(uint32_t));
@@ -85,13 +90,26 @@ static int reserve(kf_cpic *c, const kf_state *s) {
     return 0;
 }
 
-/* body r's triangles in world space, with what the projection needs */
-static int world_triangles(kf_cpic *c, const kf_rigid_body *b, const kf_rigid_state *st, int r) {
+/* room for body r's world triangles; none holds this substep's pose yet */
+static int world_triangles_reserve(kf_cpic *c, const kf_rigid_body *b, int r) {
     if (b->ntri > c->cap_tri[r]) {
-        if (grow((void **)&c->tri[r], sizeof(kf_cpic_tri), (size_t)b->ntri)) return -1;
+        if (grow((void **)&c->tri[r], sizeof(kf_cpic_tri), (size_t)b->ntri) ||
+            grow((void **)&c->tri_stamp[r], sizeof(uint32_t), (size_t)b->ntri))
+            return -1;
+        memset(c->tri_stamp[r], 0, (size_t)b->ntri * sizeof(uint32_t));
         c->cap_tri[r] = b->ntri;
     }
-    for (int k = 0; k < b->ntri; k++) {
+    return 0;
+}
+
+/* body r's triangle k in world space, with what the projection needs:
+ * made when a seed near material first asks for it in a substep (a long
+ * blade mostly lies away from the material) */
+static const kf_cpic_tri *world_triangle(kf_cpic *c, const kf_rigid_body *b, const kf_rigid_state *st, int r, int k) {
+    kf_cpic_tri *t = &c->tri[r][k];
+    if (c->tri_stamp[r][k] == c->epoch) return t;
+    c->tri_stamp[r][k] = c->epoch;
+    {
         double w[3][3];
         for (int v = 0; v < 3; v++) {
             const double *x = &b->vert[3 * b->tri[3 * k + v]];
@@ -108,7 +126,6 @@ static int world_triangles(kf_cpic *c, const kf_rigid_body *b, const kf_rigid_st
         double a12 = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2];
         double a22 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
         double det = a11 * a22 - a12 * a12;
-        kf_cpic_tri *t = &c->tri[r][k];
         for (int a = 0; a < 3; a++) {
             t->v0[a] = (float)w[0][a];
             t->e1[a] = (float)e1[a];
@@ -122,7 +139,7 @@ static int world_triangles(kf_cpic *c, const kf_rigid_body *b, const kf_rigid_st
         t->g22 = ok ? (float)(a11 / det) : 0;
         if (!ok) t->n[0] = t->n[1] = t->n[2] = 0;
     }
-    return 0;
+    return t;
 }
 
 /* a block's CDF cleared, and its per-body best reset, on first touch */
@@ -131,6 +148,7 @@ static inline void touch_block(kf_cpic *c, int32_t b, int r) {
         c->stamp[b] = c->epoch;
         for (int k = 0; k < 64; k++) c->node_d[64 * (size_t)b + k] = FLT_MAX;
         memset(&c->node_c[64 * (size_t)b], 0, 64 * sizeof(uint32_t));
+        memset(&c->mark[64 * (size_t)b], 0, 64 * sizeof(uint32_t));
     }
     uint32_t bs = c->epoch * 16u + (uint32_t)r;
     if (c->best_stamp[b] != bs) {
@@ -139,39 +157,53 @@ static inline void touch_block(kf_cpic *c, int32_t b, int r) {
     }
 }
 
-/* all nodes within 1.5 cells (per axis) of one seed on triangle t of body r */
-static void splat_seed(kf_cpic *c, const kf_grid *g, const kf_cpic_tri *t, const double x[3], int r, double inv_dx,
-                       double dx, double reach) {
-    int lo[3], hi[3];
+/* the node box of one seed (every node within `reach` cells along each
+ * axis) and the at most 3x3x3 blocks it spans, each looked up once */
+typedef struct seed_box {
+    int lo[3], hi[3], b0[3];
+    int32_t blk[3][3][3]; /* -1: no such block */
+} seed_box;
+
+/* fills sb; returns whether any block exists there (else no material is near) */
+static int seed_box_of(const kf_grid *g, const double x[3], double inv_dx, double reach, seed_box *sb) {
+    int nbk[3];
     for (int a = 0; a < 3; a++) {
-        lo[a] = (int)ceil(x[a] * inv_dx - reach);
-        hi[a] = (int)floor(x[a] * inv_dx + reach);
+        sb->lo[a] = (int)ceil(x[a] * inv_dx - reach);
+        sb->hi[a] = (int)floor(x[a] * inv_dx + reach);
+        sb->b0[a] = kf_block_of(sb->lo[a]);
+        nbk[a] = kf_block_of(sb->hi[a]) - sb->b0[a] + 1; /* <= 6 nodes span <= 3 blocks */
     }
-    if (t->g11 == 0 && t->g22 == 0) return;
-    const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
-    /* the (at most 3x3x3) blocks the node box spans, each looked up once */
-    int b0[3], nbk[3];
-    for (int a = 0; a < 3; a++) {
-        b0[a] = kf_block_of(lo[a]);
-        nbk[a] = kf_block_of(hi[a]) - b0[a] + 1; /* <= 6 nodes span <= 3 blocks */
-    }
-    int32_t blkof[3][3][3];
     int any = 0;
     for (int p = 0; p < 3; p++)
         for (int q = 0; q < 3; q++)
             for (int w = 0; w < 3; w++) {
                 int32_t bi = -1;
-                if (p < nbk[0] && q < nbk[1] && w < nbk[2]) bi = kf_grid_find(g, b0[0] + p, b0[1] + q, b0[2] + w);
-                blkof[p][q][w] = bi;
+                if (p < nbk[0] && q < nbk[1] && w < nbk[2])
+                    bi = kf_grid_find(g, sb->b0[0] + p, sb->b0[1] + q, sb->b0[2] + w);
+                sb->blk[p][q][w] = bi;
                 any |= bi >= 0;
             }
-    if (!any) return; /* no material near this seed */
-    for (int i = lo[0]; i <= hi[0]; i++)
-        for (int j = lo[1]; j <= hi[1]; j++)
-            for (int k = lo[2]; k <= hi[2]; k++) {
-                int32_t blk = blkof[kf_block_of(i) - b0[0]][kf_block_of(j) - b0[1]][kf_block_of(k) - b0[2]];
+    return any;
+}
+
+/* the nodes of one seed's box, projected onto its triangle t of body r.
+ * What a node gets from a triangle depends on the node and the triangle
+ * only, not on the seed, and a second visit changes nothing (strict minima,
+ * or-ed bits): a node whose last visitor was this very triangle (tid, from
+ * 1, unique across bodies) is skipped, bit for bit. */
+static void splat_box(kf_cpic *c, const kf_cpic_tri *t, uint32_t tid, const seed_box *sb, int r, double inv_dx,
+                      double dx) {
+    if (t->g11 == 0 && t->g22 == 0) return;
+    const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
+    for (int i = sb->lo[0]; i <= sb->hi[0]; i++)
+        for (int j = sb->lo[1]; j <= sb->hi[1]; j++)
+            for (int k = sb->lo[2]; k <= sb->hi[2]; k++) {
+                int32_t blk = sb->blk[kf_block_of(i) - sb->b0[0]][kf_block_of(j) - sb->b0[1]][kf_block_of(k) - sb->b0[2]];
                 if (blk < 0) continue;
                 touch_block(c, blk, r);
+                size_t node = 64 * (size_t)blk + (size_t)((i & 3) << 4 | (j & 3) << 2 | (k & 3));
+                if (c->mark[node] == tid) continue;
+                c->mark[node] = tid;
                 /* x_i − v0 = α e1 + β e2 + u n */
                 double q[3] = {i * dx - t->v0[0], j * dx - t->v0[1], k * dx - t->v0[2]};
                 double d1 = q[0] * t->e1[0] + q[1] * t->e1[1] + q[2] * t->e1[2];
@@ -181,7 +213,6 @@ static void splat_seed(kf_cpic *c, const kf_grid *g, const kf_cpic_tri *t, const
                 if (al < -eps || be < -eps || al + be > 1 + eps) continue;
                 double u = q[0] * t->n[0] + q[1] * t->n[1] + q[2] * t->n[2];
                 float au = (float)(fabs(u) * inv_dx);
-                size_t node = 64 * (size_t)blk + (size_t)((i & 3) << 4 | (j & 3) << 2 | (k & 3));
                 uint32_t w = c->node_c[node] | abit;
                 if (au < c->best[node]) {
                     /* the body's closest primitive decides the side */
@@ -196,6 +227,95 @@ static void splat_seed(kf_cpic *c, const kf_grid *g, const kf_cpic_tri *t, const
             }
 }
 
+/* Body r's seeds, in parallel without races and for any thread count alike:
+ * each seed near material goes to the bin of the x-block where its node box
+ * starts. A box spans at most 6 nodes, so a bin's seeds write blocks of its
+ * own x-block and the next two only, and bins three apart never share a
+ * block: the bins run in three rounds (bin mod 3), each round's bins in
+ * parallel, each bin's seeds in seed order. */
+static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, const double glo[3], const double ghi[3]) {
+    kf_cpic *c = s->cpic;
+    const kf_grid *g = &s->g;
+    const kf_rigid_body *b = &m->rigid[r];
+    const kf_rigid_state *st = &s->rigid[r];
+    const double dx = m->sim.dx, inv_dx = 1 / dx;
+    /* a solid reaches a cell deeper: a particle pushed slightly inside it
+     * must still see every node of its stencil inside as incompatible */
+    const double reach = b->def.thin ? 1.5 : 2.5;
+    const size_t ns = b->nseed;
+    if (world_triangles_reserve(c, b, r)) return -1;
+    if (ns > c->cap_seed) {
+        size_t cap = ns + ns / 4 + 64;
+        if (grow((void **)&c->seed_x, 3 * sizeof(double), cap) || grow((void **)&c->seed_bin, sizeof(int32_t), cap) ||
+            grow((void **)&c->seed_order, sizeof(int32_t), cap))
+            return -1;
+        c->cap_seed = cap;
+    }
+    /* bins: the grid's x-blocks, and two below for boxes that start there */
+    const int bin0 = kf_block_of((int)floor(glo[0] * inv_dx + 0.5)) - 2;
+    const size_t nbins = (size_t)(kf_block_of((int)floor(ghi[0] * inv_dx + 0.5)) - bin0 + 3);
+    if (nbins + 1 > c->cap_bins) {
+        if (grow((void **)&c->bin_start, sizeof(int32_t), nbins + 1)) return -1;
+        c->cap_bins = nbins + 1;
+    }
+    /* 1. world positions; seeds whose box holds no block drop out. A seed
+     * outside the grid's box (with a margin) needs no lookup at all. */
+    double slo[3], shi[3];
+    for (int a = 0; a < 3; a++) slo[a] = glo[a] - (reach + 1) * dx, shi[a] = ghi[a] + (reach + 1) * dx;
+    double *sx = c->seed_x;
+    int32_t *sbin = c->seed_bin;
+    /* small bodies stay on one thread: waking a sleeping team costs more
+     * than their seeds (the bins' order, hence the result, is the same) */
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) if (ns >= 8192)
+    for (size_t e = 0; e < ns; e++) {
+        sbin[e] = -1;
+        if (b->tri_edge && b->tri_edge[b->seed_tri[e]]) continue; /* a blade's narrow side: its sheet's edge */
+        const float *o = &b->seed[3 * e];
+        double *x = &sx[3 * e];
+        int out = 0;
+        for (int a = 0; a < 3; a++) {
+            x[a] = st->R[3 * a] * o[0] + st->R[3 * a + 1] * o[1] + st->R[3 * a + 2] * o[2] + st->t[a];
+            out |= x[a] < slo[a] || x[a] > shi[a];
+        }
+        seed_box sb;
+        if (out || !seed_box_of(g, x, inv_dx, reach, &sb)) continue;
+        int bin = sb.b0[0] - bin0;
+        sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1; /* outside: no block there either */
+    }
+    /* 2. the triangles the remaining seeds lie on, in world space; the
+     * seeds grouped by bin (a stable counting sort) */
+    int32_t *bs = c->bin_start;
+    memset(bs, 0, (nbins + 1) * sizeof *bs);
+    for (size_t e = 0; e < ns; e++)
+        if (sbin[e] >= 0) {
+            bs[sbin[e] + 1]++;
+            world_triangle(c, b, st, r, b->seed_tri[e]);
+        }
+    for (size_t k = 0; k < nbins; k++) bs[k + 1] += bs[k];
+    {
+        int32_t *fill = c->seed_order;
+        for (size_t e = 0; e < ns; e++)
+            if (sbin[e] >= 0) fill[bs[sbin[e]]++] = (int32_t)e;
+        for (size_t k = nbins; k > 0; k--) bs[k] = bs[k - 1];
+        bs[0] = 0;
+    }
+    /* 3. three rounds of bins, in one team */
+    const int32_t *order = c->seed_order;
+#pragma omp parallel num_threads(m->nthreads) if (bs[nbins] >= 1024)
+    for (int round = 0; round < 3; round++) {
+#pragma omp for schedule(dynamic, 1)
+        for (size_t k = (size_t)round; k < nbins; k += 3)
+            for (int32_t q = bs[k]; q < bs[k + 1]; q++) {
+                size_t e = (size_t)order[q];
+                seed_box sb;
+                seed_box_of(g, &sx[3 * e], inv_dx, reach, &sb);
+                int tri = b->seed_tri[e];
+                splat_box(c, &c->tri[r][tri], tid0 + (uint32_t)tri, &sb, r, inv_dx, dx);
+            }
+    }
+    return 0;
+}
+
 int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     if (!s->cpic) {
         s->cpic = calloc(1, sizeof(kf_cpic));
@@ -205,7 +325,7 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     if (reserve(c, s)) return -1;
     if (++c->epoch == 0) c->epoch = 1; /* never 0: fresh stamps are 0 */
     const kf_grid *g = &s->g;
-    const double dx = m->sim.dx, inv_dx = 1 / dx;
+    const double dx = m->sim.dx;
     /* the grid's extent in metres: a body entirely outside it splats nothing */
     double glo[3] = {1e300, 1e300, 1e300}, ghi[3] = {-1e300, -1e300, -1e300};
     for (size_t b = 0; b < g->nblocks; b++)
@@ -214,32 +334,10 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
             if (x0 < glo[a]) glo[a] = x0;
             if (x0 + KF_BLOCK * dx > ghi[a]) ghi[a] = x0 + KF_BLOCK * dx;
         }
+    uint32_t tri_base = 1; /* triangle ids for the splat's visit marks, unique across bodies */
     for (int r = 0; r < m->nrigid; r++) {
-        const kf_rigid_body *b = &m->rigid[r];
-        const kf_rigid_state *st = &s->rigid[r];
-        if (world_triangles(c, b, st, r)) return -1;
-        /* a solid reaches a cell deeper: a particle pushed slightly inside it
-         * must still see every node of its stencil inside as incompatible */
-        const double reach = b->def.thin ? 1.5 : 2.5;
-        int apart = 0;
-        for (int a = 0; a < 3 && !apart; a++) {
-            double lo = 1e300, hi = -1e300;
-            for (int k = 0; k < b->ntri; k++) {
-                const kf_cpic_tri *t = &c->tri[r][k];
-                double v[3] = {t->v0[a], t->v0[a] + t->e1[a], t->v0[a] + t->e2[a]};
-                for (int q = 0; q < 3; q++) lo = v[q] < lo ? v[q] : lo, hi = v[q] > hi ? v[q] : hi;
-            }
-            apart = lo > ghi[a] + reach * dx || hi < glo[a] - reach * dx;
-        }
-        if (apart) continue;
-        for (size_t e = 0; e < b->nseed; e++) {
-            if (b->tri_edge && b->tri_edge[b->seed_tri[e]]) continue; /* a blade's narrow side: its sheet's edge */
-            const float *o = &b->seed[3 * e];
-            double x[3];
-            for (int a = 0; a < 3; a++)
-                x[a] = st->R[3 * a] * o[0] + st->R[3 * a + 1] * o[1] + st->R[3 * a + 2] * o[2] + st->t[a];
-            splat_seed(c, g, &c->tri[r][b->seed_tri[e]], x, r, inv_dx, dx, reach);
-        }
+        if (splat_body(m, s, r, tri_base, glo, ghi)) return -1;
+        tri_base += (uint32_t)m->rigid[r].ntri;
     }
     /* the narrow band: owners whose 2x2x2 neighbourhood holds a coloured block */
     c->nslot = 0;
@@ -262,13 +360,15 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     memset(c->guard_caught, 0, c->nslot * sizeof(long));
     memset(c->guard_depth, 0, c->nslot * sizeof(double));
     /* particles outside the band touch no coloured node: their colour lapses
-     * (§5.3.3); the bits above the bodies' are not CPIC's (the piece a cut
-     * made, contact.h) and stay */
+     * (§5.3.3), all but the scar (cpic.h: the side of the last blade) */
     kf_particles *p = &s->p;
     for (size_t k = 0; k < g->nowner; k++)
         if (c->slot[k] < 0)
-            for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++)
-                if (p->colour[i] & KF_CPIC_BITS_MASK) p->colour[i] &= ~KF_CPIC_BITS_MASK;
+            for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
+                uint32_t col = p->colour[i], sc = col >> KF_CPIC_RSTAR_SHIFT;
+                uint32_t keep = sc ? (col & ~KF_CPIC_BITS_MASK) | (col & 1u << (2 * (sc - 1))) : 0;
+                if (col != keep) p->colour[i] = keep;
+            }
     c->dt = dt;
     for (int a = 0; a < 3; a++) c->gdt[a] = dt * m->sim.gravity[a];
     kf_cpic_guard_poses(m, s, dt);

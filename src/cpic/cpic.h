@@ -62,6 +62,13 @@ typedef struct kf_cpic {
     uint32_t *stamp;      /* per block */
     float *best;          /* per node: the closest |u| of the body being splatted */
     uint32_t *best_stamp; /* per block: epoch * 16 + body of `best` */
+    uint32_t *mark;       /* per node: the last triangle (numbered across bodies, from 1) that visited it */
+    /* the splat's per-seed scratch (cap_seed) and its x-block bins (cap_bins) */
+    size_t cap_seed, cap_bins;
+    double *seed_x;       /* (3 x seeds) world position */
+    int32_t *seed_bin;    /* x-block bin of its node box, -1: touches no block */
+    int32_t *seed_order;  /* seeds grouped by bin, in seed order within one */
+    int32_t *bin_start;   /* (bins + 1) */
     /* owner blocks in the narrow band and their impulse accumulators */
     size_t cap_owner;
     int32_t *slot;        /* per owner: index into imp, or -1 outside the band */
@@ -76,6 +83,7 @@ typedef struct kf_cpic {
     uint8_t *near;        /* the MLS fit succeeded */
     /* world primitives, per body */
     kf_cpic_tri *tri[KF_MAX_RIGIDS];
+    uint32_t *tri_stamp[KF_MAX_RIGIDS]; /* == epoch: tri[r][k] holds this substep's pose */
     int cap_tri[KF_MAX_RIGIDS];
     /* the substep's totals per body: J[3], L[3] about the com */
     double impulse[KF_MAX_RIGIDS][6];
@@ -103,6 +111,26 @@ static inline void kf_cpic_add_impulse(double *imp, const kf_rigid_state *st, co
     imp[3] += r1 * J[2] - r2 * J[1];
     imp[4] += r2 * J[0] - r0 * J[2];
     imp[5] += r0 * J[1] - r1 * J[0];
+}
+
+/* The scar: which side of a thin body (a blade) a particle was on, kept
+ * after the body has left, so the surfacer can tell the two sides of a cut
+ * apart however close they lie. Bits 28..31 of a particle's colour hold
+ * r + 1 of the thin body it last had affinity to (0: none), and bit 2r its
+ * side then. Without the affinity bit 2r + 1 that side bit is a label only:
+ * compatibility (below) reads side bits under shared affinity alone. New
+ * colour cp (low bits) from the old word: the lowest thin body it now has
+ * affinity to, else the old scar with its side. */
+static inline uint32_t kf_cpic_scar(uint32_t cp, uint32_t old, const uint8_t *thin_body) {
+    cp &= KF_CPIC_BITS_MASK;
+    for (uint32_t held = cp & KF_CPIC_AFFINITY; held; held &= held - 1) {
+        int r = __builtin_ctz(held) / 2;
+        if (thin_body[r]) return cp | (uint32_t)(r + 1) << KF_CPIC_RSTAR_SHIFT;
+    }
+    uint32_t s = old >> KF_CPIC_RSTAR_SHIFT;
+    if (!s) return cp;
+    uint32_t side = 1u << (2 * (s - 1));
+    return (cp & ~side) | (old & side) | (s << KF_CPIC_RSTAR_SHIFT);
 }
 
 /* compatible (§5.3.4): equal tags on every body both node and particle have affinity to */

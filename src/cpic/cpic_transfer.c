@@ -163,9 +163,8 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++)
             for (int k = 0; k < 3; k++) B |= col[o + (a * NB + b) * NB + k] & AFF;
-    /* drop bodies no kernel node is close to; keep the rest as they are (and
-     * the bits above the bodies', the piece a cut made: contact.h) */
-    uint32_t cp = p->colour[i] & ((B | B >> 1) | ~KF_CPIC_BITS_MASK);
+    /* drop bodies no kernel node is close to; keep the rest as they are */
+    uint32_t cp = p->colour[i] & ((B | B >> 1));
     /* ... unless every node near body r says the particle is on its other
      * side: with the crossing guard (guard.c) nothing passes through a
      * surface, so such a tag is stale, kept by a particle that went around
@@ -183,12 +182,14 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
         }
         if (differ && !agree) cp ^= 1u << (bit - 1);
     }
-    /* acquire: the side of the distance-weighted majority (Eq. 21) */
+    /* acquire: the side of the distance-weighted majority (Eq. 21); a side
+     * bit kept from before (the scar below) is replaced */
     for (uint32_t need = B & ~cp; need; need &= need - 1) {
         int bit = __builtin_ctz(need); /* 2r + 1 */
         int neg = acquire_side(ck, j, col, dist, o, bit, dx);
-        if (neg >= 0) cp |= (1u << bit) | (neg ? 1u << (bit - 1) : 0);
+        if (neg >= 0) cp = (cp & ~(1u << (bit - 1))) | (1u << bit) | (neg ? 1u << (bit - 1) : 0);
     }
+    cp = kf_cpic_scar(cp, p->colour[i], thin_body);
     p->colour[i] = cp;
     c->near[i] = 0;
     c->pd[i] = 0;

@@ -36,7 +36,7 @@
 #include "../mpm/collider.h"
 #include "../mpm/transfer_chunk.h"
 #include "../rigid/bvh.h"
-#include "../rigid/rmath.h"
+#include "../core/mat3.h"
 #include "cpic.h"
 
 #define NB KF_CPIC_NB
@@ -53,14 +53,14 @@ void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt) {
         }
         const kf_rigid_state *st = &s->rigid[r];
         double wdt[3] = {st->w[0] * dt, st->w[1] * dt, st->w[2] * dt}, Q[9], cm[3];
-        rm_rotvec(wdt, Q);
-        rm_mm(Q, st->R, e->R);
+        kf_m3d_rotvec(Q, wdt);
+        kf_m3d_mul(e->R, Q, st->R);
         for (int a = 0; a < 3; a++) {
             e->v[a] = st->v[a] + m->sim.gravity[a] * dt;
             e->w[a] = st->w[a];
             e->com[a] = st->com[a] + e->v[a] * dt;
         }
-        rm_mv(e->R, b->com, cm);
+        kf_m3d_mv(cm, e->R, b->com);
         for (int a = 0; a < 3; a++) e->t[a] = e->com[a] - cm[a];
     }
 }
@@ -68,7 +68,7 @@ void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt) {
 /* world -> mesh frame of pose st */
 static inline void to_mesh(const kf_rigid_state *st, const double x[3], double p[3]) {
     double q[3] = {x[0] - st->t[0], x[1] - st->t[1], x[2] - st->t[2]};
-    rm_mtv(st->R, q, p);
+    kf_m3d_mtv(p, st->R, q);
 }
 
 /* the unit normal and the offset of triangle k's plane, mesh frame */
@@ -76,10 +76,10 @@ static inline void tri_plane(const kf_rigid_body *b, int k, double n[3], double 
     const double *a = &b->vert[3 * b->tri[3 * k]], *p = &b->vert[3 * b->tri[3 * k + 1]],
                  *q = &b->vert[3 * b->tri[3 * k + 2]];
     double e1[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]}, e2[3] = {q[0] - a[0], q[1] - a[1], q[2] - a[2]};
-    rm_cross(e1, e2, n);
-    double nn = sqrt(rm_dot(n, n));
+    kf_v3d_cross(n, e1, e2);
+    double nn = sqrt(kf_v3d_dot(n, n));
     for (int i = 0; i < 3; i++) n[i] = nn > 0 ? n[i] / nn : 0;
-    *off = rm_dot(n, a);
+    *off = kf_v3d_dot(n, a);
 }
 
 /* Follow one particle's path relative to body r; fix it if it crossed.
@@ -103,7 +103,7 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
      * have reached it, and the query is skipped (most of the narrow band) */
     if (c->near[i] == r + 1) {
         double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-        if (c->pd[i] > sqrt(rm_dot(d, d)) + 0.25 * m->sim.dx) return 0;
+        if (c->pd[i] > sqrt(kf_v3d_dot(d, d)) + 0.25 * m->sim.dx) return 0;
     }
     int k = kf_rigid_bvh_first_hit(b->bvh, p0, p1, &t);
     if (k < 0) return 0;
@@ -111,7 +111,7 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
      * unguarded edge) is let out: looking back along its path, the other face
      * is within the blade's thickness */
     if (b->sheet_thickness > 0) {
-        double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]}, len = sqrt(rm_dot(d, d)), back[3], tb;
+        double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]}, len = sqrt(kf_v3d_dot(d, d)), back[3], tb;
         if (len > 0) {
             for (int a = 0; a < 3; a++) back[a] = p0[a] - d[a] / len * 1.5 * b->sheet_thickness;
             if (kf_rigid_bvh_first_hit(b->bvh, p0, back, &tb) >= 0) return 0;
@@ -121,7 +121,7 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     double n[3], off, depth = 0, side_n[3], side = 1;
     for (int tries = 0; k >= 0; tries++) {
         tri_plane(b, b->guard_tri[k], n, &off);
-        double s0 = rm_dot(n, p0) - off, s1 = rm_dot(n, p1) - off;
+        double s0 = kf_v3d_dot(n, p0) - off, s1 = kf_v3d_dot(n, p1) - off;
         side = s0 >= 0 ? 1 : -1;
         if (tries == 0) depth = fabs(s1);
         for (int a = 0; a < 3; a++) side_n[a] = side * n[a];
@@ -149,8 +149,8 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     /* back to the world, at the body's end pose */
     const kf_rigid_state *e = &c->end[r];
     double xw[3], nw[3];
-    rm_mv(e->R, p1, xw);
-    rm_mv(e->R, side_n, nw);
+    kf_m3d_mv(xw, e->R, p1);
+    kf_m3d_mv(nw, e->R, side_n);
     for (int a = 0; a < 3; a++) {
         xw[a] += e->t[a];
         p->x[a][i] = (kf_real)xw[a];
@@ -159,7 +159,7 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     double V[3], w[3];
     kf_rigid_point_velocity(e, xw, V);
     for (int a = 0; a < 3; a++) w[a] = p->v[a][i] - V[a];
-    double wn = rm_dot(w, nw);
+    double wn = kf_v3d_dot(w, nw);
     if (wn < 0 || b->def.boundary == KF_BOUNDARY_STICKY) {
         double w0[3] = {w[0], w[1], w[2]}, J[3];
         kf_project_velocity(w, nw, b->def.boundary, b->def.friction);
@@ -189,7 +189,7 @@ static void retag(const kf_model *m, kf_state *s, int r, size_t i) {
     int interior = 0, k = kf_rigid_bvh_closest(b->bvh, pm, 1.5 * m->sim.dx, q, &interior);
     if (k < 0 || !interior) return;
     tri_plane(b, b->guard_tri[k], nrm, &off);
-    const double u = rm_dot(nrm, pm) - off;
+    const double u = kf_v3d_dot(nrm, pm) - off;
     const uint32_t tbit = 1u << (2 * r);
     if (u < 0) p->colour[i] |= tbit;
     else if (u > 0) p->colour[i] &= ~tbit;
@@ -246,7 +246,7 @@ long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_c
             int interior = 0, k = kf_rigid_bvh_closest(b->bvh, pm, 1.5 * dx, q, &interior);
             if (k < 0 || !interior) continue;
             tri_plane(b, b->guard_tri[k], nrm, &off);
-            double u = rm_dot(nrm, pm) - off;
+            double u = kf_v3d_dot(nrm, pm) - off;
             int behind = (p->colour[i] & tbit) ? u > 0 : u < 0;
             if (!behind) continue;
             across++;

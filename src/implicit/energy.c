@@ -174,7 +174,7 @@ double kf_imp_energy_psi(const kf_mat *m, const double F[9], const kf_real ps[2]
     double U[9], s[3], V[9], psi;
     principal pr;
     if (!corotated_by_polar(m, F, ps, &psi, NULL)) return psi;
-    kf_imp_svd(F, U, s, V);
+    kf_svd3d(F, U, s, V);
     if (principal_of(m, s, ps, &pr)) return NAN;
     return pr.psi;
 }
@@ -193,7 +193,7 @@ int kf_imp_energy_eval_in(const kf_mat *m, const double F[9], const kf_real ps[2
      * the line search's slack) */
     int polar = !want_hessian && !corotated_by_polar(m, F, ps, &out->psi, out->P);
     if (polar) return 0;
-    kf_imp_svd(F, U, s, V);
+    kf_svd3d(F, U, s, V);
     if (principal_of(m, s, ps, &pr)) return -1;
     if (!polar) {
         out->psi = pr.psi;
@@ -222,7 +222,7 @@ int kf_imp_energy_eval_in(const kf_mat *m, const double F[9], const kf_real ps[2
                  pr.A[2] * (pr.A[3] * pr.A[7] - pr.A[4] * pr.A[6]);
     if (project && !(pr.A[0] > 0 && m2 > 0 && det > 0)) {
         double w[3], Q[9];
-        kf_imp_sym_eig3(pr.A, w, Q);
+        kf_sym_eig3d(pr.A, w, Q);
         for (int k = 0; k < 3; k++) w[k] = w[k] > 0 ? w[k] : 0;
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)

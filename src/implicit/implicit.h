@@ -20,16 +20,8 @@
 #ifndef KF_IMPLICIT_H
 #define KF_IMPLICIT_H
 
+#include "../core/svd3.h" /* kf_svd3d, kf_sym_eig3d: the energies' double SVD */
 #include "../mpm/model.h"
-
-/* ---- double 3x3 algebra for the energies (implicit/svd.c) ------------------ */
-
-/* Sign-fixed SVD F = U diag(σ) Vᵀ, det U = det V = +1, |σ0| >= |σ1| >= |σ2|,
- * σ0, σ1 >= 0 and σ2 carrying the sign of det F (so an inverted F keeps a
- * rotation, as the fixed-corotated energy needs). */
-void kf_imp_svd(const double F[9], double U[9], double sigma[3], double V[9]);
-/* Symmetric eigen-decomposition A = Q diag(w) Qᵀ (Jacobi, to round-off). */
-void kf_imp_sym_eig3(const double A[9], double w[3], double Q[9]);
 
 /* ---- energies (implicit/energy.c) ------------------------------------------
  * Every elastic model of kerf is isotropic: Ψ(F) = ψ(σ). The stress is

@@ -333,7 +333,7 @@ static int build_constraints(kf_mg_level *L, size_t nfine, size_t fncon, const i
             if (!(ws[I] > 0) || (C[9 * I] == 0 && C[9 * I + 4] == 0 && C[9 * I + 8] == 0)) continue;
             double A[9], ev[3], Q[9], P[9];
             for (int r = 0; r < 9; r++) A[r] = C[9 * I + r] / ws[I];
-            kf_imp_sym_eig3(A, ev, Q);
+            kf_sym_eig3d(A, ev, Q);
             int nfix = 0;
             for (int r = 0; r < 9; r++) P[r] = r % 4 == 0;
             for (int k = 0; k < 3; k++)

@@ -7,6 +7,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "../core/fnv.h"
 #include "../mpm/model.h"
 #include "atomic_file.h"
 
@@ -33,12 +34,7 @@ typedef struct hashed_writer {
     int failed;
 } hashed_writer;
 
-static void fnv(uint64_t *h, const void *p, size_t n) {
-    const unsigned char *b = p;
-    uint64_t x = *h;
-    for (size_t i = 0; i < n; i++) x = (x ^ b[i]) * 1099511628211ULL;
-    *h = x;
-}
+static void fnv(uint64_t *h, const void *p, size_t n) { *h = kf_fnv1a(*h, p, n); }
 
 static void put(hashed_writer *w, const void *p, size_t n) {
     if (w->failed || n == 0) return;
@@ -46,8 +42,9 @@ static void put(hashed_writer *w, const void *p, size_t n) {
     if (fwrite(p, 1, n, w->f) != n) w->failed = 1;
 }
 
-int kf_checkpoint_write(const char *path, const kf_state *s, int frame, uint64_t inputs_hash, char *err, size_t errlen) {
+int kf_checkpoint_write(const char *path, kf_state *s, int frame, uint64_t inputs_hash, char *err, size_t errlen) {
     const kf_particles *p = &s->p;
+    kf_grid_invalidate(&s->g); /* a resume sorts from scratch: so does the run from here */
     kf_atomic_file af;
     if (kf_atomic_open(&af, path)) {
         snprintf(err, errlen, "%s: cannot write checkpoint: %s", path, kf_io_reason(errno));
@@ -76,7 +73,7 @@ int kf_checkpoint_write(const char *path, const kf_state *s, int frame, uint64_t
         }
         kf_rigid_sim_save(s->rsim, rsim);
     }
-    hashed_writer w = {af.f, 1469598103934665603ULL, 0};
+    hashed_writer w = {af.f, KF_FNV_BASIS, 0};
     put(&w, &h, sizeof h);
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) put(&w, p->plane[k], p->n * sizeof(kf_real));
     put(&w, p->mat, p->n * sizeof *p->mat);
@@ -123,7 +120,7 @@ static uint64_t expected_size(const header *h) {
 static int hash_prefix(FILE *f, uint64_t len, uint64_t *sum) {
     enum { CHUNK = 1 << 20 };
     unsigned char *buf = malloc(CHUNK);
-    *sum = 1469598103934665603ULL;
+    *sum = KF_FNV_BASIS;
     if (!buf || fseek(f, 0, SEEK_SET) != 0) {
         free(buf);
         return -1;

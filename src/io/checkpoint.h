@@ -30,8 +30,12 @@ typedef struct kf_checkpoint_info {
     uint64_t inputs_hash; /* hash of the sim-relevant inputs that made it */
 } kf_checkpoint_info;
 
-/* Returns 0, or -1 with a message naming the path in err. */
-int kf_checkpoint_write(const char *path, const kf_state *s, int frame, uint64_t inputs_hash, char *err, size_t errlen);
+/* Returns 0, or -1 with a message naming the path in err. The file holds
+ * the particles but not how the grid groups them (kf_grid_bin keeps a
+ * grouping while particles drift within reach of their blocks), so the
+ * state's next substep re-sorts from scratch, exactly as the run resumed
+ * from this file will: both continue bit for bit alike. */
+int kf_checkpoint_write(const char *path, kf_state *s, int frame, uint64_t inputs_hash, char *err, size_t errlen);
 
 /* Replace the state's particles and clock with the checkpoint's. The
  * checksum over the whole file is verified before any header field is

@@ -80,6 +80,10 @@ typedef struct kf_vdb_surface_params {
     kf_vdb_op smooth;     /* KF_VDB_OP_MEAN_CURVATURE / _GAUSSIAN / _LAPLACIAN or NONE */
     int smooth_iterations;
     double erode;         /* m, applied last (0: none) */
+    double average;       /* 0..1: pull each centre this far toward its neighbours' weighted mean
+                             first (Yu & Turk 2013; 0: none); erode is reduced by the inward
+                             shift this gives a flat face (vdb_bridge.cpp) */
+    double average_radius; /* m, the neighbourhood of `average` (default 2 x spacing) */
     int clamp_small;      /* 1: raise radii under 1.5 voxels and count; 0: error */
     const char *name;     /* grid name (default "surface") */
 } kf_vdb_surface_params;
@@ -142,6 +146,11 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
                                    const float *radii, const float *vel,
                                    const kf_vdb_surface_params *p, kf_vdb_grid **out,
                                    kf_vdb_surface_stats *stats, char *err, size_t errlen);
+
+/* a = a union b (CSG on the level sets, openvdb::tools::csgUnion; the
+ * velocity grids merged, a's value where both have one); b is emptied and
+ * still freed by the caller. Both must have the same voxel size. */
+int kf_vdb_union(kf_vdb_grid *a, kf_vdb_grid *b, char *err, size_t errlen);
 
 /* One filter pass: amount (m) for dilate/erode, iterations for smoothing. */
 int kf_vdb_filter(kf_vdb_grid *g, kf_vdb_op op, double amount, int iterations,

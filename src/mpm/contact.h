@@ -80,11 +80,9 @@ typedef struct kf_contact {
     long pieces_made;
 } kf_contact;
 
-/* A particle's field: its object (low 12 bits) and the piece of it a thin
- * body cut off (the colour word's bits 28..31, contact_pieces.c). */
-static inline uint16_t kf_contact_field(const kf_particles *p, size_t i) {
-    return (uint16_t)((p->obj[i] & 0x0FFFu) | (p->colour[i] >> 28) << 12);
-}
+/* A particle's field: its object (low 12 bits of kf_particles.obj) and the
+ * piece of it a thin body cut off (the 4 bits above, contact_pieces.c). */
+static inline uint16_t kf_contact_field(const kf_particles *p, size_t i) { return p->obj[i]; }
 
 /* Does a thin body cut this material into pieces (solids: elastic, von
  * Mises, snow), or does it flow together again (sand, water)? */

@@ -12,20 +12,20 @@
  * around the cut (material beyond the blade's edge, more than about two
  * cells, links both sides), so it stays one field. Pieces never merge again.
  *
- * The piece number lives in the 4 bits of the particle's colour word above
  * Only solids come apart in pieces: sand and water that a paddle parted
  * flow together again as one (kf_contact_cuts).
  *
- * The piece number lives in the 4 bits of the particle's colour word above
- * CPIC's (28..31; CPIC keeps them): checkpointed and re-sorted with the
- * particle, 16 pieces per object (a 17th part joins piece 15). The field of
- * a particle is its object in the low 12 bits and its piece above. */
+ * The piece number lives in the 4 bits of the particle's object index above
+ * the object (kf_particles.obj: KF_OBJECT_MASK is the object): checkpointed
+ * and re-sorted with the particle, 16 pieces per object (a 17th part joins
+ * piece 15). The field of a particle is the whole word. */
 #include <stdlib.h>
 #include <string.h>
 
 #include "contact.h"
+#include "../cpic/cpic.h"
 
-#define PIECE_SHIFT 28
+#define PIECE_SHIFT 12
 /* the fewest particles a part needs to become a piece: four cells at 8 per cell */
 #define KF_PIECE_MIN 32
 
@@ -100,7 +100,7 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
     /* at each node, particles of one field and one CPIC colour are one class
      * (compatible with each other): linked at once, and only the first of
      * each class, moved to the front of the node's list, is compared below */
-    const uint32_t cmask = (1u << PIECE_SHIFT) - 1;
+    const uint32_t cmask = KF_CPIC_BITS_MASK;
     uint32_t *nrep = c->pc_nrep;
     for (size_t q = 0; q < nodes; q++) {
         uint32_t s0 = start[q], k = s0;
@@ -172,7 +172,7 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
     for (size_t i = 0; i < n; i++) {
         uint16_t f = kf_contact_field(p, i);
         keep[f] = UINT32_MAX;
-        used[f & 0x0FFF] |= 1u << (f >> 12);
+        used[f & KF_OBJECT_MASK] |= 1u << (f >> PIECE_SHIFT);
     }
     for (size_t i = 0; i < n; i++) {
         if (parent[i] != i) continue;
@@ -189,7 +189,7 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
         uint16_t f = kf_contact_field(p, i);
         piece[i] = 0;
         if (keep[f] == (uint32_t)i || size[i] < KF_PIECE_MIN || !kf_contact_cuts(&m->mat[p->mat[i]])) continue;
-        uint32_t obj = f & 0x0FFF, free_mask = ~used[obj] & 0xFFFFu;
+        uint32_t obj = f & KF_OBJECT_MASK, free_mask = ~used[obj] & 0xFFFFu;
         uint32_t k = free_mask ? (uint32_t)__builtin_ctz(free_mask) : 15;
         used[obj] |= 1u << k;
         piece[i] = k + 1;
@@ -198,7 +198,7 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
     if (!split) return 0;
     for (size_t i = 0; i < n; i++) {
         uint32_t k = piece[find(parent, (uint32_t)i)];
-        if (k) p->colour[i] = (p->colour[i] & ((1u << PIECE_SHIFT) - 1)) | (k - 1) << PIECE_SHIFT;
+        if (k) p->obj[i] = (uint16_t)((p->obj[i] & KF_OBJECT_MASK) | (k - 1) << PIECE_SHIFT);
     }
     c->pieces_made++;
     return 0;

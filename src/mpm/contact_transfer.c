@@ -11,7 +11,7 @@
 #include "contact.h"
 #include "transfer_chunk.h"
 
-#define NB 6 /* the CPIC colour cache's edge (cpic.h: KF_CPIC_NB) */
+#define NB KF_CACHE_EDGE /* the CPIC colour cache's edge (cpic_seam.h: KF_CPIC_NB) */
 
 /* the grid node (a, b, c) of the owner's neighbourhood, as an index */
 static inline size_t node_index(const int32_t *nb, int a, int b, int c) {

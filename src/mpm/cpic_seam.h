@@ -19,7 +19,7 @@
 #include <kerf/kerf.h>
 #include "../core/real.h"
 
-#define KF_CPIC_NB 6 /* quadratic owner cache edge: 4 + 3 - 1 */
+#define KF_CPIC_NB 8 /* the owner's node cache edge: its 2x2x2 block neighbourhood (grid.h: KF_CACHE_EDGE) */
 
 struct kf_cpic;
 struct chunk;

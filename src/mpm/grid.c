@@ -147,11 +147,31 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
     if (threads < 1) threads = 1;
     if (ensure_particle_scratch(g, n, threads)) return -1;
 
-    /* 1. each particle's base block; flag those that left their block */
-    long nmoved = 0, nbad = 0;
-    const int limit = KF_KEY_OFFSET - 2;
+    /* 0. nothing to do while every stencil still fits its owner's
+     * neighbourhood: the test depends on positions alone, so on no thread count */
+    long nmoved = 0, nbad = 0, nout = 0;
+    const int limit = KF_KEY_OFFSET - 2, shift = kf_owner_shift(cubic), lmax = kf_owner_lmax(cubic);
     uint8_t *moved = g->moved;
     int full = !g->valid;
+    if (!full) {
+        const int32_t *bcoord = g->bcoord, *blk = p->block;
+#pragma omp parallel for reduction(+ : nout, nbad) schedule(static) num_threads(threads)
+        for (size_t i = 0; i < n; i++) {
+            const int32_t *bc = &bcoord[3 * blk[i]];
+            int out = 0, ok = 1;
+            for (int a = 0; a < 3; a++) {
+                kf_real xg = p->x[a][i] * inv_dx;
+                if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) ok = 0;
+                int l = ok ? kf_base_node(p->x[a][i], inv_dx, cubic) - KF_BLOCK * bc[a] : 0;
+                out |= l < 0 || l > lmax;
+            }
+            nbad += !ok;
+            nout += out;
+        }
+        if (!nbad && !nout) return 0;
+    }
+
+    /* 1. each particle's owner block; flag those whose owner changed */
 #pragma omp parallel for reduction(+ : nmoved, nbad) schedule(static) num_threads(threads)
     for (size_t i = 0; i < n; i++) {
         int b[3];
@@ -160,7 +180,7 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
             kf_real xg = p->x[a][i] * inv_dx;
             /* NaN and far-away particles fail this test */
             if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) ok = 0;
-            b[a] = ok ? kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic)) : 0;
+            b[a] = ok ? kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic) - shift) : 0;
         }
         if (!ok) {
             moved[i] = 2;

@@ -6,10 +6,15 @@
  * coordinate through an open-addressing hash, used only when particles are
  * re-binned (a particle that stays in its block never touches the hash).
  *
- * Ownership: a particle belongs to the block holding its kernel's base node.
- * Its stencil (3 or 4 nodes per axis) then lies in that block and the +1
- * neighbours along each axis, 8 blocks in all (the "owner" and its upper
- * neighbours), which binning guarantees to exist.
+ * Ownership: a particle belongs to an owner block whose 2x2x2 neighbourhood
+ * (the owner and its upper neighbours along each axis, 8 nodes per axis,
+ * which binning guarantees to exist) holds its whole stencil (3 or 4 nodes
+ * per axis). Binning puts each particle in the block of its base node less
+ * KF_OWNER_SHIFT, so that its base sits 1..4 (quadratic) or 0..3 (cubic)
+ * nodes into the owner; it may then drift to 0..5 (quadratic) or 0..4
+ * (cubic) and still fit: particles are re-sorted only when one drifts out
+ * (or after kf_grid_invalidate), not every time one crosses a block face. A
+ * falling body re-sorts every few substeps instead of every substep.
  *
  * Race-free parallel P2G: owner blocks are coloured by the parity of their
  * coordinates (8 colours). Two owners of one colour differ by an even,
@@ -30,6 +35,12 @@
 #define KF_BLOCK_NODES 64
 #define KF_KEY_BITS 21
 #define KF_KEY_OFFSET (1 << 20)    /* block coordinates in [-2^20, 2^20) */
+#define KF_CACHE_EDGE (2 * KF_BLOCK) /* nodes per axis of an owner's neighbourhood */
+
+/* binning's offset of the base node, and the largest base offset inside the
+ * owner whose stencil still fits the neighbourhood */
+static inline int kf_owner_shift(int cubic) { return cubic ? 0 : 1; }
+static inline int kf_owner_lmax(int cubic) { return KF_CACHE_EDGE - (cubic ? 4 : 3); }
 
 typedef struct kf_grid {
     /* block storage */
@@ -62,12 +73,19 @@ typedef struct kf_grid {
 
 void kf_grid_free(kf_grid *g);
 
-/* Bin the particles: compute each particle's base block, create the blocks
- * its stencil needs, and sort particles by owner block. Cheap when nobody
- * changed block. cubic selects the 4-node stencil. Returns 0, -1 out of
+/* Bin the particles: when some particle's stencil left its owner's
+ * neighbourhood (or the grid is not valid), compute each particle's owner,
+ * create the blocks its stencil needs, and sort particles by owner block;
+ * otherwise only check (positions finite and in range). cubic selects the 4-node stencil. Returns 0, -1 out of
  * memory, or -2 when a particle is outside the representable range
  * (*bad_particle is set to its index). */
 int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle);
+
+/* The next kf_grid_bin re-sorts every particle (recentred in its owner), as
+ * after loading a checkpoint or restoring an interval's start: writing a
+ * checkpoint and starting an interval (kf_advance) call this, so that a run,
+ * its resume and its retry group particles alike. */
+static inline void kf_grid_invalidate(kf_grid *g) { g->valid = 0; }
 
 /* The block with this block coordinate, or -1 if there is none. */
 int32_t kf_grid_find(const kf_grid *g, int bx, int by, int bz);

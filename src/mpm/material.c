@@ -9,6 +9,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "../core/mat3.h"
 #include "../core/svd3.h"
 
 #define KF_PI 3.14159265358979323846
@@ -21,24 +22,7 @@
  * (with γ = 7, p(0.01) = 1e14 κ) so the step's checks, not inf, report it */
 #define WATER_J_MIN 1e-2
 
-/* ---- small double helpers ------------------------------------------------ */
-
-static inline double det3d(const double A[9]) {
-    return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
-           A[2] * (A[3] * A[7] - A[4] * A[6]);
-}
-
-static inline void cof3d(double K[9], const double A[9]) {
-    K[0] = A[4] * A[8] - A[5] * A[7];
-    K[1] = A[5] * A[6] - A[3] * A[8];
-    K[2] = A[3] * A[7] - A[4] * A[6];
-    K[3] = A[2] * A[7] - A[1] * A[8];
-    K[4] = A[0] * A[8] - A[2] * A[6];
-    K[5] = A[1] * A[6] - A[0] * A[7];
-    K[6] = A[1] * A[5] - A[2] * A[4];
-    K[7] = A[2] * A[3] - A[0] * A[5];
-    K[8] = A[0] * A[4] - A[1] * A[3];
-}
+/* ---- small double helpers (the 3x3 algebra itself is core/mat3.h) ------- */
 
 static inline void to_double(double D[9], const kf_real A[9]) {
     for (int i = 0; i < 9; i++) D[i] = (double)A[i];
@@ -82,11 +66,11 @@ static int polar_newton(const double F[9], double R[9]) {
     double f2 = 0;
     for (int i = 0; i < 9; i++) f2 += F[i] * F[i];
     double rms2 = f2 / 3; /* mean squared singular value */
-    if (!(det3d(F) > 1e-3 * rms2 * sqrt(rms2))) return 0;
+    if (!(kf_m3d_det(F) > 1e-3 * rms2 * sqrt(rms2))) return 0;
     double X[9], K[9];
     for (int i = 0; i < 9; i++) X[i] = F[i];
     for (int it = 0; it < 16; it++) {
-        cof3d(K, X);
+        kf_m3d_cofactor(K, X);
         double d = X[0] * K[0] + X[1] * K[1] + X[2] * K[2];
         if (!(d > 0)) return 0;
         double id = 1 / d, k2 = 0; /* X⁻ᵀ = K / d */
@@ -133,7 +117,7 @@ static void corotated_tau(double mu, double la, const kf_real F[9], kf_real tau[
             for (int k = 0; k < 3; k++) t += (Fd[3 * i + k] - R[3 * i + k]) * Fd[3 * j + k];
             A[3 * i + j] = t;
         }
-    double J = det3d(Fd), vol = la * (J - 1) * J;
+    double J = kf_m3d_det(Fd), vol = la * (J - 1) * J;
     for (int i = 0; i < 3; i++)
         for (int j = i; j < 3; j++) {
             double t = mu * (A[3 * i + j] + A[3 * j + i]) + (i == j ? vol : 0.0);
@@ -146,7 +130,7 @@ static double corotated_psi(double mu, double la, const kf_real F[9]) {
     to_double(Fd, F);
     rotation_of(Fd, F, R);
     for (int i = 0; i < 9; i++) s += (Fd[i] - R[i]) * (Fd[i] - R[i]);
-    double J = det3d(Fd);
+    double J = kf_m3d_det(Fd);
     return mu * s + 0.5 * la * (J - 1) * (J - 1);
 }
 

@@ -19,9 +19,13 @@ void kf_particles_free(kf_particles *p) {
     memset(p, 0, sizeof *p);
 }
 
-static int grow(void **ptr, size_t elem, size_t cap) {
+/* the new tail is zeroed: planes a model does not fill before the first
+ * step (the stress planes of an explicit run) are written to the first
+ * frame's checkpoint, which must not depend on what the heap held before */
+static int grow(void **ptr, size_t elem, size_t old, size_t cap) {
     void *q = realloc(*ptr, elem * cap);
     if (!q) return -1;
+    memset((char *)q + elem * old, 0, elem * (cap - old));
     *ptr = q;
     return 0;
 }
@@ -31,10 +35,10 @@ int kf_particles_reserve(kf_particles *p, size_t cap) {
     size_t c = p->cap ? p->cap : 1024;
     while (c < cap) c *= 2;
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
-        if (grow((void **)&p->plane[k], sizeof(kf_real), c)) return -1;
-    if (grow((void **)&p->mat, sizeof *p->mat, c) || grow((void **)&p->id, sizeof *p->id, c) ||
-        grow((void **)&p->obj, sizeof *p->obj, c) || grow((void **)&p->colour, sizeof *p->colour, c) ||
-        grow((void **)&p->key, sizeof *p->key, c) || grow((void **)&p->block, sizeof *p->block, c))
+        if (grow((void **)&p->plane[k], sizeof(kf_real), p->cap, c)) return -1;
+    if (grow((void **)&p->mat, sizeof *p->mat, p->cap, c) || grow((void **)&p->id, sizeof *p->id, p->cap, c) ||
+        grow((void **)&p->obj, sizeof *p->obj, p->cap, c) || grow((void **)&p->colour, sizeof *p->colour, p->cap, c) ||
+        grow((void **)&p->key, sizeof *p->key, p->cap, c) || grow((void **)&p->block, sizeof *p->block, p->cap, c))
         return -1;
     p->cap = c;
     return 0;

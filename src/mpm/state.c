@@ -3,6 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../core/fnv.h"
 #include "../core/mat3.h"
 #include "cpic_seam.h"
 #include "model.h"
@@ -278,12 +279,8 @@ uint64_t kf_state_hash(const kf_state *s) {
     if (!where) return 0;
     for (size_t k = 0; k <= maxid; k++) where[k] = -1;
     for (size_t i = 0; i < n; i++) where[p->id[i]] = (int64_t)i;
-    uint64_t h = 1469598103934665603ULL;
-#define FNV(ptr, len)                                                        \
-    do {                                                                     \
-        const unsigned char *b_ = (const unsigned char *)(ptr);              \
-        for (size_t q_ = 0; q_ < (len); q_++) h = (h ^ b_[q_]) * 1099511628211ULL; \
-    } while (0)
+    uint64_t h = KF_FNV_BASIS;
+#define FNV(ptr, len) (h = kf_fnv1a(h, (ptr), (len)))
     for (size_t k = 0; k <= maxid; k++) {
         if (where[k] < 0) continue;
         size_t i = (size_t)where[k];

@@ -266,6 +266,11 @@ static void restore_snapshot(kf_state *s, double time0, long substep0) {
 
 int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *st, char *msg, size_t msglen) {
     if (msg && msglen) msg[0] = 0;
+    /* the interval starts from a full sort, as its retry after trouble does
+     * (the grid keeps a grouping of particles while they drift within
+     * reach, grid.h): a retried interval and one made directly at the
+     * smaller step then sum in the same order, bit for bit */
+    kf_grid_invalidate(&s->g);
     if (save_snapshot(s)) {
         if (msg) snprintf(msg, msglen, "out of memory saving the interval start");
         return 1;

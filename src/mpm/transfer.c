@@ -27,14 +27,18 @@
 #include "model.h"
 
 #include "transfer_chunk.h"
+
 #include "contact.h"
 #include "cpic_seam.h"
+
+/* CPIC's per-owner colour cache is indexed like the node cache */
+_Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like the transfer's");
 
 /* ---- P2G ---------------------------------------------------------------------- */
 
 KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
                          chunk *ck, step_acc *acc) {
-    const int CD = 3 + KW;
+    const int CD = CD_MAX;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
     /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
@@ -46,12 +50,19 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     memset(cache, 0, sizeof(kf_v4) * CD * CD * CD);
+    /* the base offsets the block's particles use: only their nodes are flushed */
+    int lo[3] = {CD, CD, CD}, hi[3] = {0, 0, 0};
 
     for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
         size_t left = g->pstart[r + 1] - i0;
         ck->n = left < KF_CHUNK ? (int)left : KF_CHUNK;
         const int n = ck->n;
         stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
+        for (int a = 0; a < 3; a++)
+            for (int j = 0; j < n; j++) {
+                lo[a] = ck->l[a][j] < lo[a] ? ck->l[a][j] : lo[a];
+                hi[a] = ck->l[a][j] > hi[a] ? ck->l[a][j] : hi[a];
+            }
 
         /* Q = m C − Δt V⁰ D⁻¹ τ (MLS), or m C and the separate force term
          * −Δt V⁰ τ ∇w (classic); PIC drops m C */
@@ -94,12 +105,12 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         if (fields) kf_contact_p2g_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
     }
 
-    /* flush the cache into the 8 blocks of the neighbourhood */
+    /* flush the touched part of the cache into the 8 blocks of the neighbourhood */
     const int32_t *nb = g->nb[r];
-    for (int a = 0; a < CD; a++)
-        for (int b = 0; b < CD; b++) {
+    for (int a = lo[0]; a < hi[0] + KW; a++)
+        for (int b = lo[1]; b < hi[1] + KW; b++) {
             const kf_v4 *row = &cache[(a * CD + b) * CD];
-            for (int c = 0; c < CD; c++) *nb_node(g, nb, a, b, c) += row[c];
+            for (int c = lo[2]; c < hi[2] + KW; c++) *nb_node(g, nb, a, b, c) += row[c];
         }
 }
 
@@ -148,7 +159,7 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
 
 KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
                          chunk *ck, step_acc *acc) {
-    const int CD = 3 + KW;
+    const int CD = CD_MAX;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
     /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */

@@ -13,7 +13,7 @@
 #include "model.h"
 
 #define KF_INLINE static inline __attribute__((always_inline))
-#define CD_MAX 7    /* cache edge: 4 base offsets + cubic stencil (4) - 1 */
+#define CD_MAX KF_CACHE_EDGE /* cache edge: the owner's 2x2x2 block neighbourhood (grid.h) */
 #define KF_CHUNK 16 /* particles per phase: one AVX-512 register of floats */
 
 /* per-thread scratch of one chunk, structure of arrays across particles */
@@ -97,9 +97,9 @@ static inline void note_trouble(step_acc *acc, const kf_particles *p, size_t i, 
     acc->trouble.substep = substep;
 }
 
-/* one particle's P2G contribution to the owner's node cache (edge 3 + KW) */
+/* one particle's P2G contribution to the owner's node cache (edge CD_MAX) */
 KF_INLINE void scatter_one(int KW, int CLASSIC, const chunk *ck, int j, kf_v4 *cache) {
-    const int CD = 3 + KW;
+    const int CD = CD_MAX;
     const kf_v4 base = {ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
     const kf_v4 q0 = {ck->q[0][j], ck->q[3][j], ck->q[6][j], 0};
     const kf_v4 q1 = {ck->q[1][j], ck->q[4][j], ck->q[7][j], 0};
@@ -136,7 +136,7 @@ KF_INLINE void scatter_one(int KW, int CLASSIC, const chunk *ck, int j, kf_v4 *c
 
 /* one particle's G2P gather from the owner's node cache into the chunk's v, B (and G) */
 KF_INLINE void gather_one(int KW, int CLASSIC, chunk *ck, int j, const kf_v4 *cache) {
-    const int CD = 3 + KW;
+    const int CD = CD_MAX;
     kf_real w2[4], wd2[4], dw2[4];
     for (int c = 0; c < KW; c++) {
         w2[c] = ck->w[2][c][j];

@@ -10,6 +10,7 @@
 
 #include "../io/atomic_file.h"
 #include "../io/checkpoint.h"
+#include "../io/pieces.h"
 #include "../io/vdb_bridge.h"
 #include <kerf/kerf.h>
 #include "../mpm/collider.h"
@@ -49,10 +50,11 @@ int kf_output_current(const char *output, const char *input) {
 
 /* ---- surface ------------------------------------------------------------ */
 
-/* the settings every material's level set uses: voxels of half the particle
- * spacing, spheres of one spacing, a little mean-curvature smoothing, then an
- * erosion that puts the zero crossing back on the material's boundary
- * (vdb_bridge.h explains the half-spacing offset) */
+/* the settings every material's level set uses (the shot's surface keys):
+ * centres averaged with their neighbours, spheres on a voxel finer than the
+ * spacing, a little mean-curvature smoothing, then an erosion that puts the
+ * zero crossing back on the material's boundary (vdb_bridge.h explains the
+ * half-spacing offset; the bridge takes off the averaging's inward shift) */
 static void surface_params(const kf_shot *shot, kf_vdb_surface_params *p, const char *name) {
     static const kf_vdb_op ops[4] = {KF_VDB_OP_NONE, KF_VDB_OP_MEAN_CURVATURE, KF_VDB_OP_GAUSSIAN, KF_VDB_OP_LAPLACIAN};
     kf_vdb_surface_params_default(p);
@@ -62,6 +64,8 @@ static void surface_params(const kf_shot *shot, kf_vdb_surface_params *p, const 
     p->radius = shot->surface_radius * spacing;
     p->smooth = ops[shot->surface_smooth & 3];
     p->smooth_iterations = shot->surface_iterations;
+    p->average = shot->surface_average;
+    p->average_radius = shot->surface_average_radius * spacing;
     p->dilate = shot->surface_dilate;
     /* automatic erosion puts the zero crossing back on the material boundary */
     p->erode = shot->surface_erode >= 0 ? shot->surface_erode
@@ -92,13 +96,16 @@ int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_
     /* particles gathered group by group (a counting sort): group g is
      * x[3 * at[g] ...] up to at[g + 1] */
     float *x = malloc(sizeof(float) * 3 * (pv.n + 1)), *v = malloc(sizeof(float) * 3 * (pv.n + 1));
+    float *xs = malloc(sizeof(float) * 3 * (pv.n + 1)), *vs = malloc(sizeof(float) * 3 * (pv.n + 1));
+    uint32_t *col = malloc(sizeof(uint32_t) * (pv.n + 1));
+    uint8_t *cls = malloc(pv.n + 1);
     size_t *at = calloc((size_t)ng + 2, sizeof *at), *fill = calloc((size_t)ng + 1, sizeof *fill);
-    if (!x || !v || !at || !fill) {
+    if (!x || !v || !xs || !vs || !col || !cls || !at || !fill) {
         snprintf(err, errlen, "out of memory surfacing %zu particles", pv.n);
         goto done;
     }
     for (size_t i = 0; i < pv.n; i++) {
-        int g = shot->surface_group ? pv.obj[i] : pv.mat[i];
+        int g = shot->surface_group ? (int)(pv.obj[i] & KF_OBJECT_MASK) : pv.mat[i];
         at[(g < ng ? g : ng - 1) + 1]++;
     }
     int used = 0;
@@ -110,9 +117,10 @@ int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_
     }
     memcpy(fill, at, sizeof *fill * (size_t)ng);
     for (size_t i = 0; i < pv.n; i++) {
-        int g = shot->surface_group ? pv.obj[i] : pv.mat[i];
+        int g = shot->surface_group ? (int)(pv.obj[i] & KF_OBJECT_MASK) : pv.mat[i];
         size_t k = fill[g < ng ? g : ng - 1]++;
         for (int a = 0; a < 3; a++) x[3 * k + a] = (float)pv.x[a][i], v[3 * k + a] = (float)pv.v[a][i];
+        col[k] = pv.colour[i];
     }
     /* one level set per group that holds particles: `surface` when there is
      * one, else `surface_<name>`; each with its velocity grid */
@@ -124,10 +132,39 @@ int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_
         else snprintf(name, sizeof name, "surface_%s", group_name(shot, g));
         kf_vdb_surface_params p;
         surface_params(shot, &p, name);
-        if (kf_vdb_levelset_from_particles(n, NULL, x + 3 * at[g], NULL, v + 3 * at[g], &p, &grids[ngrids], NULL, err,
-                                           errlen))
+        /* the pieces a blade parted (io/pieces.h): one level set per class
+         * of pieces, joined by CSG union, so a cut stays open however close
+         * its sides lie; one class (no cut) is the whole group at once */
+        int k = kf_pieces_classes(n, x + 3 * at[g], col + at[g], p.spacing, 2 * p.radius + p.spacing, cls);
+        if (k < 0) {
+            snprintf(err, errlen, "out of memory finding the pieces of %zu particles", n);
             goto done;
-        ngrids++;
+        }
+        for (int c = 0; c < k; c++) {
+            const float *xc = x + 3 * at[g], *vc = v + 3 * at[g];
+            size_t m = n;
+            if (k > 1) {
+                m = 0;
+                for (size_t i = 0; i < n; i++)
+                    if (cls[i] == c) {
+                        memcpy(xs + 3 * m, xc + 3 * i, 3 * sizeof *xs);
+                        memcpy(vs + 3 * m, vc + 3 * i, 3 * sizeof *vs);
+                        m++;
+                    }
+                xc = xs, vc = vs;
+            }
+            if (m == 0) continue;
+            kf_vdb_grid *piece = NULL;
+            if (kf_vdb_levelset_from_particles(m, NULL, xc, NULL, vc, &p, &piece, NULL, err, errlen)) goto done;
+            if (!grids[ngrids]) {
+                grids[ngrids] = piece;
+                continue;
+            }
+            int urc = kf_vdb_union(grids[ngrids], piece, err, errlen);
+            kf_vdb_free(piece);
+            if (urc) goto done;
+        }
+        if (grids[ngrids]) ngrids++;
     }
     kf_vdb_meta meta;
     memset(&meta, 0, sizeof meta);
@@ -142,8 +179,13 @@ int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_
     rc = kf_vdb_write(fp->surface, grids, ngrids, &meta, err, errlen);
 done:
     for (int g = 0; g < ngrids; g++) kf_vdb_free(grids[g]);
+    if (grids[ngrids]) kf_vdb_free(grids[ngrids]); /* a group cut short by an error */
     free(x);
     free(v);
+    free(xs);
+    free(vs);
+    free(col);
+    free(cls);
     free(at);
     free(fill);
     return rc;
@@ -179,33 +221,48 @@ int kf_pipeline_points(const kf_shot *shot, const kf_state *s, const char *path,
 
 /* ---- render --------------------------------------------------------------- */
 
-kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc) {
+static int cmp_float(const void *a, const void *b) {
+    float x = *(const float *)a, y = *(const float *)b;
+    return x < y ? -1 : x > y;
+}
+
+void kf_particle_bounds_add(const kf_scene *sc, float lo[3], float hi[3]) {
+    /* robust: the 0.2 % and 99.8 % points of up to 4096 particles per axis,
+     * so a few stray drops do not shrink the subject to a dot */
+    kf_particles_view p = kf_state_particles_read(sc->state);
+    if (p.n == 0) return;
+    enum { NS = 4096 };
+    static float v[NS];
+    size_t step = p.n > NS ? p.n / NS : 1, m = 0;
+    for (int a = 0; a < 3; a++) {
+        m = 0;
+        for (size_t i = 0; i < p.n && m < NS; i += step) v[m++] = (float)p.x[a][i];
+        qsort(v, m, sizeof *v, cmp_float);
+        float l = v[(size_t)(0.002 * (double)(m - 1))], h = v[(size_t)(0.998 * (double)(m - 1) + 0.5)];
+        lo[a] = l < lo[a] ? l : lo[a];
+        hi[a] = h > hi[a] ? h : hi[a];
+    }
+}
+
+kf_render_opts kf_render_opts_for(const kf_shot *shot, const float blo[3], const float bhi[3]) {
     /* the shot's size and sampling, with --quality already applied */
     kf_render_opts o = {shot->render_width, shot->render_height, shot->render_samples, 0, 0, {0, 0, 0}, {1, 1, 1},
                         shot->render_ground, shot->render_shadow};
-    kf_particles_view p = kf_state_particles_read(sc->state);
-    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
-    for (size_t i = 0; i < p.n; i++)
-        for (int a = 0; a < 3; a++) {
-            float x = (float)p.x[a][i];
-            lo[a] = x < lo[a] ? x : lo[a];
-            hi[a] = x > hi[a] ? x : hi[a];
-        }
-    if (p.n == 0) return o;
-    /* widen sideways by half the largest extent (things fall, slump and spread) */
+    if (!(bhi[0] >= blo[0])) return o; /* no particles */
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; a++) lo[a] = blo[a], hi[a] = bhi[a];
+    /* the bounds already cover the whole shot: a small margin sideways */
     float ext = 0;
     for (int a = 0; a < 3; a++) ext = hi[a] - lo[a] > ext ? hi[a] - lo[a] : ext;
-    for (int a = 0; a < 3; a += 2) lo[a] -= 0.5f * ext, hi[a] += 0.5f * ext;
+    for (int a = 0; a < 3; a += 2) lo[a] -= 0.05f * ext, hi[a] += 0.05f * ext;
     if (shot->sim.walls) {
         /* the floor is in the picture; nothing beyond the walls is. Material
-         * that starts against a side wall is held by the walls and flows
-         * along them (a dam break runs to the far wall): frame the whole
-         * floor then. */
+         * that reaches a side wall is held by the walls and flows along them
+         * (a dam break runs to the far wall): frame the whole floor then. */
         const float near = 2 * (float)shot->sim.dx;
         int held = 0;
         for (int a = 0; a < 3; a += 2)
-            held |= lo[a] + 0.5f * ext < (float)shot->sim.domain_min[a] + near ||
-                    hi[a] - 0.5f * ext > (float)shot->sim.domain_max[a] - near;
+            held |= blo[a] < (float)shot->sim.domain_min[a] + near || bhi[a] > (float)shot->sim.domain_max[a] - near;
         lo[1] = (float)shot->sim.domain_min[1];
         for (int a = 0; a < 3; a++) {
             if (lo[a] < shot->sim.domain_min[a] || (held && a != 1)) lo[a] = (float)shot->sim.domain_min[a];
@@ -384,6 +441,35 @@ static void surface_look(const kf_shot *shot, const char *grid, kf_render_materi
     material_look(shot, mat, m);
 }
 
+/* The automatic camera moved along its line of sight until the box's eight
+ * corners just fit the frame (5 % margin), both ways: the bounding sphere
+ * leaves a wide, flat subject small in a 16:9 frame. */
+static void fit_box(kf_camera *c, const float lo[3], const float hi[3], float aspect) {
+    float d[3], r[3], u[3], len = 0;
+    for (int a = 0; a < 3; a++) d[a] = c->target[a] - c->eye[a], len += d[a] * d[a];
+    len = sqrtf(len);
+    if (!(len > 0)) return;
+    for (int a = 0; a < 3; a++) d[a] /= len;
+    r[0] = d[1] * c->up[2] - d[2] * c->up[1], r[1] = d[2] * c->up[0] - d[0] * c->up[2], r[2] = d[0] * c->up[1] - d[1] * c->up[0];
+    float rl = sqrtf(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    if (!(rl > 0)) return;
+    for (int a = 0; a < 3; a++) r[a] /= rl;
+    u[0] = r[1] * d[2] - r[2] * d[1], u[1] = r[2] * d[0] - r[0] * d[2], u[2] = r[0] * d[1] - r[1] * d[0];
+    const float ty = tanf(c->fov_deg * 3.14159265f / 360.0f), tx = ty * aspect;
+    float need = 0;
+    for (int k = 0; k < 8; k++) {
+        float p[3] = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]}, v[3];
+        for (int a = 0; a < 3; a++) v[a] = p[a] - c->target[a];
+        float x = v[0] * r[0] + v[1] * r[1] + v[2] * r[2], y = v[0] * u[0] + v[1] * u[1] + v[2] * u[2];
+        float z = v[0] * d[0] + v[1] * d[1] + v[2] * d[2]; /* depth beyond the target */
+        float dx = fabsf(x) / (0.95f * tx) - z, dy = fabsf(y) / (0.95f * ty) - z;
+        need = dx > need ? dx : need;
+        need = dy > need ? dy : need;
+    }
+    if (need > 0)
+        for (int a = 0; a < 3; a++) c->eye[a] = c->target[a] - d[a] * need;
+}
+
 int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
                     const kf_render_opts *ro, char *err, size_t errlen) {
     (void)sc;
@@ -448,6 +534,15 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
     scene.meshes = rm;
     scene.nmeshes = nscene;
     scene.ground = ro->ground;
+    /* the shot's key, fill and rim lights (camera space: they follow the camera) */
+    for (int a = 0; a < 3; a++) {
+        scene.key_dir[a] = (float)shot->lights[0].dir[a];
+        scene.key_color[a] = (float)(shot->lights[0].color[a] * shot->lights[0].intensity);
+        scene.fill_dir[a] = (float)shot->lights[1].dir[a];
+        scene.fill_color[a] = (float)(shot->lights[1].color[a] * shot->lights[1].intensity);
+        scene.rim_dir[a] = (float)shot->lights[2].dir[a];
+        scene.rim_color[a] = (float)(shot->lights[2].color[a] * shot->lights[2].intensity);
+    }
     /* a steady camera on what the options frame */
     const float *lo = ro->lo, *hi = ro->hi;
     if (shot->sim.walls) scene.ground_y = (float)shot->sim.domain_min[1];
@@ -455,7 +550,18 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
     float view[3] = {-0.55f, -0.45f, -1.0f}, fov = (float)shot->render_fov;
     kf_camera cam = ro->turntable_n > 0 ? kf_camera_turntable(lo, hi, ro->turntable_k, ro->turntable_n, 25.0f, fov)
                                          : kf_camera_frame_bounds(lo, hi, view, fov);
-    if (shot->render_eye_set && ro->turntable_n == 0) {
+    if (ro->turntable_n == 0) fit_box(&cam, lo, hi, (float)ro->width / (float)ro->height);
+    if (shot->ncamera_keys > 0 && ro->turntable_n == 0) {
+        /* the keyed camera (render.camera_keys) */
+        kf_camera_key keys[KF_MAX_KEYS];
+        for (int k = 0; k < shot->ncamera_keys; k++) {
+            keys[k].frame = shot->camera_keys[k].frame;
+            for (int a = 0; a < 3; a++)
+                keys[k].eye[a] = (float)shot->camera_keys[k].eye[a], keys[k].target[a] = (float)shot->camera_keys[k].target[a];
+            keys[k].fov_deg = (float)(shot->camera_keys[k].fov > 0 ? shot->camera_keys[k].fov : shot->render_fov);
+        }
+        cam = kf_camera_keyed(keys, shot->ncamera_keys, frame, shot->render_interp);
+    } else if (shot->render_eye_set && ro->turntable_n == 0) {
         /* the shot's camera; the target defaults to the framed centre */
         for (int a = 0; a < 3; a++) {
             cam.eye[a] = (float)shot->render_eye[a];

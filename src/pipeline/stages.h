@@ -47,9 +47,12 @@ typedef struct kf_render_opts {
 
 /* particles as OpenVDB points (output.points) */
 int kf_pipeline_points(const kf_shot *shot, const kf_state *s, const char *path, int frame, char *err, size_t errlen);
-/* The shot's render settings; the camera frames the initial particles of sc
- * (widened, since material spreads), clipped to the domain when walled. */
-kf_render_opts kf_render_opts_for(const kf_shot *shot, const kf_scene *sc);
+/* Grow [lo, hi] by the particles of sc's state (robust: a few strays are
+ * left out). */
+void kf_particle_bounds_add(const kf_scene *sc, float lo[3], float hi[3]);
+/* The shot's render settings; the camera frames [lo, hi] (the particles over
+ * the whole shot; lo > hi: none), clipped to the domain when walled. */
+kf_render_opts kf_render_opts_for(const kf_shot *shot, const float lo[3], const float hi[3]);
 
 /* .vdb → a mesh per group surface, each in its group's colour and shading → PNG at `png`. */
 int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,

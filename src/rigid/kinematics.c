@@ -9,13 +9,13 @@
 #include "../core/euler.h"
 #include "../core/keys.h"
 #include "rigid.h"
-#include "rmath.h"
+#include "../core/mat3.h"
 
 /* fill t and com from the pivot p, the pivot's mesh point c and R */
 static void place(kf_rigid_state *st, const double p[3], const double c[3], const double com_mesh[3]) {
     double Rc[3], Rm[3];
-    rm_mv(st->R, c, Rc);
-    rm_mv(st->R, com_mesh, Rm);
+    kf_m3d_mv(Rc, st->R, c);
+    kf_m3d_mv(Rm, st->R, com_mesh);
     for (int a = 0; a < 3; a++) {
         st->t[a] = p[a] - Rc[a];
         st->com[a] = st->t[a] + Rm[a];
@@ -58,8 +58,8 @@ void kf_rigid_state_at(const kf_rigid_body *b, double t, kf_rigid_state *st) {
     /* kinematic without keys: constant velocity of the pivot and constant
      * world angular velocity, R(t) = exp(t [ω]×) R0 */
     double wt[3] = {d->angular_velocity[0] * t, d->angular_velocity[1] * t, d->angular_velocity[2] * t}, Q[9];
-    rm_rotvec(wt, Q);
-    rm_mm(Q, R0, st->R);
+    kf_m3d_rotvec(Q, wt);
+    kf_m3d_mul(st->R, Q, R0);
     double p[3];
     for (int a = 0; a < 3; a++) p[a] = d->position[a] + d->velocity[a] * t;
     place(st, p, d->center, d->center);

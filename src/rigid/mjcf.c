@@ -18,7 +18,7 @@
 #include <string.h>
 
 #include "mjcf_geoms.h"
-#include "rmath.h"
+#include "../core/mat3.h"
 #include "strbuf.h"
 
 /* world frame of the MuJoCo body of r at time 0: origin o, axes R */
@@ -45,7 +45,7 @@ static int worldlike(const ctx *c, int r) {
 
 static void quat_attr(kf_strbuf *s, const double R[9]) {
     double q[4];
-    rm_mat_to_quat(R, q);
+    kf_m3d_to_quat(q, R);
     kf_sb_printf(s, " quat=\"%.17g %.17g %.17g %.17g\"", q[0], q[1], q[2], q[3]);
 }
 
@@ -56,7 +56,7 @@ static void emit_body(ctx *c, int r, const frame *pf) {
     double d[3] = {f->o[0], f->o[1], f->o[2]}, Rrel[9];
     if (pf) {
         double w[3] = {f->o[0] - pf->o[0], f->o[1] - pf->o[1], f->o[2] - pf->o[2]};
-        rm_mtv(pf->R, w, d);
+        kf_m3d_mtv(d, pf->R, w);
         for (int i = 0; i < 3; i++)
             for (int k = 0; k < 3; k++)
                 Rrel[3 * i + k] = pf->R[i] * f->R[k] + pf->R[3 + i] * f->R[3 + k] + pf->R[6 + i] * f->R[6 + k];
@@ -94,8 +94,8 @@ static void emit_body(ctx *c, int r, const frame *pf) {
     } else {
         const kf_joint_def *jd = &c->j[c->pjoint[r]];
         double w[3] = {jd->anchor[0] - f->o[0], jd->anchor[1] - f->o[1], jd->anchor[2] - f->o[2]}, p[3], ax[3];
-        rm_mtv(f->R, w, p);
-        rm_mtv(f->R, jd->axis, ax);
+        kf_m3d_mtv(p, f->R, w);
+        kf_m3d_mtv(ax, f->R, jd->axis);
         kf_sb_printf(&c->x.body,
                      "<joint type=\"hinge\" pos=\"%.17g %.17g %.17g\" axis=\"%.17g %.17g %.17g\" damping=\"%.17g\"/>\n",
                      p[0], p[1], p[2], ax[0], ax[1], ax[2], jd->damping);
@@ -144,7 +144,7 @@ char *kf_rigid_mjcf(const kf_rigid_body *bodies, int nbodies, const kf_joint_def
     for (int k = 0; k < njoints; k++) {
         const kf_joint_def *jd = &joints[k];
         int a = jd->body_a, b = jd->body_b;
-        double len = sqrt(rm_dot(jd->axis, jd->axis));
+        double len = sqrt(kf_v3d_dot(jd->axis, jd->axis));
         if (a < -1 || a >= nbodies || b < -1 || b >= nbodies || a == b || !(len > 0)) {
             snprintf(err, errlen,
                      "joint %d: bodies %d and %d (need two different bodies in [-1, %d)) and a nonzero axis", k, a, b,
@@ -182,7 +182,7 @@ char *kf_rigid_mjcf(const kf_rigid_body *bodies, int nbodies, const kf_joint_def
                 double p[3], w[3], q[3];
                 for (int i = 0; i < 3; i++) p[i] = jd->anchor[i] + s * half * jd->axis[i] / len;
                 for (int i = 0; i < 3; i++) w[i] = p[i] - c.f[d].o[i];
-                rm_mtv(c.f[d].R, w, q);
+                kf_m3d_mtv(q, c.f[d].R, w);
                 if (o >= 0)
                     kf_sb_printf(
                         &eq,

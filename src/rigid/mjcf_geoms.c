@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "rmath.h"
+#include "../core/mat3.h"
 
 #define KF_MJ_MAX_PIECES 256
 
@@ -26,15 +26,15 @@ double kf_mj_extent(const kf_rigid_body *b) {
     for (int i = 0; i < b->nvert; i++)
         for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], b->vert[3 * i + a]), hi[a] = fmax(hi[a], b->vert[3 * i + a]);
     double d[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
-    return sqrt(rm_dot(d, d));
+    return sqrt(kf_v3d_dot(d, d));
 }
 
 static void tri_normal(const kf_rigid_body *b, int t, double n[3], double *area2) {
     const double *p0 = b->vert + 3 * b->tri[3 * t], *p1 = b->vert + 3 * b->tri[3 * t + 1],
                  *p2 = b->vert + 3 * b->tri[3 * t + 2];
     double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]}, e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-    rm_cross(e1, e2, n);
-    *area2 = sqrt(rm_dot(n, n));
+    kf_v3d_cross(n, e1, e2);
+    *area2 = sqrt(kf_v3d_dot(n, n));
     if (*area2 > 0)
         for (int a = 0; a < 3; a++) n[a] /= *area2;
 }
@@ -50,7 +50,7 @@ static int convex(const kf_rigid_body *b, double tol) {
         for (int i = 0; i < b->nvert; i++) {
             const double *p = b->vert + 3 * i;
             double d[3] = {p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]};
-            if (rm_dot(d, n) > tol) return 0;
+            if (kf_v3d_dot(d, n) > tol) return 0;
         }
     }
     return 1;
@@ -79,7 +79,7 @@ static int prism(const kf_rigid_body *b, int t, double h, double P[18], int *sol
     for (int k = 0; k < 3; k++) {
         const double *p = b->vert + 3 * b->tri[3 * t + k], *q = b->vert + 3 * b->tri[3 * t + (k + 1) % 3];
         double d[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
-        L = fmax(L, sqrt(rm_dot(d, d)));
+        L = fmax(L, sqrt(kf_v3d_dot(d, d)));
     }
     *solid = a2 > 0 && a2 / L > 0.01 * h;
     if (!(a2 > 0)) return 0;
@@ -193,7 +193,7 @@ static void corner_spheres(kf_mj_text *x, const kf_rigid_body *b, int r, const d
             for (int a = 0; a < 3; a++) nv[3 * b->tri[3 * t + k] + a] += a2 * fn[a];
     }
     for (int i = 0; i < n; i++) {
-        double l = sqrt(rm_dot(nv + 3 * i, nv + 3 * i));
+        double l = sqrt(kf_v3d_dot(nv + 3 * i, nv + 3 * i));
         for (int a = 0; a < 3; a++) nv[3 * i + a] = l > 0 ? nv[3 * i + a] / l : 0;
         mindot[i] = 1;
     }
@@ -203,7 +203,7 @@ static void corner_spheres(kf_mj_text *x, const kf_rigid_body *b, int r, const d
         if (!(a2 > 0)) continue;
         for (int k = 0; k < 3; k++) {
             int v = b->tri[3 * t + k];
-            mindot[v] = fmin(mindot[v], rm_dot(fn, nv + 3 * v));
+            mindot[v] = fmin(mindot[v], kf_v3d_dot(fn, nv + 3 * v));
         }
     }
     const double rad = 0.01 * kf_mj_extent(b);
@@ -211,7 +211,7 @@ static void corner_spheres(kf_mj_text *x, const kf_rigid_body *b, int r, const d
     for (int i = 0; i < n; i++) {
         const double *p = b->vert + 3 * i;
         double d[3] = {p[0] - b->com[0], p[1] - b->com[1], p[2] - b->com[2]};
-        dist[i] = rm_dot(d, d);
+        dist[i] = kf_v3d_dot(d, d);
         if (dist[i] > dist[pick]) pick = i;
     }
     for (int i = 0; i < n; i++) dist[i] = INFINITY;
@@ -230,7 +230,7 @@ static void corner_spheres(kf_mj_text *x, const kf_rigid_body *b, int r, const d
         for (int i = 0; i < n; i++) {
             const double *q = b->vert + 3 * i;
             double e[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
-            dist[i] = fmin(dist[i], rm_dot(e, e));
+            dist[i] = fmin(dist[i], kf_v3d_dot(e, e));
             if (dist[i] > best) best = dist[i], next = i;
         }
         if (!(best > 0)) break;

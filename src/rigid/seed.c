@@ -30,7 +30,7 @@
 #include <string.h>
 
 #include "rigid.h"
-#include "rmath.h"
+#include "../core/mat3.h"
 #include "seed_crossings.h"
 
 typedef struct seeds {
@@ -160,12 +160,12 @@ static int64_t hg_nearest(const hgrid *g, const seeds *s, const double p[3], dou
                 uint32_t h = hash3(i, j, k, g->mask);
                 for (size_t q = g->start[h]; q < g->start[h + 1]; q++) {
                     const hg_entry *e = &g->run[q];
-                    double d[3] = {e->x[0] - p[0], e->x[1] - p[1], e->x[2] - p[2]}, d2 = rm_dot(d, d);
+                    double d[3] = {e->x[0] - p[0], e->x[1] - p[1], e->x[2] - p[2]}, d2 = kf_v3d_dot(d, d);
                     if (d2 < best || (d2 == best && found < 0)) best = d2, found = e->idx;
                 }
                 for (int64_t q = g->head[h]; q >= 0; q = g->next[q]) {
                     const double *x = s->x + 3 * q;
-                    double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]}, d2 = rm_dot(d, d);
+                    double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]}, d2 = kf_v3d_dot(d, d);
                     if (d2 < best || (d2 == best && found < 0)) best = d2, found = q;
                 }
             }
@@ -182,7 +182,7 @@ static int64_t hg_nearest(const hgrid *g, const seeds *s, const double p[3], dou
 static int check(hgrid *g, seeds *s, const double p[3], int t, double r, int64_t *last, double *dist) {
     if (*last >= 0) {
         const double *x = s->x + 3 * *last;
-        double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]}, d2 = rm_dot(d, d);
+        double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]}, d2 = kf_v3d_dot(d, d);
         if (d2 <= r * r) {
             *dist = sqrt(d2);
             return 0;
@@ -192,7 +192,7 @@ static int check(hgrid *g, seeds *s, const double p[3], int t, double r, int64_t
     if (*last >= 0) {
         const double *x = s->x + 3 * *last;
         double d[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]};
-        *dist = sqrt(rm_dot(d, d));
+        *dist = sqrt(kf_v3d_dot(d, d));
         return 0;
     }
     *dist = 0;
@@ -208,7 +208,7 @@ static int check(hgrid *g, seeds *s, const double p[3], int t, double r, int64_t
  * relative margin of 1e-9 against the round-off of the points' positions) */
 static int check_row(hgrid *g, seeds *s, const double p0[3], const double d[3], int n, int i0, int i1, int t, double r,
                      int64_t *last) {
-    const double step = n ? sqrt(rm_dot(d, d)) / n : 0;
+    const double step = n ? sqrt(kf_v3d_dot(d, d)) / n : 0;
     for (int i = i0; i <= i1; i++) {
         double f = n ? (double)i / n : 0, p[3], dist;
         for (int a = 0; a < 3; a++) p[a] = p0[a] + f * d[a];
@@ -227,19 +227,19 @@ static int fill_holes(hgrid *g, seeds *s, const double *P[3], int t, double delt
     double best = -1;
     for (int e = 0; e < 3; e++) {
         const double *p = P[e], *q = P[(e + 1) % 3];
-        double d[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]}, l = rm_dot(d, d);
+        double d[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]}, l = kf_v3d_dot(d, d);
         if (l > best) best = l, k = e;
     }
     const double *A = P[k], *B = P[(k + 1) % 3], *C = P[(k + 2) % 3];
     double ab[3] = {B[0] - A[0], B[1] - A[1], B[2] - A[2]}, ac[3] = {C[0] - A[0], C[1] - A[1], C[2] - A[2]};
-    double L = sqrt(rm_dot(ab, ab));
+    double L = sqrt(kf_v3d_dot(ab, ab));
     int64_t last = -1;
     double dist;
     if (!(L > 0)) return check(g, s, A, t, r, &last, &dist);
-    double ux = rm_dot(ac, ab) / L; /* C's position along AB, in [0, L] */
+    double ux = kf_v3d_dot(ac, ab) / L; /* C's position along AB, in [0, L] */
     double hv[3];
     for (int a = 0; a < 3; a++) hv[a] = ac[a] - ux * ab[a] / L;
-    double H = sqrt(rm_dot(hv, hv));
+    double H = sqrt(kf_v3d_dot(hv, hv));
     /* rows parallel to AB, from AB (row 0) to C */
     int ny = (int)ceil(H / delta);
     for (int row = 0; row <= ny; row++) {
@@ -248,14 +248,14 @@ static int fill_holes(hgrid *g, seeds *s, const double *P[3], int t, double delt
         double p0[3], p1[3];
         for (int a = 0; a < 3; a++) p0[a] = A[a] + f * ac[a], p1[a] = B[a] + f * (C[a] - B[a]);
         double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-        int nx = (int)ceil(sqrt(rm_dot(d, d)) / delta);
+        int nx = (int)ceil(sqrt(kf_v3d_dot(d, d)) / delta);
         if (check_row(g, s, p0, d, nx, 0, nx, t, r, &last)) return -1;
     }
     /* the two other edges, δ apart (the rows' ends may be far apart on a sliver) */
     const double *E[2][2] = {{A, C}, {B, C}};
     for (int e = 0; e < 2; e++) {
         double d[3] = {E[e][1][0] - E[e][0][0], E[e][1][1] - E[e][0][1], E[e][1][2] - E[e][0][2]};
-        int n = (int)ceil(sqrt(rm_dot(d, d)) / delta);
+        int n = (int)ceil(sqrt(kf_v3d_dot(d, d)) / delta);
         if (check_row(g, s, E[e][0], d, n, 1, n - 1, t, r, &last)) return -1;
     }
     return 0;

@@ -13,7 +13,7 @@
 #include "mjcf.h"
 #include "mjguard.h"
 #include "rigid.h"
-#include "rmath.h"
+#include "../core/mat3.h"
 
 struct kf_rigid_sim {
     int nbodies;
@@ -66,17 +66,17 @@ static void initial_velocity(kf_rigid_sim *sim, const kf_rigid_body *bodies) {
         memcpy(R, d->xmat + 9 * b, sizeof R);
         if (m->jnt_type[j] == mjJNT_FREE) {
             double wl[3];
-            rm_mtv(R, def->angular_velocity, wl);
+            kf_m3d_mtv(wl, R, def->angular_velocity);
             for (int a = 0; a < 3; a++) d->qvel[dof + a] = def->velocity[a], d->qvel[dof + 3 + a] = wl[a];
         } else if (m->jnt_type[j] == mjJNT_HINGE) {
             double ax[3], wp[3] = {0, 0, 0};
-            rm_mv(R, m->jnt_axis + 3 * j, ax);
+            kf_m3d_mv(ax, R, m->jnt_axis + 3 * j);
             int p = m->body_parentid[b];
             for (int k = 0; k < sim->nbodies; k++)
                 if (sim->bid[k] == p) memcpy(wp, bodies[k].def.angular_velocity, sizeof wp);
             double rel[3] = {def->angular_velocity[0] - wp[0], def->angular_velocity[1] - wp[1],
                              def->angular_velocity[2] - wp[2]};
-            d->qvel[dof] = rm_dot(rel, ax);
+            d->qvel[dof] = kf_v3d_dot(rel, ax);
         }
     }
 }
@@ -222,7 +222,7 @@ static void read_body(const kf_rigid_sim *sim, int r, kf_rigid_state *st) {
     memcpy(st->R, sim->d->xmat + 9 * b, sizeof st->R);
     memcpy(st->com, sim->d->xpos + 3 * b, sizeof st->com);
     double Rc[3], vel[6];
-    rm_mv(st->R, sim->com_mesh[r], Rc);
+    kf_m3d_mv(Rc, st->R, sim->com_mesh[r]);
     for (int a = 0; a < 3; a++) st->t[a] = st->com[a] - Rc[a];
     mj_objectVelocity(sim->m, sim->d, mjOBJ_BODY, b, vel, 0); /* (ω, v) at the com, world axes */
     memcpy(st->w, vel, 3 * sizeof(double));
@@ -257,14 +257,14 @@ void kf_rigid_sim_step(kf_rigid_sim *sim, const kf_rigid_body *bodies, int nbodi
         const int qa = sim->m->jnt_qposadr[sim->kjnt[r]], da = sim->m->jnt_dofadr[sim->kjnt[r]];
         /* the free joint moves the mesh-frame origin t: v + ω × (t - pivot); ω in the body frame */
         double rel[3] = {k.t[0] - k.com[0], k.t[1] - k.com[1], k.t[2] - k.com[2]}, wx[3], wl[3];
-        rm_cross(k.w, rel, wx);
-        rm_mtv(k.R, k.w, wl);
+        kf_v3d_cross(wx, k.w, rel);
+        kf_m3d_mtv(wl, k.R, k.w);
         for (int a = 0; a < 3; a++) {
             d->qpos[qa + a] = k.t[a];
             d->qvel[da + a] = k.v[a] + wx[a];
             d->qvel[da + 3 + a] = wl[a];
         }
-        rm_mat_to_quat(k.R, d->qpos + qa + 3);
+        kf_m3d_to_quat(d->qpos + qa + 3, k.R);
         /* and weightless: a force cancels gravity on it */
         const int kb = sim->m->jnt_bodyid[sim->kjnt[r]];
         for (int a = 0; a < 3; a++) d->xfrc_applied[6 * kb + a] = -sim->m->body_mass[kb] * sim->m->opt.gravity[a];
@@ -273,7 +273,7 @@ void kf_rigid_sim_step(kf_rigid_sim *sim, const kf_rigid_body *bodies, int nbodi
     for (int mc = 0; mc < sim->m->nmocap; mc++) {
         const kf_rigid_state *s = &st[sim->mocap_body[mc]];
         memcpy(d->mocap_pos + 3 * mc, s->t, 3 * sizeof(double));
-        rm_mat_to_quat(s->R, d->mocap_quat + 4 * mc);
+        kf_m3d_to_quat(d->mocap_quat + 4 * mc, s->R);
     }
     /* the substep's impulses as a constant force and torque at the com */
     if (impulse)

@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "../core/fnv.h"
 #include "../core/timer.h"
 #include "build_rigid.h"
 #include "mesh_isect.h"
@@ -187,9 +188,7 @@ fail:
 
 /* FNV-1a over a printed form of the values, so struct padding and field
  * order never matter */
-static void hash_str(uint64_t *h, const char *s) {
-    for (; *s; s++) *h = (*h ^ (unsigned char)*s) * 1099511628211ULL;
-}
+static void hash_str(uint64_t *h, const char *s) { *h = kf_fnv1a_str(*h, s); }
 
 static void hash_fmt(uint64_t *h, const char *fmt, double v) {
     char buf[64];
@@ -202,26 +201,23 @@ static void hash_vals(uint64_t *h, const double *v, int n) {
 }
 
 /* an asset's bytes: an edited mesh under the same name is a different input */
-static void hash_file(uint64_t *h, const char *path) {
+uint64_t kf_hash_file(uint64_t h, const char *path) {
     FILE *f = fopen(path, "rb");
-    if (!f) {
-        hash_str(h, "<missing>");
-        return;
-    }
+    if (!f) return kf_fnv1a_str(h, "<missing>");
     unsigned char buf[65536];
     size_t got;
-    while ((got = fread(buf, 1, sizeof buf, f)) > 0)
-        for (size_t i = 0; i < got; i++) *h = (*h ^ buf[i]) * 1099511628211ULL;
+    while ((got = fread(buf, 1, sizeof buf, f)) > 0) h = kf_fnv1a(h, buf, got);
     fclose(f);
+    return h;
 }
 
 uint64_t kf_shot_sim_hash(const kf_shot *shot) {
-    uint64_t h = 1469598103934665603ULL;
+    uint64_t h = KF_FNV_BASIS;
     hash_str(&h, "kerf " KERF_VERSION);
     /* the program's own bytes: a rebuilt kerf whose solver changed under the
      * same version string must not reuse frames an older build made (about
      * 5 ms for a 5 MB executable) */
-    hash_file(&h, "/proc/self/exe");
+    h = kf_hash_file(h, "/proc/self/exe");
     const kf_sim_def *s = &shot->sim;
     double sim[] = {s->dx, s->cfl, s->dt_max, s->dt_fixed, s->gravity[0], s->gravity[1], s->gravity[2],
                     s->kernel, s->force, s->transfer, s->walls, s->domain_min[0], s->domain_min[1],
@@ -247,7 +243,7 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
                       p->fit_center[2], p->fit_size, o->velocity[0], o->velocity[1], o->velocity[2],
                       o->angular_velocity[0], o->angular_velocity[1], o->angular_velocity[2]};
         hash_vals(&h, v, (int)(sizeof v / sizeof *v));
-        if (o->shape == KF_SOURCE_MESH) hash_file(&h, o->mesh_path);
+        if (o->shape == KF_SOURCE_MESH) h = kf_hash_file(h, o->mesh_path);
     }
     for (int i = 0; i < shot->ncolliders; i++) {
         const kf_shot_collider *sc = &shot->colliders[i];
@@ -268,7 +264,7 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
                            p->rotate[2], p->scale[0], p->scale[1], p->scale[2], p->fit, p->fit_center[0],
                            p->fit_center[1], p->fit_center[2], p->fit_size};
             hash_vals(&h, pl, (int)(sizeof pl / sizeof *pl));
-            hash_file(&h, sc->mesh_path);
+            h = kf_hash_file(h, sc->mesh_path);
         }
     }
     return kf_shot_rigids_hash(shot, h); /* bodies, joints and their mesh bytes */

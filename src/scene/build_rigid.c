@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "../core/euler.h"
+#include "../core/fnv.h"
 #include "mesh.h"
 #include "mesh_isect.h"
 
@@ -148,9 +149,7 @@ int kf_scene_add_rigids(const kf_shot *shot, kf_model *m, kf_diag *diag) {
 }
 
 /* FNV-1a over printed values, as kf_shot_sim_hash does */
-static void mix_str(uint64_t *h, const char *s) {
-    for (; *s; s++) *h = (*h ^ (unsigned char)*s) * 1099511628211ULL;
-}
+static void mix_str(uint64_t *h, const char *s) { *h = kf_fnv1a_str(*h, s); }
 
 static void mix_vals(uint64_t *h, const double *v, int n) {
     char buf[64];
@@ -158,20 +157,6 @@ static void mix_vals(uint64_t *h, const double *v, int n) {
         snprintf(buf, sizeof buf, "%.17g,", v[i]);
         mix_str(h, buf);
     }
-}
-
-/* the mesh file's bytes: an edited mesh under the same name is a new input */
-static void mix_file(uint64_t *h, const char *path) {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        mix_str(h, "<missing>");
-        return;
-    }
-    unsigned char buf[65536];
-    size_t got;
-    while ((got = fread(buf, 1, sizeof buf, f)) > 0)
-        for (size_t i = 0; i < got; i++) *h = (*h ^ buf[i]) * 1099511628211ULL;
-    fclose(f);
 }
 
 uint64_t kf_shot_rigids_hash(const kf_shot *shot, uint64_t h) {
@@ -190,7 +175,7 @@ uint64_t kf_shot_rigids_hash(const kf_shot *shot, uint64_t h) {
             const kf_key *key = &d->keys[k];
             mix_vals(&h, &key->time, 1), mix_vals(&h, key->position, 3), mix_vals(&h, key->rotate, 3);
         }
-        if (r->shape == 1) mix_file(&h, r->mesh_path);
+        if (r->shape == 1) h = kf_hash_file(h, r->mesh_path);
     }
     for (int i = 0; i < shot->njoints; i++) {
         const kf_joint_def *j = &shot->joints[i].def;

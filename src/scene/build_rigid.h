@@ -26,4 +26,8 @@ int kf_rigid_surface(const kf_shot_rigid *r, double **vert, int *nv, int **tri, 
  * mesh file bytes) into the FNV-1a hash h; returns the new hash. */
 uint64_t kf_shot_rigids_hash(const kf_shot *shot, uint64_t h);
 
+/* h continued over a file's bytes (build.c), or over "<missing>" when it
+ * cannot be read: an edited mesh under the same name is a new input. */
+uint64_t kf_hash_file(uint64_t h, const char *path);
+
 #endif

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../core/mat3.h"
 #include "../core/timer.h"
 #include "inside.h"
 
@@ -27,18 +28,16 @@ void kf_mesh_sdf_free(kf_mesh_sdf *s) {
 
 /* ---- point-triangle distance (Ericson, Real-Time Collision Detection 5.1.5) ---- */
 
-static inline double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-
 double kf_point_triangle_dist2(const double p[3], const double a[3], const double b[3], const double c[3],
                                double q[3]) {
     double ab[3], ac[3], ap[3], r[3];
     for (int k = 0; k < 3; k++) ab[k] = b[k] - a[k], ac[k] = c[k] - a[k], ap[k] = p[k] - a[k];
-    double d1 = dot3(ab, ap), d2 = dot3(ac, ap);
+    double d1 = kf_v3d_dot(ab, ap), d2 = kf_v3d_dot(ac, ap);
     double s = 0, t = 0; /* r = a + s ab + t ac */
     if (d1 <= 0 && d2 <= 0) goto done; /* vertex a */
     double bp[3], cp[3];
     for (int k = 0; k < 3; k++) bp[k] = p[k] - b[k], cp[k] = p[k] - c[k];
-    double d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+    double d3 = kf_v3d_dot(ab, bp), d4 = kf_v3d_dot(ac, bp);
     if (d3 >= 0 && d4 <= d3) { /* vertex b */
         s = 1;
         goto done;
@@ -48,7 +47,7 @@ double kf_point_triangle_dist2(const double p[3], const double a[3], const doubl
         s = d1 / (d1 - d3);
         goto done;
     }
-    double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+    double d5 = kf_v3d_dot(ab, cp), d6 = kf_v3d_dot(ac, cp);
     if (d6 >= 0 && d5 <= d6) { /* vertex c */
         t = 1;
         goto done;
@@ -72,7 +71,7 @@ done:
     for (int k = 0; k < 3; k++) r[k] = a[k] + s * ab[k] + t * ac[k];
     if (q) memcpy(q, r, sizeof r);
     double e[3] = {p[0] - r[0], p[1] - r[1], p[2] - r[2]};
-    return dot3(e, e);
+    return kf_v3d_dot(e, e);
 }
 
 /* ---- the build ------------------------------------------------------------------ */

@@ -141,10 +141,22 @@ typedef struct kf_rawkey {
     double translate[3];
     double rotate[3];
     double scale[3];
+    double eye[3], target[3]; /* render.camera_keys: camera position and aim, m */
+    double fov;               /* render.camera_keys: degrees (0: render.fov) */
 } kf_rawkey;
 
+/* One constant per key of key_list.h, in table order: kf_keys[KK_SIM_DX] is
+ * the row of "sim.dx". Code names keys by these; a path typed at run time
+ * (--set, the walk) goes through kf_key_find. */
+typedef enum kf_key_id {
+#define KF_KEY(id, ...) KK_##id,
+#include "key_list.h"
+#undef KF_KEY
+    KK_COUNT
+} kf_key_id;
+
 extern const kf_keydef kf_keys[];
-extern const int kf_nkeys;
+extern const int kf_nkeys; /* KK_COUNT */
 
 /* The entry with this full path, or -1. */
 int kf_key_find(const char *path);

@@ -35,9 +35,8 @@ extern "C" {
 #endif
 
 /* The preview surfacing preset (a shot's surface.quality: preview): voxel and
- * radius in particle spacings, twice the final defaults (0.75 and 1.2), so the
- * sphere is the same 1.6 voxels and the grid has 1/8 the voxels; one
- * mean-curvature pass instead of three. The spec holds the numbers; the
+ * radius in particle spacings; the voxel twice the final default (0.75), so
+ * the grid has 1/8 the voxels, the sphere 1.6 voxels; one mean-curvature pass. The spec holds the numbers; the
  * surfacing and the renderer only read the shot's values. */
 #define KF_VDB_PREVIEW_VOXEL 1.5
 #define KF_VDB_PREVIEW_RADIUS 2.4
@@ -202,6 +201,8 @@ typedef struct kf_shot {
     double surface_radius;           /* particle spacings */
     int surface_smooth;              /* 0 none, 1 mean curvature, 2 gaussian, 3 laplacian */
     int surface_iterations;
+    double surface_average;          /* 0..1: centre smoothing weight (Yu & Turk) */
+    double surface_average_radius;   /* particle spacings */
     double surface_dilate, surface_erode; /* m; erode < 0: automatic */
     int surface_group;               /* 0: a level set per material, 1: per object */
     int surface_quality;             /* 0 final, 1 preview (preset applied to the fields above) */
@@ -213,6 +214,16 @@ typedef struct kf_shot {
     double render_eye[3], render_target[3]; /* m, when render_eye_set / render_target_set */
     int render_eye_set, render_target_set;
     double render_fov;               /* vertical, degrees */
+    int render_interp;               /* camera keys: 0 linear, 1 smooth */
+    int ncamera_keys;                /* render.keys, frames increasing */
+    struct {
+        double frame, eye[3], target[3], fov; /* fov 0: render_fov */
+    } camera_keys[KF_MAX_KEYS];
+    /* lights: key, fill, rim; direction towards the light in camera space
+     * (x right, y up, z towards the viewer), colour, intensity */
+    struct {
+        double dir[3], color[3], intensity;
+    } lights[3];
     int render_ground;
 
     char **strings;              /* (nstrings) owned by the shot: the text kf_loc points to */

@@ -9,7 +9,7 @@
  *
  *     kf_view_opts o = {.target = "shots/demo.yaml", .port = 8765};
  *     char err[1024];
- *     kf_view *v = kf_view_start(&o, &diag, err, sizeof err);
+ *     kf_view *v = kf_view_start(&o, &diag, &status, err, sizeof err);
  *     printf("%s\n", kf_view_url(v));
  *     ... wait for a signal ...
  *     kf_view_stop(v);

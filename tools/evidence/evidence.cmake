@@ -9,3 +9,8 @@ endforeach()
 # water at rest in a tank: its level over time
 add_executable(kf_evid_tank_rest ${CMAKE_CURRENT_LIST_DIR}/tank_rest.c)
 target_link_libraries(kf_evid_tank_rest PRIVATE kerf_core)
+
+# orange peel: flatness, edges, volume and sheet holes of a surfaced jittered block
+add_executable(kf_evid_surface_look ${CMAKE_CURRENT_LIST_DIR}/surface_look.c)
+target_link_libraries(kf_evid_surface_look PRIVATE kerf_core)
+target_compile_definitions(kf_evid_surface_look PRIVATE KERF_SOURCE_DIR="${CMAKE_SOURCE_DIR}")

@@ -5,12 +5,14 @@
 // buffer. Nothing C++ leaves this file.
 
 #include "io/vdb_bridge.h"
+#include "centre_smooth.h"
 #include "sphere_raster.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/points/PointCount.h>
+#include <openvdb/tools/Composite.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/LevelSetFilter.h>
 #include <openvdb/tools/LevelSetTracker.h>
@@ -411,6 +413,22 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
         auto h = new kf_vdb_grid;
         std::unique_ptr<kf_vdb_grid> hold(h);
         kf_vdb::sphere_set ss{n, xd, xf, radii, r, nsmall ? rmin : 0.0, vel};
+        // jittered centres averaged with their neighbours (centre_smooth.h):
+        // a flat face moves in by shift, so the erosion that puts the
+        // surface back on the material is smaller by as much (a dilation
+        // where the erosion was smaller than the shift)
+        std::vector<float> averaged;
+        if (!(p.average >= 0 && p.average <= 1)) throw bridge_error(fmt("average %g must be in 0..1", p.average));
+        if (p.average > 0) {
+            const double spacing = p.spacing > 0 ? p.spacing : r / factor;
+            const double R = p.average_radius > 0 ? p.average_radius : 2 * spacing;
+            averaged = kf_vdb::smooth_centres(n, xd, xf, p.average, R);
+            ss.xd = nullptr;
+            ss.xf = averaged.data();
+            const double shift = kf_vdb::shift_depth(p.average, R, spacing);
+            p.erode -= shift;
+            if (p.erode < 0) p.dilate -= p.erode, p.erode = 0;
+        }
         kf_vdb::raster_timing rt{};
         if (hw > 6) throw bridge_error(fmt("half width %g voxels must be <= 6", hw));
         // dilate, mean-curvature smoothing and erode run on the band before
@@ -452,6 +470,23 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
             stats->cpu_filter = rt.filter_s + cpu_seconds() - c1;
         }
         *out = hold.release();
+    });
+}
+
+int kf_vdb_union(kf_vdb_grid *a, kf_vdb_grid *b, char *err, size_t errlen)
+{
+    return guard("union", err, errlen, [&] {
+        if (!a || !b) throw bridge_error("no grid");
+        if (a->ls->voxelSize() != b->ls->voxelSize())
+            throw bridge_error(fmt("voxel sizes differ (%g and %g m)", a->ls->voxelSize()[0], b->ls->voxelSize()[0]));
+        openvdb::tools::csgUnion(*a->ls, *b->ls);
+        if (a->vel && b->vel) {
+            // b's velocities where a has none
+            auto acc = a->vel->getAccessor();
+            for (auto it = b->vel->cbeginValueOn(); it; ++it)
+                if (!acc.isValueOn(it.getCoord())) acc.setValue(it.getCoord(), *it);
+            a->vel->tree().topologyIntersection(a->ls->tree());
+        }
     });
 }
 

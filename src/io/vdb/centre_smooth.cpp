@@ -1,0 +1,133 @@
+// centre_smooth.cpp — see centre_smooth.h.
+#include "centre_smooth.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+
+namespace kf_vdb {
+
+namespace {
+
+// a cell key from integer cell coordinates (21 bits each, offset to stay positive)
+inline uint64_t cell_key(int64_t i, int64_t j, int64_t k)
+{
+    const int64_t o = int64_t(1) << 20;
+    return (uint64_t(i + o) & 0x1fffff) | (uint64_t(j + o) & 0x1fffff) << 21 | (uint64_t(k + o) & 0x1fffff) << 42;
+}
+
+} // namespace
+
+std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, double lambda, double R)
+{
+    std::vector<float> out(3 * n);
+    auto pos = [&](size_t i, int a) { return xd ? xd[3 * i + a] : double(xf[3 * i + a]); };
+    // particles sorted into cells of edge R (ties by index: deterministic)
+    const double invR = 1 / R, R2 = R * R;
+    std::vector<uint64_t> key(n);
+    std::vector<size_t> order(n);
+    for (size_t i = 0; i < n; i++) {
+        key[i] = cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
+                          int64_t(std::floor(pos(i, 2) * invR)));
+        order[i] = i;
+    }
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
+    std::unordered_map<uint64_t, std::pair<size_t, size_t>> cells;
+    cells.reserve(n / 4 + 16);
+    for (size_t s0 = 0; s0 < n;) {
+        size_t e = s0;
+        while (e < n && key[order[e]] == key[order[s0]]) e++;
+        cells.emplace(key[order[s0]], std::make_pair(s0, e));
+        s0 = e;
+    }
+    // cell by cell (in parallel): the 27 cells around it gathered once into
+    // a local buffer, relative to the cell's corner (floats keep their
+    // precision there), then each of the cell's centres against the buffer
+    std::vector<std::pair<size_t, size_t>> ranges;
+    ranges.reserve(cells.size());
+    for (size_t s0 = 0; s0 < n;) {
+        size_t e = s0;
+        while (e < n && key[order[e]] == key[order[s0]]) e++;
+        ranges.emplace_back(s0, e);
+        s0 = e;
+    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, ranges.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
+        std::vector<float> bx, by, bz;
+        for (size_t c = rg.begin(); c != rg.end(); c++) {
+            const size_t first = order[ranges[c].first];
+            const int64_t ci[3] = {int64_t(std::floor(pos(first, 0) * invR)), int64_t(std::floor(pos(first, 1) * invR)),
+                                   int64_t(std::floor(pos(first, 2) * invR))};
+            const double o[3] = {double(ci[0]) * R, double(ci[1]) * R, double(ci[2]) * R};
+            bx.clear(), by.clear(), bz.clear();
+            for (int dz = -1; dz <= 1; dz++)
+                for (int dy = -1; dy <= 1; dy++)
+                    for (int dxc = -1; dxc <= 1; dxc++) {
+                        auto it = cells.find(cell_key(ci[0] + dxc, ci[1] + dy, ci[2] + dz));
+                        if (it == cells.end()) continue;
+                        for (size_t s1 = it->second.first; s1 < it->second.second; s1++) {
+                            size_t j = order[s1];
+                            bx.push_back(float(pos(j, 0) - o[0]));
+                            by.push_back(float(pos(j, 1) - o[1]));
+                            bz.push_back(float(pos(j, 2) - o[2]));
+                        }
+                    }
+            const size_t nb = bx.size();
+            const float fR2 = float(R2), finvR = float(invR);
+            for (size_t s1 = ranges[c].first; s1 < ranges[c].second; s1++) {
+                const size_t i = order[s1];
+                const float x = float(pos(i, 0) - o[0]), y = float(pos(i, 1) - o[1]), z = float(pos(i, 2) - o[2]);
+                float ws = 0, mx = 0, my = 0, mz = 0;
+                for (size_t k = 0; k < nb; k++) {
+                    float dx = bx[k] - x, dy = by[k] - y, dz = bz[k] - z, d2 = dx * dx + dy * dy + dz * dz;
+                    float sd = std::sqrt(d2) * finvR, w = d2 < fR2 ? 1 - sd * sd * sd : 0.0f;
+                    ws += w, mx += w * dx, my += w * dy, mz += w * dz;
+                }
+                // ws >= 1: the particle itself is its own neighbour at distance 0
+                const float f = float(lambda) / ws;
+                out[3 * i] = float(pos(i, 0) + double(f * mx));
+                out[3 * i + 1] = float(pos(i, 1) + double(f * my));
+                out[3 * i + 2] = float(pos(i, 2) + double(f * mz));
+            }
+        }
+    });
+    return out;
+}
+
+double shift_depth(double lambda, double R, double h)
+{
+    // A centre at depth u below a flat face of a continuum filled below it:
+    // the weighted mean of the ball of radius R clipped at the face sits
+    // below the centre by m(u) = int w(r) z dV / int w(r) dV over the
+    // clipped ball (z: depth below the centre); by symmetry only the
+    // vertical offset remains. Sliced in z, a slab at z holds a disc of
+    // radius sqrt(R^2 - z^2), whose weighted area is 2 pi int_0^a w(sqrt(z^2+s^2)) s ds.
+    auto disc = [&](double z) {
+        const int ns = 64;
+        double a = std::sqrt(std::max(0.0, R * R - z * z)), sum = 0;
+        for (int k = 0; k < ns; k++) {
+            double s = (k + 0.5) * a / ns, r = std::sqrt(z * z + s * s) / R;
+            sum += (1 - r * r * r) * s;
+        }
+        return sum * a / ns;
+    };
+    const int nz = 128, nu = 16;
+    double avg = 0;
+    for (int q = 0; q < nu; q++) {
+        double u = (q + 0.5) * h / nu, w0 = 0, w1 = 0;
+        // the ball spans z in [-R, R] relative to the centre (z > 0 upward);
+        // material only where z < u (below the face)
+        double zt = std::min(R, u);
+        for (int k = 0; k < nz; k++) {
+            double z = -R + (k + 0.5) * (zt + R) / nz, a = disc(z);
+            w0 += a;
+            w1 += a * z;
+        }
+        avg += -(w1 / w0);
+    }
+    return lambda * avg / nu;
+}
+
+} // namespace kf_vdb
