@@ -495,7 +495,9 @@ static void momentum_ball_hits_box(void) {
  * what is left is the block's rocking (2–5° at the end). In metres the
  * error falls from 48 to 64 cells/m with this seed (2.9 mm to 1.7 mm),
  * which is asserted too; it is not a steady trend over Δx or seeds (seed 3:
- * 0.8 mm to 2.7 mm), so the tolerance itself is in cells.
+ * 0.8 mm to 2.7 mm), so the tolerance itself is in cells. Since the tank's
+ * walls (0.4 m, between nodes at 48 and 64 cells/m) act on their planes
+ * (wall_ghost.c) rather than up to a cell out: -0.04 at 48, -0.01 at 64.
  * Before the two fixes in cpic_transfer.c (penalty at the particle's
  * extent; the affine part C d kept by the particle at incompatible nodes)
  * the same runs gave −0.07, +0.20, +0.44, +0.55, +0.43, +0.33: the water
@@ -530,7 +532,7 @@ static double box_volume_below(const kf_rigid_pose *pose, const double L[3], dou
 }
 
 /* returns the draft's error, m */
-static double block_floats_at(int cells) {
+static double block_floats_at(int cells, double rho_b, kf_boundary boundary, double tol_cells) {
     kf_sim_def sd = kf_default_sim_def();
     sd.dx = 1.0 / cells;
     sd.walls = 1;
@@ -547,12 +549,12 @@ static double block_floats_at(int cells) {
      * held by the floor's boundary layer rather than by buoyancy); the water
      * fills the tank to the domain's edges, so the level that settles does
      * not depend on Δx */
-    const double W = 0.16, H = 0.10, rho_b = 500, level0 = 0.17;
+    const double W = 0.16, H = 0.10, level0 = 0.17;
     box_mesh bm;
     double half[3] = {W / 2, H / 2, W / 2}, pos[3] = {0.2, level0 + H / 2, 0.2};
     make_box(&bm, half);
     kf_rigid_def d = box_def(&bm, pos, rho_b);
-    d.boundary = KF_BOUNDARY_SLIP;
+    d.boundary = boundary;
     d.penalty = 1000;
     if (!getenv("KF_NORIGID")) add_rigid(m, &d);
     kf_state *s = kf_state_create(m);
@@ -623,16 +625,17 @@ static double block_floats_at(int cells) {
             inside += fabs(l[0]) < W / 2 && fabs(l[1]) < H / 2 && fabs(l[2]) < W / 2;
         }
     }
-    printf("  floating block, %d cells/m: draft %.4f m from its displaced volume (Archimedes %.4f m, error %+.2f cells), "
+    printf("  floating block, density %.0f, %s, %d cells/m: draft %.4f m from its displaced volume (Archimedes %.4f m, error %+.2f cells), "
            "lowest corner %.4f m below the surface, tilt %.1f deg, rms vertical speed %.3f m/s; %ld substeps, %.1f M "
            "particle-steps/s, cdf %.0f ms, rigid %.0f ms; crossings caught %ld (deepest %.2f cells), %ld particles inside the block\n",
-           cells, vdraft, archimedes, (vdraft - archimedes) / sd.dx, draft, tilt, rms_v, st.substeps,
+           rho_b, boundary == KF_BOUNDARY_SLIP ? "slip" : "separate", cells, vdraft, archimedes, (vdraft - archimedes) / sd.dx, draft, tilt, rms_v, st.substeps,
            st.particle_steps / 1e3 / (st.ms[KF_STAGE_P2G] + st.ms[KF_STAGE_G2P] + st.ms[KF_STAGE_GRID] +
                                       st.ms[KF_STAGE_SORT] + st.ms[KF_STAGE_STRESS] + st.ms[KF_STAGE_CDF] +
                                       st.ms[KF_STAGE_RIGID]),
            st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID], st.thin_caught, st.thin_deepest, inside);
-    KT_NEAR(vdraft, archimedes, 0.25 * sd.dx, "the floating block's draft (displaced volume / cross-section, m)");
-    KT_CHECK(rms_v < 0.05, "the block has come to rest (rms vertical speed %g m/s)", rms_v);
+    KT_NEAR(vdraft, archimedes, tol_cells * sd.dx, "the floating block's draft (displaced volume / cross-section, m)");
+    /* a light block under a separate boundary keeps hopping (see buoyancy_any_boundary) */
+    if (boundary == KF_BOUNDARY_SLIP) KT_CHECK(rms_v < 0.05, "the block has come to rest (rms vertical speed %g m/s)", rms_v);
     KT_CHECK(tilt < 10, "the stable block floats upright (tilt %.1f deg)", tilt);
     kf_state_destroy(s);
     kf_model_destroy(m);
@@ -641,12 +644,28 @@ static double block_floats_at(int cells) {
 
 static void block_floats(void) {
     if (float_cells > 0) {
-        block_floats_at(float_cells);
+        block_floats_at(float_cells, 500, KF_BOUNDARY_SLIP, 0.25);
         return;
     }
-    double e48 = block_floats_at(48), e64 = block_floats_at(64);
+    double e48 = block_floats_at(48, 500, KF_BOUNDARY_SLIP, 0.25), e64 = block_floats_at(64, 500, KF_BOUNDARY_SLIP, 0.25);
     KT_CHECK(fabs(e64) < fabs(e48), "the draft's error falls with dx (%.2f mm at 48 cells/m, %.2f mm at 64)", e48 * 1e3,
              e64 * 1e3);
+}
+
+/* Archimedes does not care about the boundary: the same block, with
+ * densities that are no round fraction of water's (0.37, 0.61, 0.83), a
+ * slip or a separate boundary, floats at its draft within half a cell at
+ * 48 cells/m. Measured (2026-11-25), error in cells, slip / separate:
+ * 0.37: -0.11 / -0.39, 0.61: -0.13 / -0.36, 0.83: -0.26 / -0.38. Separate
+ * floats higher: at an incompatible node it removes the water's velocity
+ * toward the face but keeps the velocity away from it, so the water's
+ * jitter under the block pushes it up and never pulls it down. The light
+ * block under separate does not come to rest: it hops at 0.073 m/s rms
+ * (0.012 under slip), so coming to rest is asserted under slip only. */
+static void buoyancy_any_boundary(void) {
+    const double rho[3] = {370, 610, 830};
+    for (int k = 0; k < 3; k++)
+        for (int b = 0; b < 2; b++) block_floats_at(48, rho[k], b ? KF_BOUNDARY_SEPARATE : KF_BOUNDARY_SLIP, 0.5);
 }
 
 /* ---- resume: a checkpoint with bodies continues bit for bit ------------------
@@ -735,6 +754,7 @@ int main(int argc, char **argv) {
     KT_RUN(resume_is_exact, argc, argv);
     if (argc >= 3) float_cells = atoi(argv[2]);
     KT_RUN(block_floats, argc, argv);
+    KT_RUN(buoyancy_any_boundary, argc, argv);
     KT_RUN(momentum_ball_hits_box, argc, argv);
     KT_RUN(three_plates_colour, argc, argv);
     KT_RUN(wall_keeps_streams_apart, argc, argv);

@@ -567,8 +567,8 @@ static double mean_vx(kf_state *s) {
 
 /* walls inside the solve: a rubber block sliding at 1 m/s on the floor at
  * 10x the explicit step. Slip keeps the sliding speed (no friction, no
- * horizontal force); separate with μ = 0.5 slows it by at most μ g per
- * second (Coulomb), and not to a stop in 0.1 s; no particle sinks into the
+ * horizontal force); separate with μ = 0.5 slows it at μ g (Coulomb: the
+ * floor's reaction carries the block's weight); no particle sinks into the
  * floor in either case. Both schemes (the midpoint scheme projects its
  * velocity correction on the floor nodes as the solve projects v). */
 static void walls_in_solve(void) {
@@ -594,8 +594,12 @@ static void walls_in_solve(void) {
             /* the floor's reaction is vertical; only the transfer's round-off and the block's edges move vx */
             KT_NEAR(vx, 1.0, 1e-2, "slip keeps the sliding speed");
         } else {
-            KT_CHECK(vx < 0.99, "friction slows the block: %g", vx);
-            KT_CHECK(vx > 1.0 - 0.5 * 9.81 * T - 0.05, "no faster than Coulomb allows: %g", vx);
+            /* Coulomb: v = 1 − μ g T; the same 3% of it as the explicit
+             * floor test (test_boundary). Measured 0.4977 (backward Euler,
+             * +0.2%) and 0.4826 (midpoint, −2.8%) against 0.4967; before the
+             * friction came from the boundary's reaction, 0.913 */
+            const double coulomb = 1.0 - 0.5 * 9.81 * T;
+            KT_NEAR(vx, coulomb, 0.03 * coulomb, "Coulomb friction decelerates the block at mu g");
         }
         /* particles start at y >= 0 (the wall nodes at y = 0 carry the floor) */
         KT_CHECK(ymin > -0.25 * sd.dx, "no sinking: %g", ymin);

@@ -90,7 +90,9 @@ typedef struct kf_implicit {
     size_t ncon;
     int32_t *con_node;
     double *con_P;     /* (9 ncon) */
-    double *con_slide; /* (ncon) Coulomb friction budget μ |v*_n| of separate boundaries, m/s (0 = none) */
+    double *con_mu;    /* (ncon) Coulomb friction coefficient of the node's separate boundary (0 = none) */
+    uint8_t *con_sep;  /* (ncon) 1: held by a separate boundary (it may let go) */
+    uint8_t *release;  /* (nnode) or NULL: nodes a separate boundary lets go (their reaction pulled) */
     double *con_n;     /* (3 ncon) the separate boundary's normal */
     double *con_vc;    /* (3 ncon) the boundary's velocity */
     /* solver vectors (KF_IMP_NV nnode each; the 4th entry of a node stays 0) */
@@ -148,9 +150,15 @@ int kf_imp_constraints(kf_implicit *w, double *v);
 /* x_i ← P_i x_i on constrained nodes (search directions stay admissible). */
 void kf_imp_project(const kf_implicit *w, double *x);
 /* Coulomb friction of separate boundaries after the solve: the tangential
- * velocity relative to the boundary shrinks by μ times the normal velocity
- * the solve removed. */
-void kf_imp_friction(const kf_implicit *w, double *v);
+ * velocity relative to the boundary shrinks by μ times the normal reaction
+ * per unit mass, the reaction being g·n with g the unprojected gradient of
+ * the incremental potential at the solution (M (v − v*) − Δt f). */
+void kf_imp_friction(const kf_implicit *w, double *v, const double *g);
+/* Marks (w->release) the nodes a separate boundary holds whose reaction
+ * g·n pulls the material onto it: the constraint was chosen from v*,
+ * before the elastic forces, and material leaving after them must go free.
+ * Returns 1 if any was marked (solve again), 0, or -1 (out of memory). */
+int kf_imp_release_pulling(kf_implicit *w, const double *g);
 
 /* ---- the multigrid preconditioner (implicit/mg_build.c, implicit/mg_cycle.c) ----
  * In the style of HOT (Wang et al. 2020): level 0 is the solve's grid and

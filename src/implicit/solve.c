@@ -519,7 +519,22 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
         return 1;
     }
     t = prof_now();
-    kf_imp_friction(&w, w.v);
+    /* the boundaries' reactions: the gradient at the solution, unprojected.
+     * A separate boundary that pulls lets go, and the substep is solved once
+     * more without it (one active-set step); then friction from the pushes */
+    kf_imp_gradient(&w, w.v, w.g);
+    int rel = kf_imp_release_pulling(&w, w.g);
+    if (rel > 0) {
+        if (kf_imp_constraints(&w, w.v) || kf_imp_solve(&w, w.v)) rel = -1;
+        else kf_imp_gradient(&w, w.v, w.g);
+    }
+    if (rel < 0) {
+        kf_imp_free(&w);
+        trouble->found = 1;
+        snprintf(trouble->what, sizeof trouble->what, "implicit solve failed releasing a separate boundary");
+        return 1;
+    }
+    kf_imp_friction(&w, w.v, w.g);
     if (mid && midpoint_velocity(m, s, &w, 0.5 * dt)) {
         kf_imp_free(&w);
         trouble->found = 1;

@@ -94,7 +94,7 @@ static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
 
 void kf_imp_free(kf_implicit *w) {
     void *all[] = {w->idx, w->wts, w->mass, w->vstar, w->Fn, w->F, w->S, w->S_alt, w->Kp, w->psi,   w->con_node,
-                   w->con_P, w->con_slide, w->con_n, w->con_vc, w->v, w->g, w->d, w->r, w->z, w->p,
+                   w->con_P, w->con_mu, w->con_sep, w->release, w->con_n, w->con_vc, w->v, w->g, w->d, w->r, w->z, w->p,
                    w->q, w->vt, w->diag, w->bsum, w->act, w->act_start};
     for (size_t k = 0; k < sizeof all / sizeof *all; k++) free(all[k]);
     kf_imp_mg_free(w->mg);
