@@ -71,4 +71,4 @@ void kf_gl_context_destroy(kf_gl_context *c) {
 
 const char *kf_gl_context_backend(const kf_gl_context *c) { return c ? c->be->name : ""; }
 
-void *kf_gl_context_proc(const char *name) { return current ? current->proc(name) : NULL; }
+kf_proc kf_gl_context_proc(const char *name) { return current ? current->proc(name) : NULL; }

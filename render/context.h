@@ -11,6 +11,8 @@
 
 #include <stddef.h>
 
+#include "proc.h"
+
 typedef struct kf_gl_context kf_gl_context;
 
 /* A GL >= 3.3 core-profile context with a w x h RGBA8 default buffer,
@@ -26,6 +28,6 @@ void kf_gl_context_destroy(kf_gl_context *c);
 const char *kf_gl_context_backend(const kf_gl_context *c);
 
 /* The address of a GL function (core 1.1 functions included), or NULL. */
-void *kf_gl_context_proc(const char *name);
+kf_proc kf_gl_context_proc(const char *name);
 
 #endif

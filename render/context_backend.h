@@ -6,13 +6,15 @@
 
 #include <stddef.h>
 
+#include "proc.h"
+
 typedef struct kf_gl_backend {
     const char *name;
     /* a GL >= 3.3 core context of size w x h, made current; NULL + err */
     void *(*create)(int w, int h, char *err, size_t errlen);
     int (*make_current)(void *ctx, char *err, size_t errlen);
     void (*destroy)(void *ctx);
-    void *(*proc)(const char *name);
+    kf_proc (*proc)(const char *name); /* a GL entry point by name, or NULL */
 } kf_gl_backend;
 
 extern const kf_gl_backend kf_gl_backend_osmesa; /* context_osmesa.c */

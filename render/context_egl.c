@@ -42,7 +42,7 @@ static int load(char *err, size_t errlen) {
             snprintf(err, errlen, "render context: EGL is not installed (no libEGL.so.1: %s)", dlerror());
             return -1;
         }
-        egl.get_proc = (PFNEGLGETPROCADDRESSPROC)dlsym(egl.lib, "eglGetProcAddress");
+        egl.get_proc = (PFNEGLGETPROCADDRESSPROC)kf_dlsym(egl.lib, "eglGetProcAddress");
         if (!egl.get_proc) {
             snprintf(err, errlen, "render context: libEGL.so.1 has no eglGetProcAddress");
             return -1;
@@ -144,6 +144,6 @@ static void egl_destroy(void *p) {
 }
 
 /* eglGetProcAddress answers for core functions too (EGL_KHR_get_all_proc_addresses, EGL 1.5) */
-static void *egl_proc(const char *name) { return egl.get_proc ? (void *)egl.get_proc(name) : NULL; }
+static kf_proc egl_proc(const char *name) { return egl.get_proc ? (kf_proc)egl.get_proc(name) : NULL; }
 
 const kf_gl_backend kf_gl_backend_egl = {"egl", egl_create, egl_make_current, egl_destroy, egl_proc};

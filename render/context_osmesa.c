@@ -39,11 +39,11 @@ static int load(char *err, size_t errlen) {
         snprintf(err, errlen, "render context: OSMesa is not installed (no libOSMesa.so.8: %s)", dlerror());
         return -1;
     }
-    os.create = (create_fn)dlsym(lib, "OSMesaCreateContextAttribs");
-    os.make_current = (make_current_fn)dlsym(lib, "OSMesaMakeCurrent");
-    os.destroy = (destroy_fn)dlsym(lib, "OSMesaDestroyContext");
-    os.proc = (proc_fn)dlsym(lib, "OSMesaGetProcAddress");
-    os.pixel_store = (pixel_store_fn)dlsym(lib, "OSMesaPixelStore");
+    os.create = (create_fn)kf_dlsym(lib, "OSMesaCreateContextAttribs");
+    os.make_current = (make_current_fn)kf_dlsym(lib, "OSMesaMakeCurrent");
+    os.destroy = (destroy_fn)kf_dlsym(lib, "OSMesaDestroyContext");
+    os.proc = (proc_fn)kf_dlsym(lib, "OSMesaGetProcAddress");
+    os.pixel_store = (pixel_store_fn)kf_dlsym(lib, "OSMesaPixelStore");
     if (!os.create || !os.make_current || !os.destroy || !os.proc || !os.pixel_store) {
         snprintf(err, errlen, "render context: libOSMesa lacks OSMesaCreateContextAttribs (too old)");
         dlclose(lib);
@@ -99,6 +99,6 @@ static void *osmesa_create(int w, int h, char *err, size_t errlen) {
     return c;
 }
 
-static void *osmesa_proc(const char *name) { return os.proc ? (void *)os.proc(name) : NULL; }
+static kf_proc osmesa_proc(const char *name) { return os.proc ? (kf_proc)os.proc(name) : NULL; }
 
 const kf_gl_backend kf_gl_backend_osmesa = {"osmesa", osmesa_create, osmesa_make_current, osmesa_destroy, osmesa_proc};

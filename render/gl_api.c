@@ -3,8 +3,8 @@
 
 #include <stdio.h>
 
-int kf_gl_load(kf_gl *gl, void *(*lookup)(const char *), char *err, size_t errlen) {
-    void *p;
+int kf_gl_load(kf_gl *gl, kf_proc (*lookup)(const char *), char *err, size_t errlen) {
+    kf_proc p;
 #define KF_GL_LOAD(type, name)                                                                 \
     p = lookup("gl" #name);                                                                    \
     if (!p) {                                                                                  \

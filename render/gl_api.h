@@ -10,6 +10,8 @@
 #include <GL/glcorearb.h>
 #include <stddef.h>
 
+#include "proc.h"
+
 #define KF_GL_FUNCS(X)                                                                         \
     X(PFNGLGETSTRINGPROC, GetString)                                                           \
     X(PFNGLGETINTEGERVPROC, GetIntegerv)                                                       \
@@ -85,6 +87,6 @@ typedef struct kf_gl {
 } kf_gl;
 
 /* Fill every pointer through lookup("gl" name). -1 + err names the first missing one. */
-int kf_gl_load(kf_gl *gl, void *(*lookup)(const char *), char *err, size_t errlen);
+int kf_gl_load(kf_gl *gl, kf_proc (*lookup)(const char *), char *err, size_t errlen);
 
 #endif

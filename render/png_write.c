@@ -25,7 +25,7 @@ static void on_png_error(png_structp png, png_const_charp msg) {
 }
 static void on_png_warning(png_structp png, png_const_charp msg) { (void)png, (void)msg; }
 
-/* an errno as an artist reads it: a full disk says so (issue 18) */
+/* an errno as an artist reads it: a full disk says so */
 static const char *io_reason(int e) {
     return e == ENOSPC || e == EDQUOT ? "no space left on the device (disk full)" : strerror(e);
 }

@@ -73,7 +73,7 @@ static void expect_refused(const char *path, const char *needle) {
 
 /* flipped byte, truncation, garbage, and a missing file */
 static void damage_is_refused(void) {
-    char err[256], path[320], cmd[800];
+    char err[256], path[320], cmd[2400]; /* room for the five paths the damaging command names */
     snprintf(path, sizeof path, "%s/good.kfc", dir);
     kf_scene sc;
     kf_scene_demo(&sc, 12, err, sizeof err);
@@ -97,7 +97,7 @@ static void damage_is_refused(void) {
 }
 
 
-/* ---- forged and damaged headers (issue 18): refused before anything is
+/* ---- forged and damaged headers: refused before anything is
  * allocated from them, each with the true reason ---------------------------- */
 
 static unsigned char *slurp(const char *path, size_t *n) {

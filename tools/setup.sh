@@ -26,5 +26,6 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
 fi
 
-cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+# extra configure options from the caller (tools/test.sh: -DKERF_WERROR=ON)
+cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release ${KERF_CMAKE_OPTIONS:-} >/dev/null
 cmake --build "$build" -j "$(nproc)" >&2

@@ -2,7 +2,8 @@
 # test.sh — set up, build, and run the whole test suite with ctest.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-"$here/tools/setup.sh"
+# the CI build: every warning is an error
+KERF_CMAKE_OPTIONS="-DKERF_WERROR=ON" "$here/tools/setup.sh"
 cd "$here/build"
 # one test at a time: each test already runs two OpenMP threads
 status=0
@@ -12,9 +13,8 @@ ctest --output-on-failure --timeout 900 || status=1
 # AddressSanitizer and UndefinedBehaviorSanitizer: any report fails its test
 # (no recovery); leaks inside assimp and libfyaml are theirs (tests/fuzz/lsan.supp)
 asan="$here/build-asan"
-san="-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer"
-cmake -S "$here" -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS="$san" -DCMAKE_CXX_FLAGS="$san" \
-  -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" >/dev/null
+cmake -S "$here" -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKERF_SANITIZE=address,undefined \
+  >/dev/null
 cd "$asan"
 fast=$(ctest -N -L fast 2>/dev/null | sed -nE 's/^ *Test +#[0-9]+: (test_[a-z0-9_]+)$/\1/p' | grep -v '^test_cli')
 # shellcheck disable=SC2086  # one target per word

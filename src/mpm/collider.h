@@ -91,4 +91,10 @@ int kf_colliders_near_block(const kf_collider_frame *frame, int ncol, const int3
 
 int kf_collider_may_touch(const kf_collider_frame *f, const double lo[3], const double hi[3]);
 
+/* The walls and the nearby colliders (near[0..nnear)) applied to one grid
+ * node's velocity vd at x, as the grid update does (grid_update.c); the
+ * contact fields use it on each of their velocities. */
+void kf_grid_node_boundaries(const kf_model *m, const kf_collider_frame *frame, const int *near, int nnear,
+                             const double x[3], double vd[3]);
+
 #endif

@@ -8,9 +8,6 @@
 #include "collider.h"
 #include "contact.h"
 
-void kf_grid_node_boundaries(const kf_model *m, const kf_collider_frame *frame, const int *near, int nnear,
-                             const double x[3], double vd[3]);
-
 void kf_contact_free(kf_contact *c) {
     if (!c) return;
     free(c->mv);

@@ -22,7 +22,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "implicit_problem.h"
+#include "implicit_crossover.h"
+
+#include "../../tests/problems/implicit_problem.h"
 
 #define XO_REF_CFL 0.1
 #define XO_NSTEPS 5

@@ -1,5 +1,5 @@
 /* implicit_sweep.c — run time against error, explicit against implicit
- * integration, over a range of stiffnesses (issue 7's evidence).
+ * integration, over a range of stiffnesses (evidence).
  *
  *   kf_evid_implicit_sweep --out DIR [--tumble | --bend] [--quick | --dx H] [--E 1e6,3e6,1e7,3e7] [--repeat N]
  *   kf_evid_implicit_sweep --out DIR --E 1e6 --only-k 20 [--jacobi] [--midpoint] [--profile]   (one run)
@@ -28,7 +28,7 @@
  * <prefix> implicit, implicit_tumble or implicit_bend; --profile prints
  * the implicit step's CPU milliseconds per stage per substep.
  *
- * The verdict (issue 7's target): implicit at k = 20 must cost less CPU per
+ * The verdict (the implicit step's target): implicit at k = 20 must cost less CPU per
  * frame than explicit at the same error: explicit's cost there is
  * interpolated (log-log) between the two explicit runs whose errors
  * bracket implicit's; an explicit run that is both cheaper and at least as
@@ -56,9 +56,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "implicit_problem.h"
+#include "../../tests/problems/implicit_problem.h"
 
-int crossover(const char *out, const double *Es, int nE); /* implicit_crossover.c */
+#include "implicit_crossover.h"
 
 #define REF_CFL 0.025
 #define NEX 5
@@ -82,7 +82,7 @@ static int g_only_k;
 static kf_precond g_only_precond = KF_PRECOND_MULTIGRID;
 static integ g_only_how = BACKWARD_EULER;
 
-/* issue 7's target for one implicit run im against the explicit runs ex
+/* the implicit step's target for one implicit run im against the explicit runs ex
  * (sorted by error, most accurate first): explicit's cost at im's error,
  * interpolated log-log between the two runs that bracket it. Returns 1
  * when implicit is the cheaper. */
