@@ -1,4 +1,4 @@
-/* test_bar.c — V4, the free–free axial bar (shared/reference/verification.md §3).
+/* test_bar.c — V4, the free–free axial bar.
  *
  * A bar of length 2L along x, E = 100, ν = 0, ρ = 1, L = 25, so
  * c = √((λ+2μ)/ρ) = √E = 10 and the first free–free period is T₁ = 4L/c = 10.
@@ -192,7 +192,7 @@ static void check_run(const bar_result *r) {
     KT_NEAR(r->v_half0, v0, 1e-6 * fabs(v0), "initial V of the left half: the seeded first mode");
 }
 
-/* V4: period within 0.5% at L/Δx = 50 (the verification.md bound). The
+/* V4: period within 0.5% at L/Δx = 50. The
  * solver does far better, and a regression to even a few times its error
  * should fail: measured +0.0106% (MLS) and +0.0137% (classic), held to about
  * twice that, 0.022% and 0.028%. The error is deterministic (float, fixed

@@ -41,7 +41,7 @@ check "a recoloured body re-renders without re-simulating" \
 check "the plate is drawn: its colour changes the image" bash -c "! cmp -s blue.png o/images/cut.1003.png"
 check "no temporaries left" test -z "$(find o -name '*.tmp-*')"
 
-# solids whose mesh intersects itself (issue 17: sand_stir's bowl leaked through its
+# solids whose mesh intersects itself (sand_stir's bowl leaked through its
 # bottom): refused at each mesh: key with the mesh, two triangles and a point, the
 # line echoed, every one in one pass, exit 2 and nothing written
 mkdir -p shots meshes

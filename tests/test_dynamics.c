@@ -52,7 +52,7 @@ static void free_fall(void) {
                     errF = fmax(errF, fabs(pv.F[e][i] - (e % 4 == 0)));
                 }
             }
-            /* verification.md V1: 1e-5 relative in f32 (1e-12 in double) */
+            /* V1: 1e-5 relative in f32 (1e-12 in double) */
             KT_NEAR(errx / xmax, 0, sizeof(kf_real) == 4 ? 1e-5 : 1e-12, "V1 free fall, relative position error");
             /* uniform grid velocity: C is round-off of |v|/Δx, F drifts by steps·dt·C */
             double vmax = 2.5;
@@ -105,7 +105,7 @@ static double spin_drift(kf_transfer transfer, kf_force force, int steps) {
 static void angular_momentum(void) {
     for (int f = 0; f < 2; f++) {
         double apic = spin_drift(KF_TRANSFER_APIC, (kf_force)f, 1000);
-        /* verification.md V3: relative drift <= 1e-5 in f32 after 1000 steps */
+        /* V3: relative drift <= 1e-5 in f32 after 1000 steps */
         KT_NEAR(apic, 0, sizeof(kf_real) == 4 ? 1e-5 : 1e-10, "V3 APIC angular momentum drift over 1000 steps");
         double pic = spin_drift(KF_TRANSFER_PIC, (kf_force)f, 200);
         /* negative control: PIC's dissipation of rotation is O(1) over 200 steps */
@@ -162,7 +162,7 @@ static void sparse_grid(void) {
 static void recovery_from_blowup(void) {
     kf_sim_def sd = kf_default_sim_def();
     sd.dx = 0.05;
-    sd.cfl = 1.9; /* beyond the quadratic kernel's limit (~1.1, verification.md §4) */
+    sd.cfl = 1.9; /* beyond the quadratic kernel's limit (~1.1) */
     sd.gravity[1] = 0;
     sd.max_retries = 4;
     int mat;
@@ -195,7 +195,7 @@ static void recovery_from_blowup(void) {
  * naming the violation and the cells moved. */
 static kf_state *glide_state_opt(double dt_fixed, int retries, int retry_fixed, kf_model **mp);
 static kf_state *glide_state(double dt_fixed, int retries, kf_model **mp) {
-    /* a fixed step is halved only where the shot opts in (issue 17) */
+    /* a fixed step is halved only where the shot opts in */
     return glide_state_opt(dt_fixed, retries, retries > 0, mp);
 }
 
@@ -244,7 +244,7 @@ static void cfl_violation_retried(void) {
     KT_CHECK(rc == 1, "with sim.max_retries = 0 the violation stops the run");
     KT_CHECK(strstr(msg, "numerical trouble: CFL violated (cells moved per substep) (value 1.6") != NULL,
              "message: %s", msg);
-    /* sim.dt_fixed means fixed (issue 17): retries allowed but not opted in
+    /* sim.dt_fixed means fixed: retries allowed but not opted in
      * for the fixed step, the frame fails at once, naming the step */
     {
         kf_model *mf;

@@ -1,4 +1,4 @@
-/* test_energy.c — V7, the oscillating stretched cube (shared/reference/verification.md §3).
+/* test_energy.c — V7, the oscillating stretched cube.
  *
  * A free cube of rest side 1 (fixed corotated, E = 1e3, ν = 0.3, ρ = 1, no
  * gravity, no walls) starts at rest, stretched uniformly by F₀ = 1.1·I, and

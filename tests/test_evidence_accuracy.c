@@ -1,13 +1,13 @@
 /* test_evidence_accuracy.c — one small instance of each accuracy sweep of
- * tools/evidence/accuracy.c (issue 6), through the same problem code
- * (tools/evidence/problems.h). The sweeps themselves run from
+ * tools/evidence/accuracy.c, through the same problem code
+ * (tests/problems/problems.h). The sweeps themselves run from
  * tools/evidence/run.sh; these keep them honest between runs.
  *
  * Measured (Release, float, this machine): bar period error at L/Δx = 25,
  * CFL 0.3: 4.14e-4 (quadratic MLS 8/cell), and the figures printed below for
  * the cubic kernel and 27 particles per cell; V5 RMS error / A 0.149 at
  * 1/Δx = 8 and 0.079 at 12 (quadratic MLS). The file runs in ~2 s. */
-#include "../tools/evidence/problems.h"
+#include "problems/problems.h"
 #include "kt.h"
 
 static ev_variant var(kf_kernel k, kf_force f, int ppc, double cfl) { return (ev_variant){k, f, ppc, cfl, 2}; }

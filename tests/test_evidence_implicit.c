@@ -1,5 +1,5 @@
-/* test_evidence_implicit.c — one small instance of issue 7's step sweep
- * (tools/evidence/implicit_problem.h; the sweep itself runs from
+/* test_evidence_implicit.c — one small instance of step sweep
+ * (tests/problems/implicit_problem.h; the sweep itself runs from
  * kf_evid_implicit_sweep, never from ctest): the tumbling bar at E = 1e6
  * on a coarse grid (Δx = 0.04 m, 480 particles), 6 frames.
  *
@@ -15,7 +15,7 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "../tools/evidence/implicit_problem.h"
+#include "problems/implicit_problem.h"
 #include "kt.h"
 
 static void tumbling_bar(void) {

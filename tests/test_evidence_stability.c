@@ -1,5 +1,5 @@
 /* test_evidence_stability.c — small instances of tools/evidence/stability.c
- * (issue 6), through the same code (tools/evidence/stress.h).
+ *, through the same code (tests/problems/stress.h).
  *
  *   - the default CFL number sits safely below the blow-up threshold for
  *     every material preset: each is stable at 1.5x the default with the
@@ -11,9 +11,9 @@
  *   - an injected NaN is caught by kf_step;
  *   - kf_advance recovers from a fault inside the interval (sim.cfl = 2.0,
  *     which blows up) by retrying at half the CFL number, and ends within
- *     1e-3 Δx of a run made directly at that CFL number (verification.md §4).
+ *     1e-3 Δx of a run made directly at that CFL number .
  * Runs in a few seconds on 1 thread. */
-#include "../tools/evidence/stress.h"
+#include "problems/stress.h"
 #include "kt.h"
 
 #define STEPS 120
@@ -60,7 +60,7 @@ static void advance_recovers(void) {
     KT_CHECK(r.rc == 0, "kf_advance must recover: %s", r.msg);
     KT_CHECK(r.retries >= 1, "the fault must have been hit (retries = %d)", r.retries);
     KT_CHECK(r.rc_ref == 0 && r.retries_ref == 0, "the reference run at the smaller CFL must need no retry");
-    KT_NEAR(r.max_dx_rel, 0, 1e-3, "recovered run within 1e-3 dx of the run made at the smaller step (verification.md 4)");
+    KT_NEAR(r.max_dx_rel, 0, 1e-3, "recovered run within 1e-3 dx of the run made at the smaller step");
     KT_NEAR(r.max_dv_rel, 0, 1e-3, "recovered velocities within 1e-3 of the largest speed");
 }
 

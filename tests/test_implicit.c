@@ -1,4 +1,4 @@
-/* test_implicit.c — backward Euler by Newton–Krylov (issue 7), and the
+/* test_implicit.c — backward Euler by Newton–Krylov, and the
  * implicit midpoint scheme built on the same solve.
  *
  * The solve's derivatives are checked against finite differences (stress

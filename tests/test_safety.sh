@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# test_safety.sh — issue 18's "safety and integrity": every refusal and every
+# test_safety.sh — "safety and integrity": every refusal and every
 # recovery asserted by its exact message and location, on real files, real
 # runs at tiny resolution and real kills (never timed).
 #   usage: test_safety.sh <kerf binary> <tests dir> [case]

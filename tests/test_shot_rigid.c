@@ -48,7 +48,7 @@ static int has(const kf_diag *d, int line, int col, kf_severity sev, const char 
 
 /* ---- parsing ---------------------------------------------------------------------------- */
 
-/* penalty and push (issue 17): auto by default (kerf sizes them), a number
+/* penalty and push: auto by default (kerf sizes them), a number
  * as the paper's, and anything else refused naming both choices */
 static void penalty_auto(void) {
     kf_diag d;
@@ -103,7 +103,7 @@ static void rigid_values(void) {
     KT_NEAR(k[1].scale[0] + k[1].scale[1] + k[1].scale[2], 3, 0, "bodies are rigid: key scale 1");
     KT_CHECK(blade->def.boundary == KF_BOUNDARY_SLIP, "slip");
     KT_NEAR(blade->def.push, 50, 0, "push");
-    KT_NEAR(blade->def.penalty, KF_RIGID_AUTO, 0, "penalty default auto (issue 17: on, sized by kerf)");
+    KT_NEAR(blade->def.penalty, KF_RIGID_AUTO, 0, "penalty default auto (on, sized by kerf)");
     KT_NEAR(blade->def.friction, 0.3, 0, "friction default");
     KT_NEAR(blade->color[2], 0.9, 0, "colour");
     /* a dynamic box with the defaults of everything else */
@@ -338,7 +338,7 @@ static void thin_assets(void) {
     }
 }
 
-/* ---- solids that intersect themselves (issue 17: sand_stir's bowl) -------------------------- */
+/* ---- solids that intersect themselves (sand_stir's bowl) -------------------------- */
 
 /* the triangle-triangle test on cases whose answer is known by hand */
 static void tri_tri_cases(void) {

@@ -1,4 +1,4 @@
-/* test_sphere.c — V6, the breathing sphere (shared/reference/verification.md §3).
+/* test_sphere.c — V6, the breathing sphere.
  *
  * A free elastic sphere (fixed corotated, ν = 0.3, no gravity, no walls) of
  * rest radius a starts at rest, stretched uniformly by F₀ = 1.01·I, and
@@ -54,7 +54,7 @@
 #define SPH_NU 0.3
 #define SPH_STRETCH 1.01
 #define SPH_CFL 0.3
-#define SPH_Z_REF 2.6702 /* verification.md V6, ν = 0.3 */
+#define SPH_Z_REF 2.6702 /* V6, ν = 0.3 */
 
 static double sph_j1(double z) { return z < 1e-4 ? z / 3 : (sin(z) / z - cos(z)) / z; }
 

@@ -1,6 +1,6 @@
-/* test_thin.c — thin boundaries under stress (issue 17), at the defaults a
+/* test_thin.c — thin boundaries under stress, at the defaults a
  * shot gets (penalty and push auto), against the exact geometry of the
- * sheet, not kerf's grid (tools/evidence/thin_problem.c):
+ * sheet, not kerf's grid (tests/problems/thin_problem.c):
  *   - a zero-thickness sheet spanning a channel sweeps through a bed of sand,
  *     goo, water, jelly and snow, then stops dead: no particle is behind it at any
  *     output frame, none more than 0.1 cell behind at any substep's end, and
@@ -19,7 +19,7 @@
 
 #include "kt.h"
 #include "scene_util.h"
-#include "thin_problem.h"
+#include "problems/thin_problem.h"
 
 static void expect_clean(const char *material, thin_motion motion, double cells, int adaptive) {
     thin_case c = {material, motion, cells, 0.02, 10, 0, 1, adaptive};
@@ -51,7 +51,7 @@ static void sweep_goo(void) {
 }
 /* water and jelly under a fixed step: at 0.5 (water) and 1 (jelly) cell per
  * substep the sheet outruns their wave speed (Mach 1.7 and 3.3) and the
- * shocked material needs a shorter step than the fixed one (issue 17's note);
+ * shocked material needs a shorter step than the fixed one ;
  * the CFL rule runs the same sheet speeds (but the jelly swept at 17 m/s,
  * Mach 3.3, is crushed against the domain's far wall after the stop, below
  * J = 1e-3, whatever the step: the corotated model's pressure vanishes as J
@@ -69,7 +69,7 @@ static void sweep_jelly(void) {
 
 /* snow hardens as it compacts (its wave speed grows with e^{xi (1 - Jp)}),
  * so a fixed step taken at its wave speed at rest no longer resolves it
- * once a sheet at 0.5 cell per substep has packed it (issue 17's note) */
+ * once a sheet at 0.5 cell per substep has packed it  */
 static void sweep_snow(void) {
     expect_clean("snow", THIN_SWEEP, 0.05, 0);
     expect_clean("snow", THIN_SWEEP, 0.25, 0);

@@ -41,7 +41,7 @@ static void bin(kf_model *m, kf_state *s) {
 
 /* One particle: the grid mass, its first and second moments are the
  * particle's mass, position and m(x xᵀ + D): partition of unity, linear
- * reproduction, and D_p = Δx²/4 or Δx²/3 (verification.md §1). */
+ * reproduction, and D_p = Δx²/4 or Δx²/3 . */
 static void kernel_moments(kf_kernel kernel) {
     kf_sim_def sd = kf_default_sim_def();
     sd.dx = 0.1;

@@ -1,4 +1,4 @@
-/* bench_cpic.c — what CPIC costs (issue 5's benchmark; the paper's §6.1 claim
+/* bench_cpic.c — what CPIC costs (the paper's §6.1 claim
  * of 6% on a large cutting scene).
  *
  * One scene three ways, the same substeps with a fixed Δt:

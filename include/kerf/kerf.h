@@ -200,7 +200,7 @@ typedef struct kf_rigid_pose {
 typedef enum kf_kernel { KF_KERNEL_QUADRATIC = 0, KF_KERNEL_CUBIC } kf_kernel;
 typedef enum kf_force { KF_FORCE_MLS = 0, KF_FORCE_CLASSIC } kf_force;
 typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC } kf_transfer;
-/* How the grid velocities advance (issue 7): explicit symplectic Euler, or
+/* How the grid velocities advance: explicit symplectic Euler, or
  * backward Euler solved by Newton-Krylov on the incremental potential. */
 typedef enum kf_integrator { KF_INTEGRATOR_EXPLICIT = 0, KF_INTEGRATOR_IMPLICIT } kf_integrator;
 /* The implicit step's time discretisation. Backward Euler: v_{n+1} solves
@@ -359,7 +359,7 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
 /* The substep the CFL rule would choose now. */
 double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl);
 
-/* Particles on the wrong side of a rigid surface now (issue 17): those whose
+/* Particles on the wrong side of a rigid surface now: those whose
  * colour records one side of a body while the exact triangle closest to them
  * (within 1.5 cells, the point inside it) puts them on the other; the
  * deepest such, in cells, in *deepest_cells (may be NULL). 0 is the promise. */

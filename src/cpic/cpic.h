@@ -20,7 +20,7 @@
  * so a scene holds at most KF_MAX_RIGIDS = 14 bodies. A particle's colour
  * (kf_particles.colour) uses the same low 28 bits.
  *
- * Choices where the paper is silent (cpic-notes.md §9): the tag at a node is
+ * Choices where the paper is silent: the tag at a node is
  * the sign at the body's closest valid primitive (the paper's rule, not the
  * authors' code's "negative wins"); ties go to the smaller distance, then the
  * smaller body index, so runs are deterministic for any thread count. The

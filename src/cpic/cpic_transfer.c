@@ -396,7 +396,7 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
         double depth = m->rigid[r].def.thin ? dx : 2 * dx, half = 0.5 * cbrt((double)p->vol0[i]);
         if (k == 0 || !(d < half && d > -depth)) continue;
         d -= half;
-        /* auto, around a solid: off, as before issue 17. Measured: the skin
+        /* auto, around a solid: off. Measured: the skin
          * contact below let a floating block sink half a cell deeper than
          * with no penalty (the support under a loaded face is the grid's),
          * and the paper's kick sized to a quarter of the overlap per substep

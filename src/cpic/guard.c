@@ -1,4 +1,4 @@
-/* guard.c — nothing passes through a rigid surface (issue 17).
+/* guard.c — nothing passes through a rigid surface.
  *
  * CPIC keeps the two sides of a thin surface apart on the grid, but the
  * particles themselves are advected with interpolated velocities: a particle
@@ -89,7 +89,7 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     const kf_cpic *c = s->cpic;
     kf_particles *p = &s->p;
     double x1[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, p0[3], p1[3], t;
-    /* thin bodies (issue 17's scope): around a solid the colored distance
+    /* thin bodies (the guard's scope): around a solid the colored distance
      * field reaches 2.5 cells inside and the penalty keeps the material out;
      * guarding a floating block too kept 41 more water particles out of it
      * but moved its draft from +0.11 to +0.30 cells off Archimedes (64

@@ -1,5 +1,5 @@
 /* implicit.h — backward Euler by Newton–Krylov on the grid velocities
- * (issue 7; paper §3.5, Eq. 19). Private to the library (and its tests).
+ * (paper §3.5, Eq. 19). Private to the library (and its tests).
  *
  * A substep minimises the incremental potential over the velocities v of
  * the grid nodes that carry mass:

@@ -1,5 +1,4 @@
-/* material.c — constitutive models of kerf (see material.h and
- * shared/reference/verification.md §2).
+/* material.c — constitutive models of kerf (see material.h).
  *
  * Every formula runs in double on kf_real inputs and rounds once at the end:
  * the per-particle cost is dominated by the polar decomposition / SVD, not by

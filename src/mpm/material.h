@@ -3,7 +3,8 @@
  * A kf_material (public, doubles, SI) is compiled once into a kf_mat (kf_real,
  * Lamé parameters and derived constants precomputed). The step calls
  * kf_mat_kirchhoff() in P2G for every particle and kf_mat_project() after
- * the F update for plastic models. Formulas: shared/reference/verification.md §2.
+ * the F update for plastic models. The formulas are in material.c, beside
+ * each model.
  *
  * Per-particle state beyond F: ps[0], ps[1]
  *   water:      ps[0] = J (tracked volume ratio; F is unused and kept = I)

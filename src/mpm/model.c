@@ -25,7 +25,7 @@ kf_sim_def kf_default_sim_def(void) {
     d.j_min = 1e-3;
     d.j_max = 1e3;
     d.max_cells_per_step = 1.0;
-    /* implicit integration (issue 7); explicit stays the default */
+    /* implicit integration; explicit stays the default */
     d.integrator = KF_INTEGRATOR_EXPLICIT;
     d.newton_tol = 1e-3;
     d.newton_max = 20;

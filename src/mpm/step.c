@@ -80,7 +80,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     }
 
     if (m->sim.integrator == KF_INTEGRATOR_IMPLICIT) {
-        /* backward Euler (issue 7, implicit.h): P2G of mass and momentum,
+        /* backward Euler (implicit.h): P2G of mass and momentum,
          * Newton-Krylov on the grid velocities, boundaries; leaves the grid
          * where kf_grid_update leaves it, so G2P and stress run unchanged */
         kf_trouble imp_trouble;

@@ -1,4 +1,4 @@
-/* implicit_problem.h — the problems, runs and error metric that issue 7's
+/* implicit_problem.h — the problems, runs and error metric that the implicit
  * evidence tools share (implicit_sweep.c: the step sweep and the target;
  * implicit_crossover.c: the stiffness crossover).
  *

@@ -1,5 +1,4 @@
-/* problems.h — the verification problems with exact answers (shared/reference/
- * verification.md §3: V4 bar, V5 manufactured solution, V6 breathing sphere),
+/* problems.h — the verification problems with exact answers (V4 bar, V5 manufactured solution, V6 breathing sphere),
  * set up for any kernel, force, particles per cell and CFL number, and timed
  * by per-process CPU time. Shared by the evidence sweeps (tools/evidence/)
  * and their regression tests (tests/test_evidence_*.c), so both measure the

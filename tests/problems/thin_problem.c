@@ -1,4 +1,4 @@
-/* thin_problem.c — issue 17's stress problems (see thin_problem.h). */
+/* thin_problem.c — stress problems (see thin_problem.h). */
 #include "thin_problem.h"
 
 #include <math.h>
@@ -222,7 +222,7 @@ int thin_run(const thin_case *c, thin_result *r) {
         r->end_across = across;
     }
     r->ms = kf_now_ms() - t0;
-#ifdef KF_RIGID_AUTO /* the counters came with issue 17; the "before" build lacks them */
+#ifdef KF_RIGID_AUTO /* the counters came with the automatic penalty; an older build lacks them */
     r->max_cells = st.max_cells_moved;
     r->caught = st.thin_caught;
 #endif

@@ -1,4 +1,4 @@
-/* thin_problem.h — issue 17's stress problems for thin boundaries, shared by
+/* thin_problem.h — stress problems for thin boundaries, shared by
  * the tests (tests/test_thin.c) and the evidence sweep (thin_sweep.c).
  *
  * A zero-thickness sheet (two triangles) is driven through material:

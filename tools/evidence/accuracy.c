@@ -1,6 +1,6 @@
 /* accuracy.c — error against cost for V4 (bar), V5 (manufactured solution)
  * and V6 (breathing sphere): Δx, CFL, kernel, force and particles-per-cell
- * sweeps (issue 6, verification.md §5).
+ * sweeps .
  *
  *   kf_evid_accuracy --out DIR [--quick] [--tables-only]
  *
@@ -22,7 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "problems.h"
+#include "../../tests/problems/problems.h"
 #include "../median.h"
 
 typedef ev_run (*ev_problem_fn)(double res, const ev_variant *v);

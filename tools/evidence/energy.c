@@ -1,6 +1,6 @@
 /* energy.c — the paper's Fig. 17: total energy against time for the
  * oscillating stretched cube and two colliding balls, MLS against classic
- * force (V7, V8 setups of verification.md).
+ * force (V7, V8 setups ).
  *
  *   kf_evid_energy --out DIR [--quick]
  *
@@ -17,7 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "problems.h"
+#include "../../tests/problems/problems.h"
 
 typedef struct series {
     long n;

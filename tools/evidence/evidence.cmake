@@ -1,4 +1,4 @@
-# evidence.cmake — issue 6: the accuracy/cost sweeps, stability stress tests,
+# evidence.cmake — the accuracy/cost sweeps, stability stress tests,
 # and the paper's Table 2 and Fig. 17, as programs that tools/evidence/run.sh
 # runs (never from ctest; tests/test_evidence_*.c keep one small instance each).
 foreach(prog accuracy stability energy table2)

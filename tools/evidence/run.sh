@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # run.sh — rebuild the evidence programs, run every sweep, draw the figures
-# and write tools/evidence/REPORT.md (issue 6). About 10 minutes on 2 cores.
+# and write tools/evidence/REPORT.md. About 10 minutes on 2 cores.
 #   usage: tools/evidence/run.sh [build-dir] [--quick] [--report-only]
 # --report-only redraws the figures and rewrites REPORT.md from the data
 # already in tools/evidence/results/ (after editing conclusions.md).
@@ -71,7 +71,7 @@ started=$(cat "$res/started"); elapsed=$(cat "$res/elapsed")
   cpu=$(cat "$res/cpu" 2>/dev/null || cpu_model)
   echo "($cpu, $ncpu cores, load average at the end" \
        "$(cat "$res/loadavg"), $(cat "$res/source"))."
-  echo "Data: \`tools/evidence/results/\` (CSV, the plotted .dat files, each program's log)."
+  echo "Data: \`tools/evidence/results/\` (CSV, the plotted .dat files, each program's log): written by this script, not committed."
   echo
   cat "$ev/conclusions.md"
   echo
@@ -104,10 +104,10 @@ started=$(cat "$res/started"); elapsed=$(cat "$res/elapsed")
   cat "$res/energy.md"
   echo
   cat "$ev/paper_claims.md"
-  # issue 7's figures, from their own sweep (kf_evid_implicit_sweep: not rerun here, see its header)
+  # the implicit figures, from their own sweep (kf_evid_implicit_sweep: not rerun here, see its header)
   if [ -z "$quick" ] && [ -f "$ev/implicit_results/implicit_crossover.png" ]; then
     echo
-    echo "## 4. Implicit against explicit (issue 7)"
+    echo "## 4. Implicit against explicit"
     echo
     echo "Tables and per-run data: \`tools/evidence/implicit_results/\` (implicit_sweep.md," \
          "implicit_sweep_tumble.md, implicit_sweep_bend.md, implicit_crossover.md," \

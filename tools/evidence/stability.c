@@ -1,4 +1,4 @@
-/* stability.c — stability under stress (issue 6):
+/* stability.c — stability under stress:
  *   1. the largest stable CFL number per kernel x force x material preset,
  *      by bisection (stress.h), against the solver's default sim.cfl;
  *   2. stress scenes run through kf_advance exactly as a shot would be:
@@ -17,7 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "stress.h"
+#include "../../tests/problems/stress.h"
 
 static FILE *open_out(const char *dir, const char *name) {
     char path[1024];
@@ -444,7 +444,7 @@ int main(int argc, char **argv) {
                 "threshold, on a rubber block thrown at the floor for %.4f s. The first attempt fails, the interval is "
                 "restarted at half the CFL number; it succeeded (rc %d) after %d retries at CFL %.4f. A run made "
                 "directly at `sim.cfl = %.4f` (rc %d, %d retries) ends at max |x − x_ref| = %.3g Δx and max |v − v_ref| = "
-                "%.3g |v|max (tolerance 1e-3, verification.md §4); state hashes %s.\n",
+                "%.3g |v|max (tolerance 1e-3); state hashes %s.\n",
             fault_cfl, dur, rec.rc, rec.retries, rec.cfl_used, rec.cfl_used, rec.rc_ref, rec.retries_ref, rec.max_dx_rel,
             rec.max_dv_rel, rec.hash == rec.hash_ref ? "identical (bit for bit)" : "differ");
     fclose(md);

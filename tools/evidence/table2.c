@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "problems.h"
+#include "../../tests/problems/problems.h"
 #include "scene/builtin.h"
 #include "../median.h"
 

@@ -1,17 +1,17 @@
-/* thin_sweep.c — issue 17's evidence: particles across a thin sheet against
+/* thin_sweep.c — evidence: particles across a thin sheet against
  * its speed in cells per substep, per material and motion (thin_problem.h).
  *   kf_evid_thin_sweep [--dx 0.02] [--motion sweep|diagonal|rotate|rest] [--material NAME] [--cells C] [--off]
  * One line per case: material, motion, cells/substep, particles, substeps,
  * most across at an output frame, ever across (> 0.1 dx), deepest (dx),
  * across at the end, fastest particle (cells/substep), crossings the guard
  * caught, ms, and the trouble if the run failed. --off: penalty and push off
- * (the shot defaults before issue 17). --adaptive: the default CFL rule
+ * (the shot defaults before the thin-boundary work). --adaptive: the default CFL rule
  * instead of the fixed step (the speed is then cells per rest step). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "thin_problem.h"
+#include "../../tests/problems/thin_problem.h"
 
 int main(int argc, char **argv) {
     double dx = 0.02, only_cells = 0;

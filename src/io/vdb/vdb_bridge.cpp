@@ -186,7 +186,7 @@ void get_meta(const openvdb::MetaMap &m, kf_vdb_meta *meta)
 // The archive exactly as io::File writes it (seekable, with grid offsets, so
 // a reader can load one grid alone), but into memory: io::File writes through
 // an std::ofstream that ignores a full disk and leaves a short file, which the
-// rename then published (issue 18: "KeyError: Map", then "Cannot read grid"
+// rename then published ("KeyError: Map", then "Cannot read grid"
 // forever). From memory every byte goes through write(2), whose errno counts.
 struct memory_archive : openvdb::io::Archive {
     using openvdb::io::Archive::write;
