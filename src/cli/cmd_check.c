@@ -2,6 +2,7 @@
  * compiles to: particles, grid, materials, memory, substeps per frame). */
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "../mpm/model.h"
 #include "../scene/budget.h"
@@ -27,7 +28,18 @@ static const char *model_name(kf_material_model m) {
     return m < KF_MAT_MODEL_COUNT ? names[m] : "?";
 }
 
+/* this process's resident bytes now (0 if unknown): kerf itself, before a shot is built */
+static double resident_bytes(void) {
+    FILE *f = fopen("/proc/self/statm", "r");
+    unsigned long size = 0, resident = 0;
+    int ok = f && fscanf(f, "%lu %lu", &size, &resident) == 2;
+    if (f) fclose(f);
+    long page = sysconf(_SC_PAGESIZE);
+    return ok && page > 0 ? (double)resident * (double)page : 0;
+}
+
 int kf_cmd_info(int argc, char **argv) {
+    const double program = resident_bytes();
     kf_cli_opts o;
     kf_shot *shot;
     kf_scene sc;
@@ -73,10 +85,12 @@ int kf_cmd_info(int argc, char **argv) {
     long blocks = 0;
     if (n && kf_grid_bin(&s->g, &s->p, (kf_real)(1 / shot->sim.dx), cubic, m->nthreads, &bad) == 0) blocks = (long)s->g.nblocks;
     double dt = n ? kf_stable_dt(m, s, shot->sim.cfl) : 0;
-    double per_particle = KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + 2 + 4 + 8 + 4;
-    double mb = (2 * per_particle * (double)n + (double)blocks * KF_BLOCK_NODES * sizeof(kf_v4)) / (1 << 20);
+    double mb = (kf_particle_bytes_running(m->nthreads, m->nrigid > 0) * (double)n +
+                 (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + program) /
+                (1 << 20);
     printf("grid      %ld active blocks of 4^3 nodes at the start\n", blocks);
-    printf("memory    about %.0f MB (particles, their frame snapshot, grid)\n", mb);
+    printf("memory    about %.0f MB (particles, their interval snapshot, grid, kerf itself %.0f MB)\n", mb,
+           program / (1 << 20));
     if (shot->sim.dt_fixed > 0) /* a fixed step is the step, whatever the CFL rule says */
         printf("substeps  %.0f per frame (sim.dt_fixed %.3g s)\n", 1.0 / shot->fps / shot->sim.dt_fixed,
                shot->sim.dt_fixed);

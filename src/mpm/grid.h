@@ -71,6 +71,12 @@ typedef struct kf_grid {
     long rebins, permutes;
 } kf_grid;
 
+/* Bytes a grid block holds: its nodes, and with rigid bodies CPIC's
+ * per-node distance, colour, closest distance and visit mark (cpic.h). */
+static inline double kf_grid_bytes_per_block(int rigid_bodies) {
+    return KF_BLOCK_NODES * (sizeof(kf_v4) + (rigid_bodies ? 16 : 0));
+}
+
 void kf_grid_free(kf_grid *g);
 
 /* Bin the particles: when some particle's stencil left its owner's

@@ -38,6 +38,19 @@ typedef struct kf_particles {
     int32_t *block;    /* (n) grid block owning the particle at the last sort */
 } kf_particles;
 
+/* Bytes one particle holds while a shot runs: the state's arrays and their
+ * copy in kf_advance's interval snapshot, the binning's scratch (a
+ * destination, a flag and an 8-byte permutation slot per thread: grid.c),
+ * and with rigid bodies CPIC's distance, normal and flag (cpic.h). Grid
+ * nodes come on top (kf_grid_bytes_per_block). */
+static inline double kf_particle_bytes_running(int threads, int rigid_bodies) {
+    kf_particles p;
+    double state = KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.obj + sizeof *p.colour +
+                   sizeof *p.id + sizeof *p.key + sizeof *p.block;
+    double bin = sizeof(uint32_t) + 1 + 8.0 * (threads > 0 ? threads : 1);
+    return 2 * state + bin + (rigid_bodies ? 4 + 12 + 1 : 0);
+}
+
 void kf_particles_free(kf_particles *p);
 /* Make room for at least cap particles. Returns 0 or -1 (out of memory). */
 int kf_particles_reserve(kf_particles *p, size_t cap);
