@@ -91,15 +91,14 @@ int kf_budget_estimate(const kf_shot *shot, kf_budget *b, char *err, size_t errl
         b->particles += n;
         if (n > largest) largest = n;
     }
-    /* what each particle holds while running (the state and its interval
-     * snapshot, binning scratch, CPIC's with bodies; threads unset: 2), the
-     * grid blocks they fill (twice the full ones: partial blocks at the
-     * surface, and four times that for their upper neighbours), and the
-     * seeding buffers of the largest object (x, v in doubles) */
-    const int bodies = shot->nrigids > 0, threads = shot->sim.threads > 0 ? shot->sim.threads : 2;
+    /* the particle planes twice (the state and its frame snapshot), the grid
+     * blocks they fill (twice the full ones: partial blocks at the surface),
+     * and the seeding buffers of the largest object (x, v in doubles) */
+    kf_particles p;
+    double per = KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.obj + sizeof *p.colour +
+                 sizeof *p.id + sizeof *p.key + sizeof *p.block;
     double blocks = 2 * b->particles / (KF_BLOCK_NODES * (double)shot->ppc);
-    b->bytes = kf_particle_bytes_running(threads, bodies) * b->particles + blocks * 4 * kf_grid_bytes_per_block(bodies) +
-               6 * sizeof(double) * largest;
+    b->bytes = 2 * per * b->particles + blocks * KF_BLOCK_NODES * 4 * sizeof(kf_v4) + 6 * sizeof(double) * largest;
     b->memory = machine_memory();
     substeps(shot, b);
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
