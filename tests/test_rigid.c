@@ -496,6 +496,75 @@ static void test_hinge(void) {
     for (int r = 0; r < 2; r++) kf_rigid_body_free(&b[r]);
 }
 
+static const double PI = 3.14159265358979323846;
+
+/* the turn of a bar about z (its hinge), unwrapped against the previous value */
+static double turn_z(const kf_rigid_state *st, double prev) {
+    double a = atan2(st->R[3], st->R[0]);
+    while (a - prev > PI) a -= 2 * PI;
+    while (a - prev < -PI) a += 2 * PI;
+    return a;
+}
+
+/* motors on a bar hinged to the world at its centre, no gravity:
+ * - a velocity motor far from its target rate gives its torque limit L, so
+ *   the bar spins up at exactly L / I (constant torque: Euler is exact), the
+ *   logged torque and peak are L, and with the world as body_a the bar
+ *   turns the other way (the motor turns body_a relative to body_b);
+ * - a critically damped position servo (10 Hz) tracks its target angle
+ *   angle + 360 frequency t: after 1 s at 0.25 Hz from 30 degrees, the bar
+ *   is at 120 degrees. */
+static void test_motor(void) {
+    double v[24];
+    kf_rigid_def d = box_def((double[3]){-0.15, -0.02, -0.02}, (double[3]){0.15, 0.02, 0.02}, v, KF_RIGID_DYNAMIC);
+    kf_rigid_body b;
+    char err[256] = "";
+    KT_CHECK(kf_rigid_compile(&b, &d, 0.05, err, sizeof err) == 0, "%s", err);
+    const double Izz = b.inertia[8] + 1e-9 * (b.inertia[0] + b.inertia[4] + b.inertia[8]); /* MuJoCo's (mjcf.c) */
+    const double zero_g[3] = {0, 0, 0}, L = 0.01, T = 0.5, dt = 1e-3;
+    for (int flip = 0; flip < 2; flip++) {
+        kf_joint_def j = {.body_a = flip ? -1 : 0, .body_b = flip ? 0 : -1, .axis = {0, 0, 1}, .motor = KF_MOTOR_VELOCITY,
+                          .frequency = 1, .kv = 10, .torque_limit = L};
+        kf_rigid_sim *sim = kf_rigid_sim_create(&b, 1, &j, 1, zero_g, NULL, err, sizeof err);
+        KT_CHECK(sim != NULL, "%s", err);
+        if (!sim) continue;
+        kf_rigid_state st;
+        kf_rigid_state_at(&b, 0, &st);
+        for (int n = 0; n < (int)(T / dt + 0.5); n++) kf_rigid_sim_step(sim, &b, 1, &st, n * dt, dt, NULL);
+        const double sign = flip ? -1 : 1;
+        KT_NEAR(st.w[2], sign * L * T / Izz, 1e-9 * L * T / Izz, "spin-up at the torque limit: ω = L t / I");
+        double now = 0, peak = 0;
+        KT_CHECK(kf_rigid_sim_motor_torque(sim, 0, &now, &peak) == 0, "the joint has a motor");
+        KT_NEAR(now, L, 1e-12, "the torque is at its limit");
+        KT_NEAR(peak, L, 1e-12, "and so is its peak");
+        KT_CHECK(st.w[2] * sign < 2 * PI, "still below the target rate (%g rad/s)", st.w[2]);
+        kf_rigid_sim_destroy(sim);
+    }
+    /* the position servo */
+    const double wn = 2 * PI * 10, kp = Izz * wn * wn, kv = 2 * Izz * wn;
+    kf_joint_def j = {.body_a = 0, .body_b = -1, .axis = {0, 0, 1}, .motor = KF_MOTOR_POSITION, .frequency = 0.25,
+                      .angle = 30, .kp = kp, .kv = kv, .torque_limit = 1e3};
+    kf_rigid_sim *sim = kf_rigid_sim_create(&b, 1, &j, 1, zero_g, NULL, err, sizeof err);
+    KT_CHECK(sim != NULL, "%s", err);
+    if (sim) {
+        kf_rigid_state st;
+        kf_rigid_state_at(&b, 0, &st);
+        double a = 0;
+        for (int n = 0; n < 1000; n++) {
+            kf_rigid_sim_step(sim, &b, 1, &st, n * dt, dt, NULL);
+            a = turn_z(&st, a);
+        }
+        KT_NEAR(a, 120 * PI / 180, 1e-6, "the servo is on its target, 30 + 360 x 0.25 x 1 degrees");
+        KT_NEAR(st.w[2], 2 * PI * 0.25, 1e-6, "turning at the commanded rate");
+        double now = 1, peak = 0;
+        kf_rigid_sim_motor_torque(sim, 0, &now, &peak);
+        KT_NEAR(now, 0, 1e-6, "no torque once on target (no load)");
+        KT_CHECK(peak > 0 && peak < 1e3, "the peak (the start: 30 degrees off) is below the limit: %g N m", peak);
+        kf_rigid_sim_destroy(sim);
+    }
+    kf_rigid_body_free(&b);
+}
+
 /* a bar hinged to a kinematic post that moves sideways at 0.2 m/s: the
  * hinge is two ball-joint equalities (MuJoCo's soft constraints, time
  * constant 4 ms: the anchor gives ~a τ² = 0.4 mm under the swing's ~25 m/s²),
@@ -805,6 +874,7 @@ int main(int argc, char **argv) {
     KT_RUN(test_impulse, argc, argv);
     KT_RUN(test_hinge, argc, argv);
     KT_RUN(test_hinge_to_kinematic, argc, argv);
+    KT_RUN(test_motor, argc, argv);
     KT_RUN(test_rest_on_static, argc, argv);
     KT_RUN(test_rest_in_container, argc, argv);
     KT_RUN(test_conveyor, argc, argv);

@@ -142,6 +142,28 @@ static void rigid_values(void) {
     }
     kf_shot_free(s);
     kf_diag_free(&d);
+
+    /* a motor: off by default; its keys as given, in the units of the help (an
+     * unnamed joint is reached by its index) */
+    s = load(fixture("rigids.yaml"), NULL, 0, &d);
+    KT_CHECK(s && s->joints[1].def.motor == KF_MOTOR_NONE, "no motor unless asked");
+    kf_shot_free(s);
+    kf_diag_free(&d);
+    const char *motor[] = {"joints.1.motor=position", "joints.1.frequency=-1.5", "joints.1.angle=90",
+                           "joints.1.kp=2", "joints.1.kv=0.05", "joints.1.torque_limit=0.3"};
+    s = load(fixture("rigids.yaml"), motor, 6, &d);
+    KT_CHECK(s != NULL && d.count == 0, "a position motor set by --set loads cleanly");
+    if (s) {
+        const kf_joint_def *j = &s->joints[1].def;
+        KT_CHECK(j->motor == KF_MOTOR_POSITION, "motor: position");
+        KT_NEAR(j->frequency, -1.5, 0, "frequency in Hz, signed");
+        KT_NEAR(j->angle, 90, 0, "angle in degrees");
+        KT_NEAR(j->kp, 2, 0, "kp");
+        KT_NEAR(j->kv, 0.05, 0, "kv");
+        KT_NEAR(j->torque_limit, 0.3, 0, "torque limit");
+    }
+    kf_shot_free(s);
+    kf_diag_free(&d);
 }
 
 static void bad_rigids(void) {
@@ -149,7 +171,7 @@ static void bad_rigids(void) {
     kf_diag_init(&d);
     kf_shot *s = kf_shot_load(fixture("bad_rigids.yaml"), NULL, 0, NULL, NULL, &d);
     KT_CHECK(s == NULL, "bad_rigids.yaml fails");
-    KT_CHECK(d.errors == 14 && d.warnings == 1, "14 errors and 1 warning, got %d and %d", d.errors, d.warnings);
+    KT_CHECK(d.errors == 22 && d.warnings == 1, "22 errors and 1 warning, got %d and %d", d.errors, d.warnings);
     const kf_severity E = KF_DIAG_ERROR;
     EXPECT(&d, 7, 5, E, "rigids[0].mesh is missing (required for shape mesh)");
     EXPECT(&d, 8, 5, E, "rigids[1].density is missing (required for motion dynamic)");
@@ -166,6 +188,15 @@ static void bad_rigids(void) {
     EXPECT(&d, 17, 5, E, "joints[1].axis is missing (required)");
     EXPECT(&d, 17, 12, E, "joints[1]: rigid body 'c' is static; joints connect dynamic bodies");
     EXPECT(&d, 18, 21, E, "joints[2].type: expected hinge, got 'slider'");
+    /* motors */
+    EXPECT(&d, 19, 5, E, "joints[3].kp is missing (required for motor position)");
+    EXPECT(&d, 19, 5, E, "joints[3].torque_limit is missing (required for motor position)");
+    EXPECT(&d, 20, 58, E, "joints[4]: a velocity motor needs kv > 0");
+    EXPECT(&d, 21, 51, E, "joints[5].kp does not apply to motor none (only to position)");
+    EXPECT(&d, 21, 58, E, "joints[5].frequency does not apply to motor none (only to velocity|position)");
+    EXPECT(&d, 22, 58, E, "joints[6].motor: expected none, velocity or position, got 'servo'");
+    EXPECT(&d, 23, 89, E, "joints[7].torque_limit must be in (0, 1000000] N m, got -1");
+    EXPECT(&d, 23, 104, E, "joints[7].frequency must be in [-100, 100] Hz, got 200");
     kf_diag_free(&d);
 }
 

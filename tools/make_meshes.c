@@ -1,8 +1,10 @@
 /* make_meshes — writes kerf's generated meshes, so they can be remade.
  *
  *   make_meshes <outdir>              the asset meshes (assets/): plates, a wavy
- *                                     knife, a paddle, a wheel, a bowl, and a
- *                                     closed cube, sphere and torus; then open
+ *                                     and a straight knife, a paddle, a wheel, a
+ *                                     bowl, a C-shaped robot leg, a banana's
+ *                                     flesh and peel, and a closed cube, sphere
+ *                                     and torus; then open
  *                                     thin sheets for rigid bodies (crossing
  *                                     plates, a scoop, a paddle wheel, a paddle
  *                                     outline, a stirrer)
@@ -283,6 +285,70 @@ static void bowl(build *b, double R, double t, double foot_deg, int ns, int narc
     free(prof);
 }
 
+/* C-shaped leg (a RHex-style whegs leg): half a ring of radius p[0] (to the
+ * middle of its band) from the hip at the origin round the +x side to the
+ * tip at (0, -2 p[0]); the band is p[1] thick radially and 2 half() wide in z */
+static void cleg_plane(const sheet *sh, double s, double t, double xy[2]) {
+    double a = PI / 2 - PI * s, r = sh->p[0] + (t - 0.5) * sh->p[1];
+    xy[0] = r * cos(a), xy[1] = -sh->p[0] + r * sin(a);
+}
+static double cleg_half(const sheet *sh, double s, double t) { return 0.5 * sh->p[2]; }
+
+/* ---- the banana ----------------------------------------------------------------- */
+
+/* Its centre line: an arc of radius BANANA_BEND in the x-z plane, bowed
+ * towards -z, u in [0, 1] from the stem (-x) to the tip (+x), BANANA_LEN long;
+ * its cross-section is a rounded pentagon (the ridges of a banana), radius
+ * banana_r(u). */
+#define BANANA_LEN 0.5
+#define BANANA_BEND 0.55
+#define BANANA_R 0.042
+#define BANANA_STEM 0.011
+#define BANANA_PEEL 0.012
+
+static double banana_body(double v, double r0) { return v <= 0 || v >= 1 ? 0 : r0 * pow(sin(PI * v), 0.45); }
+
+/* the outer surface: a stalk of radius BANANA_STEM over the first 12 %
+ * (rounded at its cut end), then the body; the flesh runs inside it over
+ * [0.14, 0.97], BANANA_PEEL thinner */
+static double banana_r(double u, int flesh) {
+    if (flesh) return banana_body((u - 0.14) / 0.83, BANANA_R - BANANA_PEEL);
+    double body = banana_body((u - 0.06) / 0.94, BANANA_R);
+    double cap = u < 0.015 ? sqrt(1 - (1 - u / 0.015) * (1 - u / 0.015)) : 1;
+    double stalk = u < 0.2 ? BANANA_STEM * cap : 0;
+    return body > stalk ? body : stalk;
+}
+
+/* one closed tube along the centre line over [u0, u1] (poles at the ends),
+ * facing outward */
+static void banana_tube(build *b, int flesh, double u0, double u1, int nu, int nth) {
+    uint32_t pole0 = 0, pole1 = 0, base = 0;
+    for (int i = 0; i <= nu; i++) {
+        double u = u0 + (u1 - u0) * i / nu, phi = (u - 0.5) * BANANA_LEN / BANANA_BEND;
+        double c[3] = {BANANA_BEND * sin(phi), 0, BANANA_BEND * (1 - cos(phi)) - 0.5 * BANANA_BEND * (1 - cos(0.5 * BANANA_LEN / BANANA_BEND))};
+        double n2[3] = {sin(phi), 0, cos(phi)}; /* across the arc, in x-z; the other normal is y */
+        if (i == 0 || i == nu) {
+            uint32_t id = vtx(b, c[0], c[1], c[2]);
+            if (i == 0) pole0 = id;
+            else pole1 = id;
+            continue;
+        }
+        double r = banana_r(u, flesh);
+        for (int k = 0; k < nth; k++) {
+            double th = 2 * PI * k / nth, rr = r * (1 + 0.05 * cos(5 * th));
+            uint32_t id = vtx(b, c[0] + rr * sin(th) * n2[0], c[1] + rr * cos(th), c[2] + rr * sin(th) * n2[2]);
+            if (i == 1 && k == 0) base = id;
+        }
+    }
+#define RING(i, k) (base + (uint32_t)(((i) - 1) * nth + ((k) % nth)))
+    for (int k = 0; k < nth; k++) {
+        uint32_t a0 = RING(1, k), a1 = RING(1, k + 1), z0 = RING(nu - 1, k), z1 = RING(nu - 1, k + 1);
+        tri(b, pole0, a1, a0), tri(b, pole1, z0, z1);
+        for (int i = 1; i < nu - 1; i++) quad(b, RING(i, k), RING(i, k + 1), RING(i + 1, k + 1), RING(i + 1, k));
+    }
+#undef RING
+}
+
 /* ---- thin sheets (open surfaces for CPIC rigid bodies) ------------------------ */
 
 /* One open sheet through the points f(p, s, t) for s, t in [0, 1], nx x ny
@@ -518,6 +584,39 @@ static void make_assets(const char *dir) {
     write_obj(dir, "bowl.obj", &m,
               "bowl about y: outer radius 0.5 m, 30 mm wall, open at y = 0 (the rim), inner bottom at y = -0.47, "
               "standing on a foot ring of radius 0.211 m with its flat base at y = -0.5");
+    kf_mesh_free(&m);
+
+    sh = (sheet){knife_plane, flat_mid, knife_half, {1.0, 0.15, 0, 1, 0.001, 0.003}};
+    sheet_solid(&b, &sh, 200, 8);
+    finish(&b, "blade.obj", &m, 1);
+    write_obj(dir, "blade.obj", &m,
+              "straight knife blade: 1 m along x, edge at y = 0 rising to a blunt tip over the last 30 %, spine at "
+              "y = 0.15, 1 mm thick at the edge to 3 mm at the spine");
+    kf_mesh_free(&m);
+
+    sh = (sheet){cleg_plane, flat_mid, cleg_half, {0.035, 0.012, 0.014}};
+    sheet_solid(&b, &sh, 16, 1); /* few triangles: MuJoCo collides each one as a piece */
+    finish(&b, "c_leg.obj", &m, 1);
+    write_obj(dir, "c_leg.obj", &m,
+              "C-shaped robot leg: half a ring of radius 35 mm from the hip at the origin round the +x side to the "
+              "tip at y = -70 mm, a band 12 mm thick and 14 mm wide (z)");
+    kf_mesh_free(&m);
+
+    banana_tube(&b, 1, 0.14, 0.97, 120, 40);
+    finish(&b, "banana_flesh.obj", &m, 1);
+    write_obj(dir, "banana_flesh.obj", &m,
+              "banana flesh: 0.42 m along an arc of radius 0.55 m in the x-z plane (bowed towards -z), up to 60 mm "
+              "across, a rounded pentagon in section; inside banana_peel.obj, which it fills");
+    kf_mesh_free(&m);
+
+    /* the peel: the banana's surface and, nested in it, the flesh's; what
+     * lies between them (an odd number of crossings) is the skin */
+    banana_tube(&b, 0, 0, 1, 160, 40);
+    banana_tube(&b, 1, 0.14, 0.97, 120, 40);
+    finish(&b, "banana_peel.obj", &m, 1);
+    write_obj(dir, "banana_peel.obj", &m,
+              "banana peel: the skin of a banana 0.5 m long with its stalk (-x end), up to 84 mm across, 12 mm thick; "
+              "two nested closed surfaces, the outer skin and banana_flesh.obj's surface: the solid between them");
     kf_mesh_free(&m);
 
     /* thin sheets for CPIC rigid bodies: open surfaces, no thickness */

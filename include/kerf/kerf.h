@@ -177,13 +177,27 @@ typedef struct kf_rigid_def {
     double push;             /* c, m/s²: the collided velocity's push away from the surface (Eq. 27) */
 } kf_rigid_def;
 
+/* A hinge's motor: none (free), velocity (drives the turn rate toward
+ * 2π frequency) or position (a servo tracking an angle that advances at
+ * 2π frequency from `angle`). */
+typedef enum kf_motor { KF_MOTOR_NONE = 0, KF_MOTOR_VELOCITY, KF_MOTOR_POSITION } kf_motor;
+
 /* A hinge between two dynamic bodies, or a body and the world (-1): a
- * wheel on an axle, a hinged paddle. */
+ * wheel on an axle, a hinged paddle, a robot's leg on its motor. The motor
+ * turns body_a relative to body_b about +axis (right hand); its torque is
+ * kp (target angle - angle) + kv (target rate - rate) for a position motor,
+ * kv (target rate - rate) for a velocity motor, clipped to ±torque_limit. */
 typedef struct kf_joint_def {
     int body_a, body_b;      /* rigid indices, or -1 for the world */
     double anchor[3];        /* a point on the axis at time 0, world metres */
     double axis[3];          /* hinge axis, world */
     double damping;          /* N·m·s/rad */
+    kf_motor motor;
+    double frequency;        /* commanded turns per second (Hz); the sign is the direction */
+    double angle;            /* position motor: target at time 0, degrees from the initial pose */
+    double kp;               /* position gain, N·m/rad */
+    double kv;               /* rate gain, N·m·s/rad */
+    double torque_limit;     /* N·m, > 0 with a motor */
 } kf_joint_def;
 
 /* Where a body is and how it moves, at the state's time:
@@ -367,6 +381,12 @@ long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_c
 
 /* The pose of rigid body `body` at the state's time. */
 kf_rigid_pose kf_state_rigid(const kf_state *s, int body);
+/* A motored joint's torque (N·m, about its axis on body_a) at the last
+ * substep in *now, and the largest magnitude since the state was last
+ * loaded or kf_state_joint_peak_reset() in *peak. Returns 0, or -1 when the
+ * joint has no motor. */
+int kf_state_joint_torque(const kf_state *s, int joint, double *now, double *peak);
+void kf_state_joint_peak_reset(kf_state *s);
 
 /* Diagnostics. */
 typedef struct kf_energy {

@@ -451,6 +451,7 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                         frame, st.fixed_halved, kf_model_sim(sc.model)->dt_fixed);
             kf_rigid_log_frame(stderr, shot, sc.state); /* where each rigid body is (rigid_log.c) */
         }
+        kf_state_joint_peak_reset(sc.state); /* motors' peak torque: per frame */
     }
     if (!o.quiet && tty) fputc('\n', stderr);
     /* what this run simulated: after a resume, only the frames after it */

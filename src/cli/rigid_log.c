@@ -15,7 +15,12 @@ void kf_rigid_log_info(FILE *f, const kf_shot *shot, const kf_model *m) {
     }
     for (int i = 0; i < shot->njoints; i++) {
         const kf_shot_joint *j = &shot->joints[i];
-        fprintf(f, "  %-16s hinge %s to %s\n", j->name, j->body, j->to);
+        static const char *const motor_name[] = {"", "velocity", "position"};
+        fprintf(f, "  %-16s hinge %s to %s", j->name, j->body, j->to);
+        if (j->def.motor != KF_MOTOR_NONE)
+            fprintf(f, ", %s motor at %g Hz, torque limit %g N m", motor_name[j->def.motor % 3], j->def.frequency,
+                    j->def.torque_limit);
+        fputc('\n', f);
     }
 }
 
@@ -25,5 +30,13 @@ void kf_rigid_log_frame(FILE *f, const kf_shot *shot, const kf_state *s) {
         fprintf(f, "  rigid %s: at [%.3f, %.3f, %.3f] m, v [%.3f, %.3f, %.3f] m/s, w [%.2f, %.2f, %.2f] rad/s\n",
                 shot->rigids[i].def.name, p.com[0], p.com[1], p.com[2], p.v[0], p.v[1], p.v[2], p.omega[0],
                 p.omega[1], p.omega[2]);
+    }
+    /* each motor's torque: now, and the frame's peak against its limit */
+    for (int i = 0; i < shot->njoints; i++) {
+        double now, peak;
+        if (kf_state_joint_torque(s, i, &now, &peak)) continue;
+        const double lim = shot->joints[i].def.torque_limit;
+        fprintf(f, "  motor %s: torque %.4g N m, peak %.4g of %.4g N m%s\n", shot->joints[i].name, now, peak, lim,
+                peak >= lim * (1 - 1e-9) ? " (at its limit)" : "");
     }
 }

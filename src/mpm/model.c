@@ -168,6 +168,16 @@ int kf_model_add_joint(kf_model *m, const kf_joint_def *j, char *err, size_t err
     if (!finite3(j->anchor) || !finite3(j->axis) || !(fabs(j->axis[0]) + fabs(j->axis[1]) + fabs(j->axis[2]) > 0))
         return fail(err, errlen, "a joint needs a finite anchor and a non-zero axis");
     if (!(j->damping >= 0)) return fail(err, errlen, "joint damping must be >= 0");
+    if (j->motor != KF_MOTOR_NONE) {
+        if (j->motor != KF_MOTOR_VELOCITY && j->motor != KF_MOTOR_POSITION)
+            return fail(err, errlen, "a joint's motor is none, velocity or position");
+        if (!(j->torque_limit > 0) || !isfinite(j->torque_limit) || !isfinite(j->frequency) || !isfinite(j->angle))
+            return fail(err, errlen, "a motor needs a finite frequency and angle and a torque limit > 0");
+        if (!(j->kv >= 0) || !isfinite(j->kv) || (j->motor == KF_MOTOR_VELOCITY && !(j->kv > 0)))
+            return fail(err, errlen, "a motor's kv must be >= 0 (> 0 for a velocity motor)");
+        if (j->motor == KF_MOTOR_POSITION && (!(j->kp > 0) || !isfinite(j->kp)))
+            return fail(err, errlen, "a position motor needs kp > 0");
+    }
     m->joint[m->njoint++] = *j;
     return m->njoint - 1;
 }

@@ -94,6 +94,11 @@ kf_rigid_pose kf_state_rigid(const kf_state *s, int body) {
     return p;
 }
 
+int kf_state_joint_torque(const kf_state *s, int joint, double *now, double *peak) {
+    return kf_rigid_sim_motor_torque(s->rsim, joint, now, peak);
+}
+void kf_state_joint_peak_reset(kf_state *s) { kf_rigid_sim_peak_reset(s->rsim); }
+
 size_t kf_state_count(const kf_state *s) { return s->p.n; }
 double kf_state_time(const kf_state *s) { return s->time; }
 

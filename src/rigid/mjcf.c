@@ -97,8 +97,9 @@ static void emit_body(ctx *c, int r, const frame *pf) {
         kf_m3d_mtv(p, f->R, w);
         kf_m3d_mtv(ax, f->R, jd->axis);
         kf_sb_printf(&c->x.body,
-                     "<joint type=\"hinge\" pos=\"%.17g %.17g %.17g\" axis=\"%.17g %.17g %.17g\" damping=\"%.17g\"/>\n",
-                     p[0], p[1], p[2], ax[0], ax[1], ax[2], jd->damping);
+                     "<joint name=\"j%d\" type=\"hinge\" pos=\"%.17g %.17g %.17g\" axis=\"%.17g %.17g %.17g\" "
+                     "damping=\"%.17g\"/>\n",
+                     c->pjoint[r], p[0], p[1], p[2], ax[0], ax[1], ax[2], jd->damping);
     }
     /* the inertia about the com, mesh axes; a hair of isotropic inertia keeps a
      * flat shell (Izz = Ixx + Iyy exactly) inside MuJoCo's triangle inequality */
@@ -196,6 +197,35 @@ char *kf_rigid_mjcf(const kf_rigid_body *bodies, int nbodies, const kf_joint_def
     }
     for (int r = 0; r < nbodies; r++)
         if (c.parent[r] < 0) emit_body(&c, r, NULL);
+    /* motors: one actuator per motored joint, in joint order, on the hinge
+     * of its child body; the gear's sign makes it turn body_a relative to
+     * body_b about +axis whichever of the two MuJoCo made the child. Its
+     * force is gain ctrl + bias: position kp ctrl - kp angle - kv rate
+     * (the solver sets ctrl = target + kv/kp target rate), velocity
+     * kv ctrl - kv rate (ctrl = target rate); clipped to the torque limit. */
+    kf_strbuf act = {0};
+    for (int k = 0; k < njoints; k++) {
+        const kf_joint_def *jd = &joints[k];
+        if (jd->motor == KF_MOTOR_NONE) continue;
+        int child = -1;
+        for (int r = 0; r < nbodies; r++)
+            if (c.parent[r] != -2 && c.pjoint[r] == k) child = r;
+        if (child < 0) {
+            snprintf(err, errlen,
+                     "joint %d: a motor needs a hinge of its own (this one closes a loop of joints or holds a "
+                     "kinematic body)",
+                     k);
+            free(eq.s), free(ex.s), free(act.s), free(c.x.asset.s), free(c.x.body.s);
+            return NULL;
+        }
+        const int pos = jd->motor == KF_MOTOR_POSITION;
+        const double g = pos ? jd->kp : jd->kv;
+        kf_sb_printf(&act,
+                     "<general name=\"m%d\" joint=\"j%d\" gear=\"%d\" gainprm=\"%.17g\" biastype=\"affine\" "
+                     "biasprm=\"0 %.17g %.17g\" forcelimited=\"true\" forcerange=\"%.17g %.17g\"/>\n",
+                     k, k, child == jd->body_a ? 1 : -1, g, pos ? -jd->kp : 0.0, -jd->kv, -jd->torque_limit,
+                     jd->torque_limit);
+    }
     if (walls) {
         /* six half-spaces facing into the domain */
         for (int a = 0; a < 3; a++)
@@ -219,8 +249,10 @@ char *kf_rigid_mjcf(const kf_rigid_body *bodies, int nbodies, const kf_joint_def
                  gravity[0], gravity[1], gravity[2], c.x.asset.s ? c.x.asset.s : "", c.x.body.s ? c.x.body.s : "");
     if (eq.s) kf_sb_printf(&x, "<equality>\n%s</equality>\n", eq.s);
     if (ex.s) kf_sb_printf(&x, "<contact>\n%s</contact>\n", ex.s);
+    if (act.s) kf_sb_printf(&x, "<actuator>\n%s</actuator>\n", act.s);
     kf_sb_printf(&x, "</mujoco>\n");
-    int oom = c.x.asset.oom || c.x.body.oom || eq.oom || ex.oom || x.oom;
+    int oom = c.x.asset.oom || c.x.body.oom || eq.oom || ex.oom || act.oom || x.oom;
+    free(act.s);
     free(c.x.asset.s);
     free(c.x.body.s);
     free(eq.s);

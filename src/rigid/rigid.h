@@ -95,6 +95,12 @@ kf_rigid_sim *kf_rigid_sim_clone(const kf_rigid_sim *sim);
 void kf_rigid_sim_step(kf_rigid_sim *sim, const kf_rigid_body *bodies, int nbodies, kf_rigid_state *st, double t,
                        double dt, const double (*impulse)[6]);
 
+/* A motored joint's torque (N·m, turning body_a relative to body_b about
+ * +axis) in the last substep, and the largest magnitude since the last
+ * load or reset. Returns -1 for a joint without a motor. */
+int kf_rigid_sim_motor_torque(const kf_rigid_sim *sim, int joint, double *now, double *peak);
+void kf_rigid_sim_peak_reset(kf_rigid_sim *sim);
+
 /* Everything the solver carries between substeps beyond kf_rigid_state (for
  * checkpoints and frame retries): bytes, save into buf, load from buf. */
 size_t kf_rigid_sim_state_size(const kf_rigid_sim *sim);

@@ -5,6 +5,7 @@
  * bodies (mocap), the kinematic bodies (heavy free bodies given their keyed
  * pose and velocity every substep) and the walls, and hinges. Without a
  * dynamic body there is no MuJoCo world at all. */
+#include <math.h>
 #include <mujoco/mujoco.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,6 +26,12 @@ struct kf_rigid_sim {
     int *mocap_body;         /* (nmocap) the rigid body each mocap body belongs to */
     int kjnt[KF_MAX_RIGIDS]; /* a kinematic body's free joint, else -1 */
     void *before;            /* the state before the substep (see kf_rigid_sim_step) */
+    /* motors: actuator a drives joint act_joint[a] (mjcf.c emits them in joint order) */
+    int nact;
+    int act_joint[KF_MAX_JOINTS];
+    int joint_act[KF_MAX_JOINTS];       /* the actuator of each joint, or -1 */
+    kf_joint_def act_def[KF_MAX_JOINTS]; /* (nact) its joint's motor settings */
+    double act_peak[KF_MAX_JOINTS];     /* largest |torque| since the last load or reset, N·m */
 };
 
 static void set_err(char *err, size_t errlen, const char *msg) {
@@ -167,6 +174,19 @@ kf_rigid_sim *kf_rigid_sim_create(const kf_rigid_body *bodies, int nbodies, cons
         kf_rigid_sim_destroy(sim);
         return NULL;
     }
+    /* the motors, in joint order as mjcf.c wrote them */
+    for (int k = 0; k < KF_MAX_JOINTS; k++) sim->joint_act[k] = -1;
+    for (int k = 0; k < njoints && k < KF_MAX_JOINTS; k++)
+        if (joints[k].motor != KF_MOTOR_NONE) {
+            sim->joint_act[k] = sim->nact;
+            sim->act_joint[sim->nact] = k;
+            sim->act_def[sim->nact++] = joints[k];
+        }
+    if (sim->nact != sim->m->nu) {
+        set_err(err, errlen, "rigid solver: the motors did not become MuJoCo actuators");
+        kf_rigid_sim_destroy(sim);
+        return NULL;
+    }
     mj_kinematics(sim->m, sim->d);
     initial_velocity(sim, bodies);
     return sim;
@@ -280,6 +300,18 @@ void kf_rigid_sim_step(kf_rigid_sim *sim, const kf_rigid_body *bodies, int nbodi
         for (int r = 0; r < nbodies; r++)
             if (sim->bid[r] >= 0)
                 for (int k = 0; k < 6; k++) d->xfrc_applied[6 * sim->bid[r] + k] = impulse[r][k] / dt;
+    /* the motors' commands: the target rate 2 pi f, and a position motor's
+     * target angle advancing at it, at the substep's start, when MuJoCo's
+     * Euler step evaluates the force; the rate term is folded in (mjcf.c:
+     * force = gain ctrl + bias) */
+    for (int a = 0; a < sim->nact; a++) {
+        const kf_joint_def *jd = &sim->act_def[a];
+        const double rate = 2 * mjPI * jd->frequency;
+        if (jd->motor == KF_MOTOR_POSITION)
+            d->ctrl[a] = jd->angle * (mjPI / 180) + rate * t + jd->kv / jd->kp * rate;
+        else
+            d->ctrl[a] = rate;
+    }
     sim->m->opt.timestep = dt;
     /* MuJoCo answers a non-finite or huge acceleration by resetting the whole
      * world to its initial pose, and an engine error leaves it half-stepped;
@@ -300,6 +332,9 @@ void kf_rigid_sim_step(kf_rigid_sim *sim, const kf_rigid_body *bodies, int nbodi
         if (bad_count(d) != bad0 || d->time != t1) stop(sim, dt);
     }
     mju_zero(d->xfrc_applied, 6 * sim->m->nbody);
+    /* the torque each motor gave in the substep (already clipped to its limit) */
+    for (int a = 0; a < sim->nact; a++)
+        if (fabs(d->actuator_force[a]) > sim->act_peak[a]) sim->act_peak[a] = fabs(d->actuator_force[a]);
     /* positions and velocities of the new state */
     mj_kinematics(sim->m, d);
     mj_comPos(sim->m, d);
@@ -374,5 +409,20 @@ int kf_rigid_sim_load(kf_rigid_sim *sim, const void *buf, size_t size) {
     GET(d->mocap_quat, 4 * m->nmocap);
 #undef GET
     mju_zero(d->xfrc_applied, 6 * m->nbody);
+    kf_rigid_sim_peak_reset(sim);
     return 0;
+}
+
+/* ---- motors ----------------------------------------------------------------- */
+
+int kf_rigid_sim_motor_torque(const kf_rigid_sim *sim, int joint, double *now, double *peak) {
+    if (!sim || !sim->m || joint < 0 || joint >= KF_MAX_JOINTS || sim->joint_act[joint] < 0) return -1;
+    const int a = sim->joint_act[joint];
+    if (now) *now = sim->d->actuator_force[a];
+    if (peak) *peak = sim->act_peak[a];
+    return 0;
+}
+
+void kf_rigid_sim_peak_reset(kf_rigid_sim *sim) {
+    if (sim) memset(sim->act_peak, 0, sizeof sim->act_peak);
 }

@@ -182,6 +182,10 @@ uint64_t kf_shot_rigids_hash(const kf_shot *shot, uint64_t h) {
         double v[] = {shot->joints[i].type, j->body_a, j->body_b, j->anchor[0], j->anchor[1], j->anchor[2],
                       j->axis[0], j->axis[1], j->axis[2], j->damping};
         mix_vals(&h, v, (int)(sizeof v / sizeof *v));
+        /* a motor changes the motion; a shot without one keeps its hash */
+        if (j->motor == KF_MOTOR_NONE) continue;
+        double mv[] = {j->motor, j->frequency, j->angle, j->kp, j->kv, j->torque_limit};
+        mix_vals(&h, mv, (int)(sizeof mv / sizeof *mv));
     }
     return h;
 }

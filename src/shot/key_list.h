@@ -342,6 +342,26 @@
      "Direction of the hinge axis at the first frame (normalised).")
     KF_KEY(JOINTS_DAMPING, "joints[].damping", KT_NUM, JNT(def.damping), GE(0), NULL, "0", "N m s/rad", NULL, 0,
      "Rotational damping of the hinge.")
+    KF_KEY(JOINTS_MOTOR, "joints[].motor", KT_ENUM, JNT(def.motor), ANY, "none|velocity|position", "none", NULL, NULL, 0,
+     "A motor on the hinge (a MuJoCo actuator) turning body relative to to about +axis (right hand): none (free), "
+     "velocity (torque kv (2 pi frequency - rate): turns at the commanded rate, the phase may drift) or position "
+     "(a servo, torque kp (target - angle) + kv (2 pi frequency - rate), target = angle + 360 frequency t: "
+     "legs keep their phase, as in a gait). The torque never exceeds torque_limit; the frame log gives each "
+     "motor's torque and its peak over the frame.")
+    KF_KEY(JOINTS_FREQUENCY, "joints[].frequency", KT_NUM, JNT(def.frequency), CC(-100, 100), NULL, "0", "Hz",
+     "motor=velocity|position", 0,
+     "Commanded turns per second (a gait frequency); the sign gives the direction, so negating it reverses the "
+     "gait. A position motor at 0 holds angle.")
+    KF_KEY(JOINTS_ANGLE, "joints[].angle", KT_NUM, JNT(def.angle), CC(-36000, 36000), NULL, "0", "deg", "motor=position",
+     0, "The position motor's target at the first frame, from the pose the bodies start in (0: hold that pose).")
+    KF_KEY(JOINTS_KP, "joints[].kp", KT_NUM, JNT(def.kp), GT(0), NULL, NULL, "N m/rad", "motor=position", KF_REQ,
+     "Position gain: torque per radian the hinge lags its target.")
+    KF_KEY(JOINTS_KV, "joints[].kv", KT_NUM, JNT(def.kv), GE(0), NULL, "0", "N m s/rad", "motor=velocity|position", 0,
+     "Rate gain: torque per rad/s the hinge turns slower than commanded; a velocity motor needs it above 0, a "
+     "position motor uses it to damp its servo.")
+    KF_KEY(JOINTS_TORQUE_LIMIT, "joints[].torque_limit", KT_NUM, JNT(def.torque_limit), OC(0, 1e6), NULL, NULL, "N m",
+     "motor=velocity|position", KF_REQ,
+     "Largest torque the motor gives either way (a stall torque); its commands are clipped to it.")
 
     KF_KEY(OUTPUT, "output", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0, "Where results go.")
     KF_KEY(OUTPUT_DIR, "output.dir", KT_STR, TOP(s.output_dir), ANY, NULL, "out/{shot}/v{version:03d}", NULL, NULL, KF_TEMPLATE,

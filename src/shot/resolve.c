@@ -383,6 +383,12 @@ void kf_resolve_joint(loader *L, inst *I, int index, kf_shot *s, kf_shot_joint *
     }
     j->def.body_a = a;
     j->def.body_b = b;
+    /* a velocity motor is nothing but its rate gain */
+    if (j->def.motor == KF_MOTOR_VELOCITY && !(j->def.kv > 0) && I->ok[KK_JOINTS_MOTOR]) {
+        snprintf(msg, sizeof msg, "%s: a velocity motor needs kv > 0 (its torque is kv times the rate it lacks)",
+                 I->label);
+        kf_report_inst(L, I, I->at[KK_JOINTS_KV] ? KK_JOINTS_KV : KK_JOINTS_MOTOR, KF_DIAG_ERROR, msg);
+    }
     double len = sqrt(j->def.axis[0] * j->def.axis[0] + j->def.axis[1] * j->def.axis[1] + j->def.axis[2] * j->def.axis[2]);
     if (len > 0)
         for (int k = 0; k < 3; k++) j->def.axis[k] /= len;
