@@ -31,7 +31,8 @@ static double extent(const kf_mesh *m) {
 
 /* every mesh file shipped: the seeding must cover each of them */
 static const char *const MESHES[] = {
-    "assets/armadillo.off",    "assets/bowl.obj",          "assets/bunny.off",      "assets/cross_plates.obj",
+    "assets/armadillo.off",    "assets/banana_flesh.obj",  "assets/banana_peel.obj", "assets/blade.obj",
+    "assets/bowl.obj",         "assets/bunny.off",         "assets/c_leg.obj",      "assets/cross_plates.obj",
     "assets/cube.obj",         "assets/knife_wavy.obj",    "assets/paddle.obj",     "assets/paddle_sheet.obj",
     "assets/paddle_wheel.obj", "assets/plate.obj",         "assets/plate_thin.obj", "assets/scoop.obj",
     "assets/sphere.obj",       "assets/stirrer.obj",       "assets/torus.obj",      "assets/wheel.obj",

@@ -35,6 +35,6 @@ for shot in "$root"/shots/*.yaml; do
                  grep -qE '^frame $next: [0-9]+ particles' '$work/$name.run'"
     [ $rc -eq 0 ] || tail -5 "$work/$name.run" | sed 's/^/      /'
 done
-check "the shipped shots were all found ($n)" test $n -ge 17
+check "the shipped shots were all found ($n)" test $n -ge 21
 echo "$fails failed"
 exit $((fails > 0))

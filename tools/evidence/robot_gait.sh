@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# robot_gait.sh — the legged robot on sand (shots/robot_sand.yaml) at several
+# gait frequencies, and reversed (shots/robot_sand_reverse.yaml): the body's
+# forward position and speed each frame and the motors' torque peaks, from
+# kerf's frame log; the speed averaged over a gait cycle; then robot_gait.gp
+# plots them (dir/robot_gait.png) and gait_speed.dat sums them up.
+#   tools/evidence/robot_gait.sh <kerf> <outdir> [dx m] [last frame] [frequencies...]
+# Each run: simulation only (no surfaces or images), one thread.
+set -eu
+kerf=$1 out=$2 dx=${3:-0.015} last=${4:-1036}
+shift $(( $# < 4 ? $# : 4 ))
+freqs=${*:-0.5 1 1.5 2}
+root=${KERF_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
+mkdir -p "$out"
+joints="fl fr ml mr rl rr"
+quiet="--set output.surface=false --set output.images=false --set output.particles=false --set output.checkpoints=false"
+run() { # run <shot> <frequency> <tag>
+    local sets=""
+    for j in $joints; do sets="$sets --set joints.hip_$j.frequency=$2"; done
+    OMP_NUM_THREADS=1 OMP_WAIT_POLICY=PASSIVE "$kerf" run "$root/shots/$1.yaml" --set sim.dx="$dx" $quiet $sets \
+        --frames 1001-"$last" --out "$out/run_$3" --threads 1 --force > "$out/$3.log" 2>&1
+    # per frame: time (s), body x (m), body v_x (m/s), the largest motor torque peak (N m)
+    awk -v fps=24 '
+        /^frame [0-9]+: [0-9]+ particles/ { f = $2 + 0 }
+        /^  rigid body: at/ { gsub(/[\[\],]/, " "); x[f] = $4; vx[f] = $9 }
+        /^  motor hip_/ { p = $8 + 0; if (p > peak[f]) peak[f] = p; lim = $10 }
+        END { print "t x vx peak limit"; for (k = 1002; k in x; k++) printf "%.4f %.5f %.5f %.4f %s\n", (k - 1001) / fps, x[k], vx[k], peak[k], lim }
+    ' "$out/$3.log" > "$out/gait_$3.dat"
+}
+# the speed over one gait cycle centred on each frame: (x(t + T/2) - x(t - T/2)) / T
+cycle_speed() { # cycle_speed <frequency> <data file>
+    awk -v f="$1" 'function abs(v) { return v < 0 ? -v : v }
+        NR > 1 { n++; t[n] = $1; x[n] = $2 }
+        END { h = 0.5 / abs(f); print "t speed"
+              for (i = 1; i <= n; i++) { a = b = 0
+                  for (k = 1; k <= n; k++) { if (t[k] <= t[i] - h + 1e-9) a = k; if (t[k] <= t[i] + h + 1e-9) b = k }
+                  if (a && t[b] >= t[i] + h - 1e-9) printf "%.4f %.5f\n", t[i], (x[b] - x[a]) / (t[b] - t[a]) } }' "$2"
+}
+# mean speed after the first gait cycle, and the largest torque peak against its limit
+summary() { # summary <frequency> <data file>
+    awk -v f="$1" 'function abs(v) { return v < 0 ? -v : v }
+        NR > 1 { n++; t[n] = $1; x[n] = $2; if ($4 / $5 > w) w = $4 / $5 }
+        END { for (k = 1; k <= n && t[k] < 1 / abs(f) - 1e-9; k++); if (k < n) printf "%s %.5f %.4f\n", f, (x[n] - x[k]) / (t[n] - t[k]), w }' "$2"
+}
+echo "frequency speed torque_peak_over_limit" > "$out/gait_speed.dat"
+for f in $freqs; do
+    run robot_sand "$f" "$f"
+    cycle_speed "$f" "$out/gait_$f.dat" > "$out/speed_$f.dat"
+    summary "$f" "$out/gait_$f.dat" >> "$out/gait_speed.dat"
+done
+run robot_sand_reverse -1 reverse
+cycle_speed -1 "$out/gait_reverse.dat" > "$out/speed_reverse.dat"
+summary -1 "$out/gait_reverse.dat" >> "$out/gait_speed.dat"
+sort -g -o "$out/gait_speed.dat.s" <(tail -n +2 "$out/gait_speed.dat") && { head -1 "$out/gait_speed.dat"; cat "$out/gait_speed.dat.s"; } > "$out/gait_speed.tmp" && mv "$out/gait_speed.tmp" "$out/gait_speed.dat" && rm "$out/gait_speed.dat.s"
+gnuplot -e "dir='$out'" -e "freqs='$freqs'" "$root/tools/evidence/robot_gait.gp"
