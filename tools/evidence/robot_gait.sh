@@ -5,16 +5,18 @@
 # kerf's frame log; the speed averaged over a gait cycle; then robot_gait.gp
 # plots them (dir/robot_gait.png) and gait_speed.dat sums them up.
 #   tools/evidence/robot_gait.sh <kerf> <outdir> [dx m] [last frame] [frequencies...]
-# Each run: simulation only (no surfaces or images), one thread.
+# Each run: simulation only (no surfaces or images), one thread; runs whose
+# data is in outdir already are kept (delete gait_*.dat to redo them).
 set -eu
 kerf=$1 out=$2 dx=${3:-0.015} last=${4:-1036}
 shift $(( $# < 4 ? $# : 4 ))
-freqs=${*:-0.5 1 1.5 2}
+freqs=${*:-1 1.5 2 3}
 root=${KERF_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
 mkdir -p "$out"
 joints="fl fr ml mr rl rr"
 quiet="--set output.surface=false --set output.images=false --set output.particles=false --set output.checkpoints=false"
-run() { # run <shot> <frequency> <tag>
+run() { # run <shot> <frequency> <tag>; a run whose data is there already is not redone
+    [ -s "$out/gait_$3.dat" ] && return 0
     local sets=""
     for j in $joints; do sets="$sets --set joints.hip_$j.frequency=$2"; done
     OMP_NUM_THREADS=1 OMP_WAIT_POLICY=PASSIVE "$kerf" run "$root/shots/$1.yaml" --set sim.dx="$dx" $quiet $sets \
@@ -36,13 +38,16 @@ cycle_speed() { # cycle_speed <frequency> <data file>
                   for (k = 1; k <= n; k++) { if (t[k] <= t[i] - h + 1e-9) a = k; if (t[k] <= t[i] + h + 1e-9) b = k }
                   if (a && t[b] >= t[i] + h - 1e-9) printf "%.4f %.5f\n", t[i], (x[b] - x[a]) / (t[b] - t[a]) } }' "$2"
 }
-# mean speed after the first gait cycle, and the largest torque peak against its limit
+# the mean speed over the last whole gait cycles after the first half second
+# (the start-up), and the largest torque peak against its limit
 summary() { # summary <frequency> <data file>
     awk -v f="$1" 'function abs(v) { return v < 0 ? -v : v }
         NR > 1 { n++; t[n] = $1; x[n] = $2; if ($4 / $5 > w) w = $4 / $5 }
-        END { for (k = 1; k <= n && t[k] < 1 / abs(f) - 1e-9; k++); if (k < n) printf "%s %.5f %.4f\n", f, (x[n] - x[k]) / (t[n] - t[k]), w }' "$2"
+        END { T = int((t[n] - 0.5) * abs(f) + 1e-9) / abs(f)
+              for (k = 1; k <= n && t[k] < t[n] - T - 1e-9; k++);
+              if (T > 0 && k < n) printf "%s %.5f %.4f %.3f\n", f, (x[n] - x[k]) / (t[n] - t[k]), w, t[n] - t[k] }' "$2"
 }
-echo "frequency speed torque_peak_over_limit" > "$out/gait_speed.dat"
+echo "frequency speed torque_peak_over_limit seconds_averaged" > "$out/gait_speed.dat"
 for f in $freqs; do
     run robot_sand "$f" "$f"
     cycle_speed "$f" "$out/gait_$f.dat" > "$out/speed_$f.dat"
@@ -51,5 +56,6 @@ done
 run robot_sand_reverse -1 reverse
 cycle_speed -1 "$out/gait_reverse.dat" > "$out/speed_reverse.dat"
 summary -1 "$out/gait_reverse.dat" >> "$out/gait_speed.dat"
-sort -g -o "$out/gait_speed.dat.s" <(tail -n +2 "$out/gait_speed.dat") && { head -1 "$out/gait_speed.dat"; cat "$out/gait_speed.dat.s"; } > "$out/gait_speed.tmp" && mv "$out/gait_speed.tmp" "$out/gait_speed.dat" && rm "$out/gait_speed.dat.s"
+{ head -1 "$out/gait_speed.dat"; tail -n +2 "$out/gait_speed.dat" | sort -g; } > "$out/gait_speed.tmp"
+mv "$out/gait_speed.tmp" "$out/gait_speed.dat"
 gnuplot -e "dir='$out'" -e "freqs='$freqs'" "$root/tools/evidence/robot_gait.gp"
