@@ -36,14 +36,14 @@ cycle_speed() { # cycle_speed <frequency> <data file>
         END { h = 0.5 / abs(f); print "t speed"
               for (i = 1; i <= n; i++) { a = b = 0
                   for (k = 1; k <= n; k++) { if (t[k] <= t[i] - h + 1e-9) a = k; if (t[k] <= t[i] + h + 1e-9) b = k }
-                  if (a && t[b] >= t[i] + h - 1e-9) printf "%.4f %.5f\n", t[i], (x[b] - x[a]) / (t[b] - t[a]) } }' "$2"
+                  if (a && t[b] >= t[i] + h - 0.5 / 24) printf "%.4f %.5f\n", t[i], (x[b] - x[a]) / (t[b] - t[a]) } }' "$2"
 }
-# the mean speed over the last whole gait cycles after the first half second
+# the mean speed over the last whole gait cycles after the first 0.4 s
 # (the start-up), and the largest torque peak against its limit
 summary() { # summary <frequency> <data file>
     awk -v f="$1" 'function abs(v) { return v < 0 ? -v : v }
         NR > 1 { n++; t[n] = $1; x[n] = $2; if ($4 / $5 > w) w = $4 / $5 }
-        END { T = int((t[n] - 0.5) * abs(f) + 1e-9) / abs(f)
+        END { T = int((t[n] - 0.4) * abs(f) + 1e-9) / abs(f)
               for (k = 1; k <= n && t[k] < t[n] - T - 1e-9; k++);
               if (T > 0 && k < n) printf "%s %.5f %.4f %.3f\n", f, (x[n] - x[k]) / (t[n] - t[k]), w, t[n] - t[k] }' "$2"
 }
