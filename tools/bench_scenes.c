@@ -50,6 +50,9 @@ static const paper_scene paper[] = {
     {"goo_blocks", "Fig. 8", 4.2e-3, 105.3, 1.8e6, 1},   {"sand_sweep", "Fig. 15", 2.0e-3, 288.3, 2.6e6, 1},
     {"sand_stir", "Fig. 9", 3.1e-3, 158.3, 5.2e6, 1},    {"sand_paddles", "Fig. 14", 2.0e-3, 20.0, 1.0e6, 1},
     {"sand_wheel", "Fig. 5 (2D)", 2.5e-3, 0.3, 4.1e3, 0},
+    {"armadillo_cut", "Fig. 7", 5.0e-3, 107.0, 1.3e6, 1}, {"banana", "Fig. 1", 4.2e-3, 140.5, 1.2e6, 1},
+    {"robot_sand", "Fig. 16", 3.3e-3, 112.4, 3.4e6, 1},
+    {"robot_sand_reverse", "Fig. 16 (reverse)", 3.3e-3, 116.8, 3.4e6, 1},
 };
 #define NPAPER ((int)(sizeof paper / sizeof *paper))
 
