@@ -396,12 +396,10 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
         double depth = m->rigid[r].def.thin ? dx : 2 * dx, half = 0.5 * cbrt((double)p->vol0[i]);
         if (k == 0 || !(d < half && d > -depth)) continue;
         d -= half;
-        /* auto, around a solid: off. Measured: the skin
-         * contact below let a floating block sink half a cell deeper than
-         * with no penalty (the support under a loaded face is the grid's),
-         * and the paper's kick sized to a quarter of the overlap per substep
-         * blew sand_stir up (sand pressed by the stirrer into the bowl: NaN
-         * velocity at frame 1007). A number still gives the paper's kick. */
+        /* auto, around a solid: off, since the support under a loaded face is
+         * the grid's and both contact forms below disturb it
+         * (docs/lab-notes.md, "Penalty around solids"). A number still gives
+         * the paper's kick. */
         if (k == KF_RIGID_AUTO && !m->rigid[r].def.thin) continue;
         if (k == KF_RIGID_AUTO) {
             /* auto, on a thin body: the skin is a contact, not a spring. A particle found
@@ -409,11 +407,9 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
              * its new position relative to the body) is put back on the skin
              * and loses its approach toward the body as the boundary type
              * says, the body taking that momentum: material rests on a body
-             * as a sphere of half its spacing, without bouncing. A spring of
-             * any stiffness either jitters at rest (a jello block on a sheet:
-             * 0.64 m/s rms at k = 1000, 0.17 m/s with a kick of a fifth of the
-             * overlap per substep, against 0.035 m/s on the floor) or, moving
-             * positions alone, carries no load (a floating block sank a cell). */
+             * as a sphere of half its spacing, without bouncing. Springs and
+             * position-only fixes were tried and rejected (docs/lab-notes.md,
+             * "The skin on thin bodies"). */
             double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, V[3], moved = 0;
             kf_rigid_point_velocity(&c->end[r], x, V);
             const double nrm[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};

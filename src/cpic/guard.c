@@ -89,12 +89,10 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     const kf_cpic *c = s->cpic;
     kf_particles *p = &s->p;
     double x1[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, p0[3], p1[3], t;
-    /* thin bodies (the guard's scope): around a solid the colored distance
-     * field reaches 2.5 cells inside and the penalty keeps the material out;
-     * guarding a floating block too kept 41 more water particles out of it
-     * but moved its draft from +0.11 to +0.30 cells off Archimedes (64
-     * cells/m): the support under a loaded face comes from the penalty's
-     * kicks on slightly penetrated particles, which the guard removes */
+    /* thin bodies only: around a solid the colored distance field reaches
+     * 2.5 cells inside and the penalty keeps the material out; guarding a
+     * solid too removes the slight penetrations that carry a loaded face's
+     * support (docs/lab-notes.md, "The guard around solids") */
     if (!b->bvh || !b->def.thin) return 0;
     to_mesh(&s->rigid[r], xold, p0);
     to_mesh(&c->end[r], x1, p1);

@@ -13,9 +13,8 @@
  * quadratic and cubic B-splines reproduce a linear field exactly, so
  * material reaching the plane stops there. The profile's slope is at most
  * v_R / Δx, that of a wall on a node, so the pressure waves the wall
- * reflects are no stiffer than before (a mirror of the node inside onto the
- * node past the plane, tried first, steepened them up to four times and
- * blew the tank up at CFL 0.4). slip sets the normal component outright;
+ * reflects are no stiffer than before (docs/lab-notes.md, "Walls between
+ * nodes", says why not a mirror). slip sets the normal component outright;
  * separate only bounds the outward one by the profile of R's approach (by
  * zero when R is at rest or leaves), so material may leave the wall;
  * sticky sets every component. A node on the plane is the wall as the grid
