@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "../core/timer.h"
+#include "../dist/dist.h"
 #include "../io/atomic_file.h"
 #include "../io/checkpoint.h"
 #include "../farm/farm.h"
@@ -21,6 +22,12 @@
 #include "rigid_log.h"
 #include "../pipeline/stages.h"
 #include "run_record.h"
+
+/* Over several MPI ranks every rank walks this same path: each builds the
+ * scene, rank 0 alone speaks, holds the directory and writes files, from
+ * the whole state gathered to it (dist.h). */
+static int ranks(void) { return kf_dist_size(); }
+static int root(void) { return kf_dist_rank() == 0; }
 
 /* the last frame up to `from` with a readable checkpoint made from the same inputs */
 static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint64_t hash, int from, int *frame) {
@@ -142,8 +149,25 @@ static void fmt_eta(char *buf, size_t n, double seconds) {
     else snprintf(buf, n, "%dm%02ds", s / 60, s % 60);
 }
 
-/* write this frame's outputs; returns 0 or prints and returns 1 */
+static int write_frame_here(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash);
+
+/* write this frame's outputs; returns 0 or prints and returns 1. Over
+ * several ranks: the whole state gathered into `whole`, written by rank 0. */
+static kf_state *whole;
+static int split_up; /* the state is split over the ranks (before: every rank holds it whole) */
 static int write_frame(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash) {
+    if (ranks() == 1) return write_frame_here(shot, out, sc, frame, hash);
+    if (!split_up) return kf_dist_bcast_int(root() ? write_frame_here(shot, out, sc, frame, hash) : 0);
+    int rc = kf_dist_gather(sc->state, whole);
+    if (root() && rc == 0) {
+        kf_scene w = *sc;
+        w.state = whole;
+        rc = write_frame_here(shot, out, &w, frame, hash);
+    }
+    return kf_dist_bcast_int(rc);
+}
+
+static int write_frame_here(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash) {
     kf_frame_paths rp;
     char err[4200];
     if (kf_frame_paths_make(shot, out, frame, &rp)) {
@@ -197,13 +221,25 @@ int kf_cli_run(const kf_cli_opts *o) {
     kf_shot *shot;
     kf_scene sc;
     kf_build_stats bs;
+    /* the other ranks' words would repeat rank 0's */
+    if (!root() && !freopen("/dev/null", "w", stderr)) return KF_EXIT_FAIL;
     int rc = kf_cli_load(o, &shot, &sc, &bs);
     if (!shot) return rc;
+    const char *missing = ranks() > 1 ? kf_dist_unsupported(sc.model) : NULL;
+    if (missing) {
+        fprintf(stderr, "kerf: %s: %s does not run over several MPI ranks yet (%d ranks); run this shot on one rank\n",
+                shot->name, missing, ranks());
+        kf_scene_free(&sc);
+        kf_shot_free(shot);
+        return KF_EXIT_USAGE;
+    }
     /* one run per output directory, held until this one ends */
     kf_dir_lock lock;
-    rc = kf_cli_claim_output(o, shot, &lock);
+    memset(&lock, 0, sizeof lock);
+    rc = root() ? kf_cli_claim_output(o, shot, &lock) : KF_EXIT_OK;
+    rc = kf_dist_bcast_int(rc);
     if (rc == KF_EXIT_OK) rc = run_claimed(o, shot, &sc);
-    kf_dir_lock_release(&lock);
+    if (root()) kf_dir_lock_release(&lock);
     kf_scene_free(&sc);
     kf_shot_free(shot);
     return rc;
@@ -335,9 +371,11 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     int resume_from = o.resume ? shot->last : 0; /* the latest frame a resume may start from; 0: none */
     /* a version holds one set of inputs: a run from others does not silently replace it */
     if (kf_cli_version_taken(&o, shot)) return KF_EXIT_USAGE;
-    values_record(&o, shot, hash);
+    if (root()) values_record(&o, shot, hash);
     if (!o.force && !o.resume) {
-        int matched, damaged, c = cache_current(shot, o.out, &sc, hash, &matched, &damaged);
+        int matched = 0, damaged = 0, c = root() ? cache_current(shot, o.out, &sc, hash, &matched, &damaged) : 0;
+        c = kf_dist_bcast_int(c), matched = kf_dist_bcast_int(matched), damaged = kf_dist_bcast_int(damaged);
+        if (c != 0 && !root()) return c > 0 ? KF_EXIT_OK : KF_EXIT_FAIL;
         if (c != 0) {
             if (c > 0 && !o.quiet)
                 fprintf(stderr, "kerf: %s: frames %d-%d are cached from the same inputs; nothing to simulate "
@@ -371,9 +409,10 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     }
     const int resumed = frame != shot->frame_start ? frame : 0; /* the frame the simulation continued after */
     /* the frames a resume keeps are ready for the later stages now */
+    if (!root()) o.frame_ready = NULL; /* the frame callbacks are rank 0's */
     if (o.frame_ready)
         for (int f = shot->first; f <= frame && resumed; f++) o.frame_ready(o.frame_ctx, f);
-    if (frame < shot->last) remove_stale_after(shot, o.out, hash);
+    if (frame < shot->last && root()) remove_stale_after(shot, o.out, hash);
     kf_frame_paths rp;
     kf_frame_paths_make(shot, o.out, shot->first, &rp);
     int tty = isatty(fileno(stderr));
@@ -383,12 +422,20 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                 rp.dir);
 
     /* the records watchers read (kerf view): a run from the first frame starts them afresh */
-    kf_record_begin(rp.dir, frame == shot->frame_start);
-    kf_record_progress(rp.dir, shot, "sim", frame, 0, shot->last - frame, -1);
+    if (root()) kf_record_begin(rp.dir, frame == shot->frame_start);
+    if (root()) kf_record_progress(rp.dir, shot, "sim", frame, 0, shot->last - frame, -1);
 
     /* the initial state is the first frame's output */
     if (frame == shot->frame_start && write_frame(shot, o.out, &sc, frame, hash)) rc = KF_EXIT_FAIL;
     else if (frame == shot->frame_start && o.frame_ready && frame >= shot->first) o.frame_ready(o.frame_ctx, frame);
+    /* over several ranks: each keeps its part from here on; rank 0 gathers the whole for writing */
+    if (ranks() > 1) {
+        whole = root() ? kf_state_create(sc.model) : NULL;
+        int bad = (root() && !whole) || kf_dist_attach(sc.model, sc.state);
+        if (bad) fprintf(stderr, "kerf: out of memory splitting the state over %d ranks\n", ranks());
+        if (bad) kf_dist_abort(KF_EXIT_FAIL);
+        split_up = 1;
+    }
 
     double start = kf_now_ms();
     int todo = shot->last - frame, done = 0;
@@ -410,9 +457,15 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
             break;
         }
         if (o.frame_ready && frame >= shot->first) o.frame_ready(o.frame_ctx, frame);
+        /* over several ranks: totals, the balance and the traffic for the log, then a re-cut if lopsided */
+        kf_dist_stats ds;
+        kf_dist_stats_get(sc.state, &ds);
+        st.particle_steps = kf_dist_sum_long(sc.state, st.particle_steps);
+        kf_dist_stats_reset(sc.state);
+        kf_dist_rebalance(sc.state, 1.1);
         double elapsed = (kf_now_ms() - start) / 1e3;
-        kf_record_frame(rp.dir, frame, kf_state_count(sc.state), &st, frame_ms);
-        kf_record_progress(rp.dir, shot, "sim", frame, done, todo, elapsed / done * (todo - done));
+        if (root()) kf_record_frame(rp.dir, frame, kf_state_count(whole ? whole : sc.state), &st, frame_ms);
+        if (root()) kf_record_progress(rp.dir, shot, "sim", frame, done, todo, elapsed / done * (todo - done));
         if (o.quiet) continue;
         char eta[32];
         fmt_eta(eta, sizeof eta, elapsed / done * (todo - done));
@@ -427,10 +480,17 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
             fprintf(stderr,
                     "frame %d: %zu particles, %ld blocks, %ld substeps, max cfl %.2f, %.0f ms (sort %.0f p2g %.0f "
                     "grid %.0f g2p %.0f stress %.0f cdf %.0f rigid %.0f), %.1f M p-steps/s, %d retries, %ld warnings, ETA %s\n",
-                    frame, kf_state_count(sc.state), st.active_blocks, st.substeps, st.max_cfl, frame_ms,
+                    frame, kf_state_count(whole ? whole : sc.state), st.active_blocks, st.substeps, st.max_cfl, frame_ms,
                     st.ms[KF_STAGE_SORT], st.ms[KF_STAGE_P2G], st.ms[KF_STAGE_GRID], st.ms[KF_STAGE_G2P],
                     st.ms[KF_STAGE_STRESS], st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID], mps, st.retries, st.warnings,
                     eta);
+            if (ranks() > 1)
+                fprintf(stderr,
+                        "frame %d: %d ranks: %zu-%zu particles per rank, halo %.0f bytes (%.0f per substep), %.0f "
+                        "particles migrated, comm %.0f ms (slowest rank)%s\n",
+                        frame, ranks(), ds.particles_min, ds.particles_max, ds.halo_bytes,
+                        ds.substeps ? ds.halo_bytes / (double)ds.substeps : 0.0, ds.migrated, ds.comm_ms,
+                        ds.rebalances ? ", re-cut" : "");
             /* implicit integration: how hard the solves worked this frame */
             if (kf_model_sim(sc.model)->integrator == KF_INTEGRATOR_IMPLICIT)
                 fprintf(stderr, "frame %d: implicit (%s): %ld Newton, %ld Krylov iterations, last residual %.2g\n", frame,
@@ -468,7 +528,11 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     else if (rc == KF_EXIT_OK && !o.quiet)
         fprintf(stderr, "kerf: %s: nothing left to simulate after frame %d in %s/\n", shot->name, resumed, rp.dir);
     /* simulate → surface → render (on a farm, the array tasks do the last two) */
-    if (rc == KF_EXIT_OK && !o.sim_only) rc = kf_cli_post(&o, shot, &sc, 1, 1);
-    kf_record_progress(rp.dir, shot, rc == KF_EXIT_OK ? "done" : "failed", frame, done, todo, 0);
-    return rc;
+    /* (over several ranks: rank 0, from the files) */
+    if (whole) sc.state = whole;
+    if (rc == KF_EXIT_OK && !o.sim_only && root()) rc = kf_cli_post(&o, shot, &sc, 1, 1);
+    if (root()) kf_record_progress(rp.dir, shot, rc == KF_EXIT_OK ? "done" : "failed", frame, done, todo, 0);
+    if (whole) sc.state = scp->state, kf_state_destroy(whole), whole = NULL;
+    split_up = 0;
+    return kf_dist_bcast_int(rc);
 }

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "../dist/dist.h"
 #include "../scene/budget.h"
 #include "../farm/farm.h"
 #include "cli.h"
@@ -62,11 +63,32 @@ void kf_cli_usage(FILE *f, const char *cmd) {
                    "surface/<name>.vdb (level set `surface`, or `surface_<group>` per material/object),\n"
                    "images/<name>.png. When every requested frame is cached from the same inputs (shot\n"
                    "values that affect the simulation, mesh file contents, the kerf build), nothing is\n"
-                   "simulated; surfaces and images newer than their inputs are kept.\n");
+                   "simulated; surfaces and images newer than their inputs are kept.\n"
+                   "\n`mpirun -np N kerf run <shot.yaml>` runs one simulation over N MPI ranks: each holds the\n"
+                   "particles of its slab of grid blocks, rank 0 writes the same files a one-rank run writes\n"
+                   "(bit for bit), and checkpoints resume on any rank count. Not over several ranks yet: rigid\n"
+                   "bodies, the implicit integrator, contact between objects (sim.contact: off runs).\n");
     fprintf(f, "  --help              this text\n");
 }
 
+static int dispatch(int argc, char **argv);
+
+/* Under a launcher (mpirun -np N) the ranks run one simulation together;
+ * only `kerf run` knows how. Without one, or with one rank, nothing changes. */
 int main(int argc, char **argv) {
+    int ranks = kf_dist_init(&argc, &argv), rc;
+    if (ranks > 1 && (argc < 2 || strcmp(argv[1], "run"))) {
+        if (kf_dist_rank() == 0)
+            fprintf(stderr, "kerf: only `kerf run` runs over several MPI ranks (%d here); run `kerf %s` without mpirun\n",
+                    ranks, argc > 1 ? argv[1] : "");
+        rc = KF_EXIT_USAGE;
+    } else
+        rc = dispatch(argc, argv);
+    kf_dist_finalize();
+    return rc;
+}
+
+static int dispatch(int argc, char **argv) {
     if (argc < 2) {
         kf_cli_usage(stderr, NULL);
         return KF_EXIT_USAGE;

@@ -367,3 +367,22 @@ void kf_grid_clear(kf_grid *g, int threads) {
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (size_t b = 0; b < nb; b++) memset(&g->node[b * KF_BLOCK_NODES], 0, KF_BLOCK_NODES * sizeof(kf_v4));
 }
+
+/* A block outside the owners' neighbourhoods (another rank's halo writes
+ * into it): created if missing, with node storage to match. Blocks made
+ * here last until the next re-bin builds a fresh block set. */
+int32_t kf_grid_ensure_block(kf_grid *g, int bx, int by, int bz) {
+    int32_t id = block_get_or_insert(g, bx, by, bz);
+    if (id < 0) return -1;
+    if (g->nblocks > g->node_cap) {
+        /* nodes hold nothing between transfers: grow by free + alloc, kept
+         * before P2G clears them */
+        size_t cap = g->nblocks + g->nblocks / 4 + 64;
+        kf_v4 *node = aligned_alloc(64, cap * KF_BLOCK_NODES * sizeof(kf_v4));
+        if (!node) return -1;
+        free(g->node);
+        g->node = node;
+        g->node_cap = cap;
+    }
+    return id;
+}

@@ -96,6 +96,10 @@ static inline void kf_grid_invalidate(kf_grid *g) { g->valid = 0; }
 /* The block with this block coordinate, or -1 if there is none. */
 int32_t kf_grid_find(const kf_grid *g, int bx, int by, int bz);
 
+/* The block with this coordinate, created (with node storage) if missing;
+ * -1 out of memory. Used after binning, before P2G clears the nodes. */
+int32_t kf_grid_ensure_block(kf_grid *g, int bx, int by, int bz);
+
 /* Zero every node of every block. */
 void kf_grid_clear(kf_grid *g, int threads);
 

@@ -57,6 +57,8 @@ struct kf_state {
     kf_real *mid_dv;
     size_t mid_cap;
     int mid_pending;
+    /* one simulation over MPI ranks (src/dist): this rank's part; NULL on one rank */
+    struct kf_dist *dist;
 };
 
 /* The recovery path's test hook (kf_model.fault_substep): set after
@@ -85,6 +87,13 @@ typedef struct kf_g2p_result {
 
 /* P2G; trouble (may be NULL) receives the first particle with non-finite stress */
 void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble);
+/* one owner block's P2G scatter into cache (edge kf_p2g_cache_edge, CD³
+ * nodes; lohi: the base offsets its particles used, lo then hi per axis)
+ * without touching the grid, and such a cache added into a 2x2x2 block
+ * neighbourhood: P2G across ranks (src/dist) */
+int kf_p2g_cache_edge(const kf_model *m);
+void kf_p2g_owner_cache(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, int lohi[6]);
+void kf_p2g_add_cache(const kf_model *m, kf_grid *g, const int32_t nb[8], const kf_v4 *cache, const int lohi[6]);
 /* implicit integration instead of kf_p2g + kf_grid_update (implicit/solve.c):
  * P2G of mass and momentum, backward Euler by Newton-Krylov on the grid
  * velocities, boundaries; the grid ends as kf_grid_update leaves it.
@@ -101,6 +110,11 @@ void kf_wall_ghosts(const kf_model *m, kf_state *s);
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F */
 void kf_stress(const kf_model *m, kf_state *s, int project);
+/* the same over n particles' planes, in runs of one material inside chunks
+ * of 64 counted from the first: a particle's stress depends on which
+ * particles share its SIMD batch, so the chunks are part of the result */
+void kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2], const uint16_t *mat,
+                    kf_real *const tau[6], size_t n, int project);
 
 /* collider pose and velocity at a time (collider.c) */
 void kf_collider_at(const kf_collider *c, double t, double center[3], double velocity[3]);

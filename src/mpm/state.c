@@ -7,6 +7,7 @@
 #include "../core/mat3.h"
 #include "cpic_seam.h"
 #include "model.h"
+#include "../dist/dist.h"
 
 /* rigid bodies at time 0 and their solver (none without rigid bodies) */
 static int rigid_init(kf_state *s, const kf_model *m) {
@@ -42,6 +43,7 @@ void kf_state_destroy(kf_state *s) {
     kf_particles_free(&s->p);
     kf_particles_free(&s->snapshot);
     kf_grid_free(&s->g);
+    kf_dist_free(s->dist);
     free(s);
 }
 

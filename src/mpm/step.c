@@ -14,6 +14,7 @@
 #include "contact.h"
 #include "cpic_seam.h"
 #include "model.h"
+#include "../dist/dist.h"
 
 const char *kf_stage_name(kf_stage s) {
     static const char *names[KF_STAGE_COUNT] = {"sort", "p2g", "grid", "g2p", "stress", "cdf", "rigid"};
@@ -42,22 +43,20 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     const kf_real rdt = (kf_real)dt;
     double t0 = kf_now_ms(), t1;
 
+    /* across ranks: particles first go to the rank that owns their block now */
+    if (s->dist && kf_dist_migrate(m, s)) kf_dist_abort(1);
     /* sort: particles into owner blocks (cheap when nobody changed block) */
     size_t bad = 0;
     int rc = kf_grid_bin(&s->g, &s->p, kf_model_inv_dx(m), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad);
-    if (rc == -2) {
-        set_trouble(trouble, s, bad, "position NaN or out of range", s->p.x[0][bad]);
-        return 1;
-    }
-    if (rc == -1) {
-        set_trouble(trouble, s, 0, "out of memory binning particles", 0);
-        return 1;
-    }
+    if (rc == -2) set_trouble(trouble, s, bad, "position NaN or out of range", s->p.x[0][bad]);
+    if (rc == -1) set_trouble(trouble, s, 0, "out of memory binning particles", 0);
+    if (s->dist ? kf_dist_agree(s, rc != 0, trouble) : rc != 0) return 1;
     t1 = kf_now_ms();
     if (st) st->ms[KF_STAGE_SORT] += t1 - t0;
 
     /* testing the recovery path: one particle's velocity goes bad, once */
-    if (m->fault_substep > 0 && s->substep == m->fault_substep && !s->fault_done && s->p.n) {
+    if (m->fault_substep > 0 && s->substep == m->fault_substep && !s->fault_done && s->p.n &&
+        (!s->dist || kf_dist_rank() == 0)) {
         s->fault_done = 1;
         s->p.v[0][0] = (kf_real)NAN;
     }
@@ -94,10 +93,12 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
         }
     } else {
         kf_trouble p2g_trouble;
+        /* across ranks: the boundary owners' caches to the ranks that share their nodes */
+        if (s->dist && kf_dist_halo(m, s, rdt)) kf_dist_abort(1);
         kf_p2g(m, s, rdt, &p2g_trouble);
         t0 = kf_now_ms();
         if (st) st->ms[KF_STAGE_P2G] += t0 - t1;
-        if (p2g_trouble.found) {
+        if (s->dist ? kf_dist_agree(s, p2g_trouble.found, &p2g_trouble) : p2g_trouble.found) {
             *trouble = p2g_trouble;
             return 1;
         }
@@ -110,6 +111,11 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
 
     kf_g2p_result res;
     kf_g2p(m, s, rdt, &res);
+    if (s->dist) {
+        /* every rank sees the same trouble and the same fastest particle speed */
+        res.trouble.found = kf_dist_agree(s, res.trouble.found, &res.trouble);
+        res.max_cells = kf_dist_max(s, res.max_cells);
+    }
     /* implicit midpoint: the particles' velocity ends at v_{n+1} */
     kf_implicit_g2p_finish(m, s);
     t0 = kf_now_ms();
@@ -168,6 +174,8 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
             if (v2 > best) best = v2, fast = i;
         }
         set_trouble(trouble, s, fast, "CFL violated (cells moved per substep)", res.max_cells);
+        /* across ranks: the report of a rank holding the fastest particle */
+        if (s->dist) kf_dist_agree(s, s->p.n && (double)best == kf_dist_max(s, (double)best), trouble);
         return 1;
     }
     return 0;
@@ -214,6 +222,11 @@ static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
             for (int k = 0; k < nmat; k++)
                 if (local[k] < state_min[k]) state_min[k] = local[k];
         }
+    }
+    /* across ranks: the global max and min (exact, so the substep agrees) */
+    if (s->dist) {
+        vmax2 = kf_dist_max(s, vmax2);
+        kf_dist_min_reals(s, state_min, nmat);
     }
     for (int k = 0; k < nmat; k++) {
         int stateful = m->mat[k].model == KF_MAT_WATER || m->mat[k].model == KF_MAT_SNOW;

@@ -30,14 +30,15 @@
 
 #include "contact.h"
 #include "cpic_seam.h"
+#include "../dist/dist.h"
 
 /* CPIC's per-owner colour cache is indexed like the node cache */
 _Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like the transfer's");
 
 /* ---- P2G ---------------------------------------------------------------------- */
 
-KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
-                         chunk *ck, step_acc *acc) {
+KF_INLINE void p2g_block_cache(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt,
+                               kf_v4 *cache, chunk *ck, step_acc *acc, int lohi[6]) {
     const int CD = CD_MAX;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
@@ -105,28 +106,60 @@ KF_INLINE void p2g_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
         if (fields) kf_contact_p2g_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
     }
 
-    /* flush the touched part of the cache into the 8 blocks of the neighbourhood */
-    const int32_t *nb = g->nb[r];
-    for (int a = lo[0]; a < hi[0] + KW; a++)
-        for (int b = lo[1]; b < hi[1] + KW; b++) {
+    for (int a = 0; a < 3; a++) lohi[a] = lo[a], lohi[3 + a] = hi[a];
+}
+
+/* the touched part of the cache (lohi: base offsets lo, hi per axis) into
+ * the 8 blocks of the neighbourhood nb */
+KF_INLINE void p2g_flush(int KW, kf_grid *g, const int32_t *nb, const kf_v4 *cache, const int lohi[6]) {
+    const int CD = CD_MAX;
+    for (int a = lohi[0]; a < lohi[3] + KW; a++)
+        for (int b = lohi[1]; b < lohi[4] + KW; b++) {
             const kf_v4 *row = &cache[(a * CD + b) * CD];
-            for (int c = lo[2]; c < hi[2] + KW; c++) *nb_node(g, nb, a, b, c) += row[c];
+            for (int c = lohi[2]; c < lohi[5] + KW; c++) *nb_node(g, nb, a, b, c) += row[c];
         }
 }
 
+/* The cache of one owner block, one compiled function per variant: the
+ * grid's own P2G and another rank's halo (kf_p2g_owner_cache) run the same
+ * machine code, so their caches agree to the bit (a second inlined copy may
+ * contract multiply-adds differently). */
 #define P2G_VARIANT(name, KW, CLASSIC)                                                                                 \
-    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, chunk *ck, step_acc *acc) { \
-        p2g_block(KW, CLASSIC, m, s, r, dt, cache, ck, acc);                                                         \
+    __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,    \
+                                               chunk *ck, step_acc *acc, int lohi[6]) {                               \
+        p2g_block_cache(KW, CLASSIC, m, s, r, dt, cache, ck, acc, lohi);                                             \
     }
 P2G_VARIANT(p2g_q_mls, 3, 0)
 P2G_VARIANT(p2g_q_classic, 3, 1)
 P2G_VARIANT(p2g_c_mls, 4, 0)
 P2G_VARIANT(p2g_c_classic, 4, 1)
 
-void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
-    typedef void (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, chunk *, step_acc *);
+typedef void (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, chunk *, step_acc *, int *);
+static p2g_fn p2g_variant(const kf_model *m) {
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
-    p2g_fn fn = cubic ? (classic ? p2g_c_classic : p2g_c_mls) : (classic ? p2g_q_classic : p2g_q_mls);
+    return cubic ? (classic ? p2g_c_classic : p2g_c_mls) : (classic ? p2g_q_classic : p2g_q_mls);
+}
+
+/* One owner block's P2G contribution, left in cache (CD_MAX³ nodes) with
+ * the base offsets its particles touched, not added to the grid: another
+ * rank adds it to its nodes in the owner's colour turn, so every node sums
+ * in the same order as on one rank. */
+int kf_p2g_cache_edge(const kf_model *m) { return CD_MAX; }
+
+void kf_p2g_owner_cache(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, int lohi[6]) {
+    chunk ck __attribute__((aligned(64)));
+    step_acc acc = {0};
+    p2g_variant(m)(m, s, r, dt, cache, &ck, &acc, lohi);
+}
+
+/* A cache from kf_p2g_owner_cache added into the neighbourhood nb. */
+void kf_p2g_add_cache(const kf_model *m, kf_grid *g, const int32_t nb[8], const kf_v4 *cache, const int lohi[6]) {
+    if (m->sim.kernel == KF_KERNEL_CUBIC) p2g_flush(4, g, nb, cache, lohi);
+    else p2g_flush(3, g, nb, cache, lohi);
+}
+
+void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
+    p2g_fn fn = p2g_variant(m);
     kf_grid *g = &s->g;
     /* particles added or edited since the last substep: their stress first */
     if (!s->tau_valid) kf_stress(m, s, 0);
@@ -141,8 +174,14 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
         /* one colour at a time: same-colour owners write disjoint nodes */
         for (int c = 0; c < 8; c++) {
 #pragma omp for schedule(dynamic, 4)
-            for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++)
-                fn(m, s, (size_t)g->owner[k], dt, cache, &ck, &acc);
+            for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
+                size_t r = (size_t)g->owner[k];
+                int lohi[6];
+                fn(m, s, r, dt, cache, &ck, &acc, lohi);
+                kf_p2g_add_cache(m, g, g->nb[r], cache, lohi);
+            }
+            /* other ranks' owners of this colour, in the same turn */
+            if (s->dist) kf_dist_p2g_colour(m, s, c);
         }
 #pragma omp critical
         if (acc.trouble.found && (!total.trouble.found || acc.trouble.particle < total.trouble.particle))
@@ -349,22 +388,29 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
  * serves both (kf_mat_update); runs of one material go through the batch
  * path, SIMD across particles for the corotated model. */
 
-void kf_stress(const kf_model *m, kf_state *s, int project) {
-    kf_particles *p = &s->p;
-    size_t n = p->n, nchunks = (n + 63) / 64;
+void kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2], const uint16_t *mat,
+                    kf_real *const tau_all[6], size_t n, int project) {
+    size_t nchunks = (n + 63) / 64;
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
     for (size_t c = 0; c < nchunks; c++) {
         kf_ftz();
         size_t lo = c * 64, hi = lo + 64 < n ? lo + 64 : n;
         while (lo < hi) {
-            uint16_t mat = p->mat[lo];
+            uint16_t mt = mat[lo];
             size_t e = lo + 1;
-            while (e < hi && p->mat[e] == mat) e++;
+            while (e < hi && mat[e] == mt) e++;
             kf_real *tau[6];
-            for (int k = 0; k < 6; k++) tau[k] = p->tau[k] + lo;
-            kf_mat_update_batch(&m->mat[mat], (int)(e - lo), p->F, p->ps, project, lo, tau);
+            for (int k = 0; k < 6; k++) tau[k] = tau_all[k] + lo;
+            kf_mat_update_batch(&m->mat[mt], (int)(e - lo), F, ps, project, lo, tau);
             lo = e;
         }
     }
+}
+
+void kf_stress(const kf_model *m, kf_state *s, int project) {
+    kf_particles *p = &s->p;
+    /* across ranks: the batches of 64 fall where they fall in the one-rank array */
+    if (s->dist) kf_dist_stress(m, s, project);
+    else kf_stress_span(m, p->F, p->ps, p->mat, p->tau, p->n, project);
     s->tau_valid = 1;
 }

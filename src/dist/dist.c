@@ -1,0 +1,297 @@
+/* dist.c — MPI start, the ranks' key ranges (cut by particle count),
+ * splitting a whole state, gathering it back, and the global reductions the
+ * step agrees through. See dist.h for the scheme. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "../core/timer.h"
+#include "internal.h"
+
+static int g_size = 1, g_rank = 0, g_started = 0;
+
+int kf_dist_init(int *argc, char ***argv) {
+    /* only under a launcher: a plain `kerf` never touches MPI */
+    if (!getenv("OMPI_COMM_WORLD_SIZE") && !getenv("PMI_SIZE") && !getenv("PMIX_RANK")) return 1;
+    if (MPI_Init(argc, argv) != MPI_SUCCESS) return 1;
+    g_started = 1;
+    MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+    MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+    return g_size;
+}
+
+void kf_dist_finalize(void) {
+    if (g_started) MPI_Finalize();
+    g_started = 0;
+}
+
+int kf_dist_size(void) { return g_size; }
+int kf_dist_rank(void) { return g_rank; }
+
+int kf_dist_bcast_int(int v) {
+    if (g_started && g_size > 1) MPI_Bcast(&v, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    return v;
+}
+
+void kf_dist_abort(int code) {
+    if (g_started && g_size > 1) MPI_Abort(MPI_COMM_WORLD, code);
+}
+
+double kf_dist_clock(void) { return kf_now_ms(); }
+
+const char *kf_dist_unsupported(const kf_model *m) {
+    if (m->nrigid) return "rigid bodies (rigids:, CPIC thin boundaries and two-way coupling)";
+    if (m->sim.integrator == KF_INTEGRATOR_IMPLICIT) return "the implicit integrator (sim.integrator: implicit)";
+    if (m->sim.contact) return "contact between objects (sim.contact)";
+    return NULL;
+}
+
+int kf_dist_reserve(void **buf, size_t *cap, size_t want) {
+    if (want <= *cap && *buf) return 0;
+    size_t c = *cap ? *cap : 4096;
+    while (c < want) c *= 2;
+    void *q = aligned_alloc(64, (c + 63) / 64 * 64);
+    if (!q) return -1;
+    free(*buf);
+    *buf = q;
+    *cap = c;
+    return 0;
+}
+
+/* ---- the particle record ---- */
+
+size_t kf_dist_record_bytes(void) { return KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + 12; }
+
+void kf_dist_pack(const kf_particles *p, size_t i, char *dst) {
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++, dst += sizeof(kf_real)) memcpy(dst, &p->plane[k][i], sizeof(kf_real));
+    memcpy(dst, &p->id[i], 4);
+    memcpy(dst + 4, &p->colour[i], 4);
+    memcpy(dst + 8, &p->mat[i], 2);
+    memcpy(dst + 10, &p->obj[i], 2);
+}
+
+void kf_dist_unpack(kf_particles *p, size_t j, const char *src) {
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++, src += sizeof(kf_real)) memcpy(&p->plane[k][j], src, sizeof(kf_real));
+    memcpy(&p->id[j], src, 4);
+    memcpy(&p->colour[j], src + 4, 4);
+    memcpy(&p->mat[j], src + 8, 2);
+    memcpy(&p->obj[j], src + 10, 2);
+    p->key[j] = UINT64_MAX;
+    p->block[j] = 0;
+}
+
+/* ---- the cut ---- */
+
+/* split[] from owner blocks in key order with their particle counts: rank r
+ * starts at the first block before which r/size of the particles lie */
+static void cut(struct kf_dist *d, const uint64_t *key, const int64_t *count, size_t nb) {
+    int64_t total = 0;
+    for (size_t b = 0; b < nb; b++) total += count[b];
+    d->split[0] = 0;
+    for (int r = 1; r <= d->size; r++) d->split[r] = UINT64_MAX;
+    int64_t before = 0;
+    int r = 1;
+    for (size_t b = 0; b < nb && r < d->size; b++) {
+        while (r < d->size && before * d->size >= total * r) d->split[r++] = key[b];
+        before += count[b];
+    }
+    /* ranks left without blocks get empty ranges at the top */
+    for (; r < d->size; r++) d->split[r] = UINT64_MAX;
+}
+
+int kf_dist_attach(const kf_model *m, kf_state *s) {
+    struct kf_dist *d = calloc(1, sizeof *d);
+    if (!d) return -1;
+    d->comm = MPI_COMM_WORLD;
+    d->rank = g_rank;
+    d->size = g_size;
+    d->split = calloc((size_t)d->size + 1, sizeof *d->split);
+    d->counts = calloc(4 * (size_t)d->size, sizeof *d->counts);
+    if (!d->split || !d->counts) return kf_dist_free(d), -1;
+    /* every rank holds the same whole state: the same bin, the same cut */
+    size_t bad = 0;
+    kf_grid *g = &s->g;
+    if (kf_grid_bin(g, &s->p, kf_model_inv_dx(m), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad))
+        return kf_dist_free(d), -1;
+    uint64_t *key = malloc((g->nowner + 1) * sizeof *key);
+    int64_t *count = malloc((g->nowner + 1) * sizeof *count);
+    if (!key || !count) return free(key), free(count), kf_dist_free(d), -1;
+    for (size_t r = 0; r < g->nowner; r++) {
+        const int32_t *c = &g->bcoord[3 * r];
+        key[r] = kf_block_key(c[0], c[1], c[2]);
+        count[r] = (int64_t)(g->pstart[r + 1] - g->pstart[r]);
+    }
+    cut(d, key, count, g->nowner);
+    /* keep this rank's range: particles are in key order, so one slice */
+    size_t lo = 0, hi = 0;
+    for (size_t r = 0; r < g->nowner; r++) {
+        if (key[r] < d->split[d->rank]) lo = g->pstart[r + 1];
+        if (key[r] < d->split[d->rank + 1]) hi = g->pstart[r + 1];
+    }
+    if (hi < lo) hi = lo;
+    free(key);
+    free(count);
+    kf_particles *p = &s->p;
+    size_t n = hi - lo;
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) memmove(p->plane[k], p->plane[k] + lo, n * sizeof(kf_real));
+    memmove(p->mat, p->mat + lo, n * sizeof *p->mat);
+    memmove(p->obj, p->obj + lo, n * sizeof *p->obj);
+    memmove(p->colour, p->colour + lo, n * sizeof *p->colour);
+    memmove(p->id, p->id + lo, n * sizeof *p->id);
+    memmove(p->key, p->key + lo, n * sizeof *p->key);
+    memmove(p->block, p->block + lo, n * sizeof *p->block);
+    p->n = n;
+    g->valid = 0;
+    s->dist = d;
+    return 0;
+}
+
+void kf_dist_free(struct kf_dist *d) {
+    if (!d) return;
+    free(d->split);
+    free(d->counts);
+    free(d->fnb);
+    free(d->forder);
+    free(d->recv);
+    free(d->send);
+    free(d->pbuf[0]);
+    free(d->pbuf[1]);
+    kf_particles_free(&d->tmp);
+    free(d);
+}
+
+void kf_dist_rebalance(kf_state *s, double threshold) {
+    struct kf_dist *d = s->dist;
+    if (!d) return;
+    double t0 = kf_dist_clock();
+    long n = (long)s->p.n, nmax, total;
+    MPI_Allreduce(&n, &nmax, 1, MPI_LONG, MPI_MAX, d->comm);
+    MPI_Allreduce(&n, &total, 1, MPI_LONG, MPI_SUM, d->comm);
+    if (total == 0 || (double)nmax * d->size <= threshold * (double)total) {
+        d->stats.comm_ms += kf_dist_clock() - t0;
+        return;
+    }
+    /* every rank's owner blocks and counts, in rank order = key order */
+    const kf_grid *g = &s->g;
+    int nb = g->valid ? (int)g->nowner : 0;
+    int *nbs = d->counts, *displ = d->counts + d->size;
+    MPI_Allgather(&nb, 1, MPI_INT, nbs, 1, MPI_INT, d->comm);
+    size_t all = 0;
+    for (int r = 0; r < d->size; r++) displ[r] = (int)all, all += (size_t)nbs[r];
+    uint64_t *mine = malloc(((size_t)nb + 1) * 2 * sizeof *mine), *every = malloc((all + 1) * 2 * sizeof *every);
+    uint64_t *key = malloc((all + 1) * sizeof *key);
+    int64_t *count = malloc((all + 1) * sizeof *count);
+    if (mine && every && key && count) {
+        for (int r = 0; r < nb; r++) {
+            const int32_t *c = &g->bcoord[3 * r];
+            mine[2 * r] = kf_block_key(c[0], c[1], c[2]);
+            mine[2 * r + 1] = (uint64_t)(g->pstart[r + 1] - g->pstart[r]);
+        }
+        for (int r = 0; r < d->size; r++) nbs[r] *= 2, displ[r] *= 2;
+        MPI_Allgatherv(mine, 2 * nb, MPI_UINT64_T, every, nbs, displ, MPI_UINT64_T, d->comm);
+        for (size_t b = 0; b < all; b++) key[b] = every[2 * b], count[b] = (int64_t)every[2 * b + 1];
+        cut(d, key, count, all);
+        d->stats.rebalances++;
+    }
+    free(mine), free(every), free(key), free(count);
+    d->stats.comm_ms += kf_dist_clock() - t0;
+}
+
+/* ---- gathering the whole state on rank 0 ---- */
+
+int kf_dist_gather(const kf_state *s, kf_state *whole) {
+    struct kf_dist *d = s->dist;
+    double t0 = kf_dist_clock();
+    const size_t rb = kf_dist_record_bytes();
+    MPI_Datatype rec;
+    MPI_Type_contiguous((int)rb, MPI_BYTE, &rec);
+    MPI_Type_commit(&rec);
+    int n = (int)s->p.n, *cnt = d->counts, *displ = d->counts + d->size;
+    MPI_Gather(&n, 1, MPI_INT, cnt, 1, MPI_INT, 0, d->comm);
+    size_t total = 0;
+    if (d->rank == 0)
+        for (int r = 0; r < d->size; r++) displ[r] = (int)total, total += (size_t)cnt[r];
+    int ok = kf_dist_reserve((void **)&d->pbuf[0], &d->pbuf_cap[0], (size_t)n * rb + 1) == 0 &&
+             (d->rank != 0 || kf_dist_reserve((void **)&d->pbuf[1], &d->pbuf_cap[1], total * rb + 1) == 0);
+    if (!ok) MPI_Abort(d->comm, 1);
+    for (size_t i = 0; i < (size_t)n; i++) kf_dist_pack(&s->p, i, d->pbuf[0] + i * rb);
+    MPI_Gatherv(d->pbuf[0], n, rec, d->pbuf[1], cnt, displ, rec, 0, d->comm);
+    MPI_Type_free(&rec);
+    int rc = 0;
+    if (d->rank == 0) {
+        if (kf_particles_reserve(&whole->p, total + 1)) rc = -1;
+        else {
+            for (size_t i = 0; i < total; i++) kf_dist_unpack(&whole->p, i, d->pbuf[1] + i * rb);
+            whole->p.n = total;
+            whole->time = s->time;
+            whole->substep = s->substep;
+            whole->next_id = s->next_id;
+            whole->tau_valid = s->tau_valid;
+            whole->g.valid = 0;
+        }
+    }
+    d->stats.comm_ms += kf_dist_clock() - t0;
+    return rc;
+}
+
+/* ---- agreement and reductions ---- */
+
+int kf_dist_agree(const kf_state *s, int found, kf_trouble *t) {
+    struct kf_dist *d = s->dist;
+    double t0 = kf_dist_clock();
+    int any = 0;
+    MPI_Allreduce(&found, &any, 1, MPI_INT, MPI_LOR, d->comm);
+    if (any) {
+        /* the report: the lowest particle id among the ranks that found trouble */
+        kf_trouble mine = *t, *all = malloc((size_t)d->size * sizeof *all);
+        if (!found) mine.found = 0;
+        if (!all) MPI_Abort(d->comm, 1);
+        MPI_Allgather(&mine, (int)sizeof mine, MPI_BYTE, all, (int)sizeof mine, MPI_BYTE, d->comm);
+        int best = -1;
+        for (int r = 0; r < d->size; r++)
+            if (all[r].found && (best < 0 || all[r].particle < all[best].particle)) best = r;
+        *t = all[best];
+        free(all);
+    }
+    d->stats.comm_ms += kf_dist_clock() - t0;
+    return any;
+}
+
+double kf_dist_max(const kf_state *s, double v) {
+    double out = v, t0 = kf_dist_clock();
+    MPI_Allreduce(&v, &out, 1, MPI_DOUBLE, MPI_MAX, s->dist->comm);
+    s->dist->stats.comm_ms += kf_dist_clock() - t0;
+    return out;
+}
+
+void kf_dist_min_reals(const kf_state *s, kf_real *v, int n) {
+    double t0 = kf_dist_clock();
+    MPI_Allreduce(MPI_IN_PLACE, v, n, sizeof(kf_real) == 8 ? MPI_DOUBLE : MPI_FLOAT, MPI_MIN, s->dist->comm);
+    s->dist->stats.comm_ms += kf_dist_clock() - t0;
+}
+
+long kf_dist_sum_long(const kf_state *s, long v) {
+    long out = v;
+    if (s->dist) MPI_Allreduce(&v, &out, 1, MPI_LONG, MPI_SUM, s->dist->comm);
+    return out;
+}
+
+void kf_dist_stats_get(const kf_state *s, kf_dist_stats *out) {
+    struct kf_dist *d = s->dist;
+    memset(out, 0, sizeof *out);
+    if (!d) return;
+    *out = d->stats;
+    unsigned long n = s->p.n, lo, hi;
+    MPI_Allreduce(&n, &lo, 1, MPI_UNSIGNED_LONG, MPI_MIN, d->comm);
+    MPI_Allreduce(&n, &hi, 1, MPI_UNSIGNED_LONG, MPI_MAX, d->comm);
+    out->particles_min = lo;
+    out->particles_max = hi;
+    double sums[2] = {d->stats.halo_bytes, d->stats.migrated};
+    MPI_Allreduce(MPI_IN_PLACE, sums, 2, MPI_DOUBLE, MPI_SUM, d->comm);
+    out->halo_bytes = sums[0];
+    out->migrated = sums[1];
+    MPI_Allreduce(&d->stats.comm_ms, &out->comm_ms, 1, MPI_DOUBLE, MPI_MAX, d->comm);
+}
+
+void kf_dist_stats_reset(kf_state *s) {
+    if (s->dist) memset(&s->dist->stats, 0, sizeof s->dist->stats);
+}

@@ -1,0 +1,102 @@
+/* dist.h — one simulation over MPI ranks: block ownership, halo sums,
+ * particle migration, balance.
+ *
+ * Ownership. kerf keeps particles sorted by the key of their 4³ owner block
+ * (grid.h), a key whose order is x-major (x, then y, then z). Each rank owns
+ * one contiguous range of keys, cut where the particle count reaches k/N of
+ * the total: slabs of block planes along x, cut inside a plane where the
+ * count asks for it. The cut follows kerf's own particle order on purpose:
+ * the ranks' arrays, laid end to end in rank order, are the one-rank array,
+ * so migration (the particles each rank receives, concatenated in sender
+ * order, then kerf's stable sort by block) rebuilds exactly the order the
+ * one-rank run has, and every owner block's particles sit in the same order.
+ *
+ * Halo sums. One rank sums a grid node in colour order of its source owner
+ * blocks; two owners of a colour never share a node (grid.h). Each rank
+ * sends the P2G cache of every owner block lying within R blocks of another
+ * rank's range (R = 1, or 2 with domain walls, whose ghost nodes read two
+ * cells inward) to that rank, which adds it in the owner's colour turn: every
+ * node the rank's G2P reads is then the one-rank sum, bit for bit. Both
+ * sharers hold the sum, so G2P needs no second exchange.
+ *
+ * Everything else that couples particles is a global reduction of an exact
+ * operation (max, min, or), so the substep, the retries and the trouble
+ * report agree on every rank. Nothing here runs on one rank: a state
+ * without dist is the single-rank step, untouched. */
+#ifndef KF_DIST_H
+#define KF_DIST_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <kerf/kerf.h>
+
+#include "../core/simd.h"
+
+struct kf_dist;
+
+/* What the frame log shows, since the last kf_dist_stats_reset. */
+typedef struct kf_dist_stats {
+    size_t particles_min, particles_max; /* per rank, at the last substep */
+    double halo_bytes;                   /* P2G cache bytes sent by all ranks, summed over substeps */
+    double migrated;                     /* particles that changed rank */
+    long substeps;
+    double comm_ms;                      /* this rank's wall time in communication */
+    int rebalances;
+} kf_dist_stats;
+
+/* MPI start, only when a launcher (mpirun, srun) started this process;
+ * returns the rank count (1 without one). */
+int kf_dist_init(int *argc, char ***argv);
+void kf_dist_finalize(void);
+int kf_dist_size(void);
+int kf_dist_rank(void);
+/* rank 0's v on every rank (v itself without MPI) */
+int kf_dist_bcast_int(int v);
+/* every rank stops now, with this exit code (a rank's fatal error) */
+void kf_dist_abort(int code);
+
+/* The feature of this model the distributed step does not cover, or NULL. */
+const char *kf_dist_unsupported(const kf_model *m);
+
+/* Split a state every rank holds whole (built, or read from a checkpoint)
+ * into this rank's part; s->dist is set. Returns 0 or -1 (out of memory). */
+int kf_dist_attach(const kf_model *m, kf_state *s);
+void kf_dist_free(struct kf_dist *d);
+
+/* Rank 0 receives every rank's particles, in the one-rank order, into
+ * whole (scalars copied from s); the others send. Collective. */
+int kf_dist_gather(const kf_state *s, kf_state *whole);
+
+/* Re-cut the ranges when the busiest rank holds more than `threshold` times
+ * the mean; particles move at the next substep. Collective. */
+void kf_dist_rebalance(kf_state *s, double threshold);
+
+void kf_dist_stats_get(const kf_state *s, kf_dist_stats *out);
+void kf_dist_stats_reset(kf_state *s);
+/* sums over ranks, for the frame log (collective) */
+long kf_dist_sum_long(const kf_state *s, long v);
+
+/* ---- the step's hooks (step.c, transfer.c) ---- */
+
+/* Before binning: particles whose block now lies in another rank's range go
+ * there. Returns 0 or -1 (out of memory). */
+int kf_dist_migrate(const kf_model *m, kf_state *s);
+/* After binning: caches of this rank's boundary owners to the ranks that
+ * share their nodes, and blocks for what arrives. 0 or -1 (out of memory). */
+int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt);
+/* Inside kf_p2g's parallel region, after colour c's own owners: the halo
+ * caches of colour c added to the nodes. */
+void kf_dist_p2g_colour(const kf_model *m, kf_state *s, int c);
+/* kf_stress over this rank's particles in the one-rank array's batches of
+ * 64: a batch cut by a rank boundary is computed whole, from copies of the
+ * neighbours' particles in it (collective). */
+void kf_dist_stress(const kf_model *m, kf_state *s, int project);
+/* Trouble agreed: returns 1 on every rank if any rank found trouble, and t
+ * becomes the report of the lowest particle id among them. */
+int kf_dist_agree(const kf_state *s, int found, kf_trouble *t);
+/* the global max of v, and the element-wise min of n values */
+double kf_dist_max(const kf_state *s, double v);
+void kf_dist_min_reals(const kf_state *s, kf_real *v, int n);
+
+#endif

@@ -1,0 +1,145 @@
+/* halo.c — P2G across ranks: each boundary owner block's cache travels to
+ * the ranks that share its nodes and is added there in its colour's turn,
+ * so every node a rank reads holds the one-rank sum bit for bit (dist.h). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "internal.h"
+
+/* the colour of an owner block: the parity of its coordinate (grid.h) */
+static inline int colour_of(const int32_t *c) { return (c[0] & 1) << 2 | (c[1] & 1) << 1 | (c[2] & 1); }
+
+int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
+    struct kf_dist *d = s->dist;
+    kf_grid *g = &s->g;
+    const int R = m->sim.walls ? 2 : 1; /* wall ghost nodes read two cells inward (wall_ghost.c) */
+    const int CD = kf_p2g_cache_edge(m);
+    const size_t rec = 1 + (size_t)CD * CD * CD; /* kf_v4s per record: header + cache */
+    int *scount = d->counts, *sdispl = d->counts + d->size, *rcount = d->counts + 2 * d->size,
+        *rdispl = d->counts + 3 * d->size;
+    const uint64_t lo = d->split[d->rank], hi = d->split[d->rank + 1];
+    /* stress first, as kf_p2g (collective, and it uses the count arrays) */
+    if (!s->tau_valid) kf_stress(m, s, 0);
+
+    /* which owner blocks other ranks need, and which ranks: any block within
+     * R of it in another rank's range (the owners there sum into the nodes
+     * this one writes, and read them). A box whose corner keys lie in this
+     * rank's range lies in it whole: keys are x-major. */
+    size_t npair = 0, pair_cap = 0;
+    int32_t *pair = NULL; /* (owner, rank) */
+    int *mark = malloc((size_t)d->size * sizeof *mark);
+    if (!mark) return -1;
+    for (int r = 0; r < d->size; r++) mark[r] = -1;
+    for (size_t o = 0; o < g->nowner; o++) {
+        const int32_t *c = &g->bcoord[3 * o];
+        uint64_t k0 = kf_block_key(c[0] - R, c[1] - R, c[2] - R), k1 = kf_block_key(c[0] + R, c[1] + R, c[2] + R);
+        if (k0 >= lo && k1 < hi) continue;
+        for (int dx = -R; dx <= R; dx++)
+            for (int dy = -R; dy <= R; dy++)
+                for (int dz = -R; dz <= R; dz++) {
+                    int q = kf_dist_rank_of(d, kf_block_key(c[0] + dx, c[1] + dy, c[2] + dz));
+                    if (q == d->rank || mark[q] == (int)o) continue;
+                    mark[q] = (int)o;
+                    if (npair == pair_cap) {
+                        pair_cap = pair_cap ? 2 * pair_cap : 256;
+                        int32_t *np = realloc(pair, pair_cap * 2 * sizeof *np);
+                        if (!np) return free(pair), free(mark), -1;
+                        pair = np;
+                    }
+                    pair[2 * npair] = (int32_t)o;
+                    pair[2 * npair + 1] = q;
+                    npair++;
+                }
+    }
+    free(mark);
+
+    /* the records, grouped by destination rank */
+    memset(scount, 0, (size_t)d->size * sizeof *scount);
+    for (size_t k = 0; k < npair; k++) scount[pair[2 * k + 1]]++;
+    size_t nsend = 0;
+    for (int r = 0; r < d->size; r++) sdispl[r] = (int)nsend, nsend += (size_t)scount[r];
+    if (kf_dist_reserve((void **)&d->send, &d->send_cap, (nsend * rec + 1) * sizeof(kf_v4))) return free(pair), -1;
+    size_t *slot = malloc((npair + 1) * sizeof *slot);
+    int *at = malloc((size_t)d->size * sizeof *at);
+    if (!slot || !at) return free(pair), free(slot), free(at), -1;
+    memcpy(at, sdispl, (size_t)d->size * sizeof *at);
+    for (size_t k = 0; k < npair; k++) slot[k] = (size_t)at[pair[2 * k + 1]]++;
+    free(at);
+    /* the caches, as the owner's P2G makes them */
+#pragma omp parallel for schedule(dynamic, 4) num_threads(m->nthreads)
+    for (size_t k = 0; k < npair; k++) {
+        kf_ftz();
+        kf_v4 *r = d->send + slot[k] * rec;
+        /* header: the block coordinate and the touched base offsets (4 bits each) */
+        int32_t head[4], lohi[6];
+        memcpy(head, &g->bcoord[3 * pair[2 * k]], 3 * sizeof *head);
+        kf_p2g_owner_cache(m, s, (size_t)pair[2 * k], dt, r + 1, lohi);
+        head[3] = 0;
+        for (int e = 0; e < 6; e++) head[3] |= (lohi[e] & 15) << (4 * e);
+        r[0] = (kf_v4){0, 0, 0, 0};
+        memcpy(&r[0], head, sizeof head);
+    }
+    free(slot);
+    free(pair);
+
+    /* exchange */
+    MPI_Datatype rt;
+    MPI_Type_contiguous((int)(rec * sizeof(kf_v4)), MPI_BYTE, &rt);
+    MPI_Type_commit(&rt);
+    double t0 = kf_dist_clock();
+    MPI_Alltoall(scount, 1, MPI_INT, rcount, 1, MPI_INT, d->comm);
+    size_t nrecv = 0;
+    for (int r = 0; r < d->size; r++) rdispl[r] = (int)nrecv, nrecv += (size_t)rcount[r];
+    int ok = kf_dist_reserve((void **)&d->recv, &d->recv_cap, (nrecv * rec + 1) * sizeof(kf_v4)) == 0;
+    if (!ok) MPI_Abort(d->comm, 1);
+    MPI_Alltoallv(d->send, scount, sdispl, rt, d->recv, rcount, rdispl, rt, d->comm);
+    d->stats.comm_ms += kf_dist_clock() - t0;
+    MPI_Type_free(&rt);
+    d->stats.halo_bytes += (double)(nsend * rec * sizeof(kf_v4));
+    d->stats.substeps++;
+
+    /* blocks for what arrived, and the arrivals by colour */
+    if (nrecv > d->nfnb_cap) {
+        free(d->fnb);
+        free(d->forder);
+        d->fnb = malloc(nrecv * sizeof *d->fnb);
+        d->forder = malloc(nrecv * sizeof *d->forder);
+        if (!d->fnb || !d->forder) return d->nfnb_cap = 0, -1;
+        d->nfnb_cap = nrecv;
+    }
+    size_t cstart[9] = {0};
+    for (size_t k = 0; k < nrecv; k++) {
+        int32_t c[3];
+        memcpy(c, &d->recv[k * rec], sizeof c);
+        for (int e = 0; e < 8; e++) {
+            int32_t id = kf_grid_ensure_block(g, c[0] + (e >> 2), c[1] + ((e >> 1) & 1), c[2] + (e & 1));
+            if (id < 0) return -1;
+            d->fnb[k][e] = id;
+        }
+        cstart[1 + colour_of(c)]++;
+    }
+    for (int c = 0; c < 8; c++) cstart[c + 1] += cstart[c];
+    memcpy(d->fstart, cstart, sizeof cstart);
+    for (size_t k = 0; k < nrecv; k++) {
+        int32_t c[3];
+        memcpy(c, &d->recv[k * rec], sizeof c);
+        d->forder[cstart[colour_of(c)]++] = k;
+    }
+    d->nforeign = nrecv;
+    return 0;
+}
+
+void kf_dist_p2g_colour(const kf_model *m, kf_state *s, int c) {
+    struct kf_dist *d = s->dist;
+    const int CD = kf_p2g_cache_edge(m);
+    const size_t rec = 1 + (size_t)CD * CD * CD;
+    /* same-colour owners write disjoint nodes: any order, any thread */
+#pragma omp for schedule(dynamic, 4)
+    for (size_t k = d->fstart[c]; k < d->fstart[c + 1]; k++) {
+        size_t f = d->forder[k];
+        int32_t head[4], lohi[6];
+        memcpy(head, &d->recv[f * rec], sizeof head);
+        for (int e = 0; e < 6; e++) lohi[e] = (head[3] >> (4 * e)) & 15;
+        kf_p2g_add_cache(m, &s->g, d->fnb[f], d->recv + f * rec + 1, lohi);
+    }
+}

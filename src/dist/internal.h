@@ -1,0 +1,51 @@
+/* internal.h — what the files of src/dist share: the rank's part of the
+ * decomposition, and the particle record that travels between ranks. */
+#ifndef KF_DIST_INTERNAL_H
+#define KF_DIST_INTERNAL_H
+
+#include <mpi.h>
+
+#include "../mpm/model.h"
+#include "dist.h"
+
+struct kf_dist {
+    MPI_Comm comm;
+    int rank, size;
+    uint64_t *split;   /* (size + 1) rank r owns block keys [split[r], split[r+1]) */
+    /* the halo caches received this substep, by colour of their owner block */
+    size_t nforeign;
+    int32_t (*fnb)[8]; /* (nforeign) the receiver's block ids of each owner's 2x2x2 neighbourhood */
+    size_t *forder;    /* (nforeign) indices grouped by colour */
+    size_t fstart[9];
+    kf_v4 *recv;       /* received records: a header kf_v4 (block coordinate), then the cache */
+    size_t recv_cap, nfnb_cap;
+    kf_v4 *send;
+    size_t send_cap;
+    char *pbuf[2];     /* particle records out and in */
+    size_t pbuf_cap[2];
+    kf_particles tmp;  /* the particle array being rebuilt by migration */
+    int *counts;       /* (4 * size) MPI counts and displacements */
+    kf_dist_stats stats;
+};
+
+/* the rank whose range holds block key k */
+static inline int kf_dist_rank_of(const struct kf_dist *d, uint64_t k) {
+    int lo = 0, hi = d->size - 1;
+    while (lo < hi) {
+        int mid = (lo + hi + 1) / 2;
+        if (d->split[mid] <= k) lo = mid;
+        else hi = mid - 1;
+    }
+    return lo;
+}
+
+/* bytes of one particle's record, and its packing */
+size_t kf_dist_record_bytes(void);
+void kf_dist_pack(const kf_particles *p, size_t i, char *dst);
+void kf_dist_unpack(kf_particles *p, size_t j, const char *src);
+/* a buffer of at least want bytes; 0 or -1 */
+int kf_dist_reserve(void **buf, size_t *cap, size_t want);
+/* MPI with its wall time counted */
+double kf_dist_clock(void);
+
+#endif
