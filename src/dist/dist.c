@@ -153,6 +153,8 @@ void kf_dist_free(struct kf_dist *d) {
     free(d->forder);
     free(d->recv);
     free(d->send);
+    free(d->pack);
+    free(d->unpack);
     free(d->pbuf[0]);
     free(d->pbuf[1]);
     kf_particles_free(&d->tmp);

@@ -82,21 +82,66 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
     free(slot);
     free(pair);
 
-    /* exchange */
+    /* on the wire only the touched part of each cache: the header, then the
+     * nodes of the box the owner's stencils reached (at most 6³ of 8³ for
+     * the quadratic kernel), in the cache's order */
+    const int KW = m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3;
+    if (kf_dist_reserve((void **)&d->pack, &d->pack_cap, (nsend * rec + 1) * sizeof(kf_v4))) return -1;
+    size_t packed = 0;
+    for (int r = 0; r < d->size; r++) {
+        size_t first = packed;
+        for (size_t k = (size_t)sdispl[r]; k < (size_t)(sdispl[r] + scount[r]); k++) {
+            const kf_v4 *rr = d->send + k * rec;
+            int32_t head[4];
+            memcpy(head, &rr[0], sizeof head);
+            int from[3], to[3];
+            for (int e = 0; e < 3; e++) from[e] = (head[3] >> (4 * e)) & 15, to[e] = ((head[3] >> (4 * (3 + e))) & 15) + KW;
+            d->pack[packed++] = rr[0];
+            for (int a = from[0]; a < to[0]; a++)
+                for (int b = from[1]; b < to[1]; b++)
+                    for (int c = from[2]; c < to[2]; c++) d->pack[packed++] = rr[1 + (a * CD + b) * CD + c];
+        }
+        scount[r] = (int)(packed - first);
+        sdispl[r] = (int)first;
+    }
+
+    /* exchange, in kf_v4 units */
     MPI_Datatype rt;
-    MPI_Type_contiguous((int)(rec * sizeof(kf_v4)), MPI_BYTE, &rt);
+    MPI_Type_contiguous((int)sizeof(kf_v4), MPI_BYTE, &rt);
     MPI_Type_commit(&rt);
     double t0 = kf_dist_clock();
     MPI_Alltoall(scount, 1, MPI_INT, rcount, 1, MPI_INT, d->comm);
-    size_t nrecv = 0;
-    for (int r = 0; r < d->size; r++) rdispl[r] = (int)nrecv, nrecv += (size_t)rcount[r];
-    int ok = kf_dist_reserve((void **)&d->recv, &d->recv_cap, (nrecv * rec + 1) * sizeof(kf_v4)) == 0;
+    size_t nunits = 0;
+    for (int r = 0; r < d->size; r++) rdispl[r] = (int)nunits, nunits += (size_t)rcount[r];
+    int ok = kf_dist_reserve((void **)&d->unpack, &d->unpack_cap, (nunits + 1) * sizeof(kf_v4)) == 0;
     if (!ok) MPI_Abort(d->comm, 1);
-    MPI_Alltoallv(d->send, scount, sdispl, rt, d->recv, rcount, rdispl, rt, d->comm);
+    MPI_Alltoallv(d->pack, scount, sdispl, rt, d->unpack, rcount, rdispl, rt, d->comm);
     d->stats.comm_ms += kf_dist_clock() - t0;
     MPI_Type_free(&rt);
-    d->stats.halo_bytes += (double)(nsend * rec * sizeof(kf_v4));
+    d->stats.halo_bytes += (double)(packed * sizeof(kf_v4));
     d->stats.substeps++;
+
+    /* back to whole caches: count the records, then lay each out in full */
+    size_t nrecv = 0;
+    for (size_t u = 0; u < nunits; nrecv++) {
+        int32_t head[4];
+        memcpy(head, &d->unpack[u], sizeof head);
+        size_t vol = 1;
+        for (int e = 0; e < 3; e++) vol *= (size_t)(((head[3] >> (4 * (3 + e))) & 15) + KW - ((head[3] >> (4 * e)) & 15));
+        u += 1 + vol;
+    }
+    if (kf_dist_reserve((void **)&d->recv, &d->recv_cap, (nrecv * rec + 1) * sizeof(kf_v4))) MPI_Abort(d->comm, 1);
+    for (size_t u = 0, k = 0; k < nrecv; k++) {
+        kf_v4 *rr = d->recv + k * rec;
+        int32_t head[4];
+        memcpy(head, &d->unpack[u], sizeof head);
+        rr[0] = d->unpack[u++];
+        int from[3], to[3];
+        for (int e = 0; e < 3; e++) from[e] = (head[3] >> (4 * e)) & 15, to[e] = ((head[3] >> (4 * (3 + e))) & 15) + KW;
+        for (int a = from[0]; a < to[0]; a++)
+            for (int b = from[1]; b < to[1]; b++)
+                for (int c = from[2]; c < to[2]; c++) rr[1 + (a * CD + b) * CD + c] = d->unpack[u++];
+    }
 
     /* blocks for what arrived, and the arrivals by colour */
     if (nrecv > d->nfnb_cap) {

@@ -21,6 +21,8 @@ struct kf_dist {
     size_t recv_cap, nfnb_cap;
     kf_v4 *send;
     size_t send_cap;
+    kf_v4 *pack, *unpack; /* the touched parts of the caches, out and in */
+    size_t pack_cap, unpack_cap;
     char *pbuf[2];     /* particle records out and in */
     size_t pbuf_cap[2];
     kf_particles tmp;  /* the particle array being rebuilt by migration */

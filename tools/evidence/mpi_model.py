@@ -9,7 +9,7 @@ import math
 
 PARTICLE_BYTES = 148          # float build: 34 kf_real planes + id, colour, material, object
 PPB = 512                     # particles per full 4^3 block at ppc 8
-RECORD = {"sent now (8^3 nodes)": (1 + 512) * 16, "touched part only (6^3)": (1 + 216) * 16}
+RECORD = {"whole cache (8^3 nodes)": (1 + 512) * 16, "touched part, as sent (at most 6^3)": (1 + 216) * 16}
 RATE_CORE = 4.0e6             # particle-steps/s per core: measured 8.0 M/s on 2 threads (contended, see md)
 CORES = 16                    # per rank (one node)
 LATENCY = 10 * 20e-6          # ~10 collectives a substep at ~20 us each, times log2 N below
