@@ -85,6 +85,11 @@ check "twelve checkpoints" test "$(ls full/checkpoints/*.kfc 2>/dev/null | wc -l
 check "frame log line per frame (not a terminal)" test "$(grep -cE '^frame 10[0-9]+: [0-9]+ particles' run.log)" -eq 11
 check "twelve surfaces (.vdb)" test "$(ls full/surface/*.vdb 2>/dev/null | wc -l)" -eq 12
 check "twelve images (.png)" test "$(ls full/images/*.png 2>/dev/null | wc -l)" -eq 12
+check "surfacing and rendering print a progress line per frame, with a bar and ETA" \
+    bash -c "test \$(grep -cE '^\[#* *\] render frame 10[0-9]{2} \([0-9]+/12\)  surface [0-9]+ ms, render [0-9]+ ms a frame  ETA [0-9]+m[0-9]{2}s$' run.log) -eq 12 && \
+             grep -qxE '\[#{20}\] render frame 1012 \(12/12\)  surface [0-9]+ ms, render [0-9]+ ms a frame  ETA 0m00s' run.log"
+check "the particle PLY names velocity v_x v_y v_z and carries von_mises, J, plastic_strain" \
+    bash -c "head -c 1000 full/particles/tiny.1012.ply | grep -a -c -E '^property (float v_[xyz]|float von_mises|float J|float plastic_strain)$' | grep -qx 6"
 
 # the implicit midpoint scheme from the command line: the frame log names it
 "$kerf" run tiny.yaml --out mid --frames 1001-1003 --set sim.integrator=implicit \
@@ -153,6 +158,8 @@ check "output.points writes OpenVDB points per frame" test "$(ls pts/points/*.vd
 check "output.images=false renders nothing" test ! -e pts/images
 "$kerf" turntable tiny.yaml --out full --frame 1006 --frames 4 --quality preview > tt.log 2>&1
 check "kerf turntable writes its views" test "$(ls full/turntable/*.png 2>/dev/null | wc -l)" -eq 4
+check "turntable views are numbered like shot frames, 1001-1004" \
+    test "$(cd full/turntable && ls *.png | tr '\n' ' ')" = "tiny.f1006.1001.png tiny.f1006.1002.png tiny.f1006.1003.png tiny.f1006.1004.png "
 "$kerf" turntable tiny.yaml --out full --frame 999 --frames 4 > tt.log 2>&1
 check "a turntable frame outside the shot is a usage error" test $? -eq 2
 check "no temporaries left" test -z "$(find full -name '*.tmp-*')"

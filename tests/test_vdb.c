@@ -457,7 +457,8 @@ static void test_points_roundtrip(void)
     char path[256], err[512] = "";
     tmp_path(path, sizeof path, "points");
     const size_t n = 5000;
-    float *x = malloc(n * 3 * sizeof *x), *v = malloc(n * 3 * sizeof *v), *jp = malloc(n * sizeof *jp);
+    float *x = malloc(n * 3 * sizeof *x), *v = malloc(n * 3 * sizeof *v), *fl[KF_VDB_PT_FLOATS];
+    for (int a = 0; a < KF_VDB_PT_FLOATS; a++) fl[a] = malloc(n * sizeof **fl);
     int32_t *mat = malloc(n * sizeof *mat);
     uint32_t s = 12345;
     for (size_t i = 0; i < n; i++) {
@@ -470,11 +471,12 @@ static void test_points_roundtrip(void)
         v[3 * i + 1] = -x[3 * i];
         v[3 * i + 2] = 2 * x[3 * i + 2];
         mat[i] = x[3 * i] < 0.5f ? 1 : 2;
-        jp[i] = 1 + x[3 * i + 1];
+        /* each float attribute its own function: a + 1 + the coordinate a mod 3 */
+        for (int a = 0; a < KF_VDB_PT_FLOATS; a++) fl[a][i] = (float)(a + 1) + x[3 * i + a % 3];
     }
     kf_vdb_meta meta = {.frame = 1002, .dx = 0.02};
     snprintf(meta.shot, sizeof meta.shot, "pts");
-    KT_CHECK(kf_vdb_points_write(path, n, x, v, mat, jp, 0.05, &meta, err, sizeof err) == 0, "%s", err);
+    KT_CHECK(kf_vdb_points_write(path, n, x, v, mat, (const float *const *)fl, 0.05, &meta, err, sizeof err) == 0, "%s", err);
     kf_vdb_file_info info;
     KT_CHECK(kf_vdb_info(path, &info, err, sizeof err) == 0, "%s", err);
     KT_CHECK(info.ngrids == 1 && strcmp(info.grids[0].name, "points") == 0 && info.meta.frame == 1002,
@@ -483,25 +485,27 @@ static void test_points_roundtrip(void)
     kf_vdb_points pts;
     KT_CHECK(kf_vdb_points_read(path, &pts, err, sizeof err) == 0, "%s", err);
     KT_CHECK(pts.n == n, "count %zu of %zu", pts.n, n);
-    KT_CHECK(pts.v && pts.material && pts.jp, "attributes v, material, Jp present");
+    int have = pts.v && pts.material;
+    for (int a = 0; a < KF_VDB_PT_FLOATS; a++) have &= pts.f[a] != NULL;
+    KT_CHECK(have, "attributes v, material, Jp, von_mises, J, plastic_strain present");
     double ev = 0, ej = 0, sx = 0, sx0 = 0;
     size_t emat = 0;
-    for (size_t i = 0; i < pts.n && pts.v && pts.material && pts.jp; i++) {
+    for (size_t i = 0; i < pts.n && have; i++) {
         const float *p = pts.x + 3 * i, *w = pts.v + 3 * i;
         ev = fmax(ev, fabs(w[0] - p[1]) + fabs(w[1] + p[0]) + fabs(w[2] - 2 * p[2]));
-        ej = fmax(ej, fabs(pts.jp[i] - 1 - p[1]));
+        for (int a = 0; a < KF_VDB_PT_FLOATS; a++) ej = fmax(ej, fabs(pts.f[a][i] - (a + 1) - p[a % 3]));
         emat += pts.material[i] != (p[0] < 0.5f ? 1 : 2);
         sx += p[0] + p[1] + p[2];
     }
     for (size_t i = 0; i < 3 * n; i++) sx0 += x[i];
     KT_NEAR(ev, 0, 1e-5, "v stored as float beside a position rebuilt from voxel + float offset");
-    KT_NEAR(ej, 0, 1e-5, "Jp as float");
+    KT_NEAR(ej, 0, 1e-5, "float attributes beside a position rebuilt from voxel + float offset");
     KT_CHECK(emat == 0, "%zu materials wrong", emat);
     KT_NEAR(sx, sx0, 1e-6 * 3 * n, "same positions (sum), float rounding of voxel offsets");
     kf_vdb_points_free(&pts);
     free(x);
     free(v);
-    free(jp);
+    for (int a = 0; a < KF_VDB_PT_FLOATS; a++) free(fl[a]);
     free(mat);
     unlink(path);
 }

@@ -322,6 +322,20 @@ kf_particles_view kf_state_particles(kf_state *s);
  * stays valid (writing through this view is a bug). */
 kf_particles_view kf_state_particles_read(const kf_state *s);
 
+/* Per-particle fields for analysis (the PLY and .vdb points outputs):
+ *   von_mises: the von Mises equivalent of the Cauchy stress, √(3/2 s:s) with s
+ *              the deviator of σ = τ/J (Pa);
+ *   J:         the volume ratio V/V0 (water: the tracked J; snow: det Fe · Jp;
+ *              the others: det F of the elastic F they keep);
+ *   plastic:   the plastic strain the model keeps: sand, the accumulated plastic
+ *              strain q (tracked with hardening); snow, ln Jp (negative when
+ *              compacted); 0 for corotated, water and von_mises (the von Mises
+ *              return mapping keeps no history). */
+typedef struct kf_particle_fields {
+    double von_mises, J, plastic;
+} kf_particle_fields;
+kf_particle_fields kf_state_particle_fields(const kf_model *m, const kf_state *s, size_t i);
+
 /* Per-stage timing of everything the step did since the last reset. */
 typedef enum kf_stage {
     KF_STAGE_SORT = 0, KF_STAGE_P2G, KF_STAGE_GRID, KF_STAGE_G2P,

@@ -20,6 +20,7 @@
 #include "../io/points_ply.h"
 #include "cli.h"
 #include "rigid_log.h"
+#include "../pipeline/progress.h"
 #include "../pipeline/stages.h"
 #include "run_record.h"
 
@@ -109,7 +110,7 @@ static int cache_current(const kf_shot *shot, const char *out, kf_scene *sc, uin
             *damaged = f;
             return 0;
         }
-        if (need_ply && (kf_ensure_parent(rp.particles) || kf_write_points_ply(rp.particles, sc->state, err, sizeof err))) {
+        if (need_ply && (kf_ensure_parent(rp.particles) || kf_write_points_ply(rp.particles, sc->model, sc->state, err, sizeof err))) {
             fprintf(stderr, "kerf: %s\n", err);
             return -1;
         }
@@ -141,12 +142,6 @@ static void remove_stale_after(const kf_shot *shot, const char *out, uint64_t ha
     if (lo)
         fprintf(stderr, "kerf: %s: removed %s (%d files): made from other inputs than this run's, they would not "
                         "follow from frame %d\n", shot->name, which, files, shot->last);
-}
-
-static void fmt_eta(char *buf, size_t n, double seconds) {
-    int s = (int)(seconds + 0.5);
-    if (s >= 3600) snprintf(buf, n, "%dh%02dm", s / 3600, s / 60 % 60);
-    else snprintf(buf, n, "%dm%02ds", s / 60, s % 60);
 }
 
 static int write_frame_here(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash);
@@ -185,7 +180,7 @@ static int write_frame_here(const kf_shot *shot, const char *out, kf_scene *sc, 
         }
     }
     if (shot->output_points && frame >= shot->first &&
-        kf_pipeline_points(shot, sc->state, rp.points, frame, err, sizeof err)) {
+        kf_pipeline_points(shot, sc->model, sc->state, rp.points, frame, err, sizeof err)) {
         fprintf(stderr, "kerf: %s\n", err);
         return 1;
     }
@@ -194,7 +189,7 @@ static int write_frame_here(const kf_shot *shot, const char *out, kf_scene *sc, 
             fprintf(stderr, "kerf: %s: cannot create directory: %s\n", rp.particles, strerror(errno));
             return 1;
         }
-        if (kf_write_points_ply(rp.particles, sc->state, err, sizeof err)) {
+        if (kf_write_points_ply(rp.particles, sc->model, sc->state, err, sizeof err)) {
             fprintf(stderr, "kerf: %s\n", err);
             return 1;
         }
@@ -468,13 +463,14 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         if (root()) kf_record_progress(rp.dir, shot, "sim", frame, done, todo, elapsed / done * (todo - done));
         if (o.quiet) continue;
         char eta[32];
-        fmt_eta(eta, sizeof eta, elapsed / done * (todo - done));
+        kf_progress_eta(eta, sizeof eta, elapsed / done * (todo - done));
         double mps = (double)st.particle_steps / (frame_ms * 1e3);
         if (tty) {
-            /* a live status line on a terminal */
-            int width = 30, fill = todo ? width * done / todo : width;
-            fprintf(stderr, "\r[%.*s%*s] frame %d (%d/%d)  %ld substeps  %.1f M p-steps/s  ETA %s  ", fill,
-                    "##############################", width - fill, "", frame, done, todo, st.substeps, mps, eta);
+            /* a live status line on a terminal, the same line surfacing and rendering print */
+            char extra[96], line[256];
+            snprintf(extra, sizeof extra, "%ld substeps  %.1f M p-steps/s", st.substeps, mps);
+            kf_progress_line(line, sizeof line, "simulate", frame, done, todo, extra, elapsed / done * (todo - done));
+            fprintf(stderr, "\r%s  ", line);
         } else {
             /* one plain line per frame for farm logs */
             fprintf(stderr,

@@ -10,6 +10,7 @@
 #include "../io/checkpoint.h"
 #include "../io/vdb_bridge.h"
 #include "cli.h"
+#include "../pipeline/progress.h"
 #include "../pipeline/stages.h"
 #include "run_record.h"
 
@@ -178,7 +179,7 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
     surface_settings(shot, ssettings, sizeof ssettings);
     snprintf(sstamp, sizeof sstamp, "%s/surface/.settings", first.dir);
     int resurface = do_surface && settings_changed(sstamp, ssettings);
-    int made_s = 0, made_r = 0, kept = 0;
+    int made_s = 0, made_r = 0, kept = 0, tty = isatty(fileno(stderr));
     double t_s = 0, t_r = 0;
     for (int f = shot->first; f <= shot->last; f++) {
         kf_frame_paths fp;
@@ -220,15 +221,24 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
                 made_r++;
             } else kept++;
         }
-        /* where the run stands, for watchers: frames surfaced and rendered so far */
+        /* where the run stands, for watchers and on the terminal: frames surfaced
+         * and rendered so far, and the time left at the average cost of a frame
+         * made so far (kept frames cost nothing) */
+        int done = f - shot->first + 1, todo = shot->last - shot->first + 1;
+        double ms_s = made_s ? t_s / made_s : 0, ms_r = made_r ? t_r / made_r : 0;
+        double eta = (ms_s + ms_r) / 1e3 * (shot->last - f);
         if (made_s || made_r)
-            kf_record_progress(first.dir, shot, do_render ? "render" : "surface", f,
-                               f - shot->first + 1, shot->last - shot->first + 1,
-                               (t_s + t_r) / 1e3 / (f - shot->first + 1) * (shot->last - f));
-        if (!o->quiet && (made_s || made_r))
-            fprintf(stderr, "frame %d: surface %.0f ms, render %.0f ms (averages so far)\n", f,
-                    made_s ? t_s / made_s : 0, made_r ? t_r / made_r : 0);
+            kf_record_progress(first.dir, shot, do_render ? "render" : "surface", f, done, todo, eta);
+        if (!o->quiet && (made_s || made_r)) {
+            char extra[96], line[256];
+            snprintf(extra, sizeof extra, "surface %.0f ms, render %.0f ms a frame", ms_s, ms_r);
+            kf_progress_line(line, sizeof line, do_render ? "render" : "surface", f, done, todo, extra, eta);
+            /* a live line on a terminal, one line per frame for farm logs */
+            if (tty) fprintf(stderr, "\r%s  ", line);
+            else fprintf(stderr, "%s\n", line);
+        }
     }
+    if (tty && !o->quiet && (made_s || made_r)) fputc('\n', stderr);
     if (do_render) write_stamp(stamp, settings);
     if (do_surface) write_stamp(sstamp, ssettings);
     if (!o->quiet) {
@@ -257,6 +267,9 @@ static int stage_command(const char *cmd, int argc, char **argv, int do_surface,
 
 int kf_cmd_surface(int argc, char **argv) { return stage_command("surface", argc, argv, 1, 0); }
 int kf_cmd_render(int argc, char **argv) { return stage_command("render", argc, argv, 0, 1); }
+
+/* the first turntable view's number: the convention for a shot's first frame */
+#define KF_TURNTABLE_FIRST 1001
 
 /* kerf turntable shot.yaml --frame N --frames K: K views orbiting 360° around
  * frame N's surface, end exclusive, so the sequence loops */
@@ -301,7 +314,10 @@ int kf_cmd_turntable(int argc, char **argv) {
         ro.turntable_n = count;
         for (int k = 0; k < count && rc == KF_EXIT_OK; k++) {
             char png[4200];
-            snprintf(png, sizeof png, "%s/turntable/%s.f%d.%04d.png", fp.dir, shot->name, frame, k);
+            /* views are numbered like shot frames, from 1001, so compositing and
+             * playback tools take the sequence as they take a shot's */
+            snprintf(png, sizeof png, "%s/turntable/%s.f%d.%04d.png", fp.dir, shot->name, frame,
+                     KF_TURNTABLE_FIRST + k);
             ro.turntable_k = k;
             if (kf_pipeline_render(shot, &sc, fp.surface, png, frame, &ro, err, sizeof err)) {
                 fprintf(stderr, "kerf turntable: %s\n", err);

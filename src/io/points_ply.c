@@ -1,4 +1,11 @@
-/* points_ply.c — binary little-endian PLY of the particles. */
+/* points_ply.c — binary little-endian PLY of the particles.
+ *
+ * Property names: PLY has scalar properties only, so a vector is written as
+ * one property per component. Velocity uses the name_x/_y/_z suffixes
+ * Blender's own PLY exporter gives a 3-component attribute (v -> v_x v_y
+ * v_z); its importer brings back every other property as a float point
+ * attribute under its own name, so the three arrive as v_x, v_y, v_z. Position stays x y z, the name
+ * every reader maps to point positions. */
 #include "points_ply.h"
 
 #include <errno.h>
@@ -7,7 +14,7 @@
 
 #include "atomic_file.h"
 
-int kf_write_points_ply(const char *path, const kf_state *s, char *err, size_t errlen) {
+int kf_write_points_ply(const char *path, const kf_model *m, const kf_state *s, char *err, size_t errlen) {
     kf_particles_view pv = kf_state_particles_read(s);
     kf_atomic_file af;
     if (kf_atomic_open(&af, path)) {
@@ -15,19 +22,25 @@ int kf_write_points_ply(const char *path, const kf_state *s, char *err, size_t e
         return -1;
     }
     fprintf(af.f,
-            "ply\nformat binary_little_endian 1.0\ncomment kerf %s t=%.9g\nelement vertex %zu\n"
+            "ply\nformat binary_little_endian 1.0\ncomment kerf %s t=%.9g\n"
+            "comment von_mises: Cauchy stress, Pa; J: volume ratio V/V0; plastic_strain: sand q, snow ln Jp, else 0\n"
+            "element vertex %zu\n"
             "property float x\nproperty float y\nproperty float z\n"
-            "property float vx\nproperty float vy\nproperty float vz\n"
-            "property ushort material\nproperty uint id\nend_header\n",
+            "property float v_x\nproperty float v_y\nproperty float v_z\n"
+            "property ushort material\nproperty uint id\n"
+            "property float von_mises\nproperty float J\nproperty float plastic_strain\nend_header\n",
             KERF_VERSION, kf_state_time(s), pv.n);
     /* one record per particle, packed (x86 and ARM are little-endian) */
     for (size_t i = 0; i < pv.n; i++) {
-        unsigned char rec[6 * 4 + 2 + 4];
+        unsigned char rec[6 * 4 + 2 + 4 + 3 * 4];
+        kf_particle_fields pf = kf_state_particle_fields(m, s, i);
         float f[6] = {(float)pv.x[0][i], (float)pv.x[1][i], (float)pv.x[2][i],
                       (float)pv.v[0][i], (float)pv.v[1][i], (float)pv.v[2][i]};
+        float a[3] = {(float)pf.von_mises, (float)pf.J, (float)pf.plastic};
         memcpy(rec, f, sizeof f);
         memcpy(rec + 24, &pv.mat[i], 2);
         memcpy(rec + 26, &pv.id[i], 4);
+        memcpy(rec + 30, a, sizeof a);
         fwrite(rec, sizeof rec, 1, af.f);
     }
     if (ferror(af.f) || kf_atomic_commit(&af)) {

@@ -126,13 +126,24 @@ typedef struct kf_vdb_trimesh {
     uint32_t *tris;  /* (ntris x 3) vertex indices, counter-clockwise seen from outside */
 } kf_vdb_trimesh;
 
+/* The points' float attributes, by index into kf_vdb_points_write's floats
+ * and kf_vdb_points.f; their names in the file are kf_vdb_point_float_names. */
+enum {
+    KF_VDB_PT_JP,        /* "Jp": the plastic state ps[0] as the model keeps it */
+    KF_VDB_PT_VON_MISES, /* "von_mises": von Mises Cauchy stress, Pa */
+    KF_VDB_PT_J,         /* "J": volume ratio V/V0 */
+    KF_VDB_PT_PLASTIC,   /* "plastic_strain": the model's plastic strain */
+    KF_VDB_PT_FLOATS
+};
+extern const char *const kf_vdb_point_float_names[KF_VDB_PT_FLOATS];
+
 /* Particles as OpenVDB points; read back by kf_vdb_points_read. */
 typedef struct kf_vdb_points {
     size_t n;
     float *x;          /* (n x 3) position, m */
     float *v;          /* (n x 3) velocity, m/s (NULL: not written / absent) */
     int32_t *material; /* (n) material id (NULL: absent) */
-    float *jp;         /* (n) plastic state Jp (NULL: absent) */
+    float *f[KF_VDB_PT_FLOATS]; /* (n) each float attribute (NULL: absent) */
 } kf_vdb_points;
 
 void kf_vdb_surface_params_default(kf_vdb_surface_params *p);
@@ -167,10 +178,11 @@ int kf_vdb_write(const char *path, kf_vdb_grid *const *grids, int ngrids,
                  const kf_vdb_meta *meta, char *err, size_t errlen);
 
 /* Write particles as a PointDataGrid named "points" with attributes P and,
- * where given, v (vec3f), material (int32), Jp (float). voxel: the points
+ * where given, v (vec3f), material (int32) and the float attributes (floats
+ * may be NULL, or hold NULL for an attribute left out). voxel: the points
  * grid's voxel size in m (0: OpenVDB's ~8 points per voxel estimate). */
 int kf_vdb_points_write(const char *path, size_t n, const float *x, const float *v,
-                        const int32_t *material, const float *jp, double voxel,
+                        const int32_t *material, const float *const *floats, double voxel,
                         const kf_vdb_meta *meta, char *err, size_t errlen);
 /* Read every point of the first PointDataGrid (order is OpenVDB's, not the
  * writer's). Free with kf_vdb_points_free. */

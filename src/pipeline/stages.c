@@ -193,17 +193,25 @@ done:
 
 /* ---- points ----------------------------------------------------------------- */
 
-int kf_pipeline_points(const kf_shot *shot, const kf_state *s, const char *path, int frame, char *err, size_t errlen) {
+int kf_pipeline_points(const kf_shot *shot, const kf_model *m, const kf_state *s, const char *path, int frame,
+                       char *err, size_t errlen) {
     kf_particles_view p = kf_state_particles_read(s);
     float *x = malloc(sizeof(float) * 3 * (p.n + 1)), *v = malloc(sizeof(float) * 3 * (p.n + 1));
-    float *jp = malloc(sizeof(float) * (p.n + 1));
+    /* the float attributes: the raw plastic state, and the fields for analysis */
+    float *fl[KF_VDB_PT_FLOATS];
+    int ok = x && v;
+    for (int a = 0; a < KF_VDB_PT_FLOATS; a++) ok &= (fl[a] = malloc(sizeof(float) * (p.n + 1))) != NULL;
     int32_t *mat = malloc(sizeof(int32_t) * (p.n + 1));
     int rc = -1;
-    if (!x || !v || !jp || !mat) snprintf(err, errlen, "out of memory writing %zu points", p.n);
+    if (!ok || !mat) snprintf(err, errlen, "out of memory writing %zu points", p.n);
     else {
         for (size_t i = 0; i < p.n; i++) {
             for (int a = 0; a < 3; a++) x[3 * i + a] = (float)p.x[a][i], v[3 * i + a] = (float)p.v[a][i];
-            jp[i] = (float)p.ps[0][i];
+            kf_particle_fields pf = kf_state_particle_fields(m, s, i);
+            fl[KF_VDB_PT_JP][i] = (float)p.ps[0][i];
+            fl[KF_VDB_PT_VON_MISES][i] = (float)pf.von_mises;
+            fl[KF_VDB_PT_J][i] = (float)pf.J;
+            fl[KF_VDB_PT_PLASTIC][i] = (float)pf.plastic;
             mat[i] = p.mat[i];
         }
         kf_vdb_meta meta;
@@ -213,9 +221,10 @@ int kf_pipeline_points(const kf_shot *shot, const kf_state *s, const char *path,
         snprintf(meta.kerf_version, sizeof meta.kerf_version, "%s", KERF_VERSION);
         meta.dx = shot->sim.dx;
         if (kf_ensure_parent(path)) snprintf(err, errlen, "%s: cannot create directory: %s", path, strerror(errno));
-        else rc = kf_vdb_points_write(path, p.n, x, v, mat, jp, 0, &meta, err, errlen);
+        else rc = kf_vdb_points_write(path, p.n, x, v, mat, (const float *const *)fl, 0, &meta, err, errlen);
     }
-    free(x), free(v), free(jp), free(mat);
+    free(x), free(v), free(mat);
+    for (int a = 0; a < KF_VDB_PT_FLOATS; a++) free(fl[a]);
     return rc;
 }
 

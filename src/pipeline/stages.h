@@ -45,8 +45,10 @@ typedef struct kf_render_opts {
     int shadow; /* shadow map texels a side, 0: automatic */
 } kf_render_opts;
 
-/* particles as OpenVDB points (output.points) */
-int kf_pipeline_points(const kf_shot *shot, const kf_state *s, const char *path, int frame, char *err, size_t errlen);
+/* particles as OpenVDB points (output.points): P, v, material, Jp and the
+ * fields for analysis (von_mises, J, plastic_strain: kf_state_particle_fields) */
+int kf_pipeline_points(const kf_shot *shot, const kf_model *m, const kf_state *s, const char *path, int frame,
+                       char *err, size_t errlen);
 /* Grow [lo, hi] by the particles of sc's state (robust: a few strays are
  * left out). */
 void kf_particle_bounds_add(const kf_scene *sc, float lo[3], float hi[3]);

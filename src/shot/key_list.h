@@ -371,7 +371,8 @@
      "File name of a frame's outputs, without extension (a template with {frame}); it stays inside output.dir "
      "(no '..').")
     KF_KEY(OUTPUT_PARTICLES, "output.particles", KT_BOOL, TOP(s.output_particles), ANY, NULL, "true", NULL, NULL, 0,
-     "Write the particles of every frame.")
+     "Write the particles of every frame (particles/<name>.ply: x y z, velocity v_x v_y v_z, material, id, "
+     "von_mises stress in Pa, volume ratio J, plastic_strain).")
     KF_KEY(OUTPUT_CHECKPOINTS, "output.checkpoints", KT_BOOL, TOP(s.output_checkpoints), ANY, NULL, "true", NULL, NULL, 0,
      "Write a resumable checkpoint of every frame.")
     KF_KEY(OUTPUT_SURFACE, "output.surface", KT_BOOL, TOP(s.output_surface), ANY, NULL, "true", NULL, NULL, 0,
@@ -379,7 +380,8 @@
     KF_KEY(OUTPUT_IMAGES, "output.images", KT_BOOL, TOP(s.output_images), ANY, NULL, "true", NULL, NULL, 0,
      "Render every frame's surface to PNG (images/<name>.png); needs output.surface.")
     KF_KEY(OUTPUT_POINTS, "output.points", KT_BOOL, TOP(s.output_points), ANY, NULL, "false", NULL, NULL, 0,
-     "Also write the particles as OpenVDB points (points/<name>.vdb: v, material, Jp) for Houdini or Blender.")
+     "Also write the particles as OpenVDB points (points/<name>.vdb: v, material, Jp, von_mises, J, "
+     "plastic_strain) for Houdini or Blender.")
 
     KF_KEY(SURFACE, "surface", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
      "How particles become OpenVDB level sets (changing these never re-simulates).")

@@ -527,8 +527,10 @@ int kf_vdb_write(const char *path, kf_vdb_grid *const *grids, int ngrids, const 
     });
 }
 
+const char *const kf_vdb_point_float_names[KF_VDB_PT_FLOATS] = {"Jp", "von_mises", "J", "plastic_strain"};
+
 int kf_vdb_points_write(const char *path, size_t n, const float *x, const float *v, const int32_t *material,
-                        const float *jp, double voxel, const kf_vdb_meta *meta, char *err, size_t errlen)
+                        const float *const *floats, double voxel, const kf_vdb_meta *meta, char *err, size_t errlen)
 {
     namespace pts = openvdb::points;
     return guard("points write", err, errlen, [&] {
@@ -558,10 +560,12 @@ int kf_vdb_points_write(const char *path, size_t n, const float *x, const float 
             pts::appendAttribute<int32_t>(tree, "material");
             pts::populateAttribute(tree, idx->tree(), "material", pts::PointAttributeVector<int32_t>(M));
         }
-        if (jp) {
-            std::vector<float> J(jp, jp + n);
-            pts::appendAttribute<float>(tree, "Jp");
-            pts::populateAttribute(tree, idx->tree(), "Jp", pts::PointAttributeVector<float>(J));
+        for (int a = 0; floats && a < KF_VDB_PT_FLOATS; a++) {
+            if (!floats[a]) continue;
+            const char *name = kf_vdb_point_float_names[a];
+            std::vector<float> F(floats[a], floats[a] + n);
+            pts::appendAttribute<float>(tree, name);
+            pts::populateAttribute(tree, idx->tree(), name, pts::PointAttributeVector<float>(F));
         }
         write_atomic(path, openvdb::GridPtrVec{grid}, meta);
     });
@@ -582,30 +586,36 @@ int kf_vdb_points_read(const char *path, kf_vdb_points *out, char *err, size_t e
         const auto &tree = grid->tree();
         const size_t n = size_t(pts::pointCount(tree));
         auto leaf0 = tree.cbeginLeaf();
-        const bool hv = leaf0 && leaf0->hasAttribute("v"), hm = leaf0 && leaf0->hasAttribute("material"),
-                   hj = leaf0 && leaf0->hasAttribute("Jp");
+        const bool hv = leaf0 && leaf0->hasAttribute("v"), hm = leaf0 && leaf0->hasAttribute("material");
+        bool hf[KF_VDB_PT_FLOATS];
         out->n = n;
         out->x = (float *)malloc((n ? n : 1) * 3 * sizeof(float));
         if (hv) out->v = (float *)malloc((n ? n : 1) * 3 * sizeof(float));
         if (hm) out->material = (int32_t *)malloc((n ? n : 1) * sizeof(int32_t));
-        if (hj) out->jp = (float *)malloc((n ? n : 1) * sizeof(float));
-        if (!out->x || (hv && !out->v) || (hm && !out->material) || (hj && !out->jp)) throw std::bad_alloc();
+        if (!out->x || (hv && !out->v) || (hm && !out->material)) throw std::bad_alloc();
+        for (int a = 0; a < KF_VDB_PT_FLOATS; a++) {
+            hf[a] = leaf0 && leaf0->hasAttribute(kf_vdb_point_float_names[a]);
+            if (hf[a] && !(out->f[a] = (float *)malloc((n ? n : 1) * sizeof(float)))) throw std::bad_alloc();
+        }
         size_t k = 0;
         for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) {
             pts::AttributeHandle<Vec3s> Ph(leaf->constAttributeArray("P"));
             std::unique_ptr<pts::AttributeHandle<Vec3s>> Vh;
             std::unique_ptr<pts::AttributeHandle<int32_t>> Mh;
-            std::unique_ptr<pts::AttributeHandle<float>> Jh;
+            std::unique_ptr<pts::AttributeHandle<float>> Fh[KF_VDB_PT_FLOATS];
             if (hv) Vh.reset(new pts::AttributeHandle<Vec3s>(leaf->constAttributeArray("v")));
             if (hm) Mh.reset(new pts::AttributeHandle<int32_t>(leaf->constAttributeArray("material")));
-            if (hj) Jh.reset(new pts::AttributeHandle<float>(leaf->constAttributeArray("Jp")));
+            for (int a = 0; a < KF_VDB_PT_FLOATS; a++)
+                if (hf[a])
+                    Fh[a].reset(new pts::AttributeHandle<float>(leaf->constAttributeArray(kf_vdb_point_float_names[a])));
             for (auto it = leaf->beginIndexOn(); it; ++it) {
                 if (k >= n) throw bridge_error("point count mismatch");
                 const Vec3R w = grid->transform().indexToWorld(Ph.get(*it) + it.getCoord().asVec3d());
                 for (int c = 0; c < 3; c++) out->x[3 * k + c] = float(w[c]);
                 if (Vh) { Vec3s vv = Vh->get(*it); for (int c = 0; c < 3; c++) out->v[3 * k + c] = vv[c]; }
                 if (Mh) out->material[k] = Mh->get(*it);
-                if (Jh) out->jp[k] = Jh->get(*it);
+                for (int a = 0; a < KF_VDB_PT_FLOATS; a++)
+                    if (Fh[a]) out->f[a][k] = Fh[a]->get(*it);
                 k++;
             }
         }
@@ -618,7 +628,8 @@ int kf_vdb_points_read(const char *path, kf_vdb_points *out, char *err, size_t e
 void kf_vdb_points_free(kf_vdb_points *p)
 {
     if (!p) return;
-    free(p->x); free(p->v); free(p->material); free(p->jp);
+    free(p->x); free(p->v); free(p->material);
+    for (int a = 0; a < KF_VDB_PT_FLOATS; a++) free(p->f[a]);
     memset(p, 0, sizeof *p);
 }
 
