@@ -11,12 +11,9 @@ static const double kf_pi = 3.14159265358979323846;
 static void v3_sub(float r[3], const float a[3], const float b[3]) {
     for (int i = 0; i < 3; i++) r[i] = a[i] - b[i];
 }
-static float v3_dot(const float a[3], const float b[3]) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
+static float v3_dot(const float a[3], const float b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 static void v3_cross(float r[3], const float a[3], const float b[3]) {
-    float x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2],
-          z = a[0] * b[1] - a[1] * b[0];
+    float x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2], z = a[0] * b[1] - a[1] * b[0];
     r[0] = x, r[1] = y, r[2] = z;
 }
 static float v3_normalize(float v[3]) {
@@ -45,8 +42,9 @@ int kf_m4_look_at(float m[16], const float eye[3], const float target[3], const 
     v3_cross(s, f, up);
     if (v3_normalize(s) < 1e-6f) return -1;
     v3_cross(u, s, f);
-    float r[16] = {s[0], u[0], -f[0], 0, s[1], u[1], -f[1], 0, s[2], u[2], -f[2], 0,
-                   -v3_dot(s, eye), -v3_dot(u, eye), v3_dot(f, eye), 1};
+    float r[16] = {
+        s[0],           u[0], -f[0], 0, s[1], u[1], -f[1], 0, s[2], u[2], -f[2], 0, -v3_dot(s, eye), -v3_dot(u, eye),
+        v3_dot(f, eye), 1};
     for (int i = 0; i < 16; i++) m[i] = r[i];
     return 0;
 }
@@ -81,8 +79,7 @@ static float frame_distance(float rad, float fov_deg) {
     return (float)(1.08 * rad / sin(half));
 }
 
-kf_camera kf_camera_frame_bounds(const float lo[3], const float hi[3], const float view_dir[3],
-                                 float fov_deg) {
+kf_camera kf_camera_frame_bounds(const float lo[3], const float hi[3], const float view_dir[3], float fov_deg) {
     kf_camera c;
     memset(&c, 0, sizeof c);
     float d[3] = {view_dir[0], view_dir[1], view_dir[2]};
@@ -103,8 +100,7 @@ kf_camera kf_camera_frame_bounds(const float lo[3], const float hi[3], const flo
     return c;
 }
 
-kf_camera kf_camera_turntable(const float lo[3], const float hi[3], int k, int N,
-                              float elevation_deg, float fov_deg) {
+kf_camera kf_camera_turntable(const float lo[3], const float hi[3], int k, int N, float elevation_deg, float fov_deg) {
     if (N <= 0) N = 1;
     /* end exclusive: reduce k first so frame N is bit-identical to frame 0 */
     int km = k % N;
@@ -149,7 +145,8 @@ kf_camera kf_camera_keyed(const kf_camera_key *k, int n, double frame, int smoot
             if (smooth) {
                 double m0 = cam_tangent(k, n, i, ch) * h, m1 = cam_tangent(k, n, i + 1, ch) * h;
                 double u2 = u * u, u3 = u2 * u;
-                val[ch] = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
+                val[ch] =
+                    (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
             } else {
                 val[ch] = p0 + u * (p1 - p0);
             }

@@ -102,8 +102,9 @@ static void *egl_create(int w, int h, char *err, size_t errlen) {
         snprintf(err, errlen, "render context: no EGL config renders desktop OpenGL (0x%x)", (unsigned)egl.get_error());
         return NULL;
     }
-    const EGLint ctx_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 3,
-                                  EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+    const EGLint ctx_attribs[] = {
+        EGL_CONTEXT_MAJOR_VERSION,           3,       EGL_CONTEXT_MINOR_VERSION, 3, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+        EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
     egl_ctx *c = calloc(1, sizeof *c);
     if (!c) {
         snprintf(err, errlen, "render context: out of memory");

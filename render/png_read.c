@@ -25,8 +25,8 @@ void kf_png_free_texts(char **texts, int ntexts) {
     free(texts);
 }
 
-int kf_png_read(const char *path, uint8_t **rgba, int *w, int *h, char ***texts, int *ntexts,
-                char *err, size_t errlen) {
+int kf_png_read(const char *path, uint8_t **rgba, int *w, int *h, char ***texts, int *ntexts, char *err,
+                size_t errlen) {
     *rgba = NULL;
     *w = *h = 0;
     if (texts) *texts = NULL;

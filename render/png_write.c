@@ -46,11 +46,10 @@ static int ascii(const char *s) {
 }
 
 /* write the PNG stream to an open FILE; -1 + err on failure */
-static int write_stream(FILE *f, const uint8_t *rgba, int w, int h, const char *const *kv,
-                        int nkv, char *err, size_t errlen) {
+static int write_stream(FILE *f, const uint8_t *rgba, int w, int h, const char *const *kv, int nkv, char *err,
+                        size_t errlen) {
     png_err_ctx ectx = {""};
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &ectx, on_png_error,
-                                              on_png_warning);
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &ectx, on_png_error, on_png_warning);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     png_textp texts = NULL;
     png_bytep *rows = NULL;
@@ -79,13 +78,12 @@ static int write_stream(FILE *f, const uint8_t *rgba, int w, int h, const char *
         return -1;
     }
     png_init_io(png, f);
-    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, PNG_COLOR_TYPE_RGBA,
-                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, PNG_COLOR_TYPE_RGBA, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_compression_level(png, 6);
     for (int i = 0; i < nkv; i++) {
         /* tEXt is Latin-1; anything beyond ASCII goes in an (uncompressed) UTF-8 iTXt */
-        texts[i].compression = ascii(kv[2 * i + 1]) ? PNG_TEXT_COMPRESSION_NONE
-                                                    : PNG_ITXT_COMPRESSION_NONE;
+        texts[i].compression = ascii(kv[2 * i + 1]) ? PNG_TEXT_COMPRESSION_NONE : PNG_ITXT_COMPRESSION_NONE;
         texts[i].key = (png_charp)kv[2 * i];
         texts[i].text = (png_charp)kv[2 * i + 1];
         texts[i].text_length = strlen(kv[2 * i + 1]);
@@ -100,8 +98,8 @@ static int write_stream(FILE *f, const uint8_t *rgba, int w, int h, const char *
     return 0;
 }
 
-int kf_png_write(const char *path, const uint8_t *rgba, int w, int h, const char *const *kv,
-                 int nkv, char *err, size_t errlen) {
+int kf_png_write(const char *path, const uint8_t *rgba, int w, int h, const char *const *kv, int nkv, char *err,
+                 size_t errlen) {
     if (!path || !*path) {
         snprintf(err, errlen, "png: empty output path");
         return -1;

@@ -48,21 +48,21 @@ typedef struct kf_render_mesh {
 typedef struct kf_render_scene {
     const kf_render_mesh *meshes; /* (nmeshes) */
     int nmeshes;
-    int ground;                  /* 1 = draw a ground plane (y = ground_y) that catches shadows */
-    float ground_y;              /* NAN = at the lowest point of the meshes */
+    int ground;     /* 1 = draw a ground plane (y = ground_y) that catches shadows */
+    float ground_y; /* NAN = at the lowest point of the meshes */
     kf_render_material ground_mat;
     float bg_top[3], bg_bottom[3]; /* sRGB background gradient, top and bottom of the frame */
     int lights_in_world;           /* 0 = light directions are in camera space (x right, y up,
                                       z towards the viewer): a turntable keeps its lighting;
                                       1 = world space */
-    float key_dir[3];   /* direction towards the key light (need not be unit) */
-    float key_color[3]; /* linear intensity */
+    float key_dir[3];              /* direction towards the key light (need not be unit) */
+    float key_color[3];            /* linear intensity */
     float fill_dir[3];
     float fill_color[3];
     float rim_dir[3];   /* towards a light behind the subject (outlines it) */
     float rim_color[3]; /* linear intensity (default 0: off) */
-    float ambient;  /* sky ambient, linear */
-    int shadows;    /* 1 = the key light casts shadows (shadow map) */
+    float ambient;      /* sky ambient, linear */
+    int shadows;        /* 1 = the key light casts shadows (shadow map) */
 } kf_render_scene;
 
 /* A scene with no meshes and the studio defaults filled in. */
@@ -76,23 +76,21 @@ int kf_render_scene_bounds(const kf_render_scene *sc, float lo[3], float hi[3]);
 
 typedef struct kf_camera {
     float eye[3], target[3], up[3];
-    float fov_deg;       /* vertical field of view, degrees */
-    float znear, zfar;   /* 0 = derived from the scene each frame */
+    float fov_deg;     /* vertical field of view, degrees */
+    float znear, zfar; /* 0 = derived from the scene each frame */
 } kf_camera;
 
 /* A camera looking along view_dir (from eye towards the subject) at the
  * centre of [lo, hi], far enough back that the bounding sphere fills the
  * vertical field of view with a small margin. Up is +Y (or -Z when looking
  * straight down/up). */
-kf_camera kf_camera_frame_bounds(const float lo[3], const float hi[3], const float view_dir[3],
-                                 float fov_deg);
+kf_camera kf_camera_frame_bounds(const float lo[3], const float hi[3], const float view_dir[3], float fov_deg);
 
 /* Frame k of an N-frame turntable: the camera orbits the centre of [lo, hi]
  * about +Y at angle 2*pi*k/N (end exclusive: k is taken mod N, so frame N is
  * exactly frame 0 and the loop closes), elevated elevation_deg above the
  * horizon. Frame 0 looks from +Z towards -Z. */
-kf_camera kf_camera_turntable(const float lo[3], const float hi[3], int k, int N,
-                              float elevation_deg, float fov_deg);
+kf_camera kf_camera_turntable(const float lo[3], const float hi[3], int k, int N, float elevation_deg, float fov_deg);
 
 /* A camera key: where the camera is, what it looks at and its vertical
  * field of view at a frame. */
@@ -132,8 +130,8 @@ const char *kf_render_gl_renderer(const kf_render_ctx *r);
 const char *kf_render_backend(const kf_render_ctx *r);
 
 /* Draw scene from cam into rgba_out (w*h*4 bytes, rows top-down). */
-int kf_render_frame(kf_render_ctx *r, const kf_render_scene *scene, const kf_camera *cam,
-                    uint8_t *rgba_out, char *err, size_t errlen);
+int kf_render_frame(kf_render_ctx *r, const kf_render_scene *scene, const kf_camera *cam, uint8_t *rgba_out, char *err,
+                    size_t errlen);
 
 /* ---- PNG ----------------------------------------------------------------- */
 
@@ -141,15 +139,14 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *scene, const kf_cam
  * (nkv pairs; keys 1-79 printable Latin-1 characters; values UTF-8). Written
  * to a temporary name beside path, fsync'ed and renamed, so path is either
  * the old file or the complete new one. */
-int kf_png_write(const char *path, const uint8_t *rgba, int w, int h, const char *const *kv,
-                 int nkv, char *err, size_t errlen);
+int kf_png_write(const char *path, const uint8_t *rgba, int w, int h, const char *const *kv, int nkv, char *err,
+                 size_t errlen);
 
 /* Read a PNG as RGBA8 top-down (any bit depth/colour type is converted).
  * *rgba is malloc'ed (free it). If texts is not NULL, *texts receives a
  * malloc'ed array of 2*(*ntexts) malloc'ed strings (key, value, ...): free it
  * with kf_png_free_texts. */
-int kf_png_read(const char *path, uint8_t **rgba, int *w, int *h, char ***texts, int *ntexts,
-                char *err, size_t errlen);
+int kf_png_read(const char *path, uint8_t **rgba, int *w, int *h, char ***texts, int *ntexts, char *err, size_t errlen);
 void kf_png_free_texts(char **texts, int ntexts);
 
 #ifdef __cplusplus

@@ -38,97 +38,90 @@ struct kf_render_ctx {
 
 /* ---- shaders ------------------------------------------------------------- */
 
-static const char *vs_main =
-    "#version 330 core\n"
-    "layout(location=0) in vec3 a_pos;\n"
-    "layout(location=1) in vec3 a_nrm;\n"
-    "uniform mat4 u_viewproj, u_light;\n"
-    "out vec3 v_wpos, v_nrm; out vec4 v_lpos;\n"
-    "void main() {\n"
-    "  v_wpos = a_pos; v_nrm = a_nrm; v_lpos = u_light * vec4(a_pos, 1.0);\n"
-    "  gl_Position = u_viewproj * vec4(a_pos, 1.0);\n"
-    "}\n";
+static const char *vs_main = "#version 330 core\n"
+                             "layout(location=0) in vec3 a_pos;\n"
+                             "layout(location=1) in vec3 a_nrm;\n"
+                             "uniform mat4 u_viewproj, u_light;\n"
+                             "out vec3 v_wpos, v_nrm; out vec4 v_lpos;\n"
+                             "void main() {\n"
+                             "  v_wpos = a_pos; v_nrm = a_nrm; v_lpos = u_light * vec4(a_pos, 1.0);\n"
+                             "  gl_Position = u_viewproj * vec4(a_pos, 1.0);\n"
+                             "}\n";
 
-static const char *fs_main =
-    "#version 330 core\n"
-    "in vec3 v_wpos, v_nrm; in vec4 v_lpos;\n"
-    "uniform vec3 u_eye, u_key_dir, u_key_col, u_fill_dir, u_fill_col, u_rim_dir, u_rim_col;\n"
-    "uniform float u_ambient;\n"
-    "uniform vec3 u_diffuse; uniform float u_spec, u_rough;\n"
-    "uniform int u_flat, u_shadows, u_ground;\n"
-    "uniform sampler2DShadow u_shadow; uniform float u_texel;\n"
-    "uniform vec3 u_bg_top, u_bg_bottom; uniform float u_height;\n"
-    "uniform vec3 u_center; uniform float u_fade0, u_fade1;\n"
-    "out vec4 o_col;\n"
-    "vec3 lin(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }\n"
-    "float shadow_at(float ndl) {\n"
-    "  if (u_shadows == 0) return 1.0;\n"
-    "  vec3 p = v_lpos.xyz / v_lpos.w * 0.5 + 0.5;\n"
-    "  if (p.x <= 0.0 || p.x >= 1.0 || p.y <= 0.0 || p.y >= 1.0 || p.z >= 1.0) return 1.0;\n"
-    "  float bias = u_texel * (1.0 + 2.0 * sqrt(1.0 - ndl * ndl) / max(ndl, 0.2));\n"
-    "  float s = 0.0;\n"
-    "  for (int i = -1; i <= 1; i++) for (int j = -1; j <= 1; j++)\n"
-    "    s += texture(u_shadow, vec3(p.xy + vec2(i, j) * u_texel, p.z - bias));\n"
-    "  return s / 9.0;\n"
-    "}\n"
-    "float blinn(vec3 n, vec3 l, vec3 v, float shin) {\n"
-    "  vec3 h = normalize(l + v);\n"
-    "  return (shin + 8.0) / 25.13 * pow(max(dot(n, h), 0.0), shin);\n"
-    "}\n"
-    "void main() {\n"
-    "  vec3 n;\n"
-    "  if (u_flat != 0) n = normalize(cross(dFdx(v_wpos), dFdy(v_wpos)));\n"
-    "  else { n = normalize(v_nrm); if (!gl_FrontFacing) n = -n; }\n"
-    "  vec3 v = normalize(u_eye - v_wpos);\n"
-    "  vec3 albedo = lin(u_diffuse);\n"
-    "  float r = clamp(u_rough, 0.03, 1.0);\n"
-    "  float shin = clamp(2.0 / (r * r * r * r) - 2.0, 1.0, 4096.0);\n"
-    "  float ndk = max(dot(n, u_key_dir), 0.0), ndf = max(dot(n, u_fill_dir), 0.0);\n"
-    "  float sh = ndk > 0.0 ? shadow_at(ndk) : 0.0;\n"
-    "  vec3 amb = u_ambient * mix(vec3(0.35, 0.33, 0.3), vec3(1.0), 0.5 + 0.5 * n.y);\n"
-    "  vec3 c = albedo * (amb + u_key_col * ndk * sh + u_fill_col * ndf);\n"
-    "  c += u_spec * (u_key_col * ndk * sh * blinn(n, u_key_dir, v, shin)\n"
-    "               + u_fill_col * ndf * blinn(n, u_fill_dir, v, shin));\n"
-    /* the rim: light from behind grazing the silhouette, strongest where the
-     * surface turns away from the eye */
-    "  float edge = 1.0 - max(dot(n, v), 0.0);\n"
-    "  c += u_rim_col * max(dot(n, u_rim_dir), 0.0) * edge * edge * (albedo + vec3(u_spec));\n"
-    "  c = c / (1.0 + 0.15 * c);\n" /* a gentle shoulder so highlights do not clip hard */
-    "  c = pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2));\n"
-    "  if (u_ground != 0) {\n"
-    "    vec3 bg = mix(u_bg_bottom, u_bg_top, gl_FragCoord.y / u_height);\n"
-    "    float f = smoothstep(u_fade0, u_fade1, distance(v_wpos.xz, u_center.xz));\n"
-    "    c = mix(c, bg, f);\n"
-    "  }\n"
-    "  o_col = vec4(c, 1.0);\n"
-    "}\n";
+static const char *fs_main = "#version 330 core\n"
+                             "in vec3 v_wpos, v_nrm; in vec4 v_lpos;\n"
+                             "uniform vec3 u_eye, u_key_dir, u_key_col, u_fill_dir, u_fill_col, u_rim_dir, u_rim_col;\n"
+                             "uniform float u_ambient;\n"
+                             "uniform vec3 u_diffuse; uniform float u_spec, u_rough;\n"
+                             "uniform int u_flat, u_shadows, u_ground;\n"
+                             "uniform sampler2DShadow u_shadow; uniform float u_texel;\n"
+                             "uniform vec3 u_bg_top, u_bg_bottom; uniform float u_height;\n"
+                             "uniform vec3 u_center; uniform float u_fade0, u_fade1;\n"
+                             "out vec4 o_col;\n"
+                             "vec3 lin(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }\n"
+                             "float shadow_at(float ndl) {\n"
+                             "  if (u_shadows == 0) return 1.0;\n"
+                             "  vec3 p = v_lpos.xyz / v_lpos.w * 0.5 + 0.5;\n"
+                             "  if (p.x <= 0.0 || p.x >= 1.0 || p.y <= 0.0 || p.y >= 1.0 || p.z >= 1.0) return 1.0;\n"
+                             "  float bias = u_texel * (1.0 + 2.0 * sqrt(1.0 - ndl * ndl) / max(ndl, 0.2));\n"
+                             "  float s = 0.0;\n"
+                             "  for (int i = -1; i <= 1; i++) for (int j = -1; j <= 1; j++)\n"
+                             "    s += texture(u_shadow, vec3(p.xy + vec2(i, j) * u_texel, p.z - bias));\n"
+                             "  return s / 9.0;\n"
+                             "}\n"
+                             "float blinn(vec3 n, vec3 l, vec3 v, float shin) {\n"
+                             "  vec3 h = normalize(l + v);\n"
+                             "  return (shin + 8.0) / 25.13 * pow(max(dot(n, h), 0.0), shin);\n"
+                             "}\n"
+                             "void main() {\n"
+                             "  vec3 n;\n"
+                             "  if (u_flat != 0) n = normalize(cross(dFdx(v_wpos), dFdy(v_wpos)));\n"
+                             "  else { n = normalize(v_nrm); if (!gl_FrontFacing) n = -n; }\n"
+                             "  vec3 v = normalize(u_eye - v_wpos);\n"
+                             "  vec3 albedo = lin(u_diffuse);\n"
+                             "  float r = clamp(u_rough, 0.03, 1.0);\n"
+                             "  float shin = clamp(2.0 / (r * r * r * r) - 2.0, 1.0, 4096.0);\n"
+                             "  float ndk = max(dot(n, u_key_dir), 0.0), ndf = max(dot(n, u_fill_dir), 0.0);\n"
+                             "  float sh = ndk > 0.0 ? shadow_at(ndk) : 0.0;\n"
+                             "  vec3 amb = u_ambient * mix(vec3(0.35, 0.33, 0.3), vec3(1.0), 0.5 + 0.5 * n.y);\n"
+                             "  vec3 c = albedo * (amb + u_key_col * ndk * sh + u_fill_col * ndf);\n"
+                             "  c += u_spec * (u_key_col * ndk * sh * blinn(n, u_key_dir, v, shin)\n"
+                             "               + u_fill_col * ndf * blinn(n, u_fill_dir, v, shin));\n"
+                             /* the rim: light from behind grazing the silhouette, strongest where the
+                              * surface turns away from the eye */
+                             "  float edge = 1.0 - max(dot(n, v), 0.0);\n"
+                             "  c += u_rim_col * max(dot(n, u_rim_dir), 0.0) * edge * edge * (albedo + vec3(u_spec));\n"
+                             "  c = c / (1.0 + 0.15 * c);\n" /* a gentle shoulder so highlights do not clip hard */
+                             "  c = pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2));\n"
+                             "  if (u_ground != 0) {\n"
+                             "    vec3 bg = mix(u_bg_bottom, u_bg_top, gl_FragCoord.y / u_height);\n"
+                             "    float f = smoothstep(u_fade0, u_fade1, distance(v_wpos.xz, u_center.xz));\n"
+                             "    c = mix(c, bg, f);\n"
+                             "  }\n"
+                             "  o_col = vec4(c, 1.0);\n"
+                             "}\n";
 
-static const char *vs_depth =
-    "#version 330 core\n"
-    "layout(location=0) in vec3 a_pos;\n"
-    "uniform mat4 u_light;\n"
-    "void main() { gl_Position = u_light * vec4(a_pos, 1.0); }\n";
+static const char *vs_depth = "#version 330 core\n"
+                              "layout(location=0) in vec3 a_pos;\n"
+                              "uniform mat4 u_light;\n"
+                              "void main() { gl_Position = u_light * vec4(a_pos, 1.0); }\n";
 
-static const char *fs_depth =
-    "#version 330 core\n"
-    "void main() {}\n";
+static const char *fs_depth = "#version 330 core\n"
+                              "void main() {}\n";
 
-static const char *vs_bg =
-    "#version 330 core\n"
-    "out float v_t;\n"
-    "void main() {\n"
-    "  vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2) * 2.0 - 1.0;\n"
-    "  v_t = p.y * 0.5 + 0.5;\n"
-    "  gl_Position = vec4(p, 1.0, 1.0);\n"
-    "}\n";
+static const char *vs_bg = "#version 330 core\n"
+                           "out float v_t;\n"
+                           "void main() {\n"
+                           "  vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2) * 2.0 - 1.0;\n"
+                           "  v_t = p.y * 0.5 + 0.5;\n"
+                           "  gl_Position = vec4(p, 1.0, 1.0);\n"
+                           "}\n";
 
-static const char *fs_bg =
-    "#version 330 core\n"
-    "in float v_t; uniform vec3 u_bg_top, u_bg_bottom; out vec4 o_col;\n"
-    "void main() { o_col = vec4(mix(u_bg_bottom, u_bg_top, clamp(v_t, 0.0, 1.0)), 1.0); }\n";
+static const char *fs_bg = "#version 330 core\n"
+                           "in float v_t; uniform vec3 u_bg_top, u_bg_bottom; out vec4 o_col;\n"
+                           "void main() { o_col = vec4(mix(u_bg_bottom, u_bg_top, clamp(v_t, 0.0, 1.0)), 1.0); }\n";
 
-static GLuint compile(kf_gl *gl, GLenum type, const char *src, const char *what, char *err,
-                      size_t errlen) {
+static GLuint compile(kf_gl *gl, GLenum type, const char *src, const char *what, char *err, size_t errlen) {
     GLuint s = gl->CreateShader(type);
     gl->ShaderSource(s, 1, &src, NULL);
     gl->CompileShader(s);
@@ -144,8 +137,7 @@ static GLuint compile(kf_gl *gl, GLenum type, const char *src, const char *what,
     return s;
 }
 
-static GLuint program(kf_gl *gl, const char *vs, const char *fs, const char *what, char *err,
-                      size_t errlen) {
+static GLuint program(kf_gl *gl, const char *vs, const char *fs, const char *what, char *err, size_t errlen) {
     GLuint v = compile(gl, GL_VERTEX_SHADER, vs, what, err, errlen);
     if (!v) return 0;
     GLuint f = compile(gl, GL_FRAGMENT_SHADER, fs, what, err, errlen);
@@ -214,8 +206,7 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
     gl->GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
     gl->GetIntegerv(GL_MAX_TEXTURE_SIZE, &max_tex);
     if (w > max_rb || h > max_rb) {
-        snprintf(err, errlen, "render: %dx%d exceeds the GL's largest renderbuffer (%d)", w, h,
-                 max_rb);
+        snprintf(err, errlen, "render: %dx%d exceeds the GL's largest renderbuffer (%d)", w, h, max_rb);
         kf_render_destroy(r);
         return NULL;
     }
@@ -241,15 +232,11 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
     gl->GenRenderbuffers(1, &r->rb_depth);
     gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_draw);
     gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_color);
-    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, r->samples > 1 ? r->samples : 0,
-                                       GL_RGBA8, w, h);
-    gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
-                                r->rb_color);
+    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, r->samples > 1 ? r->samples : 0, GL_RGBA8, w, h);
+    gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, r->rb_color);
     gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_depth);
-    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, r->samples > 1 ? r->samples : 0,
-                                       GL_DEPTH_COMPONENT24, w, h);
-    gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
-                                r->rb_depth);
+    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, r->samples > 1 ? r->samples : 0, GL_DEPTH_COMPONENT24, w, h);
+    gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, r->rb_depth);
     if (fbo_complete(gl, "image", err, errlen) != 0) {
         kf_render_destroy(r);
         return NULL;
@@ -260,8 +247,7 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
         gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_resolve);
         gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_resolve);
         gl->RenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
-        gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
-                                    r->rb_resolve);
+        gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, r->rb_resolve);
         if (fbo_complete(gl, "resolve", err, errlen) != 0) {
             kf_render_destroy(r);
             return NULL;
@@ -271,8 +257,8 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
     /* the shadow map: a depth texture compared in the shader (sampler2DShadow) */
     gl->GenTextures(1, &r->tex_shadow);
     gl->BindTexture(GL_TEXTURE_2D, r->tex_shadow);
-    gl->TexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, r->shadow_size, r->shadow_size, 0,
-                   GL_DEPTH_COMPONENT, GL_FLOAT, NULL);
+    gl->TexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, r->shadow_size, r->shadow_size, 0, GL_DEPTH_COMPONENT,
+                   GL_FLOAT, NULL);
     gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -281,8 +267,7 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
     gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
     gl->GenFramebuffers(1, &r->fbo_shadow);
     gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_shadow);
-    gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, r->tex_shadow,
-                             0);
+    gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, r->tex_shadow, 0);
     gl->DrawBuffer(GL_NONE);
     gl->ReadBuffer(GL_NONE);
     if (fbo_complete(gl, "shadow", err, errlen) != 0) {
@@ -293,8 +278,7 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
     gl->GenBuffers(1, &r->ground_ebo);
     GLenum e = gl->GetError();
     if (e != GL_NO_ERROR) {
-        snprintf(err, errlen, "render: GL error 0x%x while setting up %dx%d x%d samples", e, w, h,
-                 r->samples);
+        snprintf(err, errlen, "render: GL error 0x%x while setting up %dx%d x%d samples", e, w, h, r->samples);
         kf_render_destroy(r);
         return NULL;
     }
@@ -452,8 +436,8 @@ static void to_world(float out[3], const float d[3], const float m_view[16], int
     else out[1] = 1;
 }
 
-int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera *cam,
-                    uint8_t *rgba_out, char *err, size_t errlen) {
+int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera *cam, uint8_t *rgba_out, char *err,
+                    size_t errlen) {
     if (!r || !sc || !cam || !rgba_out) {
         snprintf(err, errlen, "render: frame needs a context, a scene, a camera and an image");
         return -1;
@@ -476,9 +460,8 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
         }
         for (size_t i = 0; i < me->ntris * 3; i++)
             if (me->tris[i] >= me->nverts) {
-                snprintf(err, errlen,
-                         "render: mesh %d triangle %zu uses vertex %u but the mesh has %zu",
-                         m, i / 3, me->tris[i], me->nverts);
+                snprintf(err, errlen, "render: mesh %d triangle %zu uses vertex %u but the mesh has %zu", m, i / 3,
+                         me->tris[i], me->nverts);
                 return -1;
             }
     }
@@ -503,13 +486,11 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
     /* camera */
     float view[16], proj[16], viewproj[16];
     if (kf_m4_look_at(view, cam->eye, cam->target, cam->up) != 0) {
-        snprintf(err, errlen,
-                 "render: degenerate camera (eye == target, or up parallel to the view)");
+        snprintf(err, errlen, "render: degenerate camera (eye == target, or up parallel to the view)");
         return -1;
     }
     if (!(cam->fov_deg > 0.5f && cam->fov_deg < 179.5f)) {
-        snprintf(err, errlen, "render: camera fov %g degrees is outside (0.5, 179.5)",
-                 (double)cam->fov_deg);
+        snprintf(err, errlen, "render: camera fov %g degrees is outside (0.5, 179.5)", (double)cam->fov_deg);
         return -1;
     }
     float dx = cam->eye[0] - center[0], dy = cam->eye[1] - center[1], dz = cam->eye[2] - center[2];
@@ -539,16 +520,13 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
         const kf_render_mesh *me = &sc->meshes[m];
         if (me->ntris == 0) continue;
         gl->BindBuffer(GL_ARRAY_BUFFER, r->vbo_pos[m]);
-        gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(me->nverts * 12), me->positions,
-                       GL_STREAM_DRAW);
+        gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(me->nverts * 12), me->positions, GL_STREAM_DRAW);
         if (me->normals) {
             gl->BindBuffer(GL_ARRAY_BUFFER, r->vbo_nrm[m]);
-            gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(me->nverts * 12), me->normals,
-                           GL_STREAM_DRAW);
+            gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(me->nverts * 12), me->normals, GL_STREAM_DRAW);
         }
         gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ebo[m]);
-        gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(me->ntris * 12), me->tris,
-                       GL_STREAM_DRAW);
+        gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(me->ntris * 12), me->tris, GL_STREAM_DRAW);
     }
     if (draw_ground) {
         float g = fade1 * 1.5f, cx = center[0], cz = center[2];
@@ -573,8 +551,7 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
         if (fabsf(key[1]) > 0.99f) lup[1] = 0, lup[2] = 1;
         float lview[16], lproj[16];
         kf_m4_look_at(lview, leye, center, lup);
-        kf_m4_ortho(lproj, -1.05f * rad, 1.05f * rad, -1.05f * rad, 1.05f * rad, 0.5f * rad,
-                    3.0f * rad + fade1 + rad);
+        kf_m4_ortho(lproj, -1.05f * rad, 1.05f * rad, -1.05f * rad, 1.05f * rad, 0.5f * rad, 3.0f * rad + fade1 + rad);
         kf_m4_mul(light_vp, lproj, lview);
     }
     gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_shadow);
@@ -585,8 +562,7 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
     gl->Clear(GL_DEPTH_BUFFER_BIT);
     if (shadows) {
         gl->UseProgram(r->prog_depth);
-        gl->UniformMatrix4fv(gl->GetUniformLocation(r->prog_depth, "u_light"), 1, GL_FALSE,
-                             light_vp);
+        gl->UniformMatrix4fv(gl->GetUniformLocation(r->prog_depth, "u_light"), 1, GL_FALSE, light_vp);
         gl->Enable(GL_POLYGON_OFFSET_FILL);
         gl->PolygonOffset(1.5f, 2.0f);
         for (int m = 0; m < sc->nmeshes; m++) {
@@ -638,8 +614,8 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
     gl->ActiveTexture(GL_TEXTURE0);
     gl->BindTexture(GL_TEXTURE_2D, r->tex_shadow);
     gl->Uniform1i(U("u_shadow"), 0);
-    GLint u_diffuse = U("u_diffuse"), u_spec = U("u_spec"), u_rough = U("u_rough"),
-          u_flat = U("u_flat"), u_ground = U("u_ground");
+    GLint u_diffuse = U("u_diffuse"), u_spec = U("u_spec"), u_rough = U("u_rough"), u_flat = U("u_flat"),
+          u_ground = U("u_ground");
 #undef U
     gl->Uniform1i(u_ground, 0);
     for (int m = 0; m < sc->nmeshes; m++) {
@@ -681,7 +657,6 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
         return -1;
     }
     size_t row = (size_t)r->w * 4;
-    for (int y = 0; y < r->h; y++)
-        memcpy(rgba_out + (size_t)y * row, r->readback + (size_t)(r->h - 1 - y) * row, row);
+    for (int y = 0; y < r->h; y++) memcpy(rgba_out + (size_t)y * row, r->readback + (size_t)(r->h - 1 - y) * row, row);
     return 0;
 }

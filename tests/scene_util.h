@@ -12,7 +12,8 @@
 
 /* A model with the given settings and one material from a preset, with
  * optional overrides of E, nu, density (0 keeps the preset's). */
-static inline kf_model *tu_model(const kf_sim_def *sd, const char *preset, double E, double nu, double rho, int *mat_id) {
+static inline kf_model *tu_model(const kf_sim_def *sd, const char *preset, double E, double nu, double rho,
+                                 int *mat_id) {
     char err[256];
     kf_model *m = kf_model_create(sd, err, sizeof err);
     if (!m) {

@@ -46,17 +46,17 @@
 #define BAR_E 100.0
 #define BAR_RHO 1.0
 #define BAR_V0 0.1
-#define BAR_C 10.0      /* √(E/ρ) with ν = 0 */
-#define BAR_T1 10.0     /* 4L/c */
+#define BAR_C 10.0  /* √(E/ρ) with ν = 0 */
+#define BAR_T1 10.0 /* 4L/c */
 #define BAR_CFL 0.3
-#define BAR_THICK 2     /* cells across y and z */
-#define BAR_PPC 2       /* particles per cell per axis */
+#define BAR_THICK 2 /* cells across y and z */
+#define BAR_PPC 2   /* particles per cell per axis */
 
 typedef struct bar_result {
-    double period;     /* measured */
-    int crossings;     /* zero crossings used */
-    double v_half0;    /* V(0) of the left half */
-    double ms;         /* wall time of the stepping loop */
+    double period;  /* measured */
+    int crossings;  /* zero crossings used */
+    double v_half0; /* V(0) of the left half */
+    double ms;      /* wall time of the stepping loop */
     long particles;
     int res;
 } bar_result;
@@ -227,7 +227,8 @@ static void bar_convergence(void) {
         KT_NEAR(p, 2.0, 0.5, "V4: period error falls ~dx^2 (observed order from L/dx = 25 to 50 in [1.5, 2.5])");
         /* the order is a ratio: a uniform rise of the error passes it, so the
          * coarse error is held too (measured 4.13e-4 MLS, 5.30e-4 classic) */
-        KT_NEAR(e25, 0, f ? 1.1e-3 : 8.3e-4, "period error at L/dx = 25 within 2x the measured (4.13e-4 MLS, 5.30e-4 classic)");
+        KT_NEAR(e25, 0, f ? 1.1e-3 : 8.3e-4,
+                "period error at L/dx = 25 within 2x the measured (4.13e-4 MLS, 5.30e-4 classic)");
     }
 }
 

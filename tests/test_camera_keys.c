@@ -13,7 +13,8 @@
 /* two keys: linear is the straight blend; smooth is the cubic Hermite with
  * zero end tangents, 3u^2 - 2u^3 of the way at u */
 static void interpolation(void) {
-    kf_camera_key k[3] = {{1001, {0, 1, 4}, {0, 0, 0}, 30}, {1011, {2, 1, 4}, {1, 0, 0}, 40}, {1021, {2, 3, 4}, {1, 0, 0}, 40}};
+    kf_camera_key k[3] = {
+        {1001, {0, 1, 4}, {0, 0, 0}, 30}, {1011, {2, 1, 4}, {1, 0, 0}, 40}, {1021, {2, 3, 4}, {1, 0, 0}, 40}};
     kf_camera c = kf_camera_keyed(k, 2, 1003.5, 0);
     KT_NEAR(c.eye[0], 0.5, 1e-6, "linear: a quarter of the way");
     KT_NEAR(c.fov_deg, 32.5, 1e-5, "linear fov");
@@ -42,9 +43,9 @@ static kf_shot *load(const char *text, kf_diag *d) {
     return s;
 }
 
-#define BASE                                                                          \
-    "frames: {start: 1001, end: 1010}\n"                                              \
-    "materials: {m: {preset: jello}}\n"                                               \
+#define BASE                                                                                                           \
+    "frames: {start: 1001, end: 1010}\n"                                                                               \
+    "materials: {m: {preset: jello}}\n"                                                                                \
     "objects: [{shape: box, size: 0.2, center: [0.5, 0.3, 0.5], material: m}]\n"
 
 static void shot_keys(void) {
@@ -79,7 +80,8 @@ static void shot_keys(void) {
     for (int i = 0; i < d.count; i++) {
         const kf_diag_entry *e = &d.entry[i];
         printf("  %d:%d: %s\n", e->line, e->col, e->message);
-        order |= e->line == 8 && e->col == 15 && strstr(e->message, "must come after the previous key's frame 1005") != NULL;
+        order |=
+            e->line == 8 && e->col == 15 && strstr(e->message, "must come after the previous key's frame 1005") != NULL;
         nowhere |= e->line == 8 && e->col == 26 && strstr(e->message, "the camera looks nowhere") != NULL;
         both |= e->line == 5 && e->col == 8 && strstr(e->message, "not both") != NULL;
     }

@@ -96,7 +96,6 @@ static void damage_is_refused(void) {
     expect_refused(missing, "cannot open");
 }
 
-
 /* ---- forged and damaged headers: refused before anything is
  * allocated from them, each with the true reason ---------------------------- */
 
@@ -166,14 +165,16 @@ static void forged_headers_are_refused(void) {
     forge(good, p[0], 16, &huge, 8, 0);
     snprintf(want, sizeof want,
              "%s: checkpoint checksum mismatch (file damaged: its header claims 9223372036854775807 particles, which "
-             "%zu bytes do not hold)", p[0], size);
+             "%zu bytes do not hold)",
+             p[0], size);
     expect_message(p[0], want, 1);
 
     /* the same count with the checksum forged to match: the length still refuses it */
     forge(good, p[1], 16, &huge, 8, 1);
     snprintf(want, sizeof want,
              "%s: checkpoint header is damaged: 9223372036854775807 particles, 0 rigid bodies and 0 solver bytes would "
-             "take more than 2^64 bytes, the file has %zu", p[1], size);
+             "take more than 2^64 bytes, the file has %zu",
+             p[1], size);
     expect_message(p[1], want, 1);
     /* one particle more than the file holds, checksum forged: no read past the end */
     uint64_t one_more = (uint64_t)n + 1;
@@ -181,7 +182,8 @@ static void forged_headers_are_refused(void) {
     size_t per = (size - 80 - 8) / n; /* an 80-byte header and an 8-byte checksum around the particles */
     snprintf(want, sizeof want,
              "%s: checkpoint header is damaged: %zu particles, 0 rigid bodies and 0 solver bytes need %zu bytes, the "
-             "file has %zu", p[2], n + 1, size + per, size);
+             "file has %zu",
+             p[2], n + 1, size + per, size);
     expect_message(p[2], want, 1);
     /* a damaged version field (offset 8) said "written by a single-precision
      * build, this is single precision"; it is damage */

@@ -31,8 +31,8 @@ static const double PI = 3.14159265358979323846;
 static double uniform(unsigned *s, double lo, double hi) { return lo + (hi - lo) * tu_uniform(s); }
 
 /* a mesh from a file, placed by kf_sample_placement (fit to size at c) */
-static void placed_mesh(const char *rel, const double c[3], double size, const double rotate[3],
-                        const double scale[3], kf_mesh *m) {
+static void placed_mesh(const char *rel, const double c[3], double size, const double rotate[3], const double scale[3],
+                        kf_mesh *m) {
     char err[512];
     if (kf_mesh_load(tu_repo_path(rel), m, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
@@ -82,7 +82,8 @@ static double box_sdf(const double X[3], const double h[3]) {
 /* rotation by deg degrees about axis a (0 x, 1 y, 2 z), written out by hand */
 static void axis_rotation(int a, double deg, double R[9]) {
     double c = cos(deg * PI / 180), s = sin(deg * PI / 180);
-    double X[9] = {1, 0, 0, 0, c, -s, 0, s, c}, Y[9] = {c, 0, s, 0, 1, 0, -s, 0, c}, Z[9] = {c, -s, 0, s, c, 0, 0, 0, 1};
+    double X[9] = {1, 0, 0, 0, c, -s, 0, s, c}, Y[9] = {c, 0, s, 0, 1, 0, -s, 0, c},
+           Z[9] = {c, -s, 0, s, c, 0, 0, 0, 1};
     memcpy(R, a == 0 ? X : a == 1 ? Y : Z, sizeof X);
 }
 
@@ -280,7 +281,8 @@ static void material_point_velocity(void) {
             double Y[3];
             for (int i = 0; i < 3; i++) Y[i] = R0[3 * i] * Xs[0] + R0[3 * i + 1] * Xs[1] + R0[3 * i + 2] * Xs[2];
             for (int i = 0; i < 3; i++) Y[i] *= P.s[i];
-            for (int i = 0; i < 3; i++) xt[q][i] = P.p[i] + P.R[3 * i] * Y[0] + P.R[3 * i + 1] * Y[1] + P.R[3 * i + 2] * Y[2];
+            for (int i = 0; i < 3; i++)
+                xt[q][i] = P.p[i] + P.R[3 * i] * Y[0] + P.R[3 * i + 1] * Y[1] + P.R[3 * i + 2] * Y[2];
         }
         kf_collider_frame_at(&c, t, &f);
         kf_collider_velocity(&f, xt[1], v);
@@ -649,8 +651,9 @@ static void block_rests_on_mesh(void) {
      * no particle may be more than a quarter cell inside */
     KT_CHECK(lowest[0] > top - 0.25 * dx, "no particle inside the mesh box (lowest %.4f)", lowest[0]);
     KT_NEAR(vy[0], 0, 1e-3, "at rest on it after 0.6 s (measured 3e-7 m/s)");
-    KT_NEAR(height[0], height[1], 1e-4, "mesh box and analytic box hold the block at the same height (measured equal "
-                                        "to 5 digits)");
+    KT_NEAR(height[0], height[1], 1e-4,
+            "mesh box and analytic box hold the block at the same height (measured equal "
+            "to 5 digits)");
 }
 
 /* a jello block dropped on a static mesh sphere (assets/sphere.obj) stays
@@ -683,7 +686,8 @@ static void block_on_mesh_sphere(void) {
     kf_particles_view pv = kf_state_particles(s);
     double deepest = 1e9;
     for (size_t i = 0; i < pv.n; i++)
-        deepest = fmin(deepest, sqrt(pow(pv.x[0][i] - c[0], 2) + pow(pv.x[1][i] - c[1], 2) + pow(pv.x[2][i] - c[2], 2)) - R);
+        deepest =
+            fmin(deepest, sqrt(pow(pv.x[0][i] - c[0], 2) + pow(pv.x[1][i] - c[1], 2) + pow(pv.x[2][i] - c[2], 2)) - R);
     double vy;
     column_stats(s, &(double){0}, &vy);
     printf("  block on a mesh sphere: deepest particle %.4f m from the surface, mean vy %.2g m/s\n", deepest, vy);
@@ -855,8 +859,8 @@ static void acts_between_frames(void) {
     c.interp = KF_INTERP_SMOOTH;
     c.nkeys = 3;
     const double frame = 1.0 / 24;
-    c.keys[0] = key(0, 0.5, 0.66, 0.5);                 /* bottom at 0.61, above the goo's top at 0.6 */
-    c.keys[1] = key(0.5 * frame, 0.5, 0.58, 0.5);       /* 2 cm into the goo */
+    c.keys[0] = key(0, 0.5, 0.66, 0.5);           /* bottom at 0.61, above the goo's top at 0.6 */
+    c.keys[1] = key(0.5 * frame, 0.5, 0.58, 0.5); /* 2 cm into the goo */
     c.keys[2] = key(frame, 0.5, 0.66, 0.5);
     char err[256];
     KT_CHECK(kf_model_add_collider(m, &c, err, sizeof err) == 0, "%s", err);
@@ -950,14 +954,14 @@ static void shot_builds_colliders(void) {
     KT_NEAR(kf_collider_sdf(&f, above2, n), 0.013, 1e-5, "keyed pose: moved, turned, scaled 1.5");
     /* lid: a container, the unit cube at [0.4, 1.4]³ */
     kf_collider_frame_at(&m->col[1], 0, &f);
-    KT_NEAR(kf_collider_sdf(&f, (double[3]){0.6, 0.9, 0.9}, n), 0.2, 1e-5, "inside the container: free, 0.2 from its wall");
+    KT_NEAR(kf_collider_sdf(&f, (double[3]){0.6, 0.9, 0.9}, n), 0.2, 1e-5,
+            "inside the container: free, 0.2 from its wall");
     KT_NEAR(kf_collider_sdf(&f, (double[3]){0.3, 0.9, 0.9}, n), -0.1, 1e-5, "outside it: constrained");
     KT_NEAR(n[0], 1, 1e-6, "pushed back in");
     /* flap: an oriented box, its rest rotation and first key */
     kf_collider_frame_at(&m->col[2], 0, &f);
     KT_NEAR(f.pose.deg[2], -30, 0, "the first key's rotation");
-    KT_NEAR(kf_collider_sdf(&f, (double[3]){0.2, 0.8 + 0.02, 0.2}, n), 0.01, 1e-12,
-            "-30 on top of +30: level again");
+    KT_NEAR(kf_collider_sdf(&f, (double[3]){0.2, 0.8 + 0.02, 0.2}, n), 0.01, 1e-12, "-30 on top of +30: level again");
     kf_scene_free(&sc);
 
     /* the hash: collider keys and the mesh's bytes */
@@ -986,11 +990,12 @@ static void shot_builds_colliders(void) {
     char open_mesh[PATH_MAX];
     KT_CHECK(realpath(tu_repo_path("tests/meshes/cube_open.obj"), open_mesh) != NULL, "the open mesh exists");
     FILE *y = fopen(p1, "w");
-    fprintf(y, "frames: {end: 1002}\n"
-               "materials: {goo: {preset: goo}}\n"
-               "objects: [{shape: box, size: 0.1, center: [0.5, 0.5, 0.5], material: goo}]\n"
-               "colliders:\n"
-               "  - {name: lid, shape: mesh, mesh: %s}\n",
+    fprintf(y,
+            "frames: {end: 1002}\n"
+            "materials: {goo: {preset: goo}}\n"
+            "objects: [{shape: box, size: 0.1, center: [0.5, 0.5, 0.5], material: goo}]\n"
+            "colliders:\n"
+            "  - {name: lid, shape: mesh, mesh: %s}\n",
             open_mesh);
     fclose(y);
     kf_shot_free(shot);
@@ -1002,8 +1007,8 @@ static void shot_builds_colliders(void) {
         KT_CHECK(kf_scene_from_shot(shot, 0, &sc, NULL, &d) == -1, "but not the build");
         int found = 0;
         for (int i = 0; i < d.count; i++)
-            found |= d.entry[i].line == 5 && d.entry[i].col == 36 &&
-                     strstr(d.entry[i].message, "collider 'lid': ") && strstr(d.entry[i].message, "not closed");
+            found |= d.entry[i].line == 5 && d.entry[i].col == 36 && strstr(d.entry[i].message, "collider 'lid': ") &&
+                     strstr(d.entry[i].message, "not closed");
         KT_CHECK(found, "reported at 5:36 as not closed");
         if (!found) kf_diag_print(stderr, &d);
     }

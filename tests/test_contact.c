@@ -25,14 +25,14 @@
  * δ(t) = 2 R_s − |c₁ − c₀|, with R_s the sampled spheres' radius (from
  * their volume); the contact lasts while δ > 0. */
 typedef struct sphere_run {
-    double duration, approach;       /* measured, s and m */
+    double duration, approach; /* measured, s and m */
     double duration_hertz, approach_hertz;
-    double min_gap;                  /* closest surfaces on the line of centres (facing particles minus their spacing), m */
-    double gap_at_touch;             /* the same when δ first became positive, m */
-    double min_centres;              /* closest particle centres of the two anywhere, m */
-    double force_duration;           /* while momentum passes between them (force above 2% of its peak), s */
-    double force_approach;           /* how much closer the centres came meanwhile, m */
-    double v_after;                  /* closing speed after, m/s (negative: separating) */
+    double min_gap;        /* closest surfaces on the line of centres (facing particles minus their spacing), m */
+    double gap_at_touch;   /* the same when δ first became positive, m */
+    double min_centres;    /* closest particle centres of the two anywhere, m */
+    double force_duration; /* while momentum passes between them (force above 2% of its peak), s */
+    double force_approach; /* how much closer the centres came meanwhile, m */
+    double v_after;        /* closing speed after, m/s (negative: separating) */
     double seconds;
 } sphere_run;
 
@@ -64,7 +64,8 @@ static sphere_run run_spheres(int contact, double gap_cells) {
 
     double t = 0, t_in = -1, t_out = -1, dmax = -1, gmin = 1e30;
     size_t hcap = 8192, nh = 0;
-    double *ht = malloc(sizeof(double) * hcap), *hp = malloc(sizeof(double) * hcap), *hd = malloc(sizeof(double) * hcap);
+    double *ht = malloc(sizeof(double) * hcap), *hp = malloc(sizeof(double) * hcap),
+           *hd = malloc(sizeof(double) * hcap);
     size_t cap = 4096, na = 0, nb = 0;
     double *A = malloc(sizeof(double) * 3 * cap), *B = malloc(sizeof(double) * 3 * cap);
     double t0 = kf_now_ms();
@@ -86,9 +87,9 @@ static sphere_run run_spheres(int contact, double gap_cells) {
         }
         for (int o = 0; o < 2; o++)
             for (int a = 0; a < 3; a++) com[o][a] /= ms[o];
-        double dist = sqrt((com[1][0] - com[0][0]) * (com[1][0] - com[0][0]) +
-                           (com[1][1] - com[0][1]) * (com[1][1] - com[0][1]) +
-                           (com[1][2] - com[0][2]) * (com[1][2] - com[0][2]));
+        double dist =
+            sqrt((com[1][0] - com[0][0]) * (com[1][0] - com[0][0]) + (com[1][1] - com[0][1]) * (com[1][1] - com[0][1]) +
+                 (com[1][2] - com[0][2]) * (com[1][2] - com[0][2]));
         double delta = 2 * Rs - dist;
         /* the surfaces on the line of centres: the facing particle layers
          * within a cell of the line, half a particle spacing outside each */

@@ -90,7 +90,8 @@ static long blade_cuts_block_with(int closed) {
     if (closed) {
         double half[3] = {0.001, 0.5 * H, 0.5 * (zhi - zlo)};
         make_box(&slab, half);
-        for (int k = 0; k < 8; k++) slab.vert[3 * k] += x0, slab.vert[3 * k + 1] += 0.5 * H, slab.vert[3 * k + 2] += 0.5;
+        for (int k = 0; k < 8; k++)
+            slab.vert[3 * k] += x0, slab.vert[3 * k + 1] += 0.5 * H, slab.vert[3 * k + 2] += 0.5;
         d.vertices = slab.vert, d.nvertices = 8, d.triangles = slab.tri, d.ntriangles = 12;
     }
     /* the blade's bottom edge starts at y = 0.2 (above the block) and reaches the floor at t = 0.2 */
@@ -152,7 +153,7 @@ static long blade_cuts_block_with(int closed) {
             int coloured = pv.colour[i] >> 1 & 1;
             if (coloured && !pos_side && fabs(off) > 0.5) pos_side = (pv.colour[i] & 1 ? -1 : 1) * (off > 0 ? 1 : -1);
             int held = (pv.colour[i] & 1 ? -1 : 1) * pos_side;
-            if (coloured && !pos_side) continue; /* not learnt yet: no particle clear of the plane */
+            if (coloured && !pos_side) continue;                  /* not learnt yet: no particle clear of the plane */
             if (closed == 2) held = side[pv.id[i]], coloured = 1; /* the control: the side it started on */
             if (!coloured) {
                 uncoloured += fabs(off) < 1; /* within a cell of the blade, yet no side */
@@ -467,7 +468,8 @@ static void momentum_ball_hits_box(void) {
     /* float particle sums over 300 substeps; the exchange itself is exact.
      * Measured 1.12e-6 of |P0| (float): held to about twice that */
     KT_NEAR(drift, 0, 2.5e-6, "relative drift of the total linear momentum, within 2x the measured 1.12e-6");
-    printf("  ball hits box: box v = %.9f m/s, max momentum drift %.2e of |P0| = %.4f kg m/s, cdf %.0f ms, rigid %.0f ms\n",
+    printf("  ball hits box: box v = %.9f m/s, max momentum drift %.2e of |P0| = %.4f kg m/s, cdf %.0f ms, rigid %.0f "
+           "ms\n",
            pose.v[0], drift, scale, st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID]);
     kf_state_destroy(s);
     kf_model_destroy(m);
@@ -625,17 +627,21 @@ static double block_floats_at(int cells, double rho_b, kf_boundary boundary, dou
             inside += fabs(l[0]) < W / 2 && fabs(l[1]) < H / 2 && fabs(l[2]) < W / 2;
         }
     }
-    printf("  floating block, density %.0f, %s, %d cells/m: draft %.4f m from its displaced volume (Archimedes %.4f m, error %+.2f cells), "
+    printf("  floating block, density %.0f, %s, %d cells/m: draft %.4f m from its displaced volume (Archimedes %.4f m, "
+           "error %+.2f cells), "
            "lowest corner %.4f m below the surface, tilt %.1f deg, rms vertical speed %.3f m/s; %ld substeps, %.1f M "
-           "particle-steps/s, cdf %.0f ms, rigid %.0f ms; crossings caught %ld (deepest %.2f cells), %ld particles inside the block\n",
-           rho_b, boundary == KF_BOUNDARY_SLIP ? "slip" : "separate", cells, vdraft, archimedes, (vdraft - archimedes) / sd.dx, draft, tilt, rms_v, st.substeps,
-           st.particle_steps / 1e3 / (st.ms[KF_STAGE_P2G] + st.ms[KF_STAGE_G2P] + st.ms[KF_STAGE_GRID] +
-                                      st.ms[KF_STAGE_SORT] + st.ms[KF_STAGE_STRESS] + st.ms[KF_STAGE_CDF] +
-                                      st.ms[KF_STAGE_RIGID]),
+           "particle-steps/s, cdf %.0f ms, rigid %.0f ms; crossings caught %ld (deepest %.2f cells), %ld particles "
+           "inside the block\n",
+           rho_b, boundary == KF_BOUNDARY_SLIP ? "slip" : "separate", cells, vdraft, archimedes,
+           (vdraft - archimedes) / sd.dx, draft, tilt, rms_v, st.substeps,
+           st.particle_steps / 1e3 /
+               (st.ms[KF_STAGE_P2G] + st.ms[KF_STAGE_G2P] + st.ms[KF_STAGE_GRID] + st.ms[KF_STAGE_SORT] +
+                st.ms[KF_STAGE_STRESS] + st.ms[KF_STAGE_CDF] + st.ms[KF_STAGE_RIGID]),
            st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID], st.thin_caught, st.thin_deepest, inside);
     KT_NEAR(vdraft, archimedes, tol_cells * sd.dx, "the floating block's draft (displaced volume / cross-section, m)");
     /* a light block under a separate boundary keeps hopping (see buoyancy_any_boundary) */
-    if (boundary == KF_BOUNDARY_SLIP) KT_CHECK(rms_v < 0.05, "the block has come to rest (rms vertical speed %g m/s)", rms_v);
+    if (boundary == KF_BOUNDARY_SLIP)
+        KT_CHECK(rms_v < 0.05, "the block has come to rest (rms vertical speed %g m/s)", rms_v);
     KT_CHECK(tilt < 10, "the stable block floats upright (tilt %.1f deg)", tilt);
     kf_state_destroy(s);
     kf_model_destroy(m);
@@ -647,7 +653,8 @@ static void block_floats(void) {
         block_floats_at(float_cells, 500, KF_BOUNDARY_SLIP, 0.25);
         return;
     }
-    double e48 = block_floats_at(48, 500, KF_BOUNDARY_SLIP, 0.25), e64 = block_floats_at(64, 500, KF_BOUNDARY_SLIP, 0.25);
+    double e48 = block_floats_at(48, 500, KF_BOUNDARY_SLIP, 0.25),
+           e64 = block_floats_at(64, 500, KF_BOUNDARY_SLIP, 0.25);
     KT_CHECK(fabs(e64) < fabs(e48), "the draft's error falls with dx (%.2f mm at 48 cells/m, %.2f mm at 64)", e48 * 1e3,
              e64 * 1e3);
 }

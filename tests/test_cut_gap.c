@@ -82,7 +82,8 @@ static kf_vdb_grid *surface(size_t n, const float *x, const uint32_t *col, doubl
         for (size_t i = 0; i < n; i++)
             if (cls[i] == c) memcpy(xs + 3 * m++, x + 3 * i, 3 * sizeof *xs);
         kf_vdb_grid *g = NULL;
-        KT_CHECK(kf_vdb_levelset_from_particles(m, NULL, xs, NULL, NULL, &p, &g, NULL, err, sizeof err) == 0, "%s", err);
+        KT_CHECK(kf_vdb_levelset_from_particles(m, NULL, xs, NULL, NULL, &p, &g, NULL, err, sizeof err) == 0, "%s",
+                 err);
         if (!all) all = g;
         else {
             KT_CHECK(kf_vdb_union(all, g, err, sizeof err) == 0, "%s", err);
@@ -137,7 +138,8 @@ static void cut_stays_open(void) {
         }
     }
     if (wrong > scarred / 2) wrong = scarred - wrong;
-    printf("  %zu particles, %zu with a scar, %zu of them on the side their scar does not name\n", pv.n, scarred, wrong);
+    printf("  %zu particles, %zu with a scar, %zu of them on the side their scar does not name\n", pv.n, scarred,
+           wrong);
     KT_CHECK(scarred > 200, "the particles near the cut keep the blade's side after it left (%zu)", scarred);
     KT_CHECK(wrong == 0, "every scar names its particle's side of the cut (%zu do not)", wrong);
     look_settings s = {shot->surface_voxel, shot->surface_radius, shot->surface_average, shot->surface_average_radius,

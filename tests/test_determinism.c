@@ -85,8 +85,8 @@ static void face_particle(int axis) {
             M += w;
             if (d >= 1.5) stray++, far = fmax(far, d);
         }
-    KT_CHECK(stray == 0, "axis %d: %ld node(s) outside the particle's support got mass, up to %.2f dx away", axis, stray,
-             far);
+    KT_CHECK(stray == 0, "axis %d: %ld node(s) outside the particle's support got mass, up to %.2f dx away", axis,
+             stray, far);
     /* 27 float products summed: relative round-off */
     KT_NEAR(M / mp, 1.0, 10 * FLT_EPSILON, "the particle's mass, all on its stencil");
     kf_state_destroy(s);
@@ -129,8 +129,8 @@ static int cheese_run(int threads, int steps, uint64_t *hash) {
     for (; done < steps; done++) {
         kf_trouble tr;
         if (kf_step(m, s, kf_stable_dt(m, s, sd.cfl), NULL, &tr)) {
-            fprintf(stderr, "  %d threads: trouble at substep %d: %s (%g), particle %u\n", threads, done, tr.what, tr.value,
-                    tr.particle);
+            fprintf(stderr, "  %d threads: trouble at substep %d: %s (%g), particle %u\n", threads, done, tr.what,
+                    tr.value, tr.particle);
             break;
         }
         hash[done] = kf_state_hash(s);
@@ -208,8 +208,10 @@ static void threads_agree_on(const char *shot_rel, const char *const *sets, int 
         int first = -1;
         for (int f = 0; f < 6 && first < 0; f++)
             if (f >= r[0].done || f >= r[t].done || r[0].hash[f] != r[t].hash[f]) first = f;
-        KT_CHECK(first < 0, "%s: 1 and %d threads give the same bits after every frame (first difference after "
-                 "frame %d)", shot_rel, t + 1, first + 1);
+        KT_CHECK(first < 0,
+                 "%s: 1 and %d threads give the same bits after every frame (first difference after "
+                 "frame %d)",
+                 shot_rel, t + 1, first + 1);
     }
     printf("  %s, 6 frames: state hash %016llx with 1, 2 and 3 threads; %zu particles coloured; box fell %.3f m\n",
            shot_rel, (unsigned long long)r[0].hash[5], r[0].coloured, r[0].box_drop);

@@ -86,7 +86,8 @@ static double spin_drift(kf_transfer transfer, kf_force force, int steps) {
         pv.v[1][i] = (kf_real)(w[2] * r[0] - w[0] * r[2]);
         pv.v[2][i] = (kf_real)(w[0] * r[1] - w[1] * r[0]);
         /* C = skew(ω) so the affine part carries the rotation too */
-        kf_real W[9] = {0, (kf_real)-w[2], (kf_real)w[1], (kf_real)w[2], 0, (kf_real)-w[0], (kf_real)-w[1], (kf_real)w[0], 0};
+        kf_real W[9] = {
+            0, (kf_real)-w[2], (kf_real)w[1], (kf_real)w[2], 0, (kf_real)-w[0], (kf_real)-w[1], (kf_real)w[0], 0};
         for (int e = 0; e < 9; e++) pv.C[e][i] = transfer == KF_TRANSFER_APIC ? W[e] : 0;
     }
     kf_energy e0 = kf_state_energy(m, s);
@@ -233,17 +234,20 @@ static void cfl_violation_retried(void) {
     KT_CHECK(st.retries == 1, "one retry (1.6 -> 0.8 cells), got %d", st.retries);
     KT_NEAR(st.fixed_halved, 0.02, 1e-15, "the retry ran at half of sim.dt_fixed, and the stats say so");
     KT_CHECK(kf_advance(mr, ref, 0.08, &st_ref, msg, sizeof msg) == 0 && st_ref.retries == 0, "reference: %s", msg);
-    KT_CHECK(st.substeps == st_ref.substeps + 1, "the retried interval: the failed 0.04 s substep, then the "
-             "reference's %ld, got %ld", st_ref.substeps, st.substeps);
-    KT_CHECK(kf_state_hash(s) == kf_state_hash(ref), "the retried interval ends on the bits of a run at 0.02 s "
-                                                     "from the start (%016llx vs %016llx)",
+    KT_CHECK(st.substeps == st_ref.substeps + 1,
+             "the retried interval: the failed 0.04 s substep, then the "
+             "reference's %ld, got %ld",
+             st_ref.substeps, st.substeps);
+    KT_CHECK(kf_state_hash(s) == kf_state_hash(ref),
+             "the retried interval ends on the bits of a run at 0.02 s "
+             "from the start (%016llx vs %016llx)",
              (unsigned long long)kf_state_hash(s), (unsigned long long)kf_state_hash(ref));
     KT_NEAR(kf_state_time(s), 0.08, 1e-12, "the interval ends where asked");
     /* no retries allowed: the run stops and says why */
     rc = kf_advance(m1, s1, 0.08, NULL, msg, sizeof msg);
     KT_CHECK(rc == 1, "with sim.max_retries = 0 the violation stops the run");
-    KT_CHECK(strstr(msg, "numerical trouble: CFL violated (cells moved per substep) (value 1.6") != NULL,
-             "message: %s", msg);
+    KT_CHECK(strstr(msg, "numerical trouble: CFL violated (cells moved per substep) (value 1.6") != NULL, "message: %s",
+             msg);
     /* sim.dt_fixed means fixed: retries allowed but not opted in
      * for the fixed step, the frame fails at once, naming the step */
     {

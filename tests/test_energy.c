@@ -74,10 +74,10 @@ typedef struct cube_run {
     kf_force force;
     double cfl;
     long steps, n;
-    double *E;   /* V7: elastic + kinetic (kf_state_energy) */
-    double *S;   /* staggered, with APIC's affine kinetic energy */
+    double *E; /* V7: elastic + kinetic (kf_state_energy) */
+    double *S; /* staggered, with APIC's affine kinetic energy */
     double *t;
-    double T;    /* measured period of the fundamental */
+    double T; /* measured period of the fundamental */
     double ms;
 } cube_run;
 
@@ -186,9 +186,7 @@ static double max_rise(const double *y, long steps, double E0) { return max_rise
 static double max_rise_S(const cube_run *r) { return max_rise_from(r->S, 2, r->steps, r->E[0]); }
 
 /* fraction of the energy S lost per period over the run */
-static double loss_per_period(const cube_run *r) {
-    return 1 - pow(r->S[r->steps] / r->S[0], r->T / r->t[r->steps]);
-}
+static double loss_per_period(const cube_run *r) { return 1 - pow(r->S[r->steps] / r->S[0], r->T / r->t[r->steps]); }
 
 /* the series at t = kT, by linear interpolation */
 static double at_time(const cube_run *r, const double *y, double tk) {

@@ -28,7 +28,8 @@ static void bar_variants(void) {
                r.error);
         KT_CHECK(r.ok, "%s: the run must finish with 5 zero crossings", name);
         KT_NEAR(r.error, 0, 0.005, "V4: period error <= 0.5% (the L/dx = 50 bound), here at L/dx = 25");
-        KT_NEAR(r.error, 0, tight[i], "period error within 2x the measured (cubic-mls 5.73e-4, cubic-classic "
+        KT_NEAR(r.error, 0, tight[i],
+                "period error within 2x the measured (cubic-mls 5.73e-4, cubic-classic "
                 "6.44e-4, quad-mls-27 4.03e-4)");
     }
 }

@@ -23,7 +23,8 @@ static void default_cfl_below_threshold(void) {
     const char *const *names = kf_material_preset_names();
     for (int k = 0; names[k]; k++)
         for (int f = 0; f < 2; f++) {
-            ev_stab r = ev_stability_run(KF_KERNEL_QUADRATIC, f ? KF_FORCE_CLASSIC : KF_FORCE_MLS, names[k], cfl, STEPS, 1);
+            ev_stab r =
+                ev_stability_run(KF_KERNEL_QUADRATIC, f ? KF_FORCE_CLASSIC : KF_FORCE_MLS, names[k], cfl, STEPS, 1);
             printf("  %-9s %-7s CFL %.2f: %s (largest energy ratio %.3f)%s%s\n", names[k], f ? "classic" : "mls", cfl,
                    r.stable ? "stable" : "UNSTABLE", r.energy_ratio, r.stable ? "" : ": ", r.why);
             KT_CHECK(r.stable, "%s (%s force) must be stable at 1.5x the default CFL %.2f: %s", names[k],
@@ -55,8 +56,9 @@ static void nan_is_caught(void) {
 static void advance_recovers(void) {
     ev_recovery r = ev_recovery_check(2.0, 0.1);
     printf("  kf_advance at cfl 2.0: rc %d, %d retries (cfl %.3f); reference rc %d, %d retries; max |dx|/dx %.3g, "
-           "max |dv|/vmax %.3g, hashes %s\n", r.rc, r.retries, r.cfl_used, r.rc_ref, r.retries_ref, r.max_dx_rel,
-           r.max_dv_rel, r.hash == r.hash_ref ? "identical" : "differ");
+           "max |dv|/vmax %.3g, hashes %s\n",
+           r.rc, r.retries, r.cfl_used, r.rc_ref, r.retries_ref, r.max_dx_rel, r.max_dv_rel,
+           r.hash == r.hash_ref ? "identical" : "differ");
     KT_CHECK(r.rc == 0, "kf_advance must recover: %s", r.msg);
     KT_CHECK(r.retries >= 1, "the fault must have been hit (retries = %d)", r.retries);
     KT_CHECK(r.rc_ref == 0 && r.retries_ref == 0, "the reference run at the smaller CFL must need no retry");

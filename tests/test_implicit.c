@@ -66,7 +66,8 @@ static void energy_derivatives(void) {
             /* central differences: h² ψ''' ~ 1e-12 scale, plus round-off ε ψ / h ~ 1e-10 scale */
             KT_NEAR(errP / scale, 0, 1e-8, "P = dPsi/dF against central differences");
             KT_NEAR(errH / scale, 0, 1e-7, "H = dP/dF against central differences");
-            if (errP / scale > 1e-8 || errH / scale > 1e-7) fprintf(stderr, "  material %s trial %d\n", presets[k], trial);
+            if (errP / scale > 1e-8 || errH / scale > 1e-7)
+                fprintf(stderr, "  material %s trial %d\n", presets[k], trial);
         }
     }
 }
@@ -100,7 +101,8 @@ static void corotated_polar_matches_svd(void) {
         }
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++) {
-                double P = U[3 * a] * d[0] * V[3 * b] + U[3 * a + 1] * d[1] * V[3 * b + 1] + U[3 * a + 2] * d[2] * V[3 * b + 2];
+                double P = U[3 * a] * d[0] * V[3 * b] + U[3 * a + 1] * d[1] * V[3 * b + 1] +
+                           U[3 * a + 2] * d[2] * V[3 * b + 2];
                 errP = fmax(errP, fabs(P - e.P[3 * a + b]) / (mu + la));
             }
         errpsi = fmax(errpsi, fabs(psi - e.psi) / (mu + la));
@@ -228,7 +230,8 @@ static void hessian_symmetric_psd(void) {
             double scale = sqrt(kf_imp_dot(&w, x, x) * kf_imp_dot(&w, Hy, Hy));
             asym = fmax(asym, fabs(xHy - yHx) / scale);
             for (size_t i = 0; i < w.nnode; i++)
-                mxx += w.mass[i] * (x[KF_IMP_NV * i] * x[KF_IMP_NV * i] + x[KF_IMP_NV * i + 1] * x[KF_IMP_NV * i + 1] + x[KF_IMP_NV * i + 2] * x[KF_IMP_NV * i + 2]);
+                mxx += w.mass[i] * (x[KF_IMP_NV * i] * x[KF_IMP_NV * i] + x[KF_IMP_NV * i + 1] * x[KF_IMP_NV * i + 1] +
+                                    x[KF_IMP_NV * i + 2] * x[KF_IMP_NV * i + 2]);
             double stiff = (xHx - mxx) / xHx;
             if (project) min_proj = fmin(min_proj, stiff);
             else min_exact = fmin(min_exact, stiff);
@@ -494,7 +497,8 @@ static void midpoint_gravity_arc(void) {
             for (int a = 0; a < 3; a++) dv_err = fmax(dv_err, fabs(pv.v[a][i] - (v0[a] + sd.gravity[a] * t)));
         printf("  %s, dt %.4g s, t %.3g s: max |x - expected| %.3g m (backward Euler's offset %.4g m), "
                "max |v - (v0 + g t)| %.3g m/s, newton %ld\n",
-               scheme ? "midpoint" : "backward Euler", dt, t, dx_err, 0.5 * 9.81 * dt * t, dv_err, st.newton_iterations);
+               scheme ? "midpoint" : "backward Euler", dt, t, dx_err, 0.5 * 9.81 * dt * t, dv_err,
+               st.newton_iterations);
         /* positions ~1 m and speeds ~3 m/s carried in kf_real over 24 steps */
         KT_NEAR(dx_err, 0, 100 * ROUNDOFF, scheme ? "midpoint: on the arc" : "backward Euler: on the arc + g dt t / 2");
         KT_NEAR(dv_err, 0, 100 * ROUNDOFF, scheme ? "midpoint: v = v0 + g t" : "backward Euler: v = v0 + g t");
@@ -534,7 +538,10 @@ static void midpoint_keeps_energy(void) {
         kf_energy e = kf_state_energy(m, s);
         left[run] = (e.kinetic + e.elastic) / E0;
         printf("  %-14s dt %.3g s x %d: energy left %.1f%% of %.4g J, most at a step end %.1f%%\n",
-               run == 2 ? "explicit" : run ? "midpoint" : "backward Euler", dt, steps, 100 * left[run], E0, 100 * most[run]);
+               run == 2 ? "explicit"
+               : run    ? "midpoint"
+                        : "backward Euler",
+               dt, steps, 100 * left[run], E0, 100 * most[run]);
         kf_state_destroy(s);
         kf_model_destroy(m);
     }

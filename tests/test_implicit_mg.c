@@ -198,7 +198,8 @@ static double cantilever_cg_per_newton(kf_precond pc, int k) {
  * iteration or two). Jacobi's iterations grow like Δt c / Δx (3.4x from 5x
  * to 20x here); multigrid's grow too but slower (2.7x), asserted below 3x. */
 static void iterations_bounded_at_20x(void) {
-    double mg5 = cantilever_cg_per_newton(KF_PRECOND_MULTIGRID, 5), mg20 = cantilever_cg_per_newton(KF_PRECOND_MULTIGRID, 20);
+    double mg5 = cantilever_cg_per_newton(KF_PRECOND_MULTIGRID, 5),
+           mg20 = cantilever_cg_per_newton(KF_PRECOND_MULTIGRID, 20);
     double ja5 = cantilever_cg_per_newton(KF_PRECOND_JACOBI, 5), ja20 = cantilever_cg_per_newton(KF_PRECOND_JACOBI, 20);
     printf("  CG per Newton iteration: multigrid %.1f (5x) %.1f (20x), Jacobi %.1f (5x) %.1f (20x)\n", mg5, mg20, ja5,
            ja20);
@@ -221,7 +222,8 @@ static void stiff_large_steps_converge(void) {
     const double newton_per_step = (double)st.newton_iterations / st.substeps,
                  cg_per_newton = (double)st.krylov_iterations / st.newton_iterations;
     printf("  E = 1e9, 4 steps a frame: %ld steps, %.2f Newton iterations a step, %.1f CG per Newton iteration, "
-           "last residual %.3g\n", st.substeps, newton_per_step, cg_per_newton, st.newton_residual);
+           "last residual %.3g\n",
+           st.substeps, newton_per_step, cg_per_newton, st.newton_residual);
     KT_CHECK(st.substeps == 4, "4 steps: %ld", st.substeps);
     KT_CHECK(st.newton_residual <= 1e-3, "the last step converged to the default tolerance: %g", st.newton_residual);
     KT_CHECK(newton_per_step <= 4, "Newton iterations a step: %.2f (bound 4)", newton_per_step);

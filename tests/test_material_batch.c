@@ -66,8 +66,8 @@ static int make_particle(kf_real F[9], kf_real ps[2], int with_vc, int with_q) {
         kind = OUTSIDE;
         double t = urand();
         s[0] = 1 + 0.1 * srand1(), s[1] = 1 + 0.1 * srand1(), s[2] = 1 + 0.1 * srand1();
-        if (t < 0.3) s[(int)(urand() * 3) % 3] = 0.3 + 0.3 * urand();      /* compressed */
-        else if (t < 0.6) s[(int)(urand() * 3) % 3] = 1.6 + urand();       /* stretched */
+        if (t < 0.3) s[(int)(urand() * 3) % 3] = 0.3 + 0.3 * urand();          /* compressed */
+        else if (t < 0.6) s[(int)(urand() * 3) % 3] = 1.6 + urand();           /* stretched */
         else if (t < 0.85) s[(int)(urand() * 3) % 3] = -(0.8 + 0.2 * urand()); /* inverted */
         else s[0] = NAN;
     } else {
@@ -128,7 +128,8 @@ static stats compare(const kf_mat *m, int project, int with_vc, int with_q, cons
         if (kind[p] == OUTSIDE) {
             st.n_out++;
             int same = 1;
-            for (int k = 0; k < 9; k++) same &= same_bits(plane_F[k][OFF + p], F[k]) | (isnan(F[k]) & isnan(plane_F[k][OFF + p]));
+            for (int k = 0; k < 9; k++)
+                same &= same_bits(plane_F[k][OFF + p], F[k]) | (isnan(F[k]) & isnan(plane_F[k][OFF + p]));
             for (int k = 0; k < 2; k++) same &= same_bits(plane_ps[k][OFF + p], ps[k]);
             for (int k = 0; k < 6; k++)
                 same &= same_bits(plane_tau[k][OFF + p], ref_tau[p][t6[k]]) |

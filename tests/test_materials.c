@@ -159,10 +159,8 @@ static void nan_propagates(void) {
         kf_material d = base(models[k]);
         kf_mat m = compiled(&d);
         kf_real F[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, tau[9], ps[2] = {1, 0};
-        if (models[k] == KF_MAT_WATER)
-            ps[0] = (kf_real)NAN;
-        else
-            F[4] = (kf_real)NAN;
+        if (models[k] == KF_MAT_WATER) ps[0] = (kf_real)NAN;
+        else F[4] = (kf_real)NAN;
         kf_mat_kirchhoff(&m, F, ps, tau);
         int any = 0;
         for (int i = 0; i < 9; i++) any |= isnan(tau[i]);
@@ -269,8 +267,10 @@ static void corotated_fast_path_matches_svd(void) {
             }
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++) {
-                double ref = (double)m.mu * (A[3 * i + j] + A[3 * j + i]) + (i == j ? (double)m.lambda * (J - 1) * J : 0);
-                worst = fmax(worst, fabs(ref - tau[3 * i + j]) / ((double)m.mu * (1 + nf2) + (double)m.lambda * fabs(J) * (1 + fabs(J))));
+                double ref =
+                    (double)m.mu * (A[3 * i + j] + A[3 * j + i]) + (i == j ? (double)m.lambda * (J - 1) * J : 0);
+                worst = fmax(worst, fabs(ref - tau[3 * i + j]) /
+                                        ((double)m.mu * (1 + nf2) + (double)m.lambda * fabs(J) * (1 + fabs(J))));
             }
     }
     /* the reference uses R rounded to kf_real (error ~u) and τ is rounded
@@ -473,7 +473,8 @@ static void snow_clamp(void) {
     }
     KT_CHECK(clamped > 500, "only %d clamped samples", clamped);
     KT_CHECK(worst_b <= 50 * U_, "snow σ outside [1−θc, 1+θs] by %.3g (limit 50 u: F_E rounding + SVD)", worst_b);
-    KT_CHECK(worst_j <= 100 * U_, "Jp ≠ Jp det F_trial / det F_E: %.3g relative (limit 100 u: two cofactor dets)", worst_j);
+    KT_CHECK(worst_j <= 100 * U_, "Jp ≠ Jp det F_trial / det F_E: %.3g relative (limit 100 u: two cofactor dets)",
+             worst_j);
     KT_CHECK(moved == 0, "%d states inside the bounds were changed", moved);
 
     /* hardening: τ scales by e^{ξ(1 − Jp)} against the same F */
@@ -515,19 +516,26 @@ static void check_messages(void) {
         double value;
         const char *word;
     } bad[] = {
-        {KF_MAT_COROTATED, 0, 0, "density"},      {KF_MAT_COROTATED, 0, NAN, "density"},
-        {KF_MAT_COROTATED, 1, -1, "E"},           {KF_MAT_COROTATED, 2, 0.5, "nu"},
-        {KF_MAT_COROTATED, 2, -0.1, "nu"},        {KF_MAT_VON_MISES, 3, 0, "yield_stress"},
-        {KF_MAT_SAND, 4, 0, "friction_angle"},    {KF_MAT_SAND, 4, 90, "friction_angle"},
-        {KF_MAT_WATER, 5, 0, "bulk_modulus"},     {KF_MAT_WATER, 6, 0.5, "gamma"},
-        {KF_MAT_SNOW, 7, 0, "theta_c"},           {KF_MAT_SNOW, 8, 1, "theta_s"},
-        {KF_MAT_SNOW, 9, -1, "xi"},               {KF_MAT_SAND, 10, -1, "cohesion"},
+        {KF_MAT_COROTATED, 0, 0, "density"},
+        {KF_MAT_COROTATED, 0, NAN, "density"},
+        {KF_MAT_COROTATED, 1, -1, "E"},
+        {KF_MAT_COROTATED, 2, 0.5, "nu"},
+        {KF_MAT_COROTATED, 2, -0.1, "nu"},
+        {KF_MAT_VON_MISES, 3, 0, "yield_stress"},
+        {KF_MAT_SAND, 4, 0, "friction_angle"},
+        {KF_MAT_SAND, 4, 90, "friction_angle"},
+        {KF_MAT_WATER, 5, 0, "bulk_modulus"},
+        {KF_MAT_WATER, 6, 0.5, "gamma"},
+        {KF_MAT_SNOW, 7, 0, "theta_c"},
+        {KF_MAT_SNOW, 8, 1, "theta_s"},
+        {KF_MAT_SNOW, 9, -1, "xi"},
+        {KF_MAT_SAND, 10, -1, "cohesion"},
     };
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
         kf_material d = base(bad[k].model);
         KT_CHECK(kf_material_check(&d)[0] == 0, "base %d should be valid: %s", (int)k, kf_material_check(&d));
-        double *f[] = {&d.density, &d.E, &d.nu, &d.yield_stress, &d.friction_angle, &d.bulk_modulus,
-                       &d.gamma,   &d.theta_c, &d.theta_s, &d.xi, &d.cohesion};
+        double *f[] = {&d.density, &d.E,       &d.nu,      &d.yield_stress, &d.friction_angle, &d.bulk_modulus,
+                       &d.gamma,   &d.theta_c, &d.theta_s, &d.xi,           &d.cohesion};
         *f[bad[k].field] = bad[k].value;
         const char *msg = kf_material_check(&d);
         KT_CHECK(msg[0] != 0 && strstr(msg, bad[k].word) != NULL, "case %d: message '%s' should name %s", (int)k, msg,

@@ -156,8 +156,8 @@ static void test_sphere_volume(void) {
         double Vs = p.n * p.volume;
         printf("  sphere mesh, seed %u: %zu particles, volume %.6f (mesh %.6f: %+.3f %%, sphere %+.3f %%), %.3f s, "
                "%ld of %ld candidates ray-tested, %ld rays, %ld re-cast\n",
-               seed, p.n, Vs, m.volume, 100 * (Vs / m.volume - 1), 100 * (Vs / V - 1), p.stats.seconds,
-               p.stats.tested, p.stats.candidates, p.stats.inside.rays, p.stats.inside.unreliable);
+               seed, p.n, Vs, m.volume, 100 * (Vs / m.volume - 1), 100 * (Vs / V - 1), p.stats.seconds, p.stats.tested,
+               p.stats.candidates, p.stats.inside.rays, p.stats.inside.unreliable);
         KT_NEAR(Vs / m.volume, 1, 4e-3, "lattice counting error at R/h = 32 (see above)");
         KT_NEAR(Vs / V, 1, 1e-2, "0.40 % polyhedral deficit + lattice counting error");
         kf_points_free(&p);
@@ -211,7 +211,8 @@ static void edge_case(const char *file, analytic_fn analytic) {
         if (variant == 2)
             for (int i = 0; i < KF_INSIDE_MAX_DIRS; i++) dirs[i][0] = 1, dirs[i][1] = dirs[i][2] = 0;
         int nd = variant == 0 ? 3 : variant == 2 ? KF_INSIDE_MAX_DIRS : 0;
-        kf_mesh_inside *q = kf_mesh_inside_create(&m, variant == 1 ? NULL : (const double(*)[3])dirs, nd, err, sizeof err);
+        kf_mesh_inside *q =
+            kf_mesh_inside_create(&m, variant == 1 ? NULL : (const double(*)[3])dirs, nd, err, sizeof err);
         KT_CHECK(q != NULL, "%s", err);
         if (!q) break;
         kf_inside_stats st = {0};
@@ -228,7 +229,9 @@ static void edge_case(const char *file, analytic_fn analytic) {
                     int got = kf_mesh_inside_point(q, p, &st);
                     tested++;
                     if (got != a) {
-                        if (wrong < 5 && variant < 2) fprintf(stderr, "  %s: (%g, %g, %g) inside %d, expected %d\n", file, p[0], p[1], p[2], got, a);
+                        if (wrong < 5 && variant < 2)
+                            fprintf(stderr, "  %s: (%g, %g, %g) inside %d, expected %d\n", file, p[0], p[1], p[2], got,
+                                    a);
                         wrong++;
                     }
                     memcpy(&pts[3 * np], p, sizeof p);
@@ -237,8 +240,7 @@ static void edge_case(const char *file, analytic_fn analytic) {
         const char *name[3] = {"axis-first", "generic", "x-only (control)"};
         if (variant < 2)
             KT_CHECK(wrong == 0, "%s (%s rays): %ld of %ld points misclassified", file, name[variant], wrong, tested);
-        else
-            KT_CHECK(wrong > 0, "%s: naive x-parity got every point right: the lattice hit no edges", file);
+        else KT_CHECK(wrong > 0, "%s: naive x-parity got every point right: the lattice hit no edges", file);
         if (variant == 0)
             KT_CHECK(st.unreliable > 0, "%s: axis rays through edges must be detected (unreliable = %ld)", file,
                      st.unreliable);
@@ -268,8 +270,7 @@ static void test_edge_vertex_hits(void) {
     long expect = 0;
     for (int i = -8; i < 8; i++)
         for (int j = -8; j < 8; j++)
-            for (int k = -8; k < 8; k++)
-                expect += abs(2 * i + 1) + abs(2 * j + 1) + abs(2 * k + 1) < 16;
+            for (int k = -8; k < 8; k++) expect += abs(2 * i + 1) + abs(2 * j + 1) + abs(2 * k + 1) < 16;
     KT_CHECK(sample_count(&d) == expect, "octahedron: %ld particles, expected %ld", sample_count(&d), expect);
 }
 
@@ -337,8 +338,9 @@ static void test_bad_files(void) {
         const char *t = tmp("torus_cut.ply");
         truncate_copy(ply, t, cuts[c]);
         /* (assimp 5.2 never returns from a PLY without end_header: caught before it) */
-        expect_error(t, c == 0 ? "truncated file: the PLY header has no end_header"
-                               : "truncated file: header declares 288 vertices and 576 faces",
+        expect_error(t,
+                     c == 0 ? "truncated file: the PLY header has no end_header"
+                            : "truncated file: header declares 288 vertices and 576 faces",
                      0);
     }
     const char *aply = tu_repo_path("tests/meshes/torus_ascii.ply");
@@ -346,7 +348,8 @@ static void test_bad_files(void) {
     expect_error(tmp("torus_cut_ascii.ply"), "truncated file: header declares 288 vertices and 576 faces", 1);
     const char *stl = tu_repo_path("tests/meshes/torus.stl");
     truncate_copy(stl, tmp("torus_cut.stl"), file_size(stl) - 10);
-    expect_error(tmp("torus_cut.stl"), "truncated file: header declares 576 triangles (28884 bytes), the file has 28874", 0);
+    expect_error(tmp("torus_cut.stl"),
+                 "truncated file: header declares 576 triangles (28884 bytes), the file has 28874", 0);
     const char *off = tu_repo_path("tests/meshes/torus.off");
     truncate_copy(off, tmp("torus_cut.off"), file_size(off) / 2);
     expect_error(tmp("torus_cut.off"), "truncated file: header declares 288 vertices and 576 faces", 0);
@@ -493,8 +496,7 @@ static void test_determinism(void) {
     KT_CHECK(kf_sample_shape(&d, &a, err, sizeof err) == 0, "%s", err);
     d.threads = 2;
     KT_CHECK(kf_sample_shape(&d, &b, err, sizeof err) == 0, "%s", err);
-    KT_CHECK(a.n == b.n && a.n > 0 && !memcmp(a.x, b.x, a.n * 3 * sizeof *a.x), "1 vs 2 threads: %zu vs %zu", a.n,
-             b.n);
+    KT_CHECK(a.n == b.n && a.n > 0 && !memcmp(a.x, b.x, a.n * 3 * sizeof *a.x), "1 vs 2 threads: %zu vs %zu", a.n, b.n);
     kf_points_free(&a);
     kf_points_free(&b);
 }
@@ -529,7 +531,8 @@ static void test_bunny_and_armadillo(void) {
                "%.3f s (%ld tests for %ld candidates, %ld rays, %ld re-cast)\n",
                files[f], m.nvert, m.ntri, p.n, Vs, Vm, 100 * (Vs / Vm - 1), p.stats.seconds, p.stats.tested,
                p.stats.candidates, p.stats.inside.rays, p.stats.inside.unreliable);
-        KT_NEAR(Vs / Vm, 1, 0.02, "jittered lattice at dx = 0.01 over a 0.5 m model: thin parts (ears, fingers) a few cells wide");
+        KT_NEAR(Vs / Vm, 1, 0.02,
+                "jittered lattice at dx = 0.01 over a 0.5 m model: thin parts (ears, fingers) a few cells wide");
         kf_points_free(&p);
         kf_mesh_free(&m);
     }
@@ -540,11 +543,10 @@ static void test_bunny_and_armadillo(void) {
  * through a foot cut across the sphere; it now stands on a foot ring). */
 static void test_assets_closed(void) {
     /* the banana's peel is two nested closed surfaces, each outward: its volume is their sum */
-    const char *files[13] = {"cube",  "sphere", "torus", "plate",    "plate_thin",   "knife_wavy", "paddle",
-                             "wheel", "bowl",   "blade", "c_leg",    "banana_flesh", "banana_peel"};
-    const double volume[13] = {1,         0.521499,  0.154201,    0.02,        0.002,
-                               0.00021594, 0.00233359, 0.179775, 0.0476073,   0.000269928,
-                               1.83541e-05, 0.000722178, 0.00231294};
+    const char *files[13] = {"cube",  "sphere", "torus", "plate", "plate_thin",   "knife_wavy", "paddle",
+                             "wheel", "bowl",   "blade", "c_leg", "banana_flesh", "banana_peel"};
+    const double volume[13] = {1,        0.521499,  0.154201,    0.02,        0.002,       0.00021594, 0.00233359,
+                               0.179775, 0.0476073, 0.000269928, 1.83541e-05, 0.000722178, 0.00231294};
     for (int f = 0; f < 13; f++) {
         char rel[64], err[512];
         snprintf(rel, sizeof rel, "assets/%s.obj", files[f]);

@@ -189,8 +189,7 @@ static void banana_slice_falls(void) {
     piece_box(&v, label, 0, lo, hi);
     printf("  banana: %d pieces; the largest (%d of %zu particles) spans x %.3f..%.3f, y %.3f..%.3f m\n", np, size[0],
            v.n, lo[0], hi[0], lo[1], hi[1]);
-    KT_CHECK(lo[1] > 0.1 - dx && hi[0] < 0.6 + dx, "the banana is still on the board, up to the cut (x %.3f m)",
-             hi[0]);
+    KT_CHECK(lo[1] > 0.1 - dx && hi[0] < 0.6 + dx, "the banana is still on the board, up to the cut (x %.3f m)", hi[0]);
     for (int k = 1; k < np && slice < 0; k++) {
         piece_box(&v, label, k, lo, hi);
         if (size[k] >= 20 && lo[0] > 0.6 - dx) slice = k;

@@ -48,7 +48,8 @@ static void fault_is_retried_exactly(void) {
     KT_CHECK(kf_advance(plain, b, frame, NULL, msg, sizeof msg) == 0, "%s", msg);
     KT_CHECK(kf_advance(half, b, frame, NULL, msg, sizeof msg) == 0, "%s", msg);
     KT_CHECK(kf_advance(plain, b, frame, NULL, msg, sizeof msg) == 0, "%s", msg);
-    KT_CHECK(kf_state_hash(a) == kf_state_hash(b), "the recovered run equals the run made at the smaller step, bit for bit");
+    KT_CHECK(kf_state_hash(a) == kf_state_hash(b),
+             "the recovered run equals the run made at the smaller step, bit for bit");
     kf_particles_view pa = kf_state_particles_read(a);
     int finite = 1;
     for (size_t i = 0; i < pa.n; i++) finite &= isfinite(pa.v[0][i]) && isfinite(pa.x[1][i]);

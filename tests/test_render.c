@@ -37,8 +37,8 @@ static test_mesh make_cube(const float c[3], float s) {
         m.pos[3 * i + 1] = c[1] + ((i & 2) ? s : -s);
         m.pos[3 * i + 2] = c[2] + ((i & 4) ? s : -s);
     }
-    static const uint32_t t[36] = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, /* -z, +z */
-                                   0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, /* -y, +y */
+    static const uint32_t t[36] = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6,  /* -z, +z */
+                                   0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7,  /* -y, +y */
                                    0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5}; /* -x, +x */
     memcpy(m.tri, t, sizeof t);
     return m;
@@ -49,8 +49,7 @@ static test_mesh make_octahedron(const float c[3], float s) {
     test_mesh m = {malloc(6 * 12), NULL, malloc(24 * 4), 6, 8};
     static const float v[18] = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};
     for (int i = 0; i < 18; i++) m.pos[i] = c[i % 3] + s * v[i];
-    static const uint32_t t[24] = {0, 2, 4, 4, 2, 1, 1, 2, 5, 5, 2, 0,
-                                   4, 3, 0, 1, 3, 4, 5, 3, 1, 0, 3, 5};
+    static const uint32_t t[24] = {0, 2, 4, 4, 2, 1, 1, 2, 5, 5, 2, 0, 4, 3, 0, 1, 3, 4, 5, 3, 1, 0, 3, 5};
     memcpy(m.tri, t, sizeof t);
     return m;
 }
@@ -83,8 +82,7 @@ static test_mesh make_sphere(const float c[3], float rad, int stacks, int slices
     return m;
 }
 
-static kf_render_mesh as_render(const test_mesh *m, float r, float g, float b, float spec,
-                                float rough) {
+static kf_render_mesh as_render(const test_mesh *m, float r, float g, float b, float spec, float rough) {
     kf_render_mesh rm = {m->pos, m->nrm, m->nv, m->tri, m->nt, {{r, g, b}, spec, rough}};
     return rm;
 }
@@ -175,8 +173,7 @@ static void test_silhouette_and_upright(void) {
     double t = tan(20 * 3.14159265358979 / 180), zf = 4.7;
     double y_top = (1 - 0.9 / (zf * t)) / 2 * H, y_bot = (1 - 0.3 / (zf * t)) / 2 * H;
     double x_half = 0.3 / (zf * t) / ((double)W / H) / 2 * W;
-    KT_CHECK(y_bot < H / 2.0, "the cube sits in the top half: rows %.1f..%.1f of %d", y_top, y_bot,
-             H);
+    KT_CHECK(y_bot < H / 2.0, "the cube sits in the top half: rows %.1f..%.1f of %d", y_top, y_bot, H);
     int inside = 0, inside_n = 0, outside = 0, outside_n = 0;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
@@ -200,10 +197,8 @@ static void test_silhouette_and_upright(void) {
                 if (is_bg) outside++;
             }
         }
-    KT_CHECK(inside_n > 100 && inside == inside_n, "lit pixels inside the silhouette: %d of %d",
-             inside, inside_n);
-    KT_CHECK(outside_n > 1000 && outside == outside_n, "background outside: %d of %d", outside,
-             outside_n);
+    KT_CHECK(inside_n > 100 && inside == inside_n, "lit pixels inside the silhouette: %d of %d", inside, inside_n);
+    KT_CHECK(outside_n > 1000 && outside == outside_n, "background outside: %d of %d", outside, outside_n);
     /* upright: all geometry in the top half */
     int top = 0, bottom = 0;
     for (int y = 0; y < H; y++)
@@ -216,8 +211,7 @@ static void test_silhouette_and_upright(void) {
                 else bottom++;
             }
         }
-    KT_CHECK(top > 500 && bottom == 0, "object pixels top %d, bottom %d (image upright)", top,
-             bottom);
+    KT_CHECK(top > 500 && bottom == 0, "object pixels top %d, bottom %d (image upright)", top, bottom);
     free(img);
     test_mesh_free(&cube);
     kf_render_destroy(r);
@@ -303,9 +297,12 @@ static void test_golden(void) {
             for (int i = 0; i < W * H; i++)
                 for (int ch = 0; ch < 3; ch++) mean += abs((int)alt[4 * i + ch] - (int)gold[4 * i + ch]);
             mean /= 3.0 * W * H;
-            printf("  without shadows: largest tile %.3f (tile %d,%d), whole-image mean %.3f\n", noshadow, tx, ty, mean);
-            KT_CHECK(noshadow > 2 * GOLDEN_TILE_TOL, "removing the shadows must fail the tile check by a margin "
-                     "(largest tile %.3f, tolerance %.1f; measured 26.3)", noshadow, GOLDEN_TILE_TOL);
+            printf("  without shadows: largest tile %.3f (tile %d,%d), whole-image mean %.3f\n", noshadow, tx, ty,
+                   mean);
+            KT_CHECK(noshadow > 2 * GOLDEN_TILE_TOL,
+                     "removing the shadows must fail the tile check by a margin "
+                     "(largest tile %.3f, tolerance %.1f; measured 26.3)",
+                     noshadow, GOLDEN_TILE_TOL);
             free(alt);
         }
     }
@@ -324,8 +321,8 @@ static void test_png_round_trip(void) {
     const int W = 37, H = 23; /* odd sizes: no row padding assumptions */
     uint8_t *img = malloc((size_t)W * H * 4);
     for (int i = 0; i < W * H * 4; i++) img[i] = (uint8_t)(i * 7 + (i / (W * 4)) * 13);
-    const char *kv[] = {"shot", "bunny_split", "frame", "1001", "Software", "kerf " KERF_VERSION,
-                        "Comment", "caf\xc3\xa9 cr\xc3\xa8me"}; /* UTF-8 -> iTXt */
+    const char *kv[] = {"shot",     "bunny_split",        "frame",   "1001",
+                        "Software", "kerf " KERF_VERSION, "Comment", "caf\xc3\xa9 cr\xc3\xa8me"}; /* UTF-8 -> iTXt */
     KT_CHECK(kf_png_write(path, img, W, H, kv, 4, err, sizeof err) == 0, "%s", err);
     /* overwrite: the second write replaces the first atomically */
     KT_CHECK(kf_png_write(path, img, W, H, kv, 4, err, sizeof err) == 0, "%s", err);
@@ -340,8 +337,7 @@ static void test_png_round_trip(void) {
     for (int i = 0; i < 4; i++) {
         int found = 0;
         for (int j = 0; j < nt; j++)
-            if (strcmp(tx[2 * j], kv[2 * i]) == 0 && strcmp(tx[2 * j + 1], kv[2 * i + 1]) == 0)
-                found = 1;
+            if (strcmp(tx[2 * j], kv[2 * i]) == 0 && strcmp(tx[2 * j + 1], kv[2 * i + 1]) == 0) found = 1;
         KT_CHECK(found, "text chunk %s=%s read back", kv[2 * i], kv[2 * i + 1]);
     }
     kf_png_free_texts(tx, nt);
@@ -384,8 +380,7 @@ static void test_turntable_loop(void) {
     KT_CHECK(kf_render_frame(r, &t.sc, &c0, a, err, sizeof err) == 0, "%s", err);
     KT_CHECK(kf_render_frame(r, &t.sc, &ch, c, err, sizeof err) == 0, "%s", err);
     KT_CHECK(kf_render_frame(r, &t.sc, &cN, b, err, sizeof err) == 0, "%s", err);
-    KT_CHECK(memcmp(a, b, n) == 0, "frame N pixelwise identical to frame 0 (mean diff %.4f)",
-             mean_abs_diff(a, b, n));
+    KT_CHECK(memcmp(a, b, n) == 0, "frame N pixelwise identical to frame 0 (mean diff %.4f)", mean_abs_diff(a, b, n));
     double dh = mean_abs_diff(a, c, n);
     KT_CHECK(dh > 3.0, "half-turn frame differs from frame 0: mean |diff| %.2f", dh);
     save("turntable_0.png", a, W, H);
@@ -413,19 +408,16 @@ static void test_errors(void) {
     KT_CHECK(strstr(err, "/nonexistent_kf_dir/x.png") && strstr(err, "No such file"),
              "message names the path and the reason: %s", err);
     err[0] = 0;
-    KT_CHECK(kf_png_write("/tmp/kf_bad.png", px, 0, 4, NULL, 0, err, sizeof err) != 0,
-             "zero-size image refused");
+    KT_CHECK(kf_png_write("/tmp/kf_bad.png", px, 0, 4, NULL, 0, err, sizeof err) != 0, "zero-size image refused");
     KT_CHECK(strstr(err, "0x4") != NULL, "message: %s", err);
     const char *bad_kv[] = {"", "v"};
     err[0] = 0;
-    KT_CHECK(kf_png_write("/tmp/kf_bad.png", px, 4, 4, bad_kv, 1, err, sizeof err) != 0,
-             "empty text key refused");
+    KT_CHECK(kf_png_write("/tmp/kf_bad.png", px, 4, 4, bad_kv, 1, err, sizeof err) != 0, "empty text key refused");
     KT_CHECK(strstr(err, "keyword") != NULL, "message: %s", err);
     uint8_t *img = NULL;
     int w, h;
     err[0] = 0;
-    KT_CHECK(kf_png_read(__FILE__, &img, &w, &h, NULL, NULL, err, sizeof err) != 0 && !img,
-             "a C file is not a PNG");
+    KT_CHECK(kf_png_read(__FILE__, &img, &w, &h, NULL, NULL, err, sizeof err) != 0 && !img, "a C file is not a PNG");
     KT_CHECK(strstr(err, "not a PNG") != NULL, "message: %s", err);
 
     kf_render_ctx *r = kf_render_create(32, 24, 1, err, sizeof err);
@@ -453,8 +445,7 @@ static void test_errors(void) {
     KT_CHECK(kf_render_frame(r, &sc, &cam, out, err, sizeof err) != 0, "fov 0 refused");
     KT_CHECK(strstr(err, "fov") != NULL, "message: %s", err);
     cam.fov_deg = 40;
-    KT_CHECK(kf_render_frame(r, &sc, &cam, out, err, sizeof err) == 0, "fixed scene renders: %s",
-             err);
+    KT_CHECK(kf_render_frame(r, &sc, &cam, out, err, sizeof err) == 0, "fixed scene renders: %s", err);
     test_mesh_free(&cube);
     kf_render_destroy(r);
 }
@@ -473,8 +464,7 @@ static void test_preview_and_timing(void) {
         two_objects_init(&t);
         float sc_c[3] = {0.05f, 0.25f, -0.55f};
         test_mesh sph = make_sphere(sc_c, 0.25f, 48, 96);
-        kf_render_mesh all[3] = {t.meshes[0], t.meshes[1],
-                                 as_render(&sph, 0.9f, 0.88f, 0.82f, 0.6f, 0.2f)};
+        kf_render_mesh all[3] = {t.meshes[0], t.meshes[1], as_render(&sph, 0.9f, 0.88f, 0.82f, 0.6f, 0.2f)};
         t.sc.meshes = all;
         t.sc.nmeshes = 3;
         float lo[3], hi[3];

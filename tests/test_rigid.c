@@ -117,8 +117,7 @@ static void test_mass_sphere(void) {
             if (i == j)
                 KT_CHECK(mp.inertia[4 * i] <= I * (1 + 1e-9) && mp.inertia[4 * i] >= I * (1 - 5 * sag),
                          "I%d%d = %g vs %g", i, i, mp.inertia[4 * i], I);
-            else
-                KT_NEAR(mp.inertia[3 * i + j], 0, 1e-9 * I, "symmetric mesh");
+            else KT_NEAR(mp.inertia[3 * i + j], 0, 1e-9 * I, "symmetric mesh");
         }
     tu_free_mesh(&L);
 }
@@ -523,8 +522,13 @@ static void test_motor(void) {
     const double Izz = b.inertia[8] + 1e-9 * (b.inertia[0] + b.inertia[4] + b.inertia[8]); /* MuJoCo's (mjcf.c) */
     const double zero_g[3] = {0, 0, 0}, L = 0.01, T = 0.5, dt = 1e-3;
     for (int flip = 0; flip < 2; flip++) {
-        kf_joint_def j = {.body_a = flip ? -1 : 0, .body_b = flip ? 0 : -1, .axis = {0, 0, 1}, .motor = KF_MOTOR_VELOCITY,
-                          .frequency = 1, .kv = 10, .torque_limit = L};
+        kf_joint_def j = {.body_a = flip ? -1 : 0,
+                          .body_b = flip ? 0 : -1,
+                          .axis = {0, 0, 1},
+                          .motor = KF_MOTOR_VELOCITY,
+                          .frequency = 1,
+                          .kv = 10,
+                          .torque_limit = L};
         kf_rigid_sim *sim = kf_rigid_sim_create(&b, 1, &j, 1, zero_g, NULL, err, sizeof err);
         KT_CHECK(sim != NULL, "%s", err);
         if (!sim) continue;
@@ -542,8 +546,15 @@ static void test_motor(void) {
     }
     /* the position servo */
     const double wn = 2 * PI * 10, kp = Izz * wn * wn, kv = 2 * Izz * wn;
-    kf_joint_def j = {.body_a = 0, .body_b = -1, .axis = {0, 0, 1}, .motor = KF_MOTOR_POSITION, .frequency = 0.25,
-                      .angle = 30, .kp = kp, .kv = kv, .torque_limit = 1e3};
+    kf_joint_def j = {.body_a = 0,
+                      .body_b = -1,
+                      .axis = {0, 0, 1},
+                      .motor = KF_MOTOR_POSITION,
+                      .frequency = 0.25,
+                      .angle = 30,
+                      .kp = kp,
+                      .kv = kv,
+                      .torque_limit = 1e3};
     kf_rigid_sim *sim = kf_rigid_sim_create(&b, 1, &j, 1, zero_g, NULL, err, sizeof err);
     KT_CHECK(sim != NULL, "%s", err);
     if (sim) {

@@ -30,15 +30,36 @@ static double extent(const kf_mesh *m) {
 }
 
 /* every mesh file shipped: the seeding must cover each of them */
-static const char *const MESHES[] = {
-    "assets/armadillo.off",    "assets/banana_flesh.obj",  "assets/banana_peel.obj", "assets/blade.obj",
-    "assets/bowl.obj",         "assets/bunny.off",         "assets/c_leg.obj",      "assets/cross_plates.obj",
-    "assets/cube.obj",         "assets/knife_wavy.obj",    "assets/paddle.obj",     "assets/paddle_sheet.obj",
-    "assets/paddle_wheel.obj", "assets/plate.obj",         "assets/plate_thin.obj", "assets/scoop.obj",
-    "assets/sphere.obj",       "assets/stirrer.obj",       "assets/torus.obj",      "assets/wheel.obj",
-    "tests/meshes/bowtie.obj", "tests/meshes/cube.obj",    "tests/meshes/cube_open.obj",
-    "tests/meshes/diamond.obj", "tests/meshes/octahedron.obj", "tests/meshes/torus.obj", "tests/meshes/torus.off",
-    "tests/meshes/torus.ply",  "tests/meshes/torus.stl",   "tests/meshes/torus_ascii.ply"};
+static const char *const MESHES[] = {"assets/armadillo.off",
+                                     "assets/banana_flesh.obj",
+                                     "assets/banana_peel.obj",
+                                     "assets/blade.obj",
+                                     "assets/bowl.obj",
+                                     "assets/bunny.off",
+                                     "assets/c_leg.obj",
+                                     "assets/cross_plates.obj",
+                                     "assets/cube.obj",
+                                     "assets/knife_wavy.obj",
+                                     "assets/paddle.obj",
+                                     "assets/paddle_sheet.obj",
+                                     "assets/paddle_wheel.obj",
+                                     "assets/plate.obj",
+                                     "assets/plate_thin.obj",
+                                     "assets/scoop.obj",
+                                     "assets/sphere.obj",
+                                     "assets/stirrer.obj",
+                                     "assets/torus.obj",
+                                     "assets/wheel.obj",
+                                     "tests/meshes/bowtie.obj",
+                                     "tests/meshes/cube.obj",
+                                     "tests/meshes/cube_open.obj",
+                                     "tests/meshes/diamond.obj",
+                                     "tests/meshes/octahedron.obj",
+                                     "tests/meshes/torus.obj",
+                                     "tests/meshes/torus.off",
+                                     "tests/meshes/torus.ply",
+                                     "tests/meshes/torus.stl",
+                                     "tests/meshes/torus_ascii.ply"};
 #define NMESHES (int)(sizeof MESHES / sizeof MESHES[0])
 
 /* ---- the seeds ------------------------------------------------------------ */

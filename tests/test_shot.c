@@ -41,11 +41,11 @@ static const kf_diag_entry *find(const kf_diag *d, const char *file, int line, i
 
 static void dump(const kf_diag *d) { kf_diag_print(stderr, d); }
 
-#define EXPECT(d, file, line, col, sev, text)                                                          \
-    do {                                                                                               \
-        const kf_diag_entry *e_ = find((d), (file), (line), (col), (text));                           \
-        KT_CHECK(e_ != NULL, "no diagnostic at %d:%d with \"%s\"", (line), (col), (text));            \
-        if (e_) KT_CHECK(e_->severity == (sev), "%d:%d has the wrong severity", (line), (col));       \
+#define EXPECT(d, file, line, col, sev, text)                                                                          \
+    do {                                                                                                               \
+        const kf_diag_entry *e_ = find((d), (file), (line), (col), (text));                                            \
+        KT_CHECK(e_ != NULL, "no diagnostic at %d:%d with \"%s\"", (line), (col), (text));                             \
+        if (e_) KT_CHECK(e_->severity == (sev), "%d:%d has the wrong severity", (line), (col));                        \
     } while (0)
 
 static char *printed(const kf_diag_entry *e) {
@@ -74,7 +74,8 @@ static void table_is_consistent(void) {
         size_t pl = strlen(parent);
         if (pl > 2 && strcmp(parent + pl - 2, ".*") == 0) parent[pl - 2] = '\0';
         if (pl > 2 && strcmp(parent + pl - 2, "[]") == 0) parent[pl - 2] = '\0';
-        KT_CHECK(parent[0] == '\0' || kf_key_find(parent) >= 0, "%s: its container %s is not declared", k->path, parent);
+        KT_CHECK(parent[0] == '\0' || kf_key_find(parent) >= 0, "%s: its container %s is not declared", k->path,
+                 parent);
         if (k->only) {
             char cond[128], choice[64];
             const char *eq = strchr(k->only, '=');
@@ -94,8 +95,8 @@ static void table_is_consistent(void) {
         }
     }
     /* enums written in C order, so an index is the kf_* value */
-#define CHOICE(path, value, name)                                                                   \
-    KT_CHECK(strcmp(kf_key_choice(&kf_keys[kf_key_find(path)], (value), b, sizeof b), name) == 0, \
+#define CHOICE(path, value, name)                                                                                      \
+    KT_CHECK(strcmp(kf_key_choice(&kf_keys[kf_key_find(path)], (value), b, sizeof b), name) == 0,                      \
              "%s: choice %d should be %s", path, (int)(value), name)
     char b[32];
     CHOICE("sim.kernel", KF_KERNEL_CUBIC, "cubic");
@@ -233,13 +234,15 @@ static void implicit_scheme_key(void) {
     const char *unused[] = {"sim.implicit_scheme=midpoint"};
     s = load("good.yaml", unused, 1, NULL, NULL, &d);
     KT_CHECK(s != NULL && d.errors == 0, "without the implicit integrator: loads");
-    EXPECT(&d, "--set", 1, 5, KF_DIAG_WARNING, "sim.implicit_scheme has no effect with integrator explicit (only with implicit)");
+    EXPECT(&d, "--set", 1, 5, KF_DIAG_WARNING,
+           "sim.implicit_scheme has no effect with integrator explicit (only with implicit)");
     kf_shot_free(s);
     kf_diag_free(&d);
     const char *bad[] = {"sim.integrator=implicit", "sim.implicit_scheme=leapfrog"};
     s = load("good.yaml", bad, 2, NULL, NULL, &d);
     KT_CHECK(s == NULL && d.errors == 1, "unknown scheme refused (%d errors)", d.errors);
-    EXPECT(&d, "--set", 2, 21, KF_DIAG_ERROR, "sim.implicit_scheme: expected backward_euler or midpoint, got 'leapfrog'");
+    EXPECT(&d, "--set", 2, 21, KF_DIAG_ERROR,
+           "sim.implicit_scheme: expected backward_euler or midpoint, got 'leapfrog'");
     kf_shot_free(s);
     kf_diag_free(&d);
 }
@@ -383,7 +386,8 @@ static void bad_reports_everything(void) {
     EXPECT(&d, f, 18, 73, KF_DIAG_ERROR, "objects[1].size does not apply to shape sphere (only to box)");
     EXPECT(&d, f, 19, 38, KF_DIAG_ERROR, "objects[2]: mesh file 'assets/bunny.off' not found (looked for ");
     EXPECT(&d, f, 20, 82, KF_DIAG_ERROR, "unknown key 'velocty' in objects[3] (did you mean 'velocity'?)");
-    EXPECT(&d, f, 26, 35, KF_DIAG_ERROR, "colliders[0].keys[1].frame must come after the previous key's frame 1010, got 1005");
+    EXPECT(&d, f, 26, 35, KF_DIAG_ERROR,
+           "colliders[0].keys[1].frame must come after the previous key's frame 1010, got 1005");
     EXPECT(&d, f, 27, 28, KF_DIAG_ERROR, "output.dir: unknown field {verison}; use {shot}, {version} or {frame}");
 
     /* sorted top to bottom */
@@ -449,9 +453,10 @@ static void caret(void) {
 
 static void overrides(void) {
     kf_diag d;
-    const char *sets[] = {"materials.jelly.E=2e3", "objects.cube.velocity=[0, -2, 0]", "colliders.0.friction=0.1",
-                          "sim.kernel=quadratic", "materials.extra={preset: goo}", "objects.1.material=extra",
-                          "objects.sphere1.radius=0.15", "domain={walls: none}"};
+    const char *sets[] = {"materials.jelly.E=2e3",         "objects.cube.velocity=[0, -2, 0]",
+                          "colliders.0.friction=0.1",      "sim.kernel=quadratic",
+                          "materials.extra={preset: goo}", "objects.1.material=extra",
+                          "objects.sphere1.radius=0.15",   "domain={walls: none}"};
     kf_shot *s = load("good.yaml", sets, 8, NULL, NULL, &d);
     KT_CHECK(s != NULL && d.errors == 0 && d.warnings == 1, "overrides apply cleanly");
     EXPECT(&d, fixture("good.yaml"), 17, 3, KF_DIAG_WARNING, "materials.firm is not used by any object");
@@ -641,8 +646,9 @@ static void bad_collider_keys(void) {
     EXPECT(&d, f, 18, 17, KF_DIAG_ERROR,
            "colliders[4].keys[1].frame must come after the previous key's frame 1010, got 1005");
     EXPECT(&d, f, 18, 30, KF_DIAG_ERROR, "colliders[4].keys[1].scale must be > 0, got 0");
-    EXPECT(&d, f, 19, 23, KF_DIAG_ERROR, "unknown key 'rotation' in colliders[4].keys[2]; keys here: frame, translate, "
-                                         "rotate, scale");
+    EXPECT(&d, f, 19, 23, KF_DIAG_ERROR,
+           "unknown key 'rotation' in colliders[4].keys[2]; keys here: frame, translate, "
+           "rotate, scale");
     EXPECT(&d, f, 20, 70, KF_DIAG_ERROR, "colliders[5].inside does not apply to shape plane (only to box|sphere|mesh)");
     kf_diag_free(&d);
 

@@ -43,7 +43,7 @@ static int has(const kf_diag *d, int line, int col, kf_severity sev, const char 
     }
     return 0;
 }
-#define EXPECT(d, line, col, sev, text) \
+#define EXPECT(d, line, col, sev, text)                                                                                \
     KT_CHECK(has((d), (line), (col), (sev), (text)), "no diagnostic at %d:%d with \"%s\"", (line), (col), (text))
 
 /* ---- parsing ---------------------------------------------------------------------------- */
@@ -150,7 +150,7 @@ static void rigid_values(void) {
     kf_shot_free(s);
     kf_diag_free(&d);
     const char *motor[] = {"joints.1.motor=position", "joints.1.frequency=-1.5", "joints.1.angle=90",
-                           "joints.1.kp=2", "joints.1.kv=0.05", "joints.1.torque_limit=0.3"};
+                           "joints.1.kp=2",           "joints.1.kv=0.05",        "joints.1.torque_limit=0.3"};
     s = load(fixture("rigids.yaml"), motor, 6, &d);
     KT_CHECK(s != NULL && d.count == 0, "a position motor set by --set loads cleanly");
     if (s) {
@@ -231,7 +231,8 @@ static void rigid_surfaces(void) {
     for (int k = 0; k < nt; k++) {
         const double *a = &v[3 * t[3 * k]], *b = &v[3 * t[3 * k + 1]], *c = &v[3 * t[3 * k + 2]];
         vol += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-                a[2] * (b[0] * c[1] - b[1] * c[0])) / 6;
+                a[2] * (b[0] * c[1] - b[1] * c[0])) /
+               6;
     }
     KT_NEAR(vol, 0.2 * 0.1 * 0.05, 1e-15, "wound counter-clockwise seen from outside");
     free(v), free(t);
@@ -345,18 +346,24 @@ static void thin_assets(void) {
     /* the scoop: 24 chords over 120 degrees of radius 0.3, 1 m wide */
     double scoop = 24 * 2 * 0.3 * sin(pi / 3 / 24) * 1.0;
     /* area: relative tolerance `rel` (float coordinates: 1e-6) */
-    struct { const char *name; size_t ntri; double area, rel; } sheets[] = {
-        {"cross_plates", 1600, 2.0, 1e-6},   {"scoop", 960, scoop, 1e-6}, {"paddle_wheel", 1280, 4 * 1.0 * 0.4, 1e-6},
+    struct {
+        const char *name;
+        size_t ntri;
+        double area, rel;
+    } sheets[] = {
+        {"cross_plates", 1600, 2.0, 1e-6},
+        {"scoop", 960, scoop, 1e-6},
+        {"paddle_wheel", 1280, 4 * 1.0 * 0.4, 1e-6},
         /* paddle.obj's outline: that solid's volume over its 20 mm thickness (it samples the
            outline at 100 segments, the sheet at 50: 0.5 %) */
         {"paddle_sheet", 600, 0.00233359 / 0.02, 0.005},
-        {"stirrer", 1152, 0.0, 0},           /* curved bottom edge: area checked against the lattice below */
+        {"stirrer", 1152, 0.0, 0}, /* curved bottom edge: area checked against the lattice below */
     };
     for (int i = 0; i < (int)(sizeof sheets / sizeof *sheets); i++) {
         char path[1024], err[512];
         const char *slash = strrchr(__FILE__, '/');
-        snprintf(path, sizeof path, "%.*s/../assets/%s.obj", slash ? (int)(slash - __FILE__) : 1, slash ? __FILE__ : ".",
-                 sheets[i].name);
+        snprintf(path, sizeof path, "%.*s/../assets/%s.obj", slash ? (int)(slash - __FILE__) : 1,
+                 slash ? __FILE__ : ".", sheets[i].name);
         kf_mesh m;
         int rc = kf_mesh_load(path, &m, err, sizeof err);
         KT_CHECK(rc == 0, "%s", err);
@@ -390,10 +397,9 @@ static void tri_tri_cases(void) {
     const double fan[9] = {0, 0, 0, -1, 0, 0.2, -1, 1, 0.2};
     KT_CHECK(kf_tri_tri_intersect(a, fan, at) == 0, "triangles meeting only at a shared vertex");
     const double fold[9] = {0, 0, 0, 0.5, 0.2, 1, 0.5, 0.2, -1};
-    KT_CHECK(kf_tri_tri_intersect(a, fold, at) == 1 && fabs(at[0] - 0.5) < 1e-15 && fabs(at[1] - 0.2) < 1e-15 &&
-                 at[2] == 0,
-             "a triangle from a shared vertex through the other: at (0.5, 0.2, 0), got (%g, %g, %g)", at[0], at[1],
-             at[2]);
+    KT_CHECK(
+        kf_tri_tri_intersect(a, fold, at) == 1 && fabs(at[0] - 0.5) < 1e-15 && fabs(at[1] - 0.2) < 1e-15 && at[2] == 0,
+        "a triangle from a shared vertex through the other: at (0.5, 0.2, 0), got (%g, %g, %g)", at[0], at[1], at[2]);
     /* a corner resting on the other's face counts; a parallel face 1e-9 above does not */
     const double corner[9] = {0.25, 0.25, 0, 0.25, 0.25, 1, 1, 0.25, 1};
     KT_CHECK(kf_tri_tri_intersect(a, corner, at) == 1, "a corner touching a face");
@@ -444,12 +450,14 @@ static void self_intersecting_solids(void) {
              slash ? __FILE__ : ".");
     kf_mesh m;
     int rc = kf_mesh_load(path, &m, err, sizeof err);
-    KT_CHECK(rc == 0 && m.closed && m.oriented && m.volume > 0, "cubes_crossed.obj: closed and outward %s", rc ? err : "");
+    KT_CHECK(rc == 0 && m.closed && m.oriented && m.volume > 0, "cubes_crossed.obj: closed and outward %s",
+             rc ? err : "");
     if (rc == 0) {
         kf_mesh_isect x;
         for (int threads = 1; threads <= 2; threads++) {
             KT_CHECK(kf_mesh_self_intersections(&m, threads, &x) == 0, "memory");
-            KT_CHECK(x.pairs == 14 && x.tri[0] == 2 && x.tri[1] == 17 && x.at[0] == 1 && x.at[1] == 0.25 && x.at[2] == 1,
+            KT_CHECK(x.pairs == 14 && x.tri[0] == 2 && x.tri[1] == 17 && x.at[0] == 1 && x.at[1] == 0.25 &&
+                         x.at[2] == 1,
                      "%d threads: %zu pairs, first %u and %u at (%g, %g, %g)", threads, x.pairs, x.tri[0], x.tri[1],
                      x.at[0], x.at[1], x.at[2]);
         }
@@ -460,7 +468,8 @@ static void self_intersecting_solids(void) {
        ring's base at y = -0.5, a 30 mm wall under the inside's bottom at -0.47 */
     snprintf(path, sizeof path, "%.*s/../assets/bowl.obj", slash ? (int)(slash - __FILE__) : 1, slash ? __FILE__ : ".");
     rc = kf_mesh_load(path, &m, err, sizeof err);
-    KT_CHECK(rc == 0 && m.closed && m.oriented && m.flipped_tris == 0, "bowl.obj: closed and outward %s", rc ? err : "");
+    KT_CHECK(rc == 0 && m.closed && m.oriented && m.flipped_tris == 0, "bowl.obj: closed and outward %s",
+             rc ? err : "");
     if (rc == 0) {
         KT_CHECK(kf_mesh_check_self_intersection(&m, 0, err, sizeof err) == 0, "%s", err);
         KT_NEAR(m.lo[1], -0.5, 1e-7, "the base (float coordinates)");
@@ -472,9 +481,9 @@ static void self_intersecting_solids(void) {
 
 /* the paper's scenes in shots/ load and build (at preview quality: seconds) */
 static void example_shots(void) {
-    const char *names[] = {"bunny_split.yaml", "cheese_cut.yaml",   "sand_stir.yaml",   "sand_sweep.yaml",
-                           "goo_blocks.yaml",  "buoyancy.yaml",     "sand_paddles.yaml", "water_wheel.yaml",
-                           "sand_wheel.yaml"};
+    const char *names[] = {"bunny_split.yaml",  "cheese_cut.yaml",  "sand_stir.yaml",
+                           "sand_sweep.yaml",   "goo_blocks.yaml",  "buoyancy.yaml",
+                           "sand_paddles.yaml", "water_wheel.yaml", "sand_wheel.yaml"};
     for (int i = 0; i < (int)(sizeof names / sizeof *names); i++) {
         char path[1024];
         const char *slash = strrchr(__FILE__, '/');

@@ -20,8 +20,15 @@
 
 /* keys that must not change the hash: outputs, rendering, surfacing, names */
 /* (frames.end: a longer shot makes the same frames; the hash is per frame range start and rate) */
-static const char *const not_sim[] = {"shot", "version", "frames.end", "sim.threads", "materials.*.color",
-                                      "materials.*.specular", "materials.*.roughness", "objects[].name", NULL};
+static const char *const not_sim[] = {"shot",
+                                      "version",
+                                      "frames.end",
+                                      "sim.threads",
+                                      "materials.*.color",
+                                      "materials.*.specular",
+                                      "materials.*.roughness",
+                                      "objects[].name",
+                                      NULL};
 static const char *const not_sim_prefix[] = {"output.", "surface.", "render.", NULL};
 
 static const char *base_shot =
@@ -96,7 +103,8 @@ static int entry_path(const kf_keydef *k, char *out, size_t len) {
         snprintf(out, len, "materials.%s.%s", name, p + 12);
     } else if (!strncmp(p, "objects[].", 10)) {
         const char *idx = "0"; /* the box */
-        if (k->only && strstr(k->only, "shape=") && !strstr(k->only, "box")) idx = "2"; /* sphere|cylinder: the cylinder */
+        if (k->only && strstr(k->only, "shape=") && !strstr(k->only, "box"))
+            idx = "2"; /* sphere|cylinder: the cylinder */
         if (k->only && !strcmp(k->only, "shape=sphere")) idx = "1";
         if ((k->only && strstr(k->only, "mesh")) || !strncmp(p, "objects[].fit", 13)) return -1; /* a mesh file */
         if (!strcmp(p, "objects[].shape")) return -1; /* another shape needs other keys: each shape's own are walked */
@@ -134,21 +142,29 @@ static void every_key_moves_the_hash(void) {
         case KT_INT:
             two_numbers(k, v);
             for (int j = 0; j < 2; j++) snprintf(val[j], sizeof val[j], "%.9g", v[j]);
-            if (k->type == KT_INT && k->choices) choice(k->choices, 0, val[0], sizeof val[0]), choice(k->choices, 1, val[1], sizeof val[1]);
-            if (!strcmp(k->path, "frames.end")) snprintf(val[0], sizeof val[0], "1020"), snprintf(val[1], sizeof val[1], "1030");
+            if (k->type == KT_INT && k->choices)
+                choice(k->choices, 0, val[0], sizeof val[0]), choice(k->choices, 1, val[1], sizeof val[1]);
+            if (!strcmp(k->path, "frames.end"))
+                snprintf(val[0], sizeof val[0], "1020"), snprintf(val[1], sizeof val[1], "1030");
             break;
         case KT_BOOL: snprintf(val[0], sizeof val[0], "true"), snprintf(val[1], sizeof val[1], "false"); break;
         case KT_ENUM:
             choice(k->choices, 0, val[0], sizeof val[0]), choice(k->choices, 1, val[1], sizeof val[1]);
             /* the model on goo (which has its yield stress): von_mises against corotated */
-            if (!strcmp(k->path, "materials.*.model")) snprintf(key, sizeof key, "materials.goo.model"), choice(k->choices, 2, val[1], sizeof val[1]);
+            if (!strcmp(k->path, "materials.*.model"))
+                snprintf(key, sizeof key, "materials.goo.model"), choice(k->choices, 2, val[1], sizeof val[1]);
             break;
         case KT_VEC3:
             snprintf(val[0], sizeof val[0], "[0.3, 0.2, 0.25]"), snprintf(val[1], sizeof val[1], "[0.25, 0.3, 0.2]");
-            if (!strcmp(k->path, "domain.min")) snprintf(val[0], sizeof val[0], "[-0.1, 0, 0]"), snprintf(val[1], sizeof val[1], "[0, -0.1, 0]");
-            if (!strcmp(k->path, "domain.max")) snprintf(val[0], sizeof val[0], "[1.1, 1, 1]"), snprintf(val[1], sizeof val[1], "[1, 1.1, 1]");
-            if (strstr(k->path, "center")) snprintf(val[0], sizeof val[0], "[0.3, 0.31, 0.3]"), snprintf(val[1], sizeof val[1], "[0.31, 0.3, 0.3]");
-            if (!strcmp(k->path, "sim.gravity")) snprintf(val[0], sizeof val[0], "[0, -9, 0]"), snprintf(val[1], sizeof val[1], "[0, -10, 0]");
+            if (!strcmp(k->path, "domain.min"))
+                snprintf(val[0], sizeof val[0], "[-0.1, 0, 0]"), snprintf(val[1], sizeof val[1], "[0, -0.1, 0]");
+            if (!strcmp(k->path, "domain.max"))
+                snprintf(val[0], sizeof val[0], "[1.1, 1, 1]"), snprintf(val[1], sizeof val[1], "[1, 1.1, 1]");
+            if (strstr(k->path, "center"))
+                snprintf(val[0], sizeof val[0], "[0.3, 0.31, 0.3]"),
+                    snprintf(val[1], sizeof val[1], "[0.31, 0.3, 0.3]");
+            if (!strcmp(k->path, "sim.gravity"))
+                snprintf(val[0], sizeof val[0], "[0, -9, 0]"), snprintf(val[1], sizeof val[1], "[0, -10, 0]");
             break;
         case KT_PRESET: snprintf(val[0], sizeof val[0], "jello"), snprintf(val[1], sizeof val[1], "rubber"); break;
         case KT_REF: snprintf(val[0], sizeof val[0], "jelly"), snprintf(val[1], sizeof val[1], "goo"); break;
@@ -180,12 +196,15 @@ static void every_key_moves_the_hash(void) {
                      val[0], val[1]);
         } else {
             sim++;
-            KT_CHECK(h[0] != h[1], "%s changes the simulation, yet %s and %s give the same cache hash (add it to "
-                     "kf_shot_sim_hash, or to not_sim here if it is not a simulation input)", k->path, val[0], val[1]);
+            KT_CHECK(h[0] != h[1],
+                     "%s changes the simulation, yet %s and %s give the same cache hash (add it to "
+                     "kf_shot_sim_hash, or to not_sim here if it is not a simulation input)",
+                     k->path, val[0], val[1]);
         }
     }
     printf("  %d simulation keys move the hash, %d other keys leave it; %d keys not walked (colliders, rigids, "
-           "joints, keyframes, mesh objects)\n", sim, other, skipped);
+           "joints, keyframes, mesh objects)\n",
+           sim, other, skipped);
     KT_CHECK(sim >= 50, "the walk reached the simulation keys (%d)", sim);
     remove(path);
 }

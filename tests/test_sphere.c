@@ -48,7 +48,7 @@
 #include "kt.h"
 
 #define SPH_PI 3.14159265358979323846
-#define SPH_A 1.0      /* rest radius */
+#define SPH_A 1.0 /* rest radius */
 #define SPH_RHO 1.0
 #define SPH_E 1000.0
 #define SPH_NU 0.3
@@ -248,8 +248,10 @@ static void sphere_convergence(void) {
          * is held to about twice its measured value too (1.00% MLS, 1.18%
          * classic; the fine one in sphere_mls/classic), and the fall to better
          * than first order (measured ratios 3.89 and 3.75, second order 4) */
-        KT_NEAR(e8, 0, f ? 0.024 : 0.020, "frequency error at a/dx = 8 within 2x the measured (1.00% MLS, 1.18% classic)");
-        KT_CHECK(e8 / e16 > 2.0, "error ratio from a/dx = 8 to 16 above first order's 2 (measured 3.9, 3.75): %.2f", e8 / e16);
+        KT_NEAR(e8, 0, f ? 0.024 : 0.020,
+                "frequency error at a/dx = 8 within 2x the measured (1.00% MLS, 1.18% classic)");
+        KT_CHECK(e8 / e16 > 2.0, "error ratio from a/dx = 8 to 16 above first order's 2 (measured 3.9, 3.75): %.2f",
+                 e8 / e16);
     }
 }
 

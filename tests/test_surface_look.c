@@ -47,14 +47,15 @@ static void resting_block(void) {
         char err[512] = "";
         KT_CHECK(kf_vdb_levelset_from_particles(pts.n, pts.x, NULL, NULL, NULL, &p, &g, NULL, err, sizeof err) == 0,
                  "%s", err);
-        KT_CHECK(kf_vdb_levelset_from_particles(sheet.n, sheet.x, NULL, NULL, NULL, &p, &gs, NULL, err, sizeof err) == 0,
+        KT_CHECK(kf_vdb_levelset_from_particles(sheet.n, sheet.x, NULL, NULL, NULL, &p, &gs, NULL, err, sizeof err) ==
+                     0,
                  "%s", err);
         if (g && gs) {
             look_result r = look_measure(g, lo, hi, h);
             printf("  seed %u: top RMS %.4f h, offset %+.3f h, edge radius %.3f h, volume %+.4f\n", seed, r.top_rms,
                    r.top_off, r.edge, r.vol_err);
-            KT_CHECK(r.top_rms <= 0.11, "top face RMS %.4f h: measured 0.075-0.087 (before averaging 0.12-0.13; target 0.05)",
-                     r.top_rms);
+            KT_CHECK(r.top_rms <= 0.11,
+                     "top face RMS %.4f h: measured 0.075-0.087 (before averaging 0.12-0.13; target 0.05)", r.top_rms);
             KT_NEAR(r.top_off, 0, 0.05, "the face on the material: the averaging's shift is given back by the erosion");
             KT_CHECK(r.edge <= 1.9, "edge radius %.3f h: measured 1.50-1.52 (target 1)", r.edge);
             KT_NEAR(r.vol_err, 0, 0.02, "enclosed volume within 2% of the material's (measured -1.3%)");

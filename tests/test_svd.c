@@ -14,8 +14,8 @@
 #define TOL_REC 1e-12  /* reconstruction, relative to ‖F‖ */
 #define TOL_ORTH 1e-13 /* UᵀU = I, det = 1: a handful of double roundings */
 #else
-#define TOL_REC 1e-5   /* three float-rounded factors: a few 6e-8, with margin */
-#define TOL_ORTH 1e-6  /* each entry of UᵀU sums three products of rounded entries */
+#define TOL_REC 1e-5  /* three float-rounded factors: a few 6e-8, with margin */
+#define TOL_ORTH 1e-6 /* each entry of UᵀU sums three products of rounded entries */
 #endif
 
 /* ---- deterministic random numbers ----------------------------------------- */
@@ -85,10 +85,9 @@ static void measure(const kf_real F[9], worst *w) {
 }
 
 static void check_worst(const worst *w, const char *what) {
-    KT_CHECK(w->rec <= TOL_REC, "%s: worst ‖UΣVᵀ−F‖/‖F‖ = %.3g over %d (limit %.1g: output rounding)", what,
-             w->rec, w->n, TOL_REC);
-    KT_CHECK(w->orth <= TOL_ORTH, "%s: worst |QᵀQ−I| = %.3g (limit %.1g: output rounding)", what, w->orth,
-             TOL_ORTH);
+    KT_CHECK(w->rec <= TOL_REC, "%s: worst ‖UΣVᵀ−F‖/‖F‖ = %.3g over %d (limit %.1g: output rounding)", what, w->rec,
+             w->n, TOL_REC);
+    KT_CHECK(w->orth <= TOL_ORTH, "%s: worst |QᵀQ−I| = %.3g (limit %.1g: output rounding)", what, w->orth, TOL_ORTH);
     KT_CHECK(w->det <= TOL_ORTH, "%s: worst |det−1| = %.3g (limit %.1g: output rounding)", what, w->det, TOL_ORTH);
     /* ordering: exact ties may differ by rounding of σ */
     KT_CHECK(w->order <= TOL_ORTH, "%s: ordering violated by %.3g relative (limit %.1g: rounding of ties)", what,
@@ -171,7 +170,8 @@ static void svd_rank_deficient(void) {
     KT_CHECK(s[0] == 0 && s[1] == 0 && s[2] == 0, "F = 0: σ = %g %g %g", s[0], s[1], s[2]);
     KT_NEAR(det_d(U), 1, TOL_ORTH, "F = 0 still gives rotations");
     KT_NEAR(det_d(V), 1, TOL_ORTH, "F = 0 still gives rotations");
-    kf_real S1[9] = {1, 2, 3, 2, 4, 6, -1, -2, -3}, S2[9] = {1, 0, 1, 0, 1, 1, 1, 1, 2}, E00[9] = {0, 0, 0, 0, 0, 0, 0, 0, 5};
+    kf_real S1[9] = {1, 2, 3, 2, 4, 6, -1, -2, -3}, S2[9] = {1, 0, 1, 0, 1, 1, 1, 1, 2},
+            E00[9] = {0, 0, 0, 0, 0, 0, 0, 0, 5};
     worst w2 = {0};
     measure(S1, &w2);
     measure(S2, &w2);
@@ -199,9 +199,9 @@ static void svd_repeated(void) {
     check_worst(&w, "repeated σ");
 
     /* exact matrices: identity, −I, permutations, unsorted diagonals, π rotation */
-    kf_real M[][9] = {{1, 0, 0, 0, 1, 0, 0, 0, 1},  {-1, 0, 0, 0, -1, 0, 0, 0, -1}, {0, 1, 0, 1, 0, 0, 0, 0, 1},
-                      {0, 1, 0, 0, 0, 1, 1, 0, 0},  {1, 0, 0, 0, 3, 0, 0, 0, 2},    {-1, 0, 0, 0, -1, 0, 0, 0, 1},
-                      {2, 0, 0, 0, 2, 0, 0, 0, 1},  {0, 0, -2, 0, 2, 0, 2, 0, 0},   {1, 0, 0, 0, -1, 0, 0, 0, 1}};
+    kf_real M[][9] = {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {-1, 0, 0, 0, -1, 0, 0, 0, -1}, {0, 1, 0, 1, 0, 0, 0, 0, 1},
+                      {0, 1, 0, 0, 0, 1, 1, 0, 0}, {1, 0, 0, 0, 3, 0, 0, 0, 2},    {-1, 0, 0, 0, -1, 0, 0, 0, 1},
+                      {2, 0, 0, 0, 2, 0, 0, 0, 1}, {0, 0, -2, 0, 2, 0, 2, 0, 0},   {1, 0, 0, 0, -1, 0, 0, 0, 1}};
     int nm = (int)(sizeof M / sizeof M[0]);
     worst w2 = {0};
     for (int k = 0; k < nm; k++) {

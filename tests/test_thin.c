@@ -28,10 +28,14 @@ static void expect_clean(const char *material, thin_motion motion, double cells,
     const char *mode = adaptive ? "CFL rule" : "fixed step";
     KT_CHECK(!r.failed, "%s %s at %.2f cells/substep (%s): no numerical trouble (%s)", material,
              thin_motion_name(motion), cells, mode, r.trouble);
-    KT_CHECK(r.across_frame_max == 0, "%s %s at %.2f cells/substep (%s): nobody behind the sheet at an output frame "
-             "(%ld)", material, thin_motion_name(motion), cells, mode, r.across_frame_max);
-    KT_CHECK(r.deepest <= 0.1, "%s %s at %.2f cells/substep (%s): nobody more than 0.1 cell behind at a substep's "
-             "end (deepest %.3f cells)", material, thin_motion_name(motion), cells, mode, r.deepest);
+    KT_CHECK(r.across_frame_max == 0,
+             "%s %s at %.2f cells/substep (%s): nobody behind the sheet at an output frame "
+             "(%ld)",
+             material, thin_motion_name(motion), cells, mode, r.across_frame_max);
+    KT_CHECK(r.deepest <= 0.1,
+             "%s %s at %.2f cells/substep (%s): nobody more than 0.1 cell behind at a substep's "
+             "end (deepest %.3f cells)",
+             material, thin_motion_name(motion), cells, mode, r.deepest);
     printf("  %-5s %-8s %4.2f cells/substep (%s): %ld particles, %ld substeps, across 0 (deepest %.3f cells), %ld "
            "caught by the guard, fastest particle %.2f cells/substep, %.0f ms\n",
            material, thin_motion_name(motion), cells, mode, r.particles, r.substeps, r.deepest, r.caught, r.max_cells,
@@ -137,7 +141,8 @@ static double rest_speed(int on_sheet, double *ymin) {
 static void rest_without_jitter(void) {
     double ys, yf, sheet = rest_speed(1, &ys), floor = rest_speed(0, &yf);
     printf("  at rest after 1 s: rms speed %.2e m/s on the sheet, %.2e m/s on the floor; lowest particle %.2f cells "
-           "above the sheet\n", sheet, floor, ys / 0.02);
+           "above the sheet\n",
+           sheet, floor, ys / 0.02);
     KT_CHECK(sheet <= 2 * floor + 1e-4, "no more motion on the sheet (%.3g m/s) than on the floor (%.3g m/s)", sheet,
              floor);
     /* the penalty keeps each particle's cube (half a spacing, a quarter cell
@@ -204,7 +209,8 @@ static void plate_keeps_momentum(void) {
     double left = 0;
     long across = kf_state_thin_audit(m, s, &left);
     printf("  free plate: v = %.4f m/s after the hit, guard caught %ld, momentum drift %.2e of |P0| = %.4f kg m/s, "
-           "%ld across at the end\n", pose.v[0], st.thin_caught, drift, scale, across);
+           "%ld across at the end\n",
+           pose.v[0], st.thin_caught, drift, scale, across);
     KT_CHECK(pose.v[0] > 0.5, "the block pushed the plate (v = %g m/s)", pose.v[0]);
     KT_CHECK(across == 0, "nobody across the plate (%ld, deepest %.3f cells)", across, left);
     /* float particle sums over 400 substeps (the ball-on-box test of
@@ -243,7 +249,8 @@ static void audit_sees_crossing(void) {
     size_t pick = 0;
     double best = 1;
     for (size_t i = 0; i < pv.n; i++)
-        if ((pv.colour[i] & 2) && 0.5 - pv.x[0][i] < best && fabs(pv.x[1][i] - 0.5) < 0.05 && fabs(pv.x[2][i] - 0.5) < 0.05)
+        if ((pv.colour[i] & 2) && 0.5 - pv.x[0][i] < best && fabs(pv.x[1][i] - 0.5) < 0.05 &&
+            fabs(pv.x[2][i] - 0.5) < 0.05)
             best = 0.5 - pv.x[0][i], pick = i;
     pv.x[0][pick] = (kf_real)(0.5 + 0.3 * sd.dx);
     long after = kf_state_thin_audit(m, s, &deep);

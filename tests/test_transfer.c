@@ -17,7 +17,8 @@
 /* particles at random positions with random v, C, and a stressed F */
 static kf_state *random_state(kf_model *m, int mat, int n, unsigned seed, double spread) {
     kf_state *s = kf_state_create(m);
-    double *x = malloc(sizeof(double) * 3 * n), *v = malloc(sizeof(double) * 3 * n), *F = malloc(sizeof(double) * 9 * n);
+    double *x = malloc(sizeof(double) * 3 * n), *v = malloc(sizeof(double) * 3 * n),
+           *F = malloc(sizeof(double) * 9 * n);
     for (int i = 0; i < n; i++) {
         for (int a = 0; a < 3; a++) {
             x[3 * i + a] = 0.3 + spread * tu_uniform(&seed);
@@ -151,7 +152,8 @@ static void affine_field(kf_kernel kernel, kf_force force) {
             double xi[3];
             tu_node_pos(&s->g, b, l, sd.dx, xi);
             kf_v4 v;
-            for (int r = 0; r < 3; r++) v[r] = (kf_real)(a[r] + G[3 * r] * xi[0] + G[3 * r + 1] * xi[1] + G[3 * r + 2] * xi[2]);
+            for (int r = 0; r < 3; r++)
+                v[r] = (kf_real)(a[r] + G[3 * r] * xi[0] + G[3 * r + 1] * xi[1] + G[3 * r + 2] * xi[2]);
             v[3] = 1;
             s->g.node[b * KF_BLOCK_NODES + l] = v;
         }

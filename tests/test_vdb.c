@@ -27,21 +27,18 @@
 
 static const double C[3] = {0.5, 0.5, 0.5};
 
-static double now(void)
-{
+static double now(void) {
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return t.tv_sec + 1e-9 * t.tv_nsec;
 }
 
-static void tmp_path(char *buf, size_t len, const char *tag)
-{
+static void tmp_path(char *buf, size_t len, const char *tag) {
     snprintf(buf, len, "/tmp/kerf_test_vdb_%ld_%s.vdb", (long)getpid(), tag);
 }
 
 /* lattice points of spacing h inside |x - C| <= rin; returns count, *out malloc'ed (n x 3) */
-static size_t lattice_ball(double rin, double h, double **out)
-{
+static size_t lattice_ball(double rin, double h, double **out) {
     int m = (int)ceil(rin / h) + 1;
     size_t cap = (size_t)(2 * m + 1) * (2 * m + 1) * (2 * m + 1), n = 0;
     double *x = malloc(cap * 3 * sizeof *x);
@@ -59,8 +56,7 @@ static size_t lattice_ball(double rin, double h, double **out)
 
 /* zero crossing of the level set along the ray c + t u, by bisection on the
  * sign of the sampled distance (inside is negative, far outside positive) */
-static double ray_radius(const kf_vdb_grid *g, const double u[3], double tmax)
-{
+static double ray_radius(const kf_vdb_grid *g, const double u[3], double tmax) {
     double lo = 0, hi = tmax;
     for (int it = 0; it < 50; it++) {
         double t = 0.5 * (lo + hi), p[3], s;
@@ -73,8 +69,7 @@ static double ray_radius(const kf_vdb_grid *g, const double u[3], double tmax)
 }
 
 /* radial error of the zero crossing over 400 Fibonacci directions */
-static void radius_error(const kf_vdb_grid *g, double R, double *mean, double *maxabs)
-{
+static void radius_error(const kf_vdb_grid *g, double R, double *mean, double *maxabs) {
     const int nd = 400;
     double sum = 0, mx = 0;
     for (int i = 0; i < nd; i++) {
@@ -88,16 +83,14 @@ static void radius_error(const kf_vdb_grid *g, double R, double *mean, double *m
     *maxabs = mx;
 }
 
-static int cmp_u64(const void *a, const void *b)
-{
+static int cmp_u64(const void *a, const void *b) {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
     return x < y ? -1 : x > y;
 }
 
 /* closed and consistently wound: every directed edge appears once and its
  * reverse appears once. Returns the number of offending edges. */
-static size_t open_edges(const kf_vdb_trimesh *m)
-{
+static size_t open_edges(const kf_vdb_trimesh *m) {
     size_t ne = 3 * m->ntris, bad = 0;
     uint64_t *e = malloc(ne * sizeof *e);
     for (size_t t = 0; t < m->ntris; t++)
@@ -115,8 +108,7 @@ static size_t open_edges(const kf_vdb_trimesh *m)
     return bad;
 }
 
-static void mesh_measures(const kf_vdb_trimesh *m, double *area, double *volume)
-{
+static void mesh_measures(const kf_vdb_trimesh *m, double *area, double *volume) {
     double A = 0, V = 0;
     for (size_t t = 0; t < m->ntris; t++) {
         const float *p = m->verts + 3 * m->tris[3 * t], *q = m->verts + 3 * m->tris[3 * t + 1],
@@ -133,7 +125,8 @@ static void mesh_measures(const kf_vdb_trimesh *m, double *area, double *volume)
         n[2] = u[0] * w[1] - u[1] * w[0];
         A += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         V += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-              a[2] * (b[0] * c[1] - b[1] * c[0])) / 6;
+              a[2] * (b[0] * c[1] - b[1] * c[0])) /
+             6;
     }
     *area = A;
     *volume = V;
@@ -142,8 +135,7 @@ static void mesh_measures(const kf_vdb_trimesh *m, double *area, double *volume)
 /* the sphere of the header comment: R = 0.2 m, h = 0.01 m, voxel 0.01 m, r = 1.5 h */
 static const double R = 0.2, H = 0.01, VOX = 0.01, FACTOR = 1.5;
 
-static kf_vdb_grid *sphere(int with_vel, kf_vdb_surface_stats *st)
-{
+static kf_vdb_grid *sphere(int with_vel, kf_vdb_surface_stats *st) {
     double *x;
     kf_vdb_surface_params p;
     kf_vdb_surface_params_default(&p);
@@ -170,8 +162,7 @@ static kf_vdb_grid *sphere(int with_vel, kf_vdb_surface_stats *st)
     return g;
 }
 
-static void test_sphere_file(void)
-{
+static void test_sphere_file(void) {
     char path[256], err[512] = "";
     tmp_path(path, sizeof path, "sphere");
     kf_vdb_surface_stats st;
@@ -213,8 +204,8 @@ static void test_sphere_file(void)
         KT_NEAR(kf_vdb_voxel_size(rg), VOX, 1e-12, "voxel size kept");
         double mean, mx;
         radius_error(rg, R, &mean, &mx);
-        printf("  sphere R=%.2f h=%.3f voxel=%.3f: zero crossing error mean %+.4f m, max |%.4f| m\n", R, H, VOX,
-               mean, mx);
+        printf("  sphere R=%.2f h=%.3f voxel=%.3f: zero crossing error mean %+.4f m, max |%.4f| m\n", R, H, VOX, mean,
+               mx);
         KT_NEAR(mx, 0, VOX, "surface within one voxel of R (seeded inside R - r + h/2)");
         KT_NEAR(mean, 0, 0.2 * VOX, "on average the r - h/2 shift is exact");
         double q[6] = {C[0], C[1], C[2], C[0] + 2 * R, C[1], C[2]}, s[2];
@@ -265,8 +256,7 @@ static void test_sphere_file(void)
     unlink(path);
 }
 
-static void test_mesh(void)
-{
+static void test_mesh(void) {
     char path[256], err[512] = "";
     tmp_path(path, sizeof path, "mesh");
     kf_vdb_grid *g = sphere(0, NULL);
@@ -294,11 +284,13 @@ static void test_mesh(void)
            "normal.radial mean %.4f min %.3f\n",
            m.nverts, m.ntris, maxr, A / (4 * M_PI * R * R), V / (4.0 / 3 * M_PI * R * R * R), nmean, ndot);
     KT_NEAR(maxr, 0, VOX, "mesh vertices lie on the zero crossing, itself within a voxel of R");
-    KT_NEAR(A / (4 * M_PI * R * R), 1, 0.05, "area of a sphere; a voxel of radius error is 10% of area, the "
+    KT_NEAR(A / (4 * M_PI * R * R), 1, 0.05,
+            "area of a sphere; a voxel of radius error is 10% of area, the "
             "measured error is a few %");
     KT_NEAR(V / (4.0 / 3 * M_PI * R * R * R), 1, 0.05, "positive volume: counter-clockwise from outside");
     KT_CHECK(bad == 0, "%zu open or inconsistently wound edges", bad);
-    KT_CHECK(nmean > 0.98 && ndot > 0, "normals point outward (mean dot %g, min %g; lattice bumps tilt some)", nmean, ndot);
+    KT_CHECK(nmean > 0.98 && ndot > 0, "normals point outward (mean dot %g, min %g; lattice bumps tilt some)", nmean,
+             ndot);
 
     /* the renderer's path: a .vdb alone gives the same mesh */
     kf_vdb_meta meta = {.frame = 7, .dx = H};
@@ -319,8 +311,7 @@ static void test_mesh(void)
     unlink(path);
 }
 
-static void test_smoothing_and_groups(void)
-{
+static void test_smoothing_and_groups(void) {
     char path[256], err[512] = "";
     tmp_path(path, sizeof path, "groups");
     /* seeded inside R (the material ball); dilate one voxel, 3
@@ -340,8 +331,7 @@ static void test_smoothing_and_groups(void)
     p.erode = VOX + (FACTOR * H - H / 2);
     p.name = "sand";
     kf_vdb_grid *g[2] = {NULL, NULL};
-    KT_CHECK(kf_vdb_levelset_from_particles(n, x, NULL, NULL, NULL, &p, &g[0], NULL, err, sizeof err) == 0, "%s",
-             err);
+    KT_CHECK(kf_vdb_levelset_from_particles(n, x, NULL, NULL, NULL, &p, &g[0], NULL, err, sizeof err) == 0, "%s", err);
     /* the second group from float positions, radii per particle, Gaussian smoothing by kf_vdb_filter */
     float *xf = malloc(n * 3 * sizeof *xf), *rad = malloc(n * sizeof *rad);
     for (size_t i = 0; i < 3 * n; i++) xf[i] = (float)x[i];
@@ -350,15 +340,14 @@ static void test_smoothing_and_groups(void)
     p.voxel = VOX;
     p.erode = FACTOR * H - H / 2;
     p.name = "water";
-    KT_CHECK(kf_vdb_levelset_from_particles(n, NULL, xf, rad, NULL, &p, &g[1], NULL, err, sizeof err) == 0, "%s",
-             err);
+    KT_CHECK(kf_vdb_levelset_from_particles(n, NULL, xf, rad, NULL, &p, &g[1], NULL, err, sizeof err) == 0, "%s", err);
     if (g[0] && g[1]) {
         KT_CHECK(kf_vdb_filter(g[1], KF_VDB_OP_GAUSSIAN, 0, 2, err, sizeof err) == 0, "%s", err);
         double mean0, mx0, mean1, mx1;
         radius_error(g[0], R, &mean0, &mx0);
         radius_error(g[1], R, &mean1, &mx1);
-        printf("  dilate/meanCurvature x3/erode: error mean %+.4f max %.4f; gaussian x2: mean %+.4f max %.4f\n",
-               mean0, mx0, mean1, mx1);
+        printf("  dilate/meanCurvature x3/erode: error mean %+.4f max %.4f; gaussian x2: mean %+.4f max %.4f\n", mean0,
+               mx0, mean1, mx1);
         KT_NEAR(mx0, 0, VOX, "smoothing keeps a 20-voxel sphere within a voxel");
         KT_NEAR(mx1, 0, VOX, "smoothing keeps a 20-voxel sphere within a voxel");
         kf_vdb_meta meta = {.frame = 3};
@@ -385,8 +374,7 @@ static void test_smoothing_and_groups(void)
     unlink(path);
 }
 
-static void test_small_particles(void)
-{
+static void test_small_particles(void) {
     char err[512] = "";
     double *x;
     size_t n = lattice_ball(0.1, 0.01, &x);
@@ -421,8 +409,7 @@ static void test_small_particles(void)
     free(x);
 }
 
-static void test_bad_paths(void)
-{
+static void test_bad_paths(void) {
     char err[512] = "";
     kf_vdb_grid *g = sphere(0, NULL);
     const char *bad = "/nonexistent_kerf_dir/frame.1001.vdb";
@@ -452,8 +439,7 @@ static void test_bad_paths(void)
     kf_vdb_free(g);
 }
 
-static void test_points_roundtrip(void)
-{
+static void test_points_roundtrip(void) {
     char path[256], err[512] = "";
     tmp_path(path, sizeof path, "points");
     const size_t n = 5000;
@@ -476,7 +462,8 @@ static void test_points_roundtrip(void)
     }
     kf_vdb_meta meta = {.frame = 1002, .dx = 0.02};
     snprintf(meta.shot, sizeof meta.shot, "pts");
-    KT_CHECK(kf_vdb_points_write(path, n, x, v, mat, (const float *const *)fl, 0.05, &meta, err, sizeof err) == 0, "%s", err);
+    KT_CHECK(kf_vdb_points_write(path, n, x, v, mat, (const float *const *)fl, 0.05, &meta, err, sizeof err) == 0, "%s",
+             err);
     kf_vdb_file_info info;
     KT_CHECK(kf_vdb_info(path, &info, err, sizeof err) == 0, "%s", err);
     KT_CHECK(info.ngrids == 1 && strcmp(info.grids[0].name, "points") == 0 && info.meta.frame == 1002,
@@ -511,8 +498,7 @@ static void test_points_roundtrip(void)
 }
 
 /* timing only: ~200k particles surfaced and meshed (printed, not asserted) */
-static void test_timing_200k(void)
-{
+static void test_timing_200k(void) {
     double h = 0.01, Rb = 0.373, *x;
     size_t n = lattice_ball(Rb - h, h, &x);
     kf_vdb_surface_params p;
@@ -549,8 +535,7 @@ static void test_timing_200k(void)
 }
 
 /* the zero crossing of g along +x from c, by bisection between c and c + 2r */
-static double crossing_x(kf_vdb_grid *g, const double c[3], double r)
-{
+static double crossing_x(kf_vdb_grid *g, const double c[3], double r) {
     char err[256];
     double lo = 0, hi = 2 * r;
     for (int it = 0; it < 40; it++) {
@@ -568,8 +553,7 @@ static double crossing_x(kf_vdb_grid *g, const double c[3], double r)
  * velocity, so each ball's zero crossing stays at its radius: within one
  * particle spacing (the lattice staircase is +/- half a spacing, the
  * automatic erosion puts the surface back on the material). */
-static void test_object_groups(void)
-{
+static void test_object_groups(void) {
     char exe[1024], kerf[1100], dir[256], cmd[4096], path[512], err[512] = "";
     ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
     KT_CHECK(len > 0, "readlink /proc/self/exe");
@@ -586,14 +570,16 @@ static void test_object_groups(void)
     KT_CHECK(f != NULL, "cannot write %s", path);
     if (!f) return;
     const double rb = 0.12, spacing = 0.02, cl[3] = {0.3, 0.5, 0.5}, cr[3] = {0.7, 0.5, 0.5};
-    fprintf(f, "shot: balls\nframes: {start: 1, end: 1}\nsim: {dx: 0.04, ppc: 8, gravity: [0, 0, 0]}\n"
-               "materials:\n  jelly: {preset: jello}\nobjects:\n"
-               "  - {name: left, shape: sphere, center: [%g, %g, %g], radius: %g, material: jelly}\n"
-               "  - {name: right, shape: sphere, center: [%g, %g, %g], radius: %g, material: jelly}\n"
-               "output: {dir: \"{shot}\", particles: false, images: false}\n",
+    fprintf(f,
+            "shot: balls\nframes: {start: 1, end: 1}\nsim: {dx: 0.04, ppc: 8, gravity: [0, 0, 0]}\n"
+            "materials:\n  jelly: {preset: jello}\nobjects:\n"
+            "  - {name: left, shape: sphere, center: [%g, %g, %g], radius: %g, material: jelly}\n"
+            "  - {name: right, shape: sphere, center: [%g, %g, %g], radius: %g, material: jelly}\n"
+            "output: {dir: \"{shot}\", particles: false, images: false}\n",
             cl[0], cl[1], cl[2], rb, cr[0], cr[1], cr[2], rb);
     fclose(f);
-    snprintf(cmd, sizeof cmd, "cd %s && %s run balls.yaml --quiet --set surface.group=object > run.log 2>&1", dir, kerf);
+    snprintf(cmd, sizeof cmd, "cd %s && %s run balls.yaml --quiet --set surface.group=object > run.log 2>&1", dir,
+             kerf);
     KT_CHECK(system(cmd) == 0, "%s (see %s/run.log)", cmd, dir);
     snprintf(path, sizeof path, "%s/balls/surface/balls.0001.vdb", dir);
     kf_vdb_file_info info;
@@ -611,8 +597,10 @@ static void test_object_groups(void)
         double v[4], q[6] = {cl[0], cl[1], cl[2], cr[0], cr[1], cr[2]};
         kf_vdb_sample(gl, q, 2, v, err, sizeof err);
         kf_vdb_sample(gr, q, 2, v + 2, err, sizeof err);
-        KT_CHECK(v[0] < 0 && v[1] > 0, "surface_left: inside at the left ball (%g), outside at the right (%g)", v[0], v[1]);
-        KT_CHECK(v[2] > 0 && v[3] < 0, "surface_right: outside at the left ball (%g), inside at the right (%g)", v[2], v[3]);
+        KT_CHECK(v[0] < 0 && v[1] > 0, "surface_left: inside at the left ball (%g), outside at the right (%g)", v[0],
+                 v[1]);
+        KT_CHECK(v[2] > 0 && v[3] < 0, "surface_right: outside at the left ball (%g), inside at the right (%g)", v[2],
+                 v[3]);
         double el = crossing_x(gl, cl, rb) - rb, er = crossing_x(gr, cr, rb) - rb;
         printf("  zero crossing - radius along +x: left %+.4f m, right %+.4f m (spacing %g m)\n", el, er, spacing);
         KT_NEAR(el, 0, spacing, "left ball's surface at its radius");
@@ -656,8 +644,7 @@ static void test_object_groups(void)
  * that overlap: outside, the nearer sphere; inside, the nearer of the two
  * surface pieces, each either at the radial projection (when that lies on
  * the piece) or on the circle where the spheres meet */
-static double union_sdf(const double x[3], const double c1[3], double r1, const double c2[3], double r2)
-{
+static double union_sdf(const double x[3], const double c1[3], double r1, const double c2[3], double r2) {
     double d1 = 0, d2 = 0, e[3], dc = 0;
     for (int a = 0; a < 3; a++) {
         d1 += (x[a] - c1[a]) * (x[a] - c1[a]);
@@ -702,8 +689,7 @@ static double union_sdf(const double x[3], const double c1[3], double r1, const 
  * piece and within 0.3 voxel beside the crease (measured 0.25). Fast
  * sweeping, which kerf used before, measured 0.21 outside within a voxel,
  * 0.13 beside the crossing inside and 0.29 beyond on this case. */
-static void test_union_distance(void)
-{
+static void test_union_distance(void) {
     const double vox = 0.01, r = 6 * vox, c1[3] = {0.5, 0.5, 0.5}, c2[3] = {0.5 + 8 * vox, 0.5, 0.5};
     double x[6] = {c1[0], c1[1], c1[2], c2[0], c2[1], c2[2]};
     float rad[2] = {(float)r, (float)r};
@@ -731,11 +717,13 @@ static void test_union_distance(void)
                 active += fabs(v / vox) < 3;
             }
     printf("  union of two balls: %zu band voxels; |error| outside within a voxel %.4f, inside within a voxel %.4f, "
-           "beyond %.4f voxel\n", n, worst_out, worst_near, worst_far);
+           "beyond %.4f voxel\n",
+           n, worst_out, worst_near, worst_far);
     KT_CHECK(n > 4000 && active == n, "%zu of %zu band voxels carry a value", active, n);
     KT_NEAR(worst_out, 0, 1e-4, "outside within a voxel the splat is exact (float rounding)");
     KT_NEAR(worst_near, 0, 0.3, "inside beside the crossing: the deepest sphere's depth, a lower bound at the crease");
-    KT_NEAR(worst_far, 0, 0.2, "beyond a voxel: distance to surface points about a voxel apart, sparsest at the crease");
+    KT_NEAR(worst_far, 0, 0.2,
+            "beyond a voxel: distance to surface points about a voxel apart, sparsest at the crease");
     kf_vdb_free(g);
 }
 
@@ -745,8 +733,7 @@ static void test_union_distance(void)
  * pocket left inside: the mesh's area and volume are the ball's (a pocket
  * adds area and takes volume), and the zero crossing is where the lattice
  * convention puts it. */
-static void test_dense_particles(void)
-{
+static void test_dense_particles(void) {
     const double h = 0.005, vox = 2 * h, Rb = 0.2, r = 1.6 * vox;
     double *x;
     size_t n = lattice_ball(Rb - r + h / 2, h, &x);
@@ -767,8 +754,8 @@ static void test_dense_particles(void)
     KT_CHECK(kf_vdb_mesh(g, 0, 0, &m, err, sizeof err) == 0, "%s", err);
     mesh_measures(&m, &A, &V);
     printf("  dense ball: %zu particles, %zu active voxels, %zu triangles; radius error mean %+.4f max %.4f m; "
-           "area/4piR^2 %.4f, volume/(4/3 piR^3) %.4f\n", n, st.active_voxels, m.ntris, mean, mx,
-           A / (4 * M_PI * Rb * Rb), V / (4.0 / 3 * M_PI * Rb * Rb * Rb));
+           "area/4piR^2 %.4f, volume/(4/3 piR^3) %.4f\n",
+           n, st.active_voxels, m.ntris, mean, mx, A / (4 * M_PI * Rb * Rb), V / (4.0 / 3 * M_PI * Rb * Rb * Rb));
     KT_NEAR(mx, 0, vox, "surface within one voxel of R");
     KT_NEAR(mean, 0, 0.2 * vox, "on average the r - h/2 convention");
     KT_NEAR(A / (4 * M_PI * Rb * Rb), 1, 0.05, "one sphere's area: a pocket inside would add its own");
@@ -778,8 +765,7 @@ static void test_dense_particles(void)
     kf_vdb_free(g);
 }
 
-int main(int argc, char **argv)
-{
+int main(int argc, char **argv) {
     KT_RUN(test_sphere_file, argc, argv);
     KT_RUN(test_mesh, argc, argv);
     KT_RUN(test_smoothing_and_groups, argc, argv);

@@ -38,11 +38,11 @@
 #include <kerf/kerf.h>
 
 typedef struct tank_out {
-    double level0, level_end;         /* m, at 0 s and 10 s */
-    double early, late;               /* the mean level over 1-2 s and over 9-10 s, m */
-    double levelJ0, levelJ_end;       /* Σ J V⁰ / floor area at 0 s and 10 s, m */
-    double past_wall;    /* farthest particle past a wall, cells */
-    double wall_density; /* particles per volume within a cell of a side wall / interior */
+    double level0, level_end;     /* m, at 0 s and 10 s */
+    double early, late;           /* the mean level over 1-2 s and over 9-10 s, m */
+    double levelJ0, levelJ_end;   /* Σ J V⁰ / floor area at 0 s and 10 s, m */
+    double past_wall;             /* farthest particle past a wall, cells */
+    double wall_density;          /* particles per volume within a cell of a side wall / interior */
     double fill_floor, fill_bulk; /* n V⁰ J̄ / V of the first cell-high layer and of layers 2-6 */
 } tank_out;
 
@@ -140,7 +140,8 @@ static void check_tank(const char *name, kf_boundary walls) {
     printf("  %s walls: level %.5f m at 0 s, mean %.5f over 1-2 s, %.5f over 9-10 s, %.5f at 10 s; J's level %.5f "
            "(hydrostatic H %.5f); packing %+.5f m; farthest past a wall %.3f cells; particles per volume at the side "
            "walls / interior %.4f; fill (n V0 J / V) of the floor layer %.4f, of layers 2-6 %.4f\n",
-           name, o.level0, o.early, o.late, o.level_end, o.levelJ_end, H, pack, o.past_wall, o.wall_density, o.fill_floor, o.fill_bulk);
+           name, o.level0, o.early, o.late, o.level_end, o.levelJ_end, H, pack, o.past_wall, o.wall_density,
+           o.fill_floor, o.fill_bulk);
     KT_NEAR(o.late / o.early, 1, 0.005, "the level at rest changes by less than 0.5% from 1-2 s to 9-10 s");
     KT_NEAR(o.levelJ_end / H, 1, 0.005, "the particles' J holds the hydrostatic volume within 0.5%");
     KT_NEAR(o.fill_bulk, 1, 0.02, "layers 2-6 hold the particles their J says: 2%");

@@ -99,7 +99,7 @@ static int bench_cube(int cells, kf_force force, int threads, int runs, cube_res
 /* the frame benchmark's stages, each timed in wall and process CPU seconds
  * (CPU time stays honest when other work shares the machine) */
 enum { FS_SORT, FS_SPLAT, FS_REDISTANCE, FS_FILTER, FS_MESH, FS_WRITE, FS_RENDER, FS_COUNT };
-static const char *const frame_stage_name[FS_COUNT] = {"sort", "splat", "redistance", "filter",
+static const char *const frame_stage_name[FS_COUNT] = {"sort", "splat",     "redistance",  "filter",
                                                        "mesh", "write_vdb", "render_1080p"};
 
 /* the settings a frame is surfaced and rendered with: the shot's defaults
@@ -113,8 +113,7 @@ typedef struct frame_quality {
 enum { FQ_FINAL, FQ_PREVIEW, FQ_COUNT };
 static const frame_quality frame_qualities[FQ_COUNT] = {
     {"final", 0.75, 1.2, 3, 4, 0},
-    {"preview", KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, KF_VDB_PREVIEW_ITERATIONS, 1,
-     KF_RENDER_PREVIEW_SHADOW},
+    {"preview", KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, KF_VDB_PREVIEW_ITERATIONS, 1, KF_RENDER_PREVIEW_SHADOW},
 };
 
 typedef struct frame_post_result {
@@ -180,7 +179,8 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
         kf_render_ctx *ctx = kf_render_create(1920, 1080, q->samples, err, sizeof err);
         if (ctx && q->shadow && kf_render_set_shadow_size(ctx, q->shadow, err, sizeof err)) rc = -1;
         uint8_t *rgba = malloc((size_t)1920 * 1080 * 4);
-        kf_render_mesh rm = {mesh.verts, mesh.normals, mesh.nverts, mesh.tris, mesh.ntris, {{0.8f, 0.3f, 0.3f}, 0.3f, 0.5f}};
+        kf_render_mesh rm = {mesh.verts, mesh.normals, mesh.nverts,
+                             mesh.tris,  mesh.ntris,   {{0.8f, 0.3f, 0.3f}, 0.3f, 0.5f}};
         kf_render_scene scene = kf_render_scene_default();
         scene.meshes = &rm;
         scene.nmeshes = 1;
@@ -293,7 +293,8 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
         else {
             fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes]\n"
-                            "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--set k=v]\n");
+                            "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] "
+                            "[--hash] [--set k=v]\n");
             return 2;
         }
     }
@@ -329,9 +330,11 @@ int main(int argc, char **argv) {
                 for (int t = 1; t <= 2; t++) {
                     if (bench_cube(sizes[s], (kf_force)f, t, runs, &cubes[nc])) return 1;
                     if (!json)
-                        fprintf(stderr, "cube %d³ %s %dT: %.1f ns P2G + %.1f ns G2P + %.1f ns stress, step %.1f ms, "
-                                "%.1f M p-steps/s\n", cubes[nc].cells, cubes[nc].force, t, cubes[nc].p2g_ns,
-                                cubes[nc].g2p_ns, cubes[nc].stress_ns, cubes[nc].step_ms, cubes[nc].mpsteps);
+                        fprintf(stderr,
+                                "cube %d³ %s %dT: %.1f ns P2G + %.1f ns G2P + %.1f ns stress, step %.1f ms, "
+                                "%.1f M p-steps/s\n",
+                                cubes[nc].cells, cubes[nc].force, t, cubes[nc].p2g_ns, cubes[nc].g2p_ns,
+                                cubes[nc].stress_ns, cubes[nc].step_ms, cubes[nc].mpsteps);
                     nc++;
                 }
     }
@@ -353,7 +356,8 @@ int main(int argc, char **argv) {
             printf(",\"falling_block\":{\"particles\":%zu,\"frames\":%d,\"substeps\":%ld,\"seconds\":%.3f,"
                    "\"mpsteps_per_s\":%.2f,\"peak_mb\":%.0f,\"ms_per_substep\":{",
                    blk.particles, blk.frames, blk.substeps, blk.seconds, blk.mpsteps, blk.peak_mb);
-            for (int k = 0; k < KF_STAGE_COUNT; k++) printf("%s\"%s\":%.3f", k ? "," : "", kf_stage_name((kf_stage)k), blk.ms[k]);
+            for (int k = 0; k < KF_STAGE_COUNT; k++)
+                printf("%s\"%s\":%.3f", k ? "," : "", kf_stage_name((kf_stage)k), blk.ms[k]);
             printf("}}");
         }
         if (have_frame) {
@@ -384,14 +388,16 @@ int main(int argc, char **argv) {
                 printf("\n");
             }
             printf("  %-18s", "surface + render");
-            for (int q = 0; q < FQ_COUNT; q++) printf("    %7.3f (%7.3f)", frame_total(fr.q[q].wall), frame_total(fr.q[q].cpu));
+            for (int q = 0; q < FQ_COUNT; q++)
+                printf("    %7.3f (%7.3f)", frame_total(fr.q[q].wall), frame_total(fr.q[q].cpu));
             printf("\n  %-18s", "active voxels");
             for (int q = 0; q < FQ_COUNT; q++) printf(" %19zu", fr.q[q].active_voxels);
             printf("\n  %-18s", "triangles");
             for (int q = 0; q < FQ_COUNT; q++) printf(" %19zu", fr.q[q].triangles);
             printf("\n  %-18s", ".vdb MB");
             for (int q = 0; q < FQ_COUNT; q++) printf(" %19.1f", fr.q[q].vdb_mb);
-            printf("\n  %-18s    %7.3f (%7.3f)   [simulating that frame at preview quality: %zu particles, %ld substeps]\n",
+            printf("\n  %-18s    %7.3f (%7.3f)   [simulating that frame at preview quality: %zu particles, %ld "
+                   "substeps]\n",
                    "simulate_preview", fr.sim_wall, fr.sim_cpu, fr.preview_particles, fr.preview_substeps);
             const char *wp = getenv("OMP_WAIT_POLICY");
             if (!wp || strcmp(wp, "passive"))
@@ -399,7 +405,8 @@ int main(int argc, char **argv) {
                        "seconds; run --only frame)\n");
         }
         if (have_block) {
-            printf("falling block: %zu particles, %d frames, %ld substeps, %.2f s, %.2f M particle-steps/s, peak %.0f MB\n",
+            printf("falling block: %zu particles, %d frames, %ld substeps, %.2f s, %.2f M particle-steps/s, peak %.0f "
+                   "MB\n",
                    blk.particles, blk.frames, blk.substeps, blk.seconds, blk.mpsteps, blk.peak_mb);
             printf("  ms per substep:");
             for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %s %.2f", kf_stage_name((kf_stage)k), blk.ms[k]);

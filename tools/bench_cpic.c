@@ -159,8 +159,8 @@ static int bench_seeding(int runs) {
     static const char *files[4] = {"assets/sphere.obj", "assets/knife_wavy.obj", "assets/armadillo.off",
                                    "assets/bunny.off"};
     printf("seeding, %d threads, median of %d runs: ms wall (ms process CPU)\n", omp_get_max_threads(), runs);
-    printf("%-16s %7s %7s %9s | %20s %20s %6s | %20s %8s\n", "mesh", "tris", "1/spc", "crossings", "rays",
-           "rasteriser", "ratio", "whole seeding", "seeds");
+    printf("%-16s %7s %7s %9s | %20s %20s %6s | %20s %8s\n", "mesh", "tris", "1/spc", "crossings", "rays", "rasteriser",
+           "ratio", "whole seeding", "seeds");
     for (int f = 0; f < 4; f++) {
         kf_mesh m;
         char err[256];
@@ -222,14 +222,15 @@ int main(int argc, char **argv) {
         med[mode].mpsteps = r.particles / (med[mode].total_ms * 1e3);
     }
     if (json) printf("{\"cells\":%d,\"steps\":%d,\"runs\":%d", cells, steps, runs);
-    else printf("CPIC overhead: %ld particles, %d substeps, median of %d runs (ms per substep)\n", med[0].particles,
-                steps, runs);
+    else
+        printf("CPIC overhead: %ld particles, %d substeps, median of %d runs (ms per substep)\n", med[0].particles,
+               steps, runs);
     for (int mode = 0; mode < 3; mode++) {
         const result *r = &med[mode];
         double over = 100 * (r->total_ms / med[0].total_ms - 1);
         if (json) {
-            printf(",\"%s\":{\"total_ms\":%.3f,\"mpsteps\":%.3f,\"overhead_pct\":%.2f,\"band_particles\":%ld", mode_name[mode],
-                   r->total_ms, r->mpsteps, over, r->band_particles);
+            printf(",\"%s\":{\"total_ms\":%.3f,\"mpsteps\":%.3f,\"overhead_pct\":%.2f,\"band_particles\":%ld",
+                   mode_name[mode], r->total_ms, r->mpsteps, over, r->band_particles);
             for (int e = 0; e < KF_STAGE_COUNT; e++) printf(",\"%s\":%.3f", kf_stage_name((kf_stage)e), r->ms[e]);
             printf("}");
         } else {

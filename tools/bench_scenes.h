@@ -11,7 +11,7 @@ typedef struct bench_scenes_opts {
     const char *shot_dir; /* NULL: shots */
     const char *set[8];   /* extra shot overrides, "a.b=value", as kerf's --set */
     int nset;
-    int hash;             /* print each scene's state hash (bit-for-bit checks across builds and threads) */
+    int hash; /* print each scene's state hash (bit-for-bit checks across builds and threads) */
 } bench_scenes_opts;
 
 /* Print the table; returns 0, or 1 if a scene failed (its row says why). */

@@ -26,7 +26,8 @@ int main(int argc, char **argv) {
     }
     const int rows = (n + cols - 1) / cols, W = cols * tw + (cols + 1) * gap, H = rows * th + (rows + 1) * gap;
     uint8_t *out = malloc((size_t)W * H * 4);
-    for (size_t i = 0; i < (size_t)W * H; i++) out[4 * i] = 24, out[4 * i + 1] = 24, out[4 * i + 2] = 26, out[4 * i + 3] = 255;
+    for (size_t i = 0; i < (size_t)W * H; i++)
+        out[4 * i] = 24, out[4 * i + 1] = 24, out[4 * i + 2] = 26, out[4 * i + 3] = 255;
     for (int k = 0; k < n; k++) {
         if (kf_png_read(argv[4 + k], &img, &w, &h, NULL, NULL, err, sizeof err)) {
             fprintf(stderr, "%s\n", err);

@@ -88,10 +88,10 @@ typedef enum kf_interp { KF_INTERP_LINEAR = 0, KF_INTERP_SMOOTH } kf_interp;
  * Rotation angles are interpolated per channel like a DCC's animation
  * curves, so a key of 720 degrees means two full turns. */
 typedef struct kf_key {
-    double time;         /* seconds */
-    double position[3];  /* metres: where the pivot is */
-    double rotate[3];    /* degrees about x, then y, then z (fixed axes: R = Rz Ry Rx) */
-    double scale[3];     /* factors along x, y, z (0 means 1) */
+    double time;        /* seconds */
+    double position[3]; /* metres: where the pivot is */
+    double rotate[3];   /* degrees about x, then y, then z (fixed axes: R = Rz Ry Rx) */
+    double scale[3];    /* factors along x, y, z (0 means 1) */
 } kf_key;
 
 /* A signed distance field sampled on a regular grid (mesh colliders). Node
@@ -101,10 +101,10 @@ typedef struct kf_key {
  * Between nodes φ is trilinear; outside the grid it grows with the distance
  * to the grid's box, so the grid should pad the solid by a few cells. */
 typedef struct kf_sdf_grid {
-    double origin[3];   /* m */
-    double spacing;     /* m */
-    int dims[3];        /* nodes along x, y, z; each >= 2 */
-    const float *phi;   /* (dims[0] x dims[1] x dims[2]) */
+    double origin[3]; /* m */
+    double spacing;   /* m */
+    int dims[3];      /* nodes along x, y, z; each >= 2 */
+    const float *phi; /* (dims[0] x dims[1] x dims[2]) */
 } kf_sdf_grid;
 
 /* A kinematic collider: its shape at rest, and its motion (static, constant
@@ -114,20 +114,20 @@ typedef struct kf_sdf_grid {
 typedef struct kf_collider {
     kf_shape shape;
     kf_boundary boundary;
-    double friction;     /* Coulomb μ (separate boundaries) */
-    double center[3];    /* the pivot at rest. plane: a point on it; box, sphere: centre; mesh: the
-                            origin of the sdf's frame */
-    double normal[3];    /* plane: the side material stays on */
-    double half[3];      /* box half extents */
-    double radius;       /* sphere */
-    double rotate[3];    /* rest orientation of the shape, degrees XYZ (R0 = Rz Ry Rx): a box's axes, a
-                            plane's normal, a mesh's sdf frame */
+    double friction;        /* Coulomb μ (separate boundaries) */
+    double center[3];       /* the pivot at rest. plane: a point on it; box, sphere: centre; mesh: the
+                               origin of the sdf's frame */
+    double normal[3];       /* plane: the side material stays on */
+    double half[3];         /* box half extents */
+    double radius;          /* sphere */
+    double rotate[3];       /* rest orientation of the shape, degrees XYZ (R0 = Rz Ry Rx): a box's axes, a
+                               plane's normal, a mesh's sdf frame */
     const kf_sdf_grid *sdf; /* mesh: the distance field (kf_model_add_collider copies it) */
-    double velocity[3];  /* constant velocity of the pivot when nkeys == 0 */
-    kf_interp interp;    /* between keys */
-    int nkeys;           /* >= 1: the pose follows the keys (one key: held there) */
+    double velocity[3];     /* constant velocity of the pivot when nkeys == 0 */
+    kf_interp interp;       /* between keys */
+    int nkeys;              /* >= 1: the pose follows the keys (one key: held there) */
     kf_key keys[KF_MAX_KEYS];
-    int inside;          /* box, sphere, mesh: 1 = material is kept inside (a container) */
+    int inside; /* box, sphere, mesh: 1 = material is kept inside (a container) */
 } kf_collider;
 
 /* ---- rigid bodies (CPIC, paper §5) ------------------------------------------
@@ -154,27 +154,27 @@ typedef struct kf_rigid_def {
     char name[32];
     /* the surface in the mesh's own frame, metres; a closed solid is wound
      * counter-clockwise seen from outside. The model copies it. */
-    const double *vertices;  /* (nvertices x 3) */
+    const double *vertices; /* (nvertices x 3) */
     int nvertices;
-    const int *triangles;    /* (ntriangles x 3) */
+    const int *triangles; /* (ntriangles x 3) */
     int ntriangles;
-    int thin;                /* 1 = a shell or cutter (may be open); 0 = a closed solid */
+    int thin; /* 1 = a shell or cutter (may be open); 0 = a closed solid */
     kf_rigid_motion motion;
     /* pose: x_world = position(t) + R(t) (x_mesh - center), R = Rz Ry Rx of rotate (degrees) */
-    double center[3];        /* the pivot, in the mesh frame */
-    double position[3];      /* where the pivot is at time 0 */
-    double rotate[3];        /* orientation at time 0, degrees */
-    kf_interp interp;        /* kinematic: between keys */
-    int nkeys;               /* kinematic: >= 1 keys (their scale is ignored: bodies are rigid) */
+    double center[3];   /* the pivot, in the mesh frame */
+    double position[3]; /* where the pivot is at time 0 */
+    double rotate[3];   /* orientation at time 0, degrees */
+    kf_interp interp;   /* kinematic: between keys */
+    int nkeys;          /* kinematic: >= 1 keys (their scale is ignored: bodies are rigid) */
     kf_key keys[KF_MAX_KEYS];
-    double velocity[3];      /* dynamic: initial, m/s; kinematic without keys: constant */
+    double velocity[3];         /* dynamic: initial, m/s; kinematic without keys: constant */
     double angular_velocity[3]; /* dynamic: initial; kinematic without keys: constant, rad/s, world */
-    double density;          /* dynamic: kg/m³ for a solid, kg/m² for a thin shell */
-    kf_boundary boundary;    /* how material meets it (Eq. 25) */
-    double friction;         /* Coulomb μ for slip and separate */
-    double penalty;          /* k, 1/s: a slightly penetrated particle is pushed back out at k x its depth,
-                                never faster than closing it within one substep (Eq. 22); 0 = off */
-    double push;             /* c, m/s²: the collided velocity's push away from the surface (Eq. 27) */
+    double density;             /* dynamic: kg/m³ for a solid, kg/m² for a thin shell */
+    kf_boundary boundary;       /* how material meets it (Eq. 25) */
+    double friction;            /* Coulomb μ for slip and separate */
+    double penalty;             /* k, 1/s: a slightly penetrated particle is pushed back out at k x its depth,
+                                   never faster than closing it within one substep (Eq. 22); 0 = off */
+    double push;                /* c, m/s²: the collided velocity's push away from the surface (Eq. 27) */
 } kf_rigid_def;
 
 /* A hinge's motor: none (free), velocity (drives the turn rate toward
@@ -188,25 +188,25 @@ typedef enum kf_motor { KF_MOTOR_NONE = 0, KF_MOTOR_VELOCITY, KF_MOTOR_POSITION 
  * kp (target angle - angle) + kv (target rate - rate) for a position motor,
  * kv (target rate - rate) for a velocity motor, clipped to ±torque_limit. */
 typedef struct kf_joint_def {
-    int body_a, body_b;      /* rigid indices, or -1 for the world */
-    double anchor[3];        /* a point on the axis at time 0, world metres */
-    double axis[3];          /* hinge axis, world */
-    double damping;          /* N·m·s/rad */
+    int body_a, body_b; /* rigid indices, or -1 for the world */
+    double anchor[3];   /* a point on the axis at time 0, world metres */
+    double axis[3];     /* hinge axis, world */
+    double damping;     /* N·m·s/rad */
     kf_motor motor;
-    double frequency;        /* commanded turns per second (Hz); the sign is the direction */
-    double angle;            /* position motor: target at time 0, degrees from the initial pose */
-    double kp;               /* position gain, N·m/rad */
-    double kv;               /* rate gain, N·m·s/rad */
-    double torque_limit;     /* N·m, > 0 with a motor */
+    double frequency;    /* commanded turns per second (Hz); the sign is the direction */
+    double angle;        /* position motor: target at time 0, degrees from the initial pose */
+    double kp;           /* position gain, N·m/rad */
+    double kv;           /* rate gain, N·m·s/rad */
+    double torque_limit; /* N·m, > 0 with a motor */
 } kf_joint_def;
 
 /* Where a body is and how it moves, at the state's time:
  * x_world = R x_mesh + t, v(x) = v + ω × (x - com). */
 typedef struct kf_rigid_pose {
-    double R[9];             /* row-major */
+    double R[9]; /* row-major */
     double t[3];
-    double com[3];           /* centre of mass, world */
-    double v[3], omega[3];   /* of the centre of mass; rad/s */
+    double com[3];         /* centre of mass, world */
+    double v[3], omega[3]; /* of the centre of mass; rad/s */
 } kf_rigid_pose;
 
 /* ---- simulation settings ----------------------------------------------- */
@@ -227,24 +227,24 @@ typedef enum kf_implicit_scheme { KF_SCHEME_BACKWARD_EULER = 0, KF_SCHEME_MIDPOI
 typedef enum kf_precond { KF_PRECOND_MULTIGRID = 0, KF_PRECOND_JACOBI } kf_precond;
 
 typedef struct kf_sim_def {
-    double dx;            /* grid spacing, m */
-    double cfl;           /* CFL number C in Δt = C Δx / (c + |v|max) */
-    double dt_max;        /* upper bound on a substep, s (0 = none) */
-    double dt_fixed;      /* > 0: every substep is exactly this (tests, benchmarks) */
-    double gravity[3];    /* m/s² */
+    double dx;         /* grid spacing, m */
+    double cfl;        /* CFL number C in Δt = C Δx / (c + |v|max) */
+    double dt_max;     /* upper bound on a substep, s (0 = none) */
+    double dt_fixed;   /* > 0: every substep is exactly this (tests, benchmarks) */
+    double gravity[3]; /* m/s² */
     kf_kernel kernel;
     kf_force force;
     kf_transfer transfer;
-    int walls;            /* 1 = the domain box is closed by walls */
+    int walls; /* 1 = the domain box is closed by walls */
     double domain_min[3], domain_max[3];
     kf_boundary wall_boundary;
     double wall_friction;
-    int max_retries;      /* frame retries at half the CFL number on numerical trouble */
-    int retry_fixed;      /* 1: under dt_fixed, a retry may halve the fixed step too (the log says so); 0: a
-                             fixed step is never changed, and trouble at it is reported as such */
-    double j_min, j_max;  /* sane range of det F; outside it is numerical trouble */
+    int max_retries;           /* frame retries at half the CFL number on numerical trouble */
+    int retry_fixed;           /* 1: under dt_fixed, a retry may halve the fixed step too (the log says so); 0: a
+                                  fixed step is never changed, and trouble at it is reported as such */
+    double j_min, j_max;       /* sane range of det F; outside it is numerical trouble */
     double max_cells_per_step; /* CFL violation: |v| Δt / Δx above this is trouble */
-    int threads;          /* 0 = OpenMP default */
+    int threads;               /* 0 = OpenMP default */
     /* contact between objects (mpm/contact.h): 1 = each shot object (kf_particles_view.obj) moves on its own
      * velocity field where objects share grid nodes, and fields touch only where their surfaces meet:
      * they slide with Coulomb friction contact_friction and pull apart freely. 0 = one shared field (objects
@@ -253,11 +253,11 @@ typedef struct kf_sim_def {
     double contact_friction;
     /* implicit integration (integrator == KF_INTEGRATOR_IMPLICIT) */
     kf_integrator integrator;
-    double newton_tol;    /* residual relative to the momentum scale (0 = default) */
-    int newton_max;       /* Newton iterations per substep (0 = default) */
-    double krylov_tol;    /* CG relative residual (0 = default) */
-    int krylov_max;       /* CG iterations per Newton step (0 = default) */
-    kf_precond precond;   /* CG preconditioner */
+    double newton_tol;  /* residual relative to the momentum scale (0 = default) */
+    int newton_max;     /* Newton iterations per substep (0 = default) */
+    double krylov_tol;  /* CG relative residual (0 = default) */
+    int krylov_max;     /* CG iterations per Newton step (0 = default) */
+    kf_precond precond; /* CG preconditioner */
     kf_implicit_scheme implicit_scheme;
 } kf_sim_def;
 
@@ -295,8 +295,8 @@ long kf_state_add_particles(kf_state *s, const kf_model *m, size_t n, const doub
  * jittered when seed != 0) of the given material and velocity. */
 long kf_state_fill_box(kf_state *s, const kf_model *m, const double lo[3], const double hi[3], int material,
                        const double v[3], int ppc_axis, uint32_t seed);
-long kf_state_fill_sphere(kf_state *s, const kf_model *m, const double c[3], double r, int material,
-                          const double v[3], int ppc_axis, uint32_t seed);
+long kf_state_fill_sphere(kf_state *s, const kf_model *m, const double c[3], double r, int material, const double v[3],
+                          int ppc_axis, uint32_t seed);
 
 size_t kf_state_count(const kf_state *s);
 double kf_state_time(const kf_state *s);
@@ -309,13 +309,13 @@ typedef struct kf_particles_view {
     size_t n;
     kf_real *x[3], *v[3], *C[9], *F[9]; /* C and F row-major: C[3*i+j][p] */
     kf_real *mass, *vol0;
-    kf_real *ps[2];       /* plastic state: Jp / J (water) / log-volume correction, q */
+    kf_real *ps[2]; /* plastic state: Jp / J (water) / log-volume correction, q */
     uint16_t *mat;
     uint32_t *id;
-    uint16_t *obj;        /* the shot object a particle came from (surfacing per object), 0 by default: the
-                             low 12 bits (KF_OBJECT_MASK); the 4 above number the pieces a thin body cut it
-                             into (sim.contact) */
-    uint32_t *colour;     /* CPIC: 2 bits (affinity, side) per rigid body; persists between substeps */
+    uint16_t *obj;    /* the shot object a particle came from (surfacing per object), 0 by default: the
+                         low 12 bits (KF_OBJECT_MASK); the 4 above number the pieces a thin body cut it
+                         into (sim.contact) */
+    uint32_t *colour; /* CPIC: 2 bits (affinity, side) per rigid body; persists between substeps */
 } kf_particles_view;
 kf_particles_view kf_state_particles(kf_state *s);
 /* The same arrays for reading only: the state's cached per-particle stress
@@ -338,7 +338,10 @@ kf_particle_fields kf_state_particle_fields(const kf_model *m, const kf_state *s
 
 /* Per-stage timing of everything the step did since the last reset. */
 typedef enum kf_stage {
-    KF_STAGE_SORT = 0, KF_STAGE_P2G, KF_STAGE_GRID, KF_STAGE_G2P,
+    KF_STAGE_SORT = 0,
+    KF_STAGE_P2G,
+    KF_STAGE_GRID,
+    KF_STAGE_G2P,
     KF_STAGE_STRESS, /* return mapping (plasticity) and the stress of the new F */
     KF_STAGE_CDF,    /* CPIC: rigid seeds, grid colored distance field, particle colour */
     KF_STAGE_RIGID,  /* rigid bodies: contacts, joints, advection */
@@ -353,24 +356,24 @@ typedef struct kf_step_stats {
     double ms[KF_STAGE_COUNT]; /* wall milliseconds per stage */
     long substeps;
     long particle_steps;
-    long active_blocks;        /* grid blocks (4³ nodes) at the last substep */
-    double max_cfl;            /* largest (c + |v|) Δt / Δx seen */
+    long active_blocks; /* grid blocks (4³ nodes) at the last substep */
+    double max_cfl;     /* largest (c + |v|) Δt / Δx seen */
     double dt_min, dt_max;
-    double max_cells_moved;    /* fastest particle, cells per substep */
+    double max_cells_moved; /* fastest particle, cells per substep */
     /* thin boundaries (CPIC): particles whose path passed through a rigid
      * surface, caught and put back on their own side, and how far behind the
      * surface the deepest would have been, in cells */
     long thin_caught;
     double thin_deepest;
-    int retries;               /* frames retried at a smaller CFL number (or, opted in, a halved fixed step) */
-    double fixed_halved;       /* > 0: the last retry ran the frame at this halved sim.dt_fixed, s */
-    long warnings;             /* counted warnings (see message) */
+    int retries;         /* frames retried at a smaller CFL number (or, opted in, a halved fixed step) */
+    double fixed_halved; /* > 0: the last retry ran the frame at this halved sim.dt_fixed, s */
+    long warnings;       /* counted warnings (see message) */
 } kf_step_stats;
 
 typedef struct kf_trouble {
     int found;
-    char what[64];      /* "NaN velocity", "J out of range", "CFL violated", ... */
-    uint32_t particle;  /* stable particle id */
+    char what[64];     /* "NaN velocity", "J out of range", "CFL violated", ... */
+    uint32_t particle; /* stable particle id */
     int material;
     long substep;
     double value;

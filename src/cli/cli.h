@@ -16,14 +16,14 @@ typedef struct kf_cli_opts {
     const char *shot;      /* the shot file */
     const char *sets[128]; /* --set a.b=v, in order */
     int nsets;
-    const char *quality;   /* --quality preview|final */
-    const char *frames;    /* --frames A-B */
-    const char *out;       /* --out DIR: replaces output.dir */
-    int resume;            /* --resume */
-    int force;             /* --force: simulate even when the cache is current */
-    int threads;           /* --threads N (0: the shot's) */
-    int quiet;             /* --quiet */
-    int help;              /* --help */
+    const char *quality;    /* --quality preview|final */
+    const char *frames;     /* --frames A-B */
+    const char *out;        /* --out DIR: replaces output.dir */
+    int resume;             /* --resume */
+    int force;              /* --force: simulate even when the cache is current */
+    int threads;            /* --threads N (0: the shot's) */
+    int quiet;              /* --quiet */
+    int help;               /* --help */
     const char *wedges[16]; /* --wedge KEY=V1,V2,... (kerf run, kerf farm submit), in order */
     int nwedges;
     /* set by the farm's sim task, never by options: simulate only (the farm's

@@ -55,17 +55,18 @@ int kf_cmd_info(int argc, char **argv) {
            shot->frame_end, shot->fps, shot->quality == KF_QUALITY_PREVIEW ? "preview" : "final");
     printf("grid      dx %.5g m, %s kernel, %s force, %s, cfl %g, %s\n", shot->sim.dx,
            shot->sim.kernel == KF_KERNEL_CUBIC ? "cubic" : "quadratic",
-           shot->sim.force == KF_FORCE_CLASSIC ? "classic" : "MLS", shot->sim.transfer == KF_TRANSFER_PIC ? "PIC" : "APIC",
-           shot->sim.cfl, shot->sim.walls ? "walls on" : "no walls");
+           shot->sim.force == KF_FORCE_CLASSIC ? "classic" : "MLS",
+           shot->sim.transfer == KF_TRANSFER_PIC ? "PIC" : "APIC", shot->sim.cfl,
+           shot->sim.walls ? "walls on" : "no walls");
     /* (a shot carries every solver setting: the keys' defaults fill what it leaves out) */
     const kf_sim_def *sd = &shot->sim;
     if (sd->integrator == KF_INTEGRATOR_IMPLICIT)
         printf("time      implicit, %s; substeps by advection alone; Newton tol %g (at most %d), CG tol %g (at most "
                "%d), %s preconditioner\n",
                sd->implicit_scheme == KF_SCHEME_MIDPOINT ? "midpoint" : "backward Euler", sd->newton_tol,
-               sd->newton_max, sd->krylov_tol, sd->krylov_max, sd->precond == KF_PRECOND_JACOBI ? "Jacobi" : "multigrid");
-    else
-        printf("time      explicit (symplectic Euler); substeps by the elastic wave speed and advection\n");
+               sd->newton_max, sd->krylov_tol, sd->krylov_max,
+               sd->precond == KF_PRECOND_JACOBI ? "Jacobi" : "multigrid");
+    else printf("time      explicit (symplectic Euler); substeps by the elastic wave speed and advection\n");
     printf("particles %zu (%d per cell), seeded in %.2f s\n", n, shot->ppc, bs.seconds);
     for (int i = 0; i < shot->nobjects && i < 256; i++)
         printf("  %-16s %10zu  %s\n", shot->objects[i].name, bs.particles_per_object[i],
@@ -83,7 +84,8 @@ int kf_cmd_info(int argc, char **argv) {
     size_t bad;
     int cubic = shot->sim.kernel == KF_KERNEL_CUBIC;
     long blocks = 0;
-    if (n && kf_grid_bin(&s->g, &s->p, (kf_real)(1 / shot->sim.dx), cubic, m->nthreads, &bad) == 0) blocks = (long)s->g.nblocks;
+    if (n && kf_grid_bin(&s->g, &s->p, (kf_real)(1 / shot->sim.dx), cubic, m->nthreads, &bad) == 0)
+        blocks = (long)s->g.nblocks;
     double dt = n ? kf_stable_dt(m, s, shot->sim.cfl) : 0;
     double mb = (kf_particle_bytes_running(m->nthreads, m->nrigid > 0) * (double)n +
                  (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + program) /
@@ -95,8 +97,8 @@ int kf_cmd_info(int argc, char **argv) {
         printf("substeps  %.0f per frame (sim.dt_fixed %.3g s)\n", 1.0 / shot->fps / shot->sim.dt_fixed,
                shot->sim.dt_fixed);
     else if (dt > 0)
-        printf("substeps  about %.0f per frame at the start (dt %.3g s; more once things move)\n",
-               1.0 / shot->fps / dt, dt);
+        printf("substeps  about %.0f per frame at the start (dt %.3g s; more once things move)\n", 1.0 / shot->fps / dt,
+               dt);
     /* what the budget guard estimated before seeding (scene/budget.h) */
     kf_budget b;
     char err[256];

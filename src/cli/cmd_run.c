@@ -110,7 +110,8 @@ static int cache_current(const kf_shot *shot, const char *out, kf_scene *sc, uin
             *damaged = f;
             return 0;
         }
-        if (need_ply && (kf_ensure_parent(rp.particles) || kf_write_points_ply(rp.particles, sc->model, sc->state, err, sizeof err))) {
+        if (need_ply && (kf_ensure_parent(rp.particles) ||
+                         kf_write_points_ply(rp.particles, sc->model, sc->state, err, sizeof err))) {
             fprintf(stderr, "kerf: %s\n", err);
             return -1;
         }
@@ -140,8 +141,10 @@ static void remove_stale_after(const kf_shot *shot, const char *out, uint64_t ha
     if (lo == hi) snprintf(which, sizeof which, "frame %d", lo);
     else snprintf(which, sizeof which, "frames %d-%d", lo, hi);
     if (lo)
-        fprintf(stderr, "kerf: %s: removed %s (%d files): made from other inputs than this run's, they would not "
-                        "follow from frame %d\n", shot->name, which, files, shot->last);
+        fprintf(stderr,
+                "kerf: %s: removed %s (%d files): made from other inputs than this run's, they would not "
+                "follow from frame %d\n",
+                shot->name, which, files, shot->last);
 }
 
 static int write_frame_here(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash);
@@ -336,8 +339,10 @@ int kf_cli_version_taken(const kf_cli_opts *o, const kf_shot *shot) {
     }
     values_line(had);
     values_line(now);
-    fprintf(stderr, "kerf: %s/ holds %s simulated with other values (%s); this run (%s) would replace it, so "
-                    "nothing was written\n", fp.dir, shot->name, had, now);
+    fprintf(stderr,
+            "kerf: %s/ holds %s simulated with other values (%s); this run (%s) would replace it, so "
+            "nothing was written\n",
+            fp.dir, shot->name, had, now);
     if (v) fprintf(stderr, "kerf: keep both: --set version=%d (the next free version); replace it: --force\n", v);
     else
         fprintf(stderr, "kerf: keep both: another --out DIR (or {version} in it and --set version=N); replace it: "
@@ -362,7 +367,7 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     kf_scene sc = *scp; /* handles: the model and state are the caller's */
     int rc = KF_EXIT_OK;
     uint64_t hash = kf_shot_sim_hash(shot);
-    int frame = shot->frame_start; /* the frame the state is at */
+    int frame = shot->frame_start;               /* the frame the state is at */
     int resume_from = o.resume ? shot->last : 0; /* the latest frame a resume may start from; 0: none */
     /* a version holds one set of inputs: a run from others does not silently replace it */
     if (kf_cli_version_taken(&o, shot)) return KF_EXIT_USAGE;
@@ -373,8 +378,10 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         if (c != 0 && !root()) return c > 0 ? KF_EXIT_OK : KF_EXIT_FAIL;
         if (c != 0) {
             if (c > 0 && !o.quiet)
-                fprintf(stderr, "kerf: %s: frames %d-%d are cached from the same inputs; nothing to simulate "
-                                "(--force to simulate anyway)\n", shot->name, shot->first, shot->last);
+                fprintf(stderr,
+                        "kerf: %s: frames %d-%d are cached from the same inputs; nothing to simulate "
+                        "(--force to simulate anyway)\n",
+                        shot->name, shot->first, shot->last);
             /* the later stages still run: their own outputs may be missing or stale */
             if (c > 0 && o.frame_ready)
                 for (int f = shot->first; f <= shot->last; f++) o.frame_ready(o.frame_ctx, f);
@@ -475,9 +482,10 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
             /* one plain line per frame for farm logs */
             fprintf(stderr,
                     "frame %d: %zu particles, %ld blocks, %ld substeps, max cfl %.2f, %.0f ms (sort %.0f p2g %.0f "
-                    "grid %.0f g2p %.0f stress %.0f cdf %.0f rigid %.0f), %.1f M p-steps/s, %d retries, %ld warnings, ETA %s\n",
-                    frame, kf_state_count(whole ? whole : sc.state), st.active_blocks, st.substeps, st.max_cfl, frame_ms,
-                    st.ms[KF_STAGE_SORT], st.ms[KF_STAGE_P2G], st.ms[KF_STAGE_GRID], st.ms[KF_STAGE_G2P],
+                    "grid %.0f g2p %.0f stress %.0f cdf %.0f rigid %.0f), %.1f M p-steps/s, %d retries, %ld warnings, "
+                    "ETA %s\n",
+                    frame, kf_state_count(whole ? whole : sc.state), st.active_blocks, st.substeps, st.max_cfl,
+                    frame_ms, st.ms[KF_STAGE_SORT], st.ms[KF_STAGE_P2G], st.ms[KF_STAGE_GRID], st.ms[KF_STAGE_G2P],
                     st.ms[KF_STAGE_STRESS], st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID], mps, st.retries, st.warnings,
                     eta);
             if (ranks() > 1)
@@ -489,7 +497,8 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                         ds.rebalances ? ", re-cut" : "");
             /* implicit integration: how hard the solves worked this frame */
             if (kf_model_sim(sc.model)->integrator == KF_INTEGRATOR_IMPLICIT)
-                fprintf(stderr, "frame %d: implicit (%s): %ld Newton, %ld Krylov iterations, last residual %.2g\n", frame,
+                fprintf(stderr, "frame %d: implicit (%s): %ld Newton, %ld Krylov iterations, last residual %.2g\n",
+                        frame,
                         kf_model_sim(sc.model)->implicit_scheme == KF_SCHEME_MIDPOINT ? "midpoint" : "backward Euler",
                         st.newton_iterations, st.krylov_iterations, st.newton_residual);
             /* thin boundaries: crossings the guard caught and undid this frame, and
@@ -503,7 +512,8 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                         frame, st.thin_caught, st.thin_deepest, left, deep_left);
             }
             if (st.fixed_halved > 0)
-                fprintf(stderr, "frame %d: retried at a fixed step of %g s (sim.retry_fixed: half of sim.dt_fixed %g s)\n",
+                fprintf(stderr,
+                        "frame %d: retried at a fixed step of %g s (sim.retry_fixed: half of sim.dt_fixed %g s)\n",
                         frame, st.fixed_halved, kf_model_sim(sc.model)->dt_fixed);
             kf_rigid_log_frame(stderr, shot, sc.state); /* where each rigid body is (rigid_log.c) */
         }
@@ -518,10 +528,9 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         char which[64];
         if (resumed + 1 == shot->last) snprintf(which, sizeof which, "frame %d", shot->last);
         else snprintf(which, sizeof which, "frames %d-%d", resumed + 1, shot->last);
-        fprintf(stderr, "kerf: %s: simulated %s (resumed after frame %d) in %s/ (%.1f s)\n", shot->name, which,
-                resumed, rp.dir, (kf_now_ms() - start) / 1e3);
-    }
-    else if (rc == KF_EXIT_OK && !o.quiet)
+        fprintf(stderr, "kerf: %s: simulated %s (resumed after frame %d) in %s/ (%.1f s)\n", shot->name, which, resumed,
+                rp.dir, (kf_now_ms() - start) / 1e3);
+    } else if (rc == KF_EXIT_OK && !o.quiet)
         fprintf(stderr, "kerf: %s: nothing left to simulate after frame %d in %s/\n", shot->name, resumed, rp.dir);
     /* simulate → surface → render (on a farm, the array tasks do the last two) */
     /* (over several ranks: rank 0, from the files) */

@@ -84,8 +84,8 @@ static void write_stamp(const char *stamp, const char *now) {
 /* the surface settings as text, for <dir>/surface/.settings */
 static void surface_settings(const kf_shot *shot, char *buf, size_t n) {
     snprintf(buf, n, "%.9g %.9g %d %d %.9g %.9g %d %.9g %.9g\n", shot->surface_voxel, shot->surface_radius,
-             shot->surface_smooth, shot->surface_iterations, shot->surface_dilate, shot->surface_erode, shot->surface_group,
-             shot->surface_average, shot->surface_average_radius);
+             shot->surface_smooth, shot->surface_iterations, shot->surface_dilate, shot->surface_erode,
+             shot->surface_group, shot->surface_average, shot->surface_average_radius);
 }
 
 /* A PNG ends with its IEND chunk; one cut short (a full disk under an old
@@ -227,8 +227,7 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
         int done = f - shot->first + 1, todo = shot->last - shot->first + 1;
         double ms_s = made_s ? t_s / made_s : 0, ms_r = made_r ? t_r / made_r : 0;
         double eta = (ms_s + ms_r) / 1e3 * (shot->last - f);
-        if (made_s || made_r)
-            kf_record_progress(first.dir, shot, do_render ? "render" : "surface", f, done, todo, eta);
+        if (made_s || made_r) kf_record_progress(first.dir, shot, do_render ? "render" : "surface", f, done, todo, eta);
         if (!o->quiet && (made_s || made_r)) {
             char extra[96], line[256];
             snprintf(extra, sizeof extra, "surface %.0f ms, render %.0f ms a frame", ms_s, ms_r);

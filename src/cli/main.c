@@ -12,26 +12,25 @@
 
 void kf_cli_usage(FILE *f, const char *cmd) {
     if (!cmd || !strcmp(cmd, "kerf")) {
-        fprintf(f,
-                "usage: kerf <command> [options]\n"
-                "\n"
-                "commands:\n"
-                "  run <shot.yaml>     simulate, surface (OpenVDB) and render (PNG) the shot's frames\n"
-                "  surface <shot.yaml> level sets from the checkpoints: <dir>/surface/<name>.vdb\n"
-                "  render <shot.yaml>  PNG images from the .vdb surfaces: <dir>/images/<name>.png\n"
-                "  turntable <shot.yaml> --frame N --frames K\n"
-                "                      K views orbiting frame N (end exclusive: the sequence loops)\n"
-                "  farm submit|status|cancel <shot.yaml>\n"
-                "                      the shot (and its wedges) as Slurm jobs: kerf farm --help\n"
-                "  check <shot.yaml>   validate the shot (all problems at once) and seed it; simulate nothing\n"
-                "  info <shot.yaml>    what the shot compiles to: particles, grid, materials, memory, substeps\n"
-                "  view <shot.yaml | dir> [--port N]\n"
-                "                      a local web page: play the frames, compare versions, plot the frame\n"
-                "                      records, edit keys and re-run at preview quality\n"
-                "  help [shot|run|check|info|view]\n"
-                "                      this text; `kerf help shot` lists every shot-file key\n"
-                "\n"
-                "exit codes: 0 ok, 1 the run failed (numerical trouble, I/O), 2 bad usage or bad shot\n");
+        fprintf(f, "usage: kerf <command> [options]\n"
+                   "\n"
+                   "commands:\n"
+                   "  run <shot.yaml>     simulate, surface (OpenVDB) and render (PNG) the shot's frames\n"
+                   "  surface <shot.yaml> level sets from the checkpoints: <dir>/surface/<name>.vdb\n"
+                   "  render <shot.yaml>  PNG images from the .vdb surfaces: <dir>/images/<name>.png\n"
+                   "  turntable <shot.yaml> --frame N --frames K\n"
+                   "                      K views orbiting frame N (end exclusive: the sequence loops)\n"
+                   "  farm submit|status|cancel <shot.yaml>\n"
+                   "                      the shot (and its wedges) as Slurm jobs: kerf farm --help\n"
+                   "  check <shot.yaml>   validate the shot (all problems at once) and seed it; simulate nothing\n"
+                   "  info <shot.yaml>    what the shot compiles to: particles, grid, materials, memory, substeps\n"
+                   "  view <shot.yaml | dir> [--port N]\n"
+                   "                      a local web page: play the frames, compare versions, plot the frame\n"
+                   "                      records, edit keys and re-run at preview quality\n"
+                   "  help [shot|run|check|info|view]\n"
+                   "                      this text; `kerf help shot` lists every shot-file key\n"
+                   "\n"
+                   "exit codes: 0 ok, 1 the run failed (numerical trouble, I/O), 2 bad usage or bad shot\n");
         return;
     }
     fprintf(f, "usage: kerf %s <shot.yaml>%s [options]\n\noptions:\n", cmd,
@@ -46,10 +45,10 @@ void kf_cli_usage(FILE *f, const char *cmd) {
         fprintf(f, "  --out DIR           output directory template instead of output.dir (relative to the\n"
                    "                      current directory)\n"
                    "  --force             redo outputs even when they are current; go past the budget guard\n");
-    else
-        fprintf(f, "  --force             go past the budget guard\n");
-    fprintf(f, "                      (a shot whose estimate, made before seeding, needs more memory than\n"
-               "                      this machine has or more than %.0f substeps a frame is refused)\n",
+    else fprintf(f, "  --force             go past the budget guard\n");
+    fprintf(f,
+            "                      (a shot whose estimate, made before seeding, needs more memory than\n"
+            "                      this machine has or more than %.0f substeps a frame is refused)\n",
             KF_BUDGET_SUBSTEPS_PER_FRAME);
     if (!strcmp(cmd, "run"))
         fprintf(f, "  --wedge KEY=V1,V2   run the shot once per value, each into <dir>/w01, w02, ... and end\n"
@@ -79,11 +78,11 @@ int main(int argc, char **argv) {
     int ranks = kf_dist_init(&argc, &argv), rc;
     if (ranks > 1 && (argc < 2 || strcmp(argv[1], "run"))) {
         if (kf_dist_rank() == 0)
-            fprintf(stderr, "kerf: only `kerf run` runs over several MPI ranks (%d here); run `kerf %s` without mpirun\n",
+            fprintf(stderr,
+                    "kerf: only `kerf run` runs over several MPI ranks (%d here); run `kerf %s` without mpirun\n",
                     ranks, argc > 1 ? argv[1] : "");
         rc = KF_EXIT_USAGE;
-    } else
-        rc = dispatch(argc, argv);
+    } else rc = dispatch(argc, argv);
     kf_dist_finalize();
     return rc;
 }
@@ -110,10 +109,10 @@ static int dispatch(int argc, char **argv) {
                            !strcmp(topic, "surface") || !strcmp(topic, "render") || !strcmp(topic, "turntable")))
             kf_cli_usage(stdout, topic);
         else if (topic) {
-            fprintf(stderr, "kerf help: no topic '%s' (shot, run, check, info, surface, render, turntable, view)\n", topic);
+            fprintf(stderr, "kerf help: no topic '%s' (shot, run, check, info, surface, render, turntable, view)\n",
+                    topic);
             return KF_EXIT_USAGE;
-        } else
-            kf_cli_usage(stdout, NULL);
+        } else kf_cli_usage(stdout, NULL);
         return KF_EXIT_OK;
     }
     if (!strcmp(cmd, "--version")) {

@@ -64,8 +64,7 @@ int kf_cli_parse(const char *cmd, int argc, char **argv, kf_cli_opts *o) {
                 return KF_EXIT_USAGE;
             }
             o->out = val;
-        }
-        else if (!strcmp(a, "--threads")) {
+        } else if (!strcmp(a, "--threads")) {
             if (parse_int(val, 1, 1024, &o->threads)) {
                 fprintf(stderr, "kerf %s: --threads wants an integer in [1, 1024], got '%s'\n", cmd, val);
                 return KF_EXIT_USAGE;

@@ -19,9 +19,10 @@ int kf_cli_claim_output(const kf_cli_opts *o, const kf_shot *shot, kf_dir_lock *
     kf_dir_lock_holder other, stale;
     int rc = kf_dir_lock_take(fp.dir, lock, &other, &stale);
     if (rc == 1) {
-        fprintf(stderr, "kerf: %s/ is in use by another kerf run (pid %ld, started %s); wait for it to end or stop it "
-                        "(kill %ld)\n", fp.dir, other.pid, other.started[0] ? other.started : "at an unknown time",
-                other.pid);
+        fprintf(stderr,
+                "kerf: %s/ is in use by another kerf run (pid %ld, started %s); wait for it to end or stop it "
+                "(kill %ld)\n",
+                fp.dir, other.pid, other.started[0] ? other.started : "at an unknown time", other.pid);
         return KF_EXIT_FAIL;
     }
     if (rc < 0) {
@@ -29,9 +30,10 @@ int kf_cli_claim_output(const kf_cli_opts *o, const kf_shot *shot, kf_dir_lock *
         return KF_EXIT_FAIL;
     }
     if (stale.pid)
-        fprintf(stderr, "kerf: %s/: the run before (pid %ld, started %s) ended without releasing its lock (killed or "
-                        "crashed); taking the lock over\n", fp.dir, stale.pid,
-                stale.started[0] ? stale.started : "at an unknown time");
+        fprintf(stderr,
+                "kerf: %s/: the run before (pid %ld, started %s) ended without releasing its lock (killed or "
+                "crashed); taking the lock over\n",
+                fp.dir, stale.pid, stale.started[0] ? stale.started : "at an unknown time");
     char first[4200];
     int swept = kf_dir_remove_temporaries(fp.dir, first, sizeof first);
     if (swept)

@@ -28,8 +28,8 @@ void kf_rigid_log_frame(FILE *f, const kf_shot *shot, const kf_state *s) {
     for (int i = 0; i < shot->nrigids; i++) {
         kf_rigid_pose p = kf_state_rigid(s, i);
         fprintf(f, "  rigid %s: at [%.3f, %.3f, %.3f] m, v [%.3f, %.3f, %.3f] m/s, w [%.2f, %.2f, %.2f] rad/s\n",
-                shot->rigids[i].def.name, p.com[0], p.com[1], p.com[2], p.v[0], p.v[1], p.v[2], p.omega[0],
-                p.omega[1], p.omega[2]);
+                shot->rigids[i].def.name, p.com[0], p.com[1], p.com[2], p.v[0], p.v[1], p.v[2], p.omega[0], p.omega[1],
+                p.omega[2]);
     }
     /* each motor's torque: now, and the frame's peak against its limit */
     for (int i = 0; i < shot->njoints; i++) {

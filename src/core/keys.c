@@ -44,9 +44,11 @@ void kf_keys_pose_at(const kf_key *keys, int n, kf_interp interp, const double c
             if (interp == KF_INTERP_SMOOTH) {
                 double m0 = tangent(k, n, i, ch) * h, m1 = tangent(k, n, i + 1, ch) * h;
                 double u2 = u * u, u3 = u2 * u;
-                val[ch] = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
+                val[ch] =
+                    (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
                 rate[ch] = ((6 * u2 - 6 * u) * p0 + (3 * u2 - 4 * u + 1) * m0 + (-6 * u2 + 6 * u) * p1 +
-                            (3 * u2 - 2 * u) * m1) / h;
+                            (3 * u2 - 2 * u) * m1) /
+                           h;
             } else {
                 val[ch] = p0 + u * (p1 - p0);
                 rate[ch] = (p1 - p0) / h;

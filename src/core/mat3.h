@@ -25,8 +25,7 @@ static inline void kf_m3_copy(kf_real B[9], const kf_real A[9]) {
 /* C = A B */
 static inline void kf_m3_mul(kf_real C[9], const kf_real A[9], const kf_real B[9]) {
     for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+        for (int j = 0; j < 3; j++) C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
 }
 
 /* C = A Bᵀ */
@@ -39,8 +38,7 @@ static inline void kf_m3_mul_bt(kf_real C[9], const kf_real A[9], const kf_real 
 /* C = Aᵀ B */
 static inline void kf_m3_mul_at(kf_real C[9], const kf_real A[9], const kf_real B[9]) {
     for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            C[3 * i + j] = A[i] * B[j] + A[3 + i] * B[3 + j] + A[6 + i] * B[6 + j];
+        for (int j = 0; j < 3; j++) C[3 * i + j] = A[i] * B[j] + A[3 + i] * B[3 + j] + A[6 + i] * B[6 + j];
 }
 
 static inline void kf_m3_transpose(kf_real B[9], const kf_real A[9]) {
@@ -49,8 +47,7 @@ static inline void kf_m3_transpose(kf_real B[9], const kf_real A[9]) {
 }
 
 static inline kf_real kf_m3_det(const kf_real A[9]) {
-    return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
-           A[2] * (A[3] * A[7] - A[4] * A[6]);
+    return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) + A[2] * (A[3] * A[7] - A[4] * A[6]);
 }
 
 static inline kf_real kf_m3_trace(const kf_real A[9]) { return A[0] + A[4] + A[8]; }
@@ -79,18 +76,16 @@ static inline void kf_m3_cofactor(kf_real K[9], const kf_real A[9]) {
 static inline void kf_m3_usvt(kf_real A[9], const kf_real U[9], const kf_real s[3], const kf_real V[9]) {
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
-            A[3 * i + j] = U[3 * i] * s[0] * V[3 * j] + U[3 * i + 1] * s[1] * V[3 * j + 1] +
-                           U[3 * i + 2] * s[2] * V[3 * j + 2];
+            A[3 * i + j] =
+                U[3 * i] * s[0] * V[3 * j] + U[3 * i + 1] * s[1] * V[3 * j + 1] + U[3 * i + 2] * s[2] * V[3 * j + 2];
 }
-
 
 /* ---- double precision -------------------------------------------------------
  * The same algebra in double, whatever kf_real is: the constitutive models'
  * internals, the rigid bodies, the crossing guard. Output first, as above. */
 
 static inline double kf_m3d_det(const double A[9]) {
-    return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
-           A[2] * (A[3] * A[7] - A[4] * A[6]);
+    return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) + A[2] * (A[3] * A[7] - A[4] * A[6]);
 }
 
 /* cofactor matrix: cof(A) = det(A) A⁻ᵀ, defined for singular A too */
@@ -128,7 +123,9 @@ static inline void kf_v3d_cross(double c[3], const double a[3], const double b[3
     c[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-static inline double kf_v3d_dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static inline double kf_v3d_dot(const double a[3], const double b[3]) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 /* the rotation by angle |w| about w (Rodrigues), row-major */
 static inline void kf_m3d_rotvec(double R[9], const double w[3]) {

@@ -166,8 +166,8 @@ void kf_polar3(const kf_real F[9], kf_real R[9]) {
     svd3_d(Fd, Ud, sd, Vd);
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
-            R[3 * i + j] = (kf_real)(Ud[3 * i] * Vd[3 * j] + Ud[3 * i + 1] * Vd[3 * j + 1] +
-                                     Ud[3 * i + 2] * Vd[3 * j + 2]);
+            R[3 * i + j] =
+                (kf_real)(Ud[3 * i] * Vd[3 * j] + Ud[3 * i + 1] * Vd[3 * j + 1] + Ud[3 * i + 2] * Vd[3 * j + 2]);
 }
 
 /* ---- double in, double out, to round-off: the implicit solve's energies ----

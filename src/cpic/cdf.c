@@ -67,9 +67,10 @@ static int reserve(kf_cpic *c, const kf_state *s) {
     size_t nb = s->g.nblocks, no = s->g.nowner, np = s->p.n;
     if (nb > c->cap_blocks) {
         size_t cap = nb + nb / 2 + 16;
-        if (grow((void **)&c->node_d, sizeof(float) * 64, cap) || grow((void **)&c->node_c, sizeof(uint32_t) * 64, cap) ||
-            grow((void **)&c->stamp, sizeof(uint32_t), cap) || grow((void **)&c->best, sizeof(float) * 64, cap) ||
-            grow((void **)&c->best_stamp, sizeof(uint32_t), cap) || grow((void **)&c->mark, sizeof(uint32_t) * 64, cap))
+        if (grow((void **)&c->node_d, sizeof(float) * 64, cap) ||
+            grow((void **)&c->node_c, sizeof(uint32_t) * 64, cap) || grow((void **)&c->stamp, sizeof(uint32_t), cap) ||
+            grow((void **)&c->best, sizeof(float) * 64, cap) || grow((void **)&c->best_stamp, sizeof(uint32_t), cap) ||
+            grow((void **)&c->mark, sizeof(uint32_t) * 64, cap))
             return -1;
         memset(c->stamp, 0, cap * sizeof(uint32_t));
         memset(c->best_stamp, 0, cap * sizeof(uint32_t));
@@ -198,7 +199,8 @@ static void splat_box(kf_cpic *c, const kf_cpic_tri *t, uint32_t tid, const seed
     for (int i = sb->lo[0]; i <= sb->hi[0]; i++)
         for (int j = sb->lo[1]; j <= sb->hi[1]; j++)
             for (int k = sb->lo[2]; k <= sb->hi[2]; k++) {
-                int32_t blk = sb->blk[kf_block_of(i) - sb->b0[0]][kf_block_of(j) - sb->b0[1]][kf_block_of(k) - sb->b0[2]];
+                int32_t blk =
+                    sb->blk[kf_block_of(i) - sb->b0[0]][kf_block_of(j) - sb->b0[1]][kf_block_of(k) - sb->b0[2]];
                 if (blk < 0) continue;
                 touch_block(c, blk, r);
                 size_t node = 64 * (size_t)blk + (size_t)((i & 3) << 4 | (j & 3) << 2 | (k & 3));

@@ -54,7 +54,7 @@ typedef struct kf_cpic_tri {
 void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt);
 
 typedef struct kf_cpic {
-    uint32_t epoch;       /* one per splat: a block's CDF is valid iff stamp == epoch */
+    uint32_t epoch; /* one per splat: a block's CDF is valid iff stamp == epoch */
     /* grid colored distance field, per grid block (cap_blocks x 64 nodes) */
     size_t cap_blocks;
     float *node_d;        /* unsigned distance in cells */
@@ -65,22 +65,22 @@ typedef struct kf_cpic {
     uint32_t *mark;       /* per node: the last triangle (numbered across bodies, from 1) that visited it */
     /* the splat's per-seed scratch (cap_seed) and its x-block bins (cap_bins) */
     size_t cap_seed, cap_bins;
-    double *seed_x;       /* (3 x seeds) world position */
-    int32_t *seed_bin;    /* x-block bin of its node box, -1: touches no block */
-    int32_t *seed_order;  /* seeds grouped by bin, in seed order within one */
-    int32_t *bin_start;   /* (bins + 1) */
+    double *seed_x;      /* (3 x seeds) world position */
+    int32_t *seed_bin;   /* x-block bin of its node box, -1: touches no block */
+    int32_t *seed_order; /* seeds grouped by bin, in seed order within one */
+    int32_t *bin_start;  /* (bins + 1) */
     /* owner blocks in the narrow band and their impulse accumulators */
     size_t cap_owner;
-    int32_t *slot;        /* per owner: index into imp, or -1 outside the band */
+    int32_t *slot; /* per owner: index into imp, or -1 outside the band */
     size_t nslot, cap_slot;
     double (*imp)[KF_MAX_RIGIDS][6];
-    long band_owners;     /* for the frame log */
+    long band_owners; /* for the frame log */
     long band_particles;
     /* particle distance and normal of this substep (§5.3.2), per particle */
     size_t cap_p;
-    float *pd;            /* d_p, m; valid where near[p] */
-    float *pn;            /* (n x 3) n_p */
-    uint8_t *near;        /* the MLS fit succeeded */
+    float *pd;     /* d_p, m; valid where near[p] */
+    float *pn;     /* (n x 3) n_p */
+    uint8_t *near; /* the MLS fit succeeded */
     /* world primitives, per body */
     kf_cpic_tri *tri[KF_MAX_RIGIDS];
     uint32_t *tri_stamp[KF_MAX_RIGIDS]; /* == epoch: tri[r][k] holds this substep's pose */
@@ -100,7 +100,6 @@ typedef struct kf_cpic {
     long caught;
     double caught_depth;
 } kf_cpic;
-
 
 /* J (linear impulse at world point x) and its moment about the body's com, added to imp[6] */
 static inline void kf_cpic_add_impulse(double *imp, const kf_rigid_state *st, const double x[3], const double J[3]) {

@@ -74,7 +74,6 @@ static inline void affine_velocity(const kf_particles *p, size_t i, int apic, co
     }
 }
 
-
 /* Solve the symmetric 4x4 system M c = y (Gaussian elimination with partial
  * pivoting); returns det M. */
 static double solve4(double M[4][4], double y[4], double c[4]) {
@@ -171,7 +170,7 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
      * an edge (a blade's tip) and drifted away from it, too far for the
      * distance fit below to notice; the particle takes its nodes' side */
     for (uint32_t held = cp & AFF; held; held &= held - 1) {
-        int bit = __builtin_ctz(held); /* 2r + 1 */
+        int bit = __builtin_ctz(held);     /* 2r + 1 */
         if (!thin_body[bit / 2]) continue; /* a solid has no edge to go around */
         int agree = 0, differ = 0;
         for (int a = 0; a < 27; a++) {
@@ -238,8 +237,8 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     }
 }
 
-void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck,
-                       size_t i0, void *cache_v, int classic) {
+void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck, size_t i0,
+                       void *cache_v, int classic) {
     kf_cpic *c = s->cpic;
     kf_particles *p = &s->p;
     const kf_grid *g = &s->g;
@@ -280,7 +279,8 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                             double gw[3] = {(double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j],
                                             (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j],
                                             (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->dw[2][k][j]};
-                            add[r] += ck->t[3 * r][j] * gw[0] + ck->t[3 * r + 1][j] * gw[1] + ck->t[3 * r + 2][j] * gw[2];
+                            add[r] +=
+                                ck->t[3 * r][j] * gw[0] + ck->t[3 * r + 1][j] * gw[1] + ck->t[3 * r + 2][j] * gw[2];
                         }
                     }
                     add[3] = w * mass;
@@ -304,8 +304,8 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     }
 }
 
-void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck,
-                       size_t i0, const void *cache_v, int classic) {
+void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck, size_t i0,
+                       const void *cache_v, int classic) {
     kf_cpic *c = s->cpic;
     kf_particles *p = &s->p;
     const kf_grid *g = &s->g;

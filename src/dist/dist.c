@@ -62,7 +62,8 @@ int kf_dist_reserve(void **buf, size_t *cap, size_t want) {
 size_t kf_dist_record_bytes(void) { return KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + 12; }
 
 void kf_dist_pack(const kf_particles *p, size_t i, char *dst) {
-    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++, dst += sizeof(kf_real)) memcpy(dst, &p->plane[k][i], sizeof(kf_real));
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++, dst += sizeof(kf_real))
+        memcpy(dst, &p->plane[k][i], sizeof(kf_real));
     memcpy(dst, &p->id[i], 4);
     memcpy(dst + 4, &p->colour[i], 4);
     memcpy(dst + 8, &p->mat[i], 2);
@@ -70,7 +71,8 @@ void kf_dist_pack(const kf_particles *p, size_t i, char *dst) {
 }
 
 void kf_dist_unpack(kf_particles *p, size_t j, const char *src) {
-    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++, src += sizeof(kf_real)) memcpy(&p->plane[k][j], src, sizeof(kf_real));
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++, src += sizeof(kf_real))
+        memcpy(&p->plane[k][j], src, sizeof(kf_real));
     memcpy(&p->id[j], src, 4);
     memcpy(&p->colour[j], src + 4, 4);
     memcpy(&p->mat[j], src + 8, 2);

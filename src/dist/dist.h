@@ -42,7 +42,7 @@ typedef struct kf_dist_stats {
     double halo_bytes;                   /* P2G cache bytes sent by all ranks, summed over substeps */
     double migrated;                     /* particles that changed rank */
     long substeps;
-    double comm_ms;                      /* this rank's wall time in communication */
+    double comm_ms; /* this rank's wall time in communication */
     int rebalances;
 } kf_dist_stats;
 

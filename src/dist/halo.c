@@ -95,7 +95,8 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
             int32_t head[4];
             memcpy(head, &rr[0], sizeof head);
             int from[3], to[3];
-            for (int e = 0; e < 3; e++) from[e] = (head[3] >> (4 * e)) & 15, to[e] = ((head[3] >> (4 * (3 + e))) & 15) + KW;
+            for (int e = 0; e < 3; e++)
+                from[e] = (head[3] >> (4 * e)) & 15, to[e] = ((head[3] >> (4 * (3 + e))) & 15) + KW;
             d->pack[packed++] = rr[0];
             for (int a = from[0]; a < to[0]; a++)
                 for (int b = from[1]; b < to[1]; b++)
@@ -127,7 +128,8 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
         int32_t head[4];
         memcpy(head, &d->unpack[u], sizeof head);
         size_t vol = 1;
-        for (int e = 0; e < 3; e++) vol *= (size_t)(((head[3] >> (4 * (3 + e))) & 15) + KW - ((head[3] >> (4 * e)) & 15));
+        for (int e = 0; e < 3; e++)
+            vol *= (size_t)(((head[3] >> (4 * (3 + e))) & 15) + KW - ((head[3] >> (4 * e)) & 15));
         u += 1 + vol;
     }
     if (kf_dist_reserve((void **)&d->recv, &d->recv_cap, (nrecv * rec + 1) * sizeof(kf_v4))) MPI_Abort(d->comm, 1);

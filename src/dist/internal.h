@@ -11,22 +11,22 @@
 struct kf_dist {
     MPI_Comm comm;
     int rank, size;
-    uint64_t *split;   /* (size + 1) rank r owns block keys [split[r], split[r+1]) */
+    uint64_t *split; /* (size + 1) rank r owns block keys [split[r], split[r+1]) */
     /* the halo caches received this substep, by colour of their owner block */
     size_t nforeign;
     int32_t (*fnb)[8]; /* (nforeign) the receiver's block ids of each owner's 2x2x2 neighbourhood */
     size_t *forder;    /* (nforeign) indices grouped by colour */
     size_t fstart[9];
-    kf_v4 *recv;       /* received records: a header kf_v4 (block coordinate), then the cache */
+    kf_v4 *recv; /* received records: a header kf_v4 (block coordinate), then the cache */
     size_t recv_cap, nfnb_cap;
     kf_v4 *send;
     size_t send_cap;
     kf_v4 *pack, *unpack; /* the touched parts of the caches, out and in */
     size_t pack_cap, unpack_cap;
-    char *pbuf[2];     /* particle records out and in */
+    char *pbuf[2]; /* particle records out and in */
     size_t pbuf_cap[2];
-    kf_particles tmp;  /* the particle array being rebuilt by migration */
-    int *counts;       /* (4 * size) MPI counts and displacements */
+    kf_particles tmp; /* the particle array being rebuilt by migration */
+    int *counts;      /* (4 * size) MPI counts and displacements */
     kf_dist_stats stats;
 };
 

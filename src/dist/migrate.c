@@ -130,7 +130,8 @@ int kf_dist_migrate(const kf_model *m, kf_state *s) {
             }
             continue;
         }
-        for (int q = 0; q < rcount[r]; q++, j++) kf_dist_unpack(t, j, d->pbuf[1] + ((size_t)rdispl[r] + (size_t)q) * rb);
+        for (int q = 0; q < rcount[r]; q++, j++)
+            kf_dist_unpack(t, j, d->pbuf[1] + ((size_t)rdispl[r] + (size_t)q) * rb);
     }
     t->n = total;
     if (nsend == 0 && nrecv == 0) return free(stay), free(dest), 0; /* nothing changed here */

@@ -132,7 +132,8 @@ void kf_dist_stress(const kf_model *m, kf_state *s, int project) {
         nrecv += c;
     }
     kf_real *rbuf = malloc((nrecv + 1) * SREC * sizeof *rbuf);
-    size_t *hfrom = malloc((head.hi - head.lo + 1) * sizeof *hfrom), *tfrom = malloc((tail.hi - tail.lo + 1) * sizeof *tfrom);
+    size_t *hfrom = malloc((head.hi - head.lo + 1) * sizeof *hfrom),
+           *tfrom = malloc((tail.hi - tail.lo + 1) * sizeof *tfrom);
     if (!rbuf || !hfrom || !tfrom) kf_dist_abort(1);
     MPI_Datatype real = sizeof(kf_real) == 8 ? MPI_DOUBLE : MPI_FLOAT;
     MPI_Alltoallv(sbuf, scount, sdispl, real, rbuf, rcount, rdispl, real, d->comm);

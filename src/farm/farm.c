@@ -8,28 +8,27 @@
 #include "farm_internal.h"
 
 static void usage(FILE *f) {
-    fprintf(f,
-            "usage: kerf farm submit <shot.yaml> [--wedge KEY=V1,V2,...]... [--ranks N] [--chunk K]\n"
-            "                        [--partition P] [--frames A-B] [--set KEY=VALUE]... [--quality Q] [--out DIR]\n"
-            "       kerf farm status [<shot.yaml> [the same options]]\n"
-            "       kerf farm cancel [<shot.yaml> [the same options]]\n"
-            "\n"
-            "submit: the shot as Slurm jobs, one set per wedge (<shot>_w<NN>_<step>):\n"
-            "  sim      one job; it resumes from the last checkpoint made from the same inputs\n"
-            "  surface  array tasks of K frames (--chunk, default 1); a task is released the moment its\n"
-            "           frames' checkpoints are on disk, while the sim goes on\n"
-            "  render   array tasks, task i after surface task i\n"
-            "  sheet    with --wedge: the contact sheet <dir>/contact_sheet.png once every wedge is rendered\n"
-            "  Frames whose images are current are not submitted again. A failed surface or render task\n"
-            "  is retried once; a failed or cancelled sim cancels the tasks still waiting on it.\n"
-            "  Array index = frame - first frame. Logs: <dir>/farm/logs/. The sim job gets --threads N cores\n"
-            "  (default 1), each task one. --ranks N > 1 needs kerf's MPI build (not there yet).\n"
-            "status: each job's state, frames done, ETA and failures (with the failed task's log)\n"
-            "cancel: cancels the jobs that submission made, and nothing else\n"
-            "Without a shot, status and cancel act on every submission made from this directory\n"
-            "(listed in ./" KF_FARM_REGISTRY ").\n"
-            "Slurm: the client commands on PATH, SLURM_CONF as usual. Without a reachable Slurm the\n"
-            "commands say so and exit 2, submitting nothing.\n");
+    fprintf(f, "usage: kerf farm submit <shot.yaml> [--wedge KEY=V1,V2,...]... [--ranks N] [--chunk K]\n"
+               "                        [--partition P] [--frames A-B] [--set KEY=VALUE]... [--quality Q] [--out DIR]\n"
+               "       kerf farm status [<shot.yaml> [the same options]]\n"
+               "       kerf farm cancel [<shot.yaml> [the same options]]\n"
+               "\n"
+               "submit: the shot as Slurm jobs, one set per wedge (<shot>_w<NN>_<step>):\n"
+               "  sim      one job; it resumes from the last checkpoint made from the same inputs\n"
+               "  surface  array tasks of K frames (--chunk, default 1); a task is released the moment its\n"
+               "           frames' checkpoints are on disk, while the sim goes on\n"
+               "  render   array tasks, task i after surface task i\n"
+               "  sheet    with --wedge: the contact sheet <dir>/contact_sheet.png once every wedge is rendered\n"
+               "  Frames whose images are current are not submitted again. A failed surface or render task\n"
+               "  is retried once; a failed or cancelled sim cancels the tasks still waiting on it.\n"
+               "  Array index = frame - first frame. Logs: <dir>/farm/logs/. The sim job gets --threads N cores\n"
+               "  (default 1), each task one. --ranks N > 1 needs kerf's MPI build (not there yet).\n"
+               "status: each job's state, frames done, ETA and failures (with the failed task's log)\n"
+               "cancel: cancels the jobs that submission made, and nothing else\n"
+               "Without a shot, status and cancel act on every submission made from this directory\n"
+               "(listed in ./" KF_FARM_REGISTRY ").\n"
+               "Slurm: the client commands on PATH, SLURM_CONF as usual. Without a reachable Slurm the\n"
+               "commands say so and exit 2, submitting nothing.\n");
 }
 
 int kf_farm_parse(const char *cmd, int argc, char **argv, kf_farm_opts *f) {
@@ -66,7 +65,10 @@ int kf_farm_parse(const char *cmd, int argc, char **argv, kf_farm_opts *f) {
         else if (is_chunk && !bad && x >= 1 && x <= 1000) f->chunk = (int)x;
         else {
             fprintf(stderr, "kerf %s: %s wants %s, got '%s'\n", cmd, a,
-                    is_ranks ? "an integer in [1, 4096]" : is_chunk ? "an integer in [1, 1000]" : "a job id", v);
+                    is_ranks   ? "an integer in [1, 4096]"
+                    : is_chunk ? "an integer in [1, 1000]"
+                               : "a job id",
+                    v);
             free(rest);
             return KF_EXIT_USAGE;
         }

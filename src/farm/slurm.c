@@ -61,8 +61,9 @@ static int on_path(const char *name) {
 int kf_slurm_check(char *why, size_t n) {
     char out[4096];
     if (!on_path("sbatch") || !on_path("scontrol")) {
-        snprintf(why, n, "Slurm is not installed here (no sbatch on PATH); install slurm-wlm and munge, or run the "
-                         "shot locally with kerf run.");
+        snprintf(why, n,
+                 "Slurm is not installed here (no sbatch on PATH); install slurm-wlm and munge, or run the "
+                 "shot locally with kerf run.");
         return -1;
     }
     /* without its configuration every Slurm command retries for a minute before it gives up */
@@ -80,8 +81,10 @@ int kf_slurm_check(char *why, size_t n) {
         char *nl;
         while ((nl = strchr(out, '\n')) && nl[1] == 0) *nl = 0;
         for (nl = out; (nl = strchr(nl, '\n'));) *nl = ' ';
-        snprintf(why, n, "the Slurm controller does not answer (scontrol ping: %s); is slurmctld running, and "
-                         "SLURM_CONF pointing at its slurm.conf?", out[0] ? out : "no output");
+        snprintf(why, n,
+                 "the Slurm controller does not answer (scontrol ping: %s); is slurmctld running, and "
+                 "SLURM_CONF pointing at its slurm.conf?",
+                 out[0] ? out : "no output");
         return -1;
     }
     return 0;
@@ -141,7 +144,7 @@ int kf_slurm_queue(kf_slurm_task *t, int max) {
 void kf_slurm_cancel(const long *jobs, int n, int pending_only) {
     if (n <= 0) return;
     const char **argv = calloc((size_t)n + 3, sizeof *argv);
-    char (*ids)[32] = calloc((size_t)n, sizeof *ids);
+    char(*ids)[32] = calloc((size_t)n, sizeof *ids);
     if (!argv || !ids) {
         free(argv), free(ids);
         return;

@@ -66,8 +66,8 @@ static int read_jobs(const char *farm, rec_job *j, int max, long *submitted) {
 
 /* "RUNNING 1, PENDING 3" from the queue's lines of one job */
 static void job_state(const kf_slurm_task *q, int nq, long id, char *out, size_t n, int *live) {
-    static const char *order[] = {"RUNNING", "COMPLETING", "PENDING", "COMPLETED", "FAILED", "CANCELLED", "TIMEOUT",
-                                  "OUT_OF_MEMORY", "NODE_FAIL"};
+    static const char *order[] = {"RUNNING",   "COMPLETING", "PENDING",       "COMPLETED", "FAILED",
+                                  "CANCELLED", "TIMEOUT",    "OUT_OF_MEMORY", "NODE_FAIL"};
     int len = 0;
     out[0] = 0;
     *live = 0;
@@ -166,8 +166,7 @@ static int one_submission(const char *farm, int cancel, int slurm_ok) {
         int failed = 0;
         FILE *ff = fopen(fpath, "r");
         size_t nl = strlen(j[i].name);
-        while (ff && fgets(line, sizeof line, ff))
-            failed += !strncmp(line, j[i].name, nl) && line[nl] == '\t';
+        while (ff && fgets(line, sizeof line, ff)) failed += !strncmp(line, j[i].name, nl) && line[nl] == '\t';
         if (ff) fclose(ff);
         printf("  %-28s %-8ld %-30s %-8s %-7d %s\n", j[i].name, j[i].id, st, frames, failed, eta);
     }

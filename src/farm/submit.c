@@ -102,8 +102,7 @@ static int write_task_script(const char *farm, const char *name, const char *ste
 }
 
 static int write_sim_script(const char *farm, const char *name, const char *kerf, const kf_cli_opts *o,
-                            const char *frames, int threads, int ranks, long surface, int chunk, char *path,
-                            size_t n) {
+                            const char *frames, int threads, int ranks, long surface, int chunk, char *path, size_t n) {
     kf_atomic_file af;
     if (script_open(&af, farm, name, path, n)) return -1;
     FILE *f = af.f;
@@ -133,8 +132,8 @@ static int write_guard_script(const char *farm, const char *name, const job_set 
     return script_close(&af, path);
 }
 
-static int write_sheet_script(const char *farm, const char *name, const char *kerf, const kf_cli_opts *o,
-                              char *path, size_t n) {
+static int write_sheet_script(const char *farm, const char *name, const char *kerf, const kf_cli_opts *o, char *path,
+                              size_t n) {
     kf_atomic_file af;
     if (script_open(&af, farm, name, path, n)) return -1;
     FILE *f = af.f;
@@ -215,8 +214,10 @@ int kf_farm_submit(kf_farm_opts *fo) {
     char why[4500];
     if (fo->ranks > 1) {
         /* the one place that changes when the MPI build lands (SIM_LAUNCH has the srun line) */
-        fprintf(stderr, "kerf farm: --ranks %d: one simulation over several MPI ranks is not in kerf yet; submit "
-                        "with --ranks 1 (the default). Nothing submitted.\n", fo->ranks);
+        fprintf(stderr,
+                "kerf farm: --ranks %d: one simulation over several MPI ranks is not in kerf yet; submit "
+                "with --ranks 1 (the default). Nothing submitted.\n",
+                fo->ranks);
         return KF_EXIT_USAGE;
     }
     if (kf_slurm_check(why, sizeof why)) {
@@ -240,8 +241,9 @@ int kf_farm_submit(kf_farm_opts *fo) {
     long live[64];
     int nlive = still_live(farm, live, 64);
     if (nlive) {
-        fprintf(stderr, "kerf farm: %d job%s of the last submission of %s (%s/jobs.txt) %s still queued or "
-                        "running (job %ld%s); wait for them, or kerf farm cancel first. Nothing submitted.\n",
+        fprintf(stderr,
+                "kerf farm: %d job%s of the last submission of %s (%s/jobs.txt) %s still queued or "
+                "running (job %ld%s); wait for them, or kerf farm cancel first. Nothing submitted.\n",
                 nlive, nlive == 1 ? "" : "s", shot->name, farm, nlive == 1 ? "is" : "are", live[0],
                 nlive > 1 ? ", ..." : "");
         kf_shot_free(shot);
@@ -252,7 +254,7 @@ int kf_farm_submit(kf_farm_opts *fo) {
     int nj = nw ? nw : 1, problems = 0;
     kf_cli_opts *wo = calloc((size_t)nj, sizeof *wo);
     kf_shot **ws = calloc((size_t)nj, sizeof *ws);
-    char (*outs)[1200] = calloc((size_t)nj, sizeof *outs);
+    char(*outs)[1200] = calloc((size_t)nj, sizeof *outs);
     job_set *js = calloc((size_t)nj, sizeof *js);
     if (!wo || !ws || !outs || !js) {
         fprintf(stderr, "kerf farm: out of memory\n");
@@ -293,8 +295,8 @@ int kf_farm_submit(kf_farm_opts *fo) {
         }
         if (!nchunks) {
             j->sim = 0; /* 0: nothing to submit */
-            if (!o->quiet) fprintf(stderr, "kerf farm: %s: frames %d-%d are current; nothing to do\n", j->name, s->first,
-                                   s->last);
+            if (!o->quiet)
+                fprintf(stderr, "kerf farm: %s: frames %d-%d are current; nothing to do\n", j->name, s->first, s->last);
             continue;
         }
         char name[200], sarr[8200];
@@ -361,8 +363,10 @@ int kf_farm_submit(kf_farm_opts *fo) {
         if (js[k].sim != 0 && (js[k].surface < 0 || js[k].render < 0 || js[k].sim < 0 || js[k].guard < 0)) complete = 0;
     if (!problems && !complete) {
         kf_slurm_cancel(ids, nids, 0);
-        fprintf(stderr, "kerf farm: the %d job%s submitted before the failure were cancelled; nothing is left "
-                        "queued\n", nids, nids == 1 ? "" : "s");
+        fprintf(stderr,
+                "kerf farm: the %d job%s submitted before the failure were cancelled; nothing is left "
+                "queued\n",
+                nids, nids == 1 ? "" : "s");
         rc = KF_EXIT_FAIL;
     }
 

@@ -35,14 +35,15 @@ int kf_wedges_expand(const char *const *specs, int nspecs, kf_wedge *out, int ma
     for (int i = 0; i < nspecs; i++) {
         const char *eq = strchr(specs[i], '=');
         if (!eq || eq == specs[i] || (size_t)(eq - specs[i]) >= sizeof keys[i])
-            return snprintf(err, errlen, "--wedge '%s': want KEY=V1,V2,... (e.g. materials.jelly.E=1e3,2e3)",
-                            specs[i]), -1;
+            return snprintf(err, errlen, "--wedge '%s': want KEY=V1,V2,... (e.g. materials.jelly.E=1e3,2e3)", specs[i]),
+                   -1;
         memcpy(keys[i], specs[i], (size_t)(eq - specs[i]));
         keys[i][eq - specs[i]] = 0;
         nvals[i] = split_values(eq + 1, vals[i], KF_WEDGE_MAX);
         if (nvals[i] < 1)
             return snprintf(err, errlen, "--wedge '%s': want one or more values separated by commas (at most %d)",
-                            specs[i], KF_WEDGE_MAX), -1;
+                            specs[i], KF_WEDGE_MAX),
+                   -1;
         total *= nvals[i];
         if (total > max) return snprintf(err, errlen, "the --wedge values make more than %d wedges", max), -1;
     }
@@ -113,7 +114,8 @@ kf_shot *kf_farm_load_wedges(const kf_cli_opts *o, kf_wedge *w, int *nw) {
         }
     }
     if (!shot || errors) {
-        fprintf(stderr, "kerf: %s: %d error%s, nothing simulated or written\n", o->shot, errors, errors == 1 ? "" : "s");
+        fprintf(stderr, "kerf: %s: %d error%s, nothing simulated or written\n", o->shot, errors,
+                errors == 1 ? "" : "s");
         if (shot) kf_shot_free(shot);
         return NULL;
     }
@@ -134,8 +136,8 @@ int kf_farm_run_wedges(const kf_cli_opts *o) {
         kf_wedge_opts(o, shot, &w[k], k + 1, &wo, out, sizeof out);
         if (!o->quiet) fprintf(stderr, "kerf: wedge w%02d of %d: %s\n", k + 1, nw, w[k].label);
         rc = kf_cli_run(&wo);
-        if (rc != KF_EXIT_OK) fprintf(stderr, "kerf: wedge w%02d (%s) failed; the wedges after it were not run\n", k + 1,
-                                      w[k].label);
+        if (rc != KF_EXIT_OK)
+            fprintf(stderr, "kerf: wedge w%02d (%s) failed; the wedges after it were not run\n", k + 1, w[k].label);
     }
     if (rc == KF_EXIT_OK && kf_contact_sheet(o, shot, w, nw, 6)) rc = KF_EXIT_FAIL;
     if (rc == KF_EXIT_OK && !o->quiet)

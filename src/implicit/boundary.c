@@ -29,9 +29,9 @@
 typedef struct node_con {
     double q[3][3];
     int nq;
-    double v[3];      /* v* projected */
-    double mu;        /* friction coefficient of a separate boundary that holds the node */
-    int sep;          /* held by a separate boundary */
+    double v[3]; /* v* projected */
+    double mu;   /* friction coefficient of a separate boundary that holds the node */
+    int sep;     /* held by a separate boundary */
     double n[3], vc[3];
 } node_con;
 

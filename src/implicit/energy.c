@@ -103,8 +103,8 @@ static int principal_of(const kf_mat *m, const double s[3], const kf_real ps[2],
  * rotation is then not the polar factor) takes the SVD path. */
 
 #define POLAR_MAX_STEPS 30
-#define POLAR_SCALED_UNTIL 0.1  /* Higham's norm scaling after a step that moved X by more than this */
-#define POLAR_DONE 1e-8         /* a step this small leaves an error below its square: round-off */
+#define POLAR_SCALED_UNTIL 0.1 /* Higham's norm scaling after a step that moved X by more than this */
+#define POLAR_DONE 1e-8        /* a step this small leaves an error below its square: round-off */
 
 /* cof X (rows: products of the other two rows); returns det X */
 static double cofactor(const double X[9], double C[9]) {

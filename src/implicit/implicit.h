@@ -35,9 +35,9 @@
  * steps, several times cheaper than the SVD), unless F is inverted; with
  * it, all three come from the SVD the Hessian needs anyway. */
 typedef struct kf_imp_energy {
-    double psi;        /* Ψ, J/m³ */
-    double P[9];       /* first Piola–Kirchhoff stress ∂Ψ/∂F, row-major */
-    double H[81];      /* ∂²Ψ/∂F², H[9 (3a + b) + 3c + d] = ∂P_ab / ∂F_cd (symmetric) */
+    double psi;   /* Ψ, J/m³ */
+    double P[9];  /* first Piola–Kirchhoff stress ∂Ψ/∂F, row-major */
+    double H[81]; /* ∂²Ψ/∂F², H[9 (3a + b) + 3c + d] = ∂P_ab / ∂F_cd (symmetric) */
 } kf_imp_energy;
 
 /* Ψ, P and (when H is wanted) the Hessian of material m at F with plastic
@@ -69,35 +69,35 @@ typedef struct kf_implicit {
     const kf_model *m;
     kf_state *s;
     double dt;
-    size_t nnode;      /* nodes of the sparse grid: nblocks × 64, flat index block·64 + local */
-    size_t np;         /* particles */
-    int K;             /* stencil nodes per particle: 27 (quadratic) or 64 (cubic) */
-    int32_t *idx;      /* (np × K) flat node of each stencil entry */
-    double *wts;       /* (np × KF_IMP_WS) γ_ip's tensor factors, see below */
-    double *mass;      /* (nnode) m_i */
-    int32_t *act;      /* (nact) the nodes that carry mass, ascending: every solver vector vanishes elsewhere */
+    size_t nnode; /* nodes of the sparse grid: nblocks × 64, flat index block·64 + local */
+    size_t np;    /* particles */
+    int K;        /* stencil nodes per particle: 27 (quadratic) or 64 (cubic) */
+    int32_t *idx; /* (np × K) flat node of each stencil entry */
+    double *wts;  /* (np × KF_IMP_WS) γ_ip's tensor factors, see below */
+    double *mass; /* (nnode) m_i */
+    int32_t *act; /* (nact) the nodes that carry mass, ascending: every solver vector vanishes elsewhere */
     size_t nact;
     size_t *act_start; /* (nblocks + 1) block b's active nodes: act[act_start[b] .. act_start[b + 1]) */
     double *vstar;     /* (4 nnode) v*_i, 0 where m_i = 0 */
     double *Fn;        /* (9 np) F_pⁿ */
     double *F;         /* (9 np) F_p(v) at the last linearisation */
-    double *Kp;        /* (81 np) Δt² V⁰ Tᵀ (∂²Ψ/∂F²) T, T: G ↦ G Fⁿ: the per-particle Hessian of E in G */
-    double *S;         /* (9 np) Δt V⁰ P Fⁿᵀ: what a particle scatters into the gradient */
-    double *S_alt;     /* (9 np) scratch for a second S (the solve swaps the two) */
-    double *psi;       /* (np) V⁰ Ψ at the last linearisation */
+    double *Kp;    /* (81 np) Δt² V⁰ Tᵀ (∂²Ψ/∂F²) T, T: G ↦ G Fⁿ: the per-particle Hessian of E in G */
+    double *S;     /* (9 np) Δt V⁰ P Fⁿᵀ: what a particle scatters into the gradient */
+    double *S_alt; /* (9 np) scratch for a second S (the solve swaps the two) */
+    double *psi;   /* (np) V⁰ Ψ at the last linearisation */
     /* boundary conditions (implicit/boundary.c): constrained nodes, each with
      * the orthogonal projection onto its free directions */
     size_t ncon;
     int32_t *con_node;
-    double *con_P;     /* (9 ncon) */
-    double *con_mu;    /* (ncon) Coulomb friction coefficient of the node's separate boundary (0 = none) */
-    uint8_t *con_sep;  /* (ncon) 1: held by a separate boundary (it may let go) */
-    uint8_t *release;  /* (nnode) or NULL: nodes a separate boundary lets go (their reaction pulled) */
-    double *con_n;     /* (3 ncon) the separate boundary's normal */
-    double *con_vc;    /* (3 ncon) the boundary's velocity */
+    double *con_P;    /* (9 ncon) */
+    double *con_mu;   /* (ncon) Coulomb friction coefficient of the node's separate boundary (0 = none) */
+    uint8_t *con_sep; /* (ncon) 1: held by a separate boundary (it may let go) */
+    uint8_t *release; /* (nnode) or NULL: nodes a separate boundary lets go (their reaction pulled) */
+    double *con_n;    /* (3 ncon) the separate boundary's normal */
+    double *con_vc;   /* (3 ncon) the boundary's velocity */
     /* solver vectors (KF_IMP_NV nnode each; the 4th entry of a node stays 0) */
     double *v, *g, *d, *r, *z, *p, *q, *vt, *diag;
-    double *bsum;      /* (nblocks) partial sums, summed in block order (deterministic) */
+    double *bsum; /* (nblocks) partial sums, summed in block order (deterministic) */
     /* the multigrid preconditioner's levels (implicit_mg_*.c), built on first use */
     struct kf_imp_mg *mg;
     /* what the last solve did */
@@ -179,31 +179,31 @@ int kf_imp_release_pulling(kf_implicit *w, const double *g);
  * positive-definite operator, as CG needs. */
 #define KF_MG_MAX_LEVELS 6
 typedef struct kf_mg_level {
-    double h;             /* node spacing, m */
-    size_t nn;            /* nodes (level 0: the solve's nnode) */
-    int32_t *coord;       /* (3 nn) integer node coordinates (coarse levels) */
-    double *mass;         /* (nn) coarse levels: the particles' masses re-transferred */
-    double *diag;         /* (KF_IMP_NV nn) the operator's diagonal (level 0: the solve's) */
-    double omega;         /* Jacobi damping: OMEGA / λmax(D⁻¹A), estimated (coarse levels) */
-    size_t nq;            /* quadrature points (coarse levels): one per cell of the level */
-    int32_t *q_of_p;      /* (np) each particle's point */
-    double *qx;           /* (3 nq) the point's position (its particles' mass centroid) */
-    int32_t *idx;         /* (27 nq) stencil nodes */
-    double *gam;          /* (81 nq) MLS γ of each stencil node at spacing h */
-    double *K;            /* (81 nq) Σ Kp of the point's particles */
-    int32_t *q_up;        /* (nq) each point's point on the next coarser level, whose cell holds its
-                           * cell; NULL when rounding splits a cell's particles (or on the coarsest) */
-    int32_t *par;         /* (8 per node of the finer level) parents on this level, -1 none */
-    double *pw;           /* (8 per node of the finer level) trilinear weights */
-    double *b, *x, *t;    /* (KF_IMP_NV nn, coarse levels) right-hand side, iterate, scratch */
-    size_t ncon;          /* coarse levels: constrained nodes and their projections (level 0: the solve's) */
+    double h;          /* node spacing, m */
+    size_t nn;         /* nodes (level 0: the solve's nnode) */
+    int32_t *coord;    /* (3 nn) integer node coordinates (coarse levels) */
+    double *mass;      /* (nn) coarse levels: the particles' masses re-transferred */
+    double *diag;      /* (KF_IMP_NV nn) the operator's diagonal (level 0: the solve's) */
+    double omega;      /* Jacobi damping: OMEGA / λmax(D⁻¹A), estimated (coarse levels) */
+    size_t nq;         /* quadrature points (coarse levels): one per cell of the level */
+    int32_t *q_of_p;   /* (np) each particle's point */
+    double *qx;        /* (3 nq) the point's position (its particles' mass centroid) */
+    int32_t *idx;      /* (27 nq) stencil nodes */
+    double *gam;       /* (81 nq) MLS γ of each stencil node at spacing h */
+    double *K;         /* (81 nq) Σ Kp of the point's particles */
+    int32_t *q_up;     /* (nq) each point's point on the next coarser level, whose cell holds its
+                        * cell; NULL when rounding splits a cell's particles (or on the coarsest) */
+    int32_t *par;      /* (8 per node of the finer level) parents on this level, -1 none */
+    double *pw;        /* (8 per node of the finer level) trilinear weights */
+    double *b, *x, *t; /* (KF_IMP_NV nn, coarse levels) right-hand side, iterate, scratch */
+    size_t ncon;       /* coarse levels: constrained nodes and their projections (level 0: the solve's) */
     int32_t *con_node;
-    double *con_P;        /* (9 ncon) */
+    double *con_P; /* (9 ncon) */
 } kf_mg_level;
 typedef struct kf_imp_mg {
     int nlev;
-    int full_quadrature;  /* eight quadrature points per coarse cell (stiffness-dominated), not one */
-    int estimated;        /* the coarse dampings were estimated (once per substep) */
+    int full_quadrature; /* eight quadrature points per coarse cell (stiffness-dominated), not one */
+    int estimated;       /* the coarse dampings were estimated (once per substep) */
     kf_mg_level lev[KF_MG_MAX_LEVELS];
 } kf_imp_mg;
 /* the levels for w's particles (0 on success, -1 out of memory); the

@@ -150,8 +150,8 @@ static int32_t quad_weights(double x, double inv_h, double w[3], double *fx) {
 /* ---- one coarse level ------------------------------------------------------------- */
 
 static void level_free(kf_mg_level *L) {
-    void *all[] = {L->coord, L->mass, L->diag, L->q_of_p, L->qx, L->idx, L->gam, L->K, L->q_up, L->par, L->pw,
-                   L->b, L->x, L->t, L->con_node, L->con_P};
+    void *all[] = {L->coord, L->mass, L->diag, L->q_of_p, L->qx, L->idx, L->gam,      L->K,
+                   L->q_up,  L->par,  L->pw,   L->b,      L->x,  L->t,   L->con_node, L->con_P};
     for (size_t k = 0; k < sizeof all / sizeof *all; k++) free(all[k]);
     memset(L, 0, sizeof *L);
 }
@@ -236,8 +236,8 @@ static int build_level(const kf_implicit *w, kf_mg_level *L, const kf_mg_level *
     size_t qcap = 0;
     for (size_t i = 0; i < np && !bad; i++) {
         double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]};
-        int32_t q = hash_insert(&cells, pack((int32_t)floor(x[0] * q_inv), (int32_t)floor(x[1] * q_inv),
-                                             (int32_t)floor(x[2] * q_inv)));
+        int32_t q = hash_insert(
+            &cells, pack((int32_t)floor(x[0] * q_inv), (int32_t)floor(x[1] * q_inv), (int32_t)floor(x[2] * q_inv)));
         if (q < 0) {
             bad = 1;
             break;
@@ -312,7 +312,8 @@ static int build_level(const kf_implicit *w, kf_mg_level *L, const kf_mg_level *
  * weight (the eigenvectors of Σ w (I − P_child) / Σ w with eigenvalue ½ or
  * more), so a sticky wall stays a wall on every level instead of leaving a
  * coarse body free to float where the fine one is clamped */
-static int build_constraints(kf_mg_level *L, size_t nfine, size_t fncon, const int32_t *fcon_node, const double *fcon_P) {
+static int build_constraints(kf_mg_level *L, size_t nfine, size_t fncon, const int32_t *fcon_node,
+                             const double *fcon_P) {
     int32_t *con_of = malloc((nfine + 1) * sizeof *con_of);
     double *C = calloc(9 * L->nn + 1, sizeof *C), *ws = calloc(L->nn + 1, sizeof *ws);
     int bad = !con_of || !C || !ws;

@@ -23,8 +23,8 @@
  * the cantilever of tools/evidence/implicit_sweep.c (1.0: 24% more, 1.8: 4%
  * fewer but closer to the limit 2 where the cycle stops being definite) */
 #define OMEGA 1.5
-#define POWER_STEPS 10    /* power iterations for λmax (coarse levels: cheap) */
-#define COARSE_SWEEPS 8   /* smoothing sweeps that stand in for the coarsest solve */
+#define POWER_STEPS 10  /* power iterations for λmax (coarse levels: cheap) */
+#define COARSE_SWEEPS 8 /* smoothing sweeps that stand in for the coarsest solve */
 
 /* ---- one level's operator and diagonal --------------------------------------------- */
 
@@ -91,7 +91,8 @@ static void coarse_diag(kf_mg_level *L) {
                 const double *row = K + 9 * (3 * a);
                 double t = 0;
                 for (int b = 0; b < 3; b++)
-                    t += ge[b] * (row[9 * b + 3 * a] * ge[0] + row[9 * b + 3 * a + 1] * ge[1] + row[9 * b + 3 * a + 2] * ge[2]);
+                    t += ge[b] *
+                         (row[9 * b + 3 * a] * ge[0] + row[9 * b + 3 * a + 1] * ge[1] + row[9 * b + 3 * a + 2] * ge[2]);
                 o[a] += t;
             }
         }

@@ -39,13 +39,13 @@ static int prof_on;
 /* counters too only while profiling: with it off (every simulation but the
  * evidence sweep's) the solve writes no process-wide state, so two states
  * may be stepped on two threads at once */
-#define PROF_COUNT(field) \
-    do { \
-        if (prof_on) prof.field++; \
+#define PROF_COUNT(field)                                                                                              \
+    do {                                                                                                               \
+        if (prof_on) prof.field++;                                                                                     \
     } while (0)
 static const char *const STAGE_NAME[KF_IMP_T_COUNT] = {
-    "setup", "constraints", "predict", "linearize", "line search", "gradient", "diagonal",
-    "mg build", "mg refresh", "hessian", "precond", "cg vectors", "finish"};
+    "setup",    "constraints", "predict", "linearize", "line search", "gradient", "diagonal",
+    "mg build", "mg refresh",  "hessian", "precond",   "cg vectors",  "finish"};
 
 void kf_imp_profile_enable(int on) { prof_on = on; }
 void kf_imp_profile_take(kf_imp_profile *out) {
@@ -144,7 +144,8 @@ static double evaluate(kf_implicit *w, const double *v, int hessian, int project
         /* F(v) = (I + Δt G) Fⁿ, as kf_g2p computes it */
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
-                F[3 * a + b] = Fn[3 * a + b] + dt * (G[3 * a] * Fn[b] + G[3 * a + 1] * Fn[3 + b] + G[3 * a + 2] * Fn[6 + b]);
+                F[3 * a + b] =
+                    Fn[3 * a + b] + dt * (G[3 * a] * Fn[b] + G[3 * a + 1] * Fn[3 + b] + G[3 * a + 2] * Fn[6 + b]);
         kf_imp_energy e;
         const kf_real ps[2] = {p->ps[0][i], p->ps[1][i]};
         const double vol = p->vol0[i];
@@ -157,7 +158,9 @@ static double evaluate(kf_implicit *w, const double *v, int hessian, int project
         double *S = w->S + 9 * i;
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
-                S[3 * a + b] = dt * vol * (e.P[3 * a] * Fn[3 * b] + e.P[3 * a + 1] * Fn[3 * b + 1] + e.P[3 * a + 2] * Fn[3 * b + 2]);
+                S[3 * a + b] =
+                    dt * vol *
+                    (e.P[3 * a] * Fn[3 * b] + e.P[3 * a + 1] * Fn[3 * b + 1] + e.P[3 * a + 2] * Fn[3 * b + 2]);
         if (!hessian) continue;
         /* Kp = Δt² V⁰ Tᵀ H T with T: G ↦ G Fⁿ (e.H is already Tᵀ H T, exactly symmetric) */
         double *Kp = w->Kp + 81 * i, s2 = dt * dt * vol;
@@ -187,7 +190,8 @@ double kf_imp_linearize(kf_implicit *w, const double *v, int project) { return e
 void kf_imp_gradient(kf_implicit *w, const double *v, double *g) {
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t i = 0; i < w->nnode; i++)
-        for (int a = 0; a < KF_IMP_NV; a++) g[KF_IMP_NV * i + a] = w->mass[i] * (v[KF_IMP_NV * i + a] - w->vstar[KF_IMP_NV * i + a]);
+        for (int a = 0; a < KF_IMP_NV; a++)
+            g[KF_IMP_NV * i + a] = w->mass[i] * (v[KF_IMP_NV * i + a] - w->vstar[KF_IMP_NV * i + a]);
     kf_imp_scatter(w, w->S, g);
 }
 
@@ -224,7 +228,9 @@ static void precondition(kf_implicit *w, const double *r, double *z) {
 #pragma omp parallel for schedule(static) num_threads(w->m->nthreads)
     for (size_t k = 0; k < w->nact; k++) {
         size_t i = (size_t)w->act[k];
-        for (int a = 0; a < 3; a++) z[KF_IMP_NV * i + a] = w->diag[KF_IMP_NV * i + a] > 0 ? r[KF_IMP_NV * i + a] / w->diag[KF_IMP_NV * i + a] : 0.0;
+        for (int a = 0; a < 3; a++)
+            z[KF_IMP_NV * i + a] =
+                w->diag[KF_IMP_NV * i + a] > 0 ? r[KF_IMP_NV * i + a] / w->diag[KF_IMP_NV * i + a] : 0.0;
     }
     kf_imp_project(w, z);
 }
@@ -300,7 +306,8 @@ int kf_imp_solve(kf_implicit *w, double *v) {
         M += w->mass[i];
         mv2 += w->mass[i] * (vs[0] * vs[0] + vs[1] * vs[1] + vs[2] * vs[2]);
     }
-    double gmag = sqrt(sd->gravity[0] * sd->gravity[0] + sd->gravity[1] * sd->gravity[1] + sd->gravity[2] * sd->gravity[2]);
+    double gmag =
+        sqrt(sd->gravity[0] * sd->gravity[0] + sd->gravity[1] * sd->gravity[1] + sd->gravity[2] * sd->gravity[2]);
     double vscale = M > 0 ? sqrt(mv2 / M) : 0;
     if (vscale < gmag * w->dt) vscale = gmag * w->dt;
     if (vscale < 1e-6 * sd->dx / w->dt) vscale = 1e-6 * sd->dx / w->dt;
@@ -324,7 +331,8 @@ int kf_imp_solve(kf_implicit *w, double *v) {
     memset(w->r, 0, n3 * sizeof *w->r);
     kf_imp_scatter(w, w->S, w->r);
     for (size_t i = 0; i < w->nnode; i++)
-        for (int a = 0; a < 3; a++) w->d[KF_IMP_NV * i + a] = w->mass[i] > 0 ? -w->r[KF_IMP_NV * i + a] / w->mass[i] : 0.0;
+        for (int a = 0; a < 3; a++)
+            w->d[KF_IMP_NV * i + a] = w->mass[i] > 0 ? -w->r[KF_IMP_NV * i + a] / w->mass[i] : 0.0;
     kf_imp_project(w, w->d);
     for (size_t k = 0; k < n3; k++) w->vt[k] = v[k] + w->d[k];
     prof_lap(KF_IMP_T_PREDICT, &t);
@@ -391,7 +399,8 @@ int kf_imp_solve(kf_implicit *w, double *v) {
         if (!(slope < 0)) {
             /* CG found no descent (round-off at convergence): steepest descent in the mass metric */
             for (size_t i = 0; i < w->nnode; i++)
-                for (int a = 0; a < 3; a++) w->d[KF_IMP_NV * i + a] = w->mass[i] > 0 ? -w->g[KF_IMP_NV * i + a] / w->mass[i] : 0.0;
+                for (int a = 0; a < 3; a++)
+                    w->d[KF_IMP_NV * i + a] = w->mass[i] > 0 ? -w->g[KF_IMP_NV * i + a] / w->mass[i] : 0.0;
             slope = kf_imp_dot(w, w->g, w->d);
         }
         /* backtracking (Armijo) on E; the slack is E's round-off */
@@ -463,7 +472,8 @@ static int midpoint_velocity(const kf_model *m, kf_state *s, kf_implicit *w, dou
     memset(dl, 0, n3 * sizeof *dl);
     for (size_t k = 0; k < w->nact; k++) {
         size_t i = (size_t)w->act[k];
-        for (int a = 0; a < 3; a++) dl[KF_IMP_NV * i + a] = w->v[KF_IMP_NV * i + a] - (w->vstar[KF_IMP_NV * i + a] - gh[a]);
+        for (int a = 0; a < 3; a++)
+            dl[KF_IMP_NV * i + a] = w->v[KF_IMP_NV * i + a] - (w->vstar[KF_IMP_NV * i + a] - gh[a]);
     }
     kf_imp_project(w, dl);
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
@@ -551,10 +561,10 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
     for (size_t i = 0; i < w.nnode; i++) {
         double mi = w.mass[i];
         if (mi > 0)
-            g->node[i] = (kf_v4){(kf_real)(mi * (w.v[KF_IMP_NV * i] - gdt[0])), (kf_real)(mi * (w.v[KF_IMP_NV * i + 1] - gdt[1])),
+            g->node[i] = (kf_v4){(kf_real)(mi * (w.v[KF_IMP_NV * i] - gdt[0])),
+                                 (kf_real)(mi * (w.v[KF_IMP_NV * i + 1] - gdt[1])),
                                  (kf_real)(mi * (w.v[KF_IMP_NV * i + 2] - gdt[2])), (kf_real)mi};
-        else
-            g->node[i] = (kf_v4){0, 0, 0, 0};
+        else g->node[i] = (kf_v4){0, 0, 0, 0};
     }
     kf_grid_update(m, s, (kf_real)h);
     if (st) {

@@ -93,9 +93,10 @@ static void owner_stencils(kf_implicit *w, size_t r, double *mom) {
 }
 
 void kf_imp_free(kf_implicit *w) {
-    void *all[] = {w->idx, w->wts, w->mass, w->vstar, w->Fn, w->F, w->S, w->S_alt, w->Kp, w->psi,   w->con_node,
-                   w->con_P, w->con_mu, w->con_sep, w->release, w->con_n, w->con_vc, w->v, w->g, w->d, w->r, w->z, w->p,
-                   w->q, w->vt, w->diag, w->bsum, w->act, w->act_start};
+    void *all[] = {w->idx,    w->wts,  w->mass,     w->vstar, w->Fn,       w->F,       w->S,       w->S_alt,
+                   w->Kp,     w->psi,  w->con_node, w->con_P, w->con_mu,   w->con_sep, w->release, w->con_n,
+                   w->con_vc, w->v,    w->g,        w->d,     w->r,        w->z,       w->p,       w->q,
+                   w->vt,     w->diag, w->bsum,     w->act,   w->act_start};
     for (size_t k = 0; k < sizeof all / sizeof *all; k++) free(all[k]);
     kf_imp_mg_free(w->mg);
     memset(w, 0, sizeof *w);
@@ -125,8 +126,8 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
     double **vec[] = {&w->v, &w->g, &w->d, &w->r, &w->z, &w->p, &w->q, &w->vt, &w->diag};
     int bad = 0;
     for (size_t k = 0; k < sizeof vec / sizeof *vec; k++) bad |= !(*vec[k] = calloc(n3 + 1, sizeof(double)));
-    if (bad || !w->idx || !w->wts || !w->mass || !w->vstar || !w->Fn || !w->F || !w->Kp || !w->S || !w->S_alt || !w->psi ||
-        !w->bsum) {
+    if (bad || !w->idx || !w->wts || !w->mass || !w->vstar || !w->Fn || !w->F || !w->Kp || !w->S || !w->S_alt ||
+        !w->psi || !w->bsum) {
         kf_imp_free(w);
         return -1;
     }
@@ -135,7 +136,8 @@ int kf_imp_create(kf_implicit *w, const kf_model *m, kf_state *s, double dt) {
 #pragma omp parallel num_threads(m->nthreads)
     for (int c = 0; c < 8; c++) {
 #pragma omp for schedule(dynamic, 4)
-        for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) owner_stencils(w, (size_t)g->owner[k], mom);
+        for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++)
+            owner_stencils(w, (size_t)g->owner[k], mom);
     }
     const double gdt[3] = {dt * m->sim.gravity[0], dt * m->sim.gravity[1], dt * m->sim.gravity[2]};
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)

@@ -23,9 +23,9 @@ typedef struct header {
     int64_t substep;
     uint64_t next_id;
     uint64_t inputs_hash;
-    uint32_t nrigid;      /* kf_rigid_state records after the particles */
+    uint32_t nrigid; /* kf_rigid_state records after the particles */
     uint32_t pad;
-    uint64_t rsim_bytes;  /* then the rigid solver's own state */
+    uint64_t rsim_bytes; /* then the rigid solver's own state */
 } header;
 
 typedef struct hashed_writer {
@@ -200,8 +200,7 @@ static void explain_mismatch(const ck_file *c, const char *path, char *err, size
                  "%s: checkpoint checksum mismatch (file damaged: its header claims %llu particles, which %llu bytes "
                  "do not hold)",
                  path, (unsigned long long)h->particles, (unsigned long long)c->size);
-    else
-        snprintf(err, errlen, "%s: checkpoint checksum mismatch (file damaged)", path);
+    else snprintf(err, errlen, "%s: checkpoint checksum mismatch (file damaged)", path);
 }
 
 /* Open, read the header, check the magic. With `verify`, the checksum over
@@ -238,7 +237,8 @@ static int ck_open(ck_file *c, const char *path, int verify, char *err, size_t e
     int usable = header_usable(c, path, why, sizeof why) == 0;
     if (verify || !usable) {
         uint64_t sum = 0, stored = 0;
-        int readable = hash_prefix(c->f, c->size - sizeof stored, &sum) == 0 && fread(&stored, sizeof stored, 1, c->f) == 1;
+        int readable =
+            hash_prefix(c->f, c->size - sizeof stored, &sum) == 0 && fread(&stored, sizeof stored, 1, c->f) == 1;
         if (!readable) {
             snprintf(err, errlen, "%s: cannot read checkpoint: %s", path, strerror(errno ? errno : EIO));
             fclose(c->f);

@@ -17,8 +17,8 @@ typedef struct kf_dir_lock {
 } kf_dir_lock;
 
 typedef struct kf_dir_lock_holder {
-    long pid;           /* 0: none named */
-    char started[64];   /* as the holder wrote it, "" if unknown */
+    long pid;         /* 0: none named */
+    char started[64]; /* as the holder wrote it, "" if unknown */
 } kf_dir_lock_holder;
 
 /* Create dir (mkdir -p) and lock it. Returns

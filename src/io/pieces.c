@@ -83,7 +83,8 @@ int kf_pieces_classes(size_t n, const float *x, const uint32_t *colour, double h
                     for (size_t t = lower(e, n, key); t < n && e[t].key == key; t++) {
                         const size_t j = e[t].i;
                         if (j <= i) continue; /* each pair once */
-                        double d0 = x[3 * j] - x[3 * i], d1 = x[3 * j + 1] - x[3 * i + 1], d2 = x[3 * j + 2] - x[3 * i + 2];
+                        double d0 = x[3 * j] - x[3 * i], d1 = x[3 * j + 1] - x[3 * i + 1],
+                               d2 = x[3 * j + 2] - x[3 * i + 2];
                         if (d0 * d0 + d1 * d1 + d2 * d2 >= R2) continue;
                         if (cut_between(colour[i], colour[j])) continue;
                         size_t a = find(parent, i), b = find(parent, j);

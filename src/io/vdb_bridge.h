@@ -79,22 +79,22 @@ typedef struct kf_vdb_surface_params {
     double dilate;        /* m, applied first (0: none) */
     kf_vdb_op smooth;     /* KF_VDB_OP_MEAN_CURVATURE / _GAUSSIAN / _LAPLACIAN or NONE */
     int smooth_iterations;
-    double erode;         /* m, applied last (0: none) */
-    double average;       /* 0..1: pull each centre this far toward its neighbours' weighted mean
-                             first (Yu & Turk 2013; 0: none); erode is reduced by the inward
-                             shift this gives a flat face (vdb_bridge.cpp) */
+    double erode;          /* m, applied last (0: none) */
+    double average;        /* 0..1: pull each centre this far toward its neighbours' weighted mean
+                              first (Yu & Turk 2013; 0: none); erode is reduced by the inward
+                              shift this gives a flat face (vdb_bridge.cpp) */
     double average_radius; /* m, the neighbourhood of `average` (default 2 x spacing) */
-    int clamp_small;      /* 1: raise radii under 1.5 voxels and count; 0: error */
-    const char *name;     /* grid name (default "surface") */
+    int clamp_small;       /* 1: raise radii under 1.5 voxels and count; 0: error */
+    const char *name;      /* grid name (default "surface") */
 } kf_vdb_surface_params;
 
 typedef struct kf_vdb_surface_stats {
-    size_t n_in;       /* particles given */
-    size_t n_small;    /* radius < 1.5 voxels (clamped; 0 unless clamp_small) */
-    size_t n_dropped;  /* particles OpenVDB skipped anyway (always 0 or an error) */
-    double r_min;      /* smallest radius used, m */
+    size_t n_in;      /* particles given */
+    size_t n_small;   /* radius < 1.5 voxels (clamped; 0 unless clamp_small) */
+    size_t n_dropped; /* particles OpenVDB skipped anyway (always 0 or an error) */
+    double r_min;     /* smallest radius used, m */
     size_t active_voxels;
-    double seconds;    /* wall time: rasterise + filter */
+    double seconds;                        /* wall time: rasterise + filter */
     double seconds_raster, seconds_filter; /* wall time of its two parts (filters run on the band count in the first) */
     double cpu_sort, cpu_splat, cpu_redistance, cpu_filter; /* process CPU seconds of each phase */
 } kf_vdb_surface_stats;
@@ -121,9 +121,9 @@ typedef struct kf_vdb_file_info {
 /* A triangle mesh; arrays are the bridge's, freed by kf_vdb_mesh_free. */
 typedef struct kf_vdb_trimesh {
     size_t nverts, ntris;
-    float *verts;    /* (nverts x 3) world position, m */
-    float *normals;  /* (nverts x 3) unit outward normal (level-set gradient) */
-    uint32_t *tris;  /* (ntris x 3) vertex indices, counter-clockwise seen from outside */
+    float *verts;   /* (nverts x 3) world position, m */
+    float *normals; /* (nverts x 3) unit outward normal (level-set gradient) */
+    uint32_t *tris; /* (ntris x 3) vertex indices, counter-clockwise seen from outside */
 } kf_vdb_trimesh;
 
 /* The points' float attributes, by index into kf_vdb_points_write's floats
@@ -140,9 +140,9 @@ extern const char *const kf_vdb_point_float_names[KF_VDB_PT_FLOATS];
 /* Particles as OpenVDB points; read back by kf_vdb_points_read. */
 typedef struct kf_vdb_points {
     size_t n;
-    float *x;          /* (n x 3) position, m */
-    float *v;          /* (n x 3) velocity, m/s (NULL: not written / absent) */
-    int32_t *material; /* (n) material id (NULL: absent) */
+    float *x;                   /* (n x 3) position, m */
+    float *v;                   /* (n x 3) velocity, m/s (NULL: not written / absent) */
+    int32_t *material;          /* (n) material id (NULL: absent) */
     float *f[KF_VDB_PT_FLOATS]; /* (n) each float attribute (NULL: absent) */
 } kf_vdb_points;
 
@@ -153,10 +153,9 @@ void kf_vdb_surface_params_default(kf_vdb_surface_params *p);
  * (then p->radius or factor x spacing). vel: (n x 3) m/s or NULL; when given
  * the grid carries a "vel" grid (velocity of the closest particle).
  * stats may be NULL. Returns 0 and *out, or -1 with a message. */
-int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
-                                   const float *radii, const float *vel,
-                                   const kf_vdb_surface_params *p, kf_vdb_grid **out,
-                                   kf_vdb_surface_stats *stats, char *err, size_t errlen);
+int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, const float *radii, const float *vel,
+                                   const kf_vdb_surface_params *p, kf_vdb_grid **out, kf_vdb_surface_stats *stats,
+                                   char *err, size_t errlen);
 
 /* a = a union b (CSG on the level sets, openvdb::tools::csgUnion; the
  * velocity grids merged, a's value where both have one); b is emptied and
@@ -164,8 +163,7 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
 int kf_vdb_union(kf_vdb_grid *a, kf_vdb_grid *b, char *err, size_t errlen);
 
 /* One filter pass: amount (m) for dilate/erode, iterations for smoothing. */
-int kf_vdb_filter(kf_vdb_grid *g, kf_vdb_op op, double amount, int iterations,
-                  char *err, size_t errlen);
+int kf_vdb_filter(kf_vdb_grid *g, kf_vdb_op op, double amount, int iterations, char *err, size_t errlen);
 
 int kf_vdb_set_name(kf_vdb_grid *g, const char *name, char *err, size_t errlen);
 const char *kf_vdb_name(const kf_vdb_grid *g);
@@ -174,16 +172,15 @@ size_t kf_vdb_active_voxels(const kf_vdb_grid *g);
 
 /* Write level sets (each with its vel grid, named "vel" for the grid named
  * "surface" and "<name>_vel" otherwise) to one .vdb, atomically. */
-int kf_vdb_write(const char *path, kf_vdb_grid *const *grids, int ngrids,
-                 const kf_vdb_meta *meta, char *err, size_t errlen);
+int kf_vdb_write(const char *path, kf_vdb_grid *const *grids, int ngrids, const kf_vdb_meta *meta, char *err,
+                 size_t errlen);
 
 /* Write particles as a PointDataGrid named "points" with attributes P and,
  * where given, v (vec3f), material (int32) and the float attributes (floats
  * may be NULL, or hold NULL for an attribute left out). voxel: the points
  * grid's voxel size in m (0: OpenVDB's ~8 points per voxel estimate). */
-int kf_vdb_points_write(const char *path, size_t n, const float *x, const float *v,
-                        const int32_t *material, const float *const *floats, double voxel,
-                        const kf_vdb_meta *meta, char *err, size_t errlen);
+int kf_vdb_points_write(const char *path, size_t n, const float *x, const float *v, const int32_t *material,
+                        const float *const *floats, double voxel, const kf_vdb_meta *meta, char *err, size_t errlen);
 /* Read every point of the first PointDataGrid (order is OpenVDB's, not the
  * writer's). Free with kf_vdb_points_free. */
 int kf_vdb_points_read(const char *path, kf_vdb_points *out, char *err, size_t errlen);
@@ -191,26 +188,25 @@ void kf_vdb_points_free(kf_vdb_points *pts);
 
 /* Level set -> triangles (volumeToMesh; quads split in two). isovalue in m
  * (0: the surface), adaptivity 0..1 (0: uniform). */
-int kf_vdb_mesh(const kf_vdb_grid *g, double isovalue, double adaptivity, kf_vdb_trimesh *out,
-                char *err, size_t errlen);
+int kf_vdb_mesh(const kf_vdb_grid *g, double isovalue, double adaptivity, kf_vdb_trimesh *out, char *err,
+                size_t errlen);
 void kf_vdb_mesh_free(kf_vdb_trimesh *m);
 
 /* Read-back. */
 int kf_vdb_info(const char *path, kf_vdb_file_info *info, char *err, size_t errlen);
 /* Load the float level set called name (NULL: "surface"); meta may be NULL. */
-int kf_vdb_read_levelset(const char *path, const char *name, kf_vdb_grid **out,
-                         kf_vdb_meta *meta, char *err, size_t errlen);
+int kf_vdb_read_levelset(const char *path, const char *name, kf_vdb_grid **out, kf_vdb_meta *meta, char *err,
+                         size_t errlen);
 /* Signed distance (m, negative inside) at n world points xyz (n x 3),
  * trilinear; outside the narrow band it is +/- the band width. */
-int kf_vdb_sample(const kf_vdb_grid *g, const double *xyz, size_t n, double *out,
-                  char *err, size_t errlen);
+int kf_vdb_sample(const kf_vdb_grid *g, const double *xyz, size_t n, double *out, char *err, size_t errlen);
 /* Read the vec3s grid called name (NULL: "vel") and sample it trilinearly
  * at n world points xyz (n x 3) into out (n x 3); zero where inactive. */
-int kf_vdb_read_vec3_sample(const char *path, const char *name, const double *xyz, size_t n, double *out,
-                            char *err, size_t errlen);
+int kf_vdb_read_vec3_sample(const char *path, const char *name, const double *xyz, size_t n, double *out, char *err,
+                            size_t errlen);
 /* The renderer's path from a .vdb alone: read "surface" and mesh it. */
-int kf_vdb_read_surface_mesh(const char *path, double adaptivity, kf_vdb_trimesh *out,
-                             kf_vdb_meta *meta, char *err, size_t errlen);
+int kf_vdb_read_surface_mesh(const char *path, double adaptivity, kf_vdb_trimesh *out, kf_vdb_meta *meta, char *err,
+                             size_t errlen);
 
 void kf_vdb_free(kf_vdb_grid *g);
 

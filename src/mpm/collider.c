@@ -10,7 +10,6 @@
 
 #define DEG (3.14159265358979323846 / 180.0)
 
-
 /* ---- motion ------------------------------------------------------------------ */
 
 void kf_collider_pose_at(const kf_collider *c, double t, kf_collider_pose *pose) {
@@ -39,7 +38,7 @@ void kf_collider_frame_at(const kf_collider *c, double t, kf_collider_frame *f) 
         for (int j = 0; j < 3; j++) {
             double b = 0, l = 0;
             for (int k = 0; k < 3; k++) {
-                b += R0[3 * k + i] * R[3 * j + k] / P->s[k];          /* R0ᵀ S⁻¹ Rᵀ */
+                b += R0[3 * k + i] * R[3 * j + k] / P->s[k];             /* R0ᵀ S⁻¹ Rᵀ */
                 l += R[3 * i + k] * (P->ds[k] / P->s[k]) * R[3 * j + k]; /* R (S'/S) Rᵀ */
             }
             f->B[3 * i + j] = b;

@@ -38,17 +38,16 @@ typedef kf_key_pose kf_collider_pose;
 typedef struct kf_collider_frame {
     const kf_collider *c;
     kf_collider_pose pose;
-    double B[9];        /* world → shape frame: X = B (x - p) */
-    double L[9];        /* velocity gradient: v(x) = dp + L (x - p) */
-    double nplane[3];   /* plane: unit normal in the shape frame */
-    int uniform;        /* the scale is the same on every axis: φ = s f exactly */
-    int bounded;        /* 1: φ <= 0 only inside [lo, hi] (not planes, not containers) */
-    double lo[3], hi[3];/* world box of the solid (bounded) */
+    double B[9];         /* world → shape frame: X = B (x - p) */
+    double L[9];         /* velocity gradient: v(x) = dp + L (x - p) */
+    double nplane[3];    /* plane: unit normal in the shape frame */
+    int uniform;         /* the scale is the same on every axis: φ = s f exactly */
+    int bounded;         /* 1: φ <= 0 only inside [lo, hi] (not planes, not containers) */
+    double lo[3], hi[3]; /* world box of the solid (bounded) */
 } kf_collider_frame;
 
 /* Pose and rates at time t (seconds). */
 void kf_collider_pose_at(const kf_collider *c, double t, kf_collider_pose *pose);
-
 
 /* The frame of c at time t. */
 void kf_collider_frame_at(const kf_collider *c, double t, kf_collider_frame *f);

@@ -91,7 +91,7 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
         uniform &= f == kf_contact_field(p, g->pstart[0]);
     }
     if (uniform) return 0;
-    /* the box of nodes each owner's particles' stencils cover */
+        /* the box of nodes each owner's particles' stencils cover */
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
     for (size_t k = 0; k < nowner; k++) {
         const uint16_t f = c->ofield[k];
@@ -133,7 +133,7 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
         for (int e = 0; e < 8; e++) c->blk[g->nb[k][e]] = 1;
     }
     if (!owners) return 0;
-    /* the slots of every block a candidate owner scatters into, emptied */
+        /* the slots of every block a candidate owner scatters into, emptied */
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
     for (size_t b = 0; b < nblocks; b++) {
         if (!c->blk[b]) continue;
@@ -178,7 +178,8 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
     for (size_t b = 0; b < nblocks; b++) {
         uint8_t two = 0;
         if (c->blk[b])
-            for (int l = 0; l < KF_BLOCK_NODES; l++) two |= c->fid[2 * (b * KF_BLOCK_NODES + (size_t)l) + 1] != KF_FIELD_NONE;
+            for (int l = 0; l < KF_BLOCK_NODES; l++)
+                two |= c->fid[2 * (b * KF_BLOCK_NODES + (size_t)l) + 1] != KF_FIELD_NONE;
         c->blk[b] = two;
     }
     owners = 0;
@@ -241,7 +242,8 @@ static int node_rule(kf_v4 *mv, const kf_v4 *vol, const double gdt[3], double ce
     double n[3], n2 = 0;
     for (int a = 0; a < 3; a++) n[a] = (double)vol[1][a] - (double)vol[0][a], n2 += n[a] * n[a];
     if (!(n2 > 0)) return 0;
-    double gap = kf_contact_fill_distance((double)vol[0][3] / cell, kw) + kf_contact_fill_distance((double)vol[1][3] / cell, kw);
+    double gap =
+        kf_contact_fill_distance((double)vol[0][3] / cell, kw) + kf_contact_fill_distance((double)vol[1][3] / cell, kw);
     if (gap > 0) return 0;
     double inv = 1 / sqrt(n2), out[3], w[3], w0[3];
     /* field 1's outward normal points toward field 0: -n */

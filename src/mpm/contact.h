@@ -58,20 +58,20 @@
 #define KF_FIELD_MANY 0xFFFEu
 
 typedef struct kf_contact {
-    int active;           /* this substep takes the field path somewhere */
+    int active; /* this substep takes the field path somewhere */
     /* per grid block (cap_blocks), per node 2 slots */
     size_t cap_blocks;
-    kf_v4 *mv;            /* (cap_blocks x 64 x 2) momentum xyz, mass; after kf_contact_grid: velocity xyz, mass */
-    kf_v4 *vol;           /* (cap_blocks x 64 x 2) volume gradient xyz (m²), volume (m³) */
-    uint16_t *fid;        /* (cap_blocks x 64 x 2) the slot's field, KF_FIELD_NONE = empty */
-    uint8_t *blk;         /* (cap_blocks) 1 = a node of the block has two fields: slots valid */
-    uint8_t *ncontrib;    /* (cap_blocks) owners that scatter into the block */
-    int32_t (*contrib)[8];/* (cap_blocks) their indices */
+    kf_v4 *mv;             /* (cap_blocks x 64 x 2) momentum xyz, mass; after kf_contact_grid: velocity xyz, mass */
+    kf_v4 *vol;            /* (cap_blocks x 64 x 2) volume gradient xyz (m²), volume (m³) */
+    uint16_t *fid;         /* (cap_blocks x 64 x 2) the slot's field, KF_FIELD_NONE = empty */
+    uint8_t *blk;          /* (cap_blocks) 1 = a node of the block has two fields: slots valid */
+    uint8_t *ncontrib;     /* (cap_blocks) owners that scatter into the block */
+    int32_t (*contrib)[8]; /* (cap_blocks) their indices */
     /* per owner block (cap_owner) */
     size_t cap_owner;
-    uint8_t *own;         /* 1 = the owner's particles take the field path */
-    uint16_t *ofield;     /* the owner's field, KF_FIELD_MANY for two or more */
-    int32_t (*obox)[6];   /* the nodes its particles' stencils cover: lo xyz, hi xyz (inclusive) */
+    uint8_t *own;       /* 1 = the owner's particles take the field path */
+    uint16_t *ofield;   /* the owner's field, KF_FIELD_MANY for two or more */
+    int32_t (*obox)[6]; /* the nodes its particles' stencils cover: lo xyz, hi xyz (inclusive) */
     /* the last substep, for the frame log and tests */
     long owners, two_field_nodes, touching_nodes;
     /* pieces (contact_pieces.c): scratch, and how many substeps split a field */
@@ -86,9 +86,7 @@ static inline uint16_t kf_contact_field(const kf_particles *p, size_t i) { retur
 
 /* Does a thin body cut this material into pieces (solids: elastic, von
  * Mises, snow), or does it flow together again (sand, water)? */
-static inline int kf_contact_cuts(const kf_mat *mat) {
-    return mat->model != KF_MAT_WATER && mat->model != KF_MAT_SAND;
-}
+static inline int kf_contact_cuts(const kf_mat *mat) { return mat->model != KF_MAT_WATER && mat->model != KF_MAT_SAND; }
 
 /* Split fields that a thin body has cut apart into pieces (each substep
  * when the model has a thin body). Returns 0 or -1 (out of memory). */

@@ -125,8 +125,7 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
     for (size_t b = 0; b < g->nblocks; b++) {
         const int32_t *bc = &g->bcoord[3 * b];
         int32_t next[3];
-        for (int a = 0; a < 3; a++)
-            next[a] = kf_grid_find(g, bc[0] + (a == 0), bc[1] + (a == 1), bc[2] + (a == 2));
+        for (int a = 0; a < 3; a++) next[a] = kf_grid_find(g, bc[0] + (a == 0), bc[1] + (a == 1), bc[2] + (a == 2));
         for (int l = 0; l < KF_BLOCK_NODES; l++) {
             size_t q = b * KF_BLOCK_NODES + (size_t)l;
             if (!nrep[q]) continue;

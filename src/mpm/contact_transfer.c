@@ -35,8 +35,8 @@ static inline double volume_now(const kf_model *m, const kf_particles *p, size_t
     return (double)p->vol0[i] * J;
 }
 
-void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const uint32_t *col, const chunk *ck,
-                          size_t i0, int kw, int classic) {
+void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const uint32_t *col, const chunk *ck, size_t i0,
+                          int kw, int classic) {
     kf_contact *c = s->contact;
     const kf_particles *p = &s->p;
     const int32_t *nb = s->g.nb[owner];
@@ -67,7 +67,8 @@ void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const ui
                         add[r] = w * (ck->mv[r][j] + ck->q[3 * r][j] * d[0] + ck->q[3 * r + 1][j] * d[1] +
                                       ck->q[3 * r + 2][j] * d[2]);
                         if (classic)
-                            add[r] += ck->t[3 * r][j] * gw[0] + ck->t[3 * r + 1][j] * gw[1] + ck->t[3 * r + 2][j] * gw[2];
+                            add[r] +=
+                                ck->t[3 * r][j] * gw[0] + ck->t[3 * r + 1][j] * gw[1] + ck->t[3 * r + 2][j] * gw[2];
                     }
                     add[3] = w * ck->mv[3][j];
                     /* the particle's slot; a third field at the node joins the second */
@@ -81,8 +82,8 @@ void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const ui
     }
 }
 
-void kf_contact_g2p_chunk(const kf_model *m, const kf_state *s, size_t owner, const uint32_t *col, chunk *ck,
-                          size_t i0, int kw, int classic) {
+void kf_contact_g2p_chunk(const kf_model *m, const kf_state *s, size_t owner, const uint32_t *col, chunk *ck, size_t i0,
+                          int kw, int classic) {
     const kf_contact *c = s->contact;
     const kf_particles *p = &s->p;
     const int32_t *nb = s->g.nb[owner];

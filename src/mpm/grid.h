@@ -31,10 +31,10 @@
 #include "../core/simd.h"
 #include "particles.h"
 
-#define KF_BLOCK 4                 /* nodes per block edge */
+#define KF_BLOCK 4 /* nodes per block edge */
 #define KF_BLOCK_NODES 64
 #define KF_KEY_BITS 21
-#define KF_KEY_OFFSET (1 << 20)    /* block coordinates in [-2^20, 2^20) */
+#define KF_KEY_OFFSET (1 << 20)      /* block coordinates in [-2^20, 2^20) */
 #define KF_CACHE_EDGE (2 * KF_BLOCK) /* nodes per axis of an owner's neighbourhood */
 
 /* binning's offset of the base node, and the largest base offset inside the
@@ -45,28 +45,28 @@ static inline int kf_owner_lmax(int cubic) { return KF_CACHE_EDGE - (cubic ? 4 :
 typedef struct kf_grid {
     /* block storage */
     size_t nblocks, bcap;
-    int32_t *bcoord;    /* (nblocks x 3) block coordinate */
-    kf_v4 *node;        /* (nblocks x 64) momentum+mass, then velocity+mass */
-    size_t node_cap;    /* blocks the node array has room for */
+    int32_t *bcoord; /* (nblocks x 3) block coordinate */
+    kf_v4 *node;     /* (nblocks x 64) momentum+mass, then velocity+mass */
+    size_t node_cap; /* blocks the node array has room for */
     /* hash: block key -> block index */
-    size_t hcap;        /* power of two */
-    uint64_t *hkey;     /* UINT64_MAX = empty */
+    size_t hcap;    /* power of two */
+    uint64_t *hkey; /* UINT64_MAX = empty */
     int32_t *hval;
     /* owner blocks (holding particles), in colour then spatial order */
     size_t nowner;
-    int32_t *owner;       /* (nowner) block index */
-    int32_t (*nb)[8];     /* (nowner) the 2x2x2 neighbourhood, index (dx<<2)|(dy<<1)|dz */
-    size_t *pstart;       /* (nowner + 1) particle range of each owner */
+    int32_t *owner;   /* (nowner) block index */
+    int32_t (*nb)[8]; /* (nowner) the 2x2x2 neighbourhood, index (dx<<2)|(dy<<1)|dz */
+    size_t *pstart;   /* (nowner + 1) particle range of each owner */
     size_t colour_start[9];
     size_t owner_cap;
     /* binning scratch */
-    uint32_t *dest;       /* (n) */
-    uint8_t *moved;       /* (n) */
-    void *scratch;        /* permutation scratch, n * 8 * threads bytes */
+    uint32_t *dest; /* (n) */
+    uint8_t *moved; /* (n) */
+    void *scratch;  /* permutation scratch, n * 8 * threads bytes */
     size_t scratch_n;
-    int scratch_threads;  /* threads the scratch has room for */
-    int32_t *count;       /* (nblocks) */
-    int valid;            /* 0 until the first bin, and after particles are added */
+    int scratch_threads; /* threads the scratch has room for */
+    int32_t *count;      /* (nblocks) */
+    int valid;           /* 0 until the first bin, and after particles are added */
     /* what the last bin did, for the frame log */
     long rebins, permutes;
 } kf_grid;

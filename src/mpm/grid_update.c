@@ -51,7 +51,8 @@ void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
     kf_grid *g = &s->g;
     const kf_sim_def *sd = &m->sim;
     const double dx = sd->dx, t1 = s->time + dt;
-    const kf_v4 gdt = {(kf_real)(dt * sd->gravity[0]), (kf_real)(dt * sd->gravity[1]), (kf_real)(dt * sd->gravity[2]), 0};
+    const kf_v4 gdt = {(kf_real)(dt * sd->gravity[0]), (kf_real)(dt * sd->gravity[1]), (kf_real)(dt * sd->gravity[2]),
+                       0};
 
     /* collider poses at the end of the substep, once per substep */
     kf_collider_frame frame[KF_MAX_COLLIDERS];

@@ -186,9 +186,7 @@ void kf_mat_compile(kf_mat *out, const kf_material *in) {
 
 void kf_mat_kirchhoff(const kf_mat *m, const kf_real F[9], const kf_real ps[2], kf_real tau[9]) {
     switch (m->model) {
-    case KF_MAT_COROTATED:
-        corotated_tau(m->mu, m->lambda, F, tau);
-        return;
+    case KF_MAT_COROTATED: corotated_tau(m->mu, m->lambda, F, tau); return;
     case KF_MAT_SNOW: {
         double h = snow_hardening(m, ps);
         corotated_tau(h * m->mu, h * m->lambda, F, tau);
@@ -394,8 +392,8 @@ double kf_mat_wave_speed(const kf_mat *m, double state) {
 
 /* ---- public presets and validation ----------------------------------------- */
 
-static const char *const preset_names[] = {"jello", "rubber", "goo",  "cheese", "metal",
-                                           "sand",  "wet_sand", "snow", "water", NULL};
+static const char *const preset_names[] = {"jello", "rubber",   "goo",  "cheese", "metal",
+                                           "sand",  "wet_sand", "snow", "water",  NULL};
 
 const char *const *kf_material_preset_names(void) { return preset_names; }
 
@@ -468,8 +466,7 @@ const char *kf_material_check(const kf_material *m) {
     if (!((int)m->model >= 0 && (int)m->model < (int)KF_MAT_MODEL_COUNT)) return "model: unknown material model";
     if (!(m->density > 0) || !isfinite(m->density)) return "density must be > 0 kg/m^3";
     if (m->model == KF_MAT_WATER) {
-        if (!(m->bulk_modulus > 0) || !isfinite(m->bulk_modulus))
-            return "bulk_modulus must be > 0 Pa for water";
+        if (!(m->bulk_modulus > 0) || !isfinite(m->bulk_modulus)) return "bulk_modulus must be > 0 Pa for water";
         if (!(m->gamma >= 1) || !isfinite(m->gamma)) return "gamma must be >= 1 for water";
         if (!(m->viscosity >= 0)) return "viscosity must be >= 0 Pa s for water";
         return "";
@@ -478,8 +475,7 @@ const char *kf_material_check(const kf_material *m) {
     if (!(m->nu >= 0 && m->nu < 0.5)) return "nu (Poisson ratio) must be in [0, 0.5)";
     switch (m->model) {
     case KF_MAT_VON_MISES:
-        if (!(m->yield_stress > 0) || !isfinite(m->yield_stress))
-            return "yield_stress must be > 0 Pa for von Mises";
+        if (!(m->yield_stress > 0) || !isfinite(m->yield_stress)) return "yield_stress must be > 0 Pa for von Mises";
         break;
     case KF_MAT_SAND:
         if (!(m->cohesion >= 0) || !isfinite(m->cohesion)) return "cohesion must be >= 0 for sand";

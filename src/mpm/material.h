@@ -19,17 +19,17 @@
 
 typedef struct kf_mat {
     kf_material_model model;
-    kf_real rho;          /* density */
-    kf_real mu, lambda;   /* Lamé */
-    kf_real tau_y;        /* von Mises: √(2/3) σ_Y */
-    kf_real c_f;          /* sand (no hardening): √(2/3) 2 sinφ / (3 − sinφ) */
+    kf_real rho;        /* density */
+    kf_real mu, lambda; /* Lamé */
+    kf_real tau_y;      /* von Mises: √(2/3) σ_Y */
+    kf_real c_f;        /* sand (no hardening): √(2/3) 2 sinφ / (3 − sinφ) */
     kf_real cohesion;
     int hardening, volume_correction;
     kf_real h0, h1, h2, h3; /* radians for h0, h1, h3 */
     kf_real kappa, gamma, viscosity;
     kf_real theta_c, theta_s, xi;
-    int plastic;          /* 1 when kf_mat_project does anything */
-    double wave_speed0;   /* elastic P-wave speed at rest, m/s */
+    int plastic;        /* 1 when kf_mat_project does anything */
+    double wave_speed0; /* elastic P-wave speed at rest, m/s */
 } kf_mat;
 
 void kf_mat_compile(kf_mat *out, const kf_material *in);

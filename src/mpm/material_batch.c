@@ -96,9 +96,12 @@ static void corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_rea
         ok[j] = (e < tol2) & (Jj > KF_R(1e-2));
         /* τ = μ (A + Aᵀ) + λ(J − 1)J I with A = (F − R)Fᵀ = FFᵀ − RFᵀ */
         kf_real vol = la * (Jj - 1) * Jj;
-        kf_real ff00 = f0 * f0 + f1 * f1 + f2 * f2, ff11 = f3 * f3 + f4 * f4 + f5 * f5, ff22 = f6 * f6 + f7 * f7 + f8 * f8;
-        kf_real ff01 = f0 * f3 + f1 * f4 + f2 * f5, ff02 = f0 * f6 + f1 * f7 + f2 * f8, ff12 = f3 * f6 + f4 * f7 + f5 * f8;
-        kf_real rf00 = x0 * f0 + x1 * f1 + x2 * f2, rf11 = x3 * f3 + x4 * f4 + x5 * f5, rf22 = x6 * f6 + x7 * f7 + x8 * f8;
+        kf_real ff00 = f0 * f0 + f1 * f1 + f2 * f2, ff11 = f3 * f3 + f4 * f4 + f5 * f5,
+                ff22 = f6 * f6 + f7 * f7 + f8 * f8;
+        kf_real ff01 = f0 * f3 + f1 * f4 + f2 * f5, ff02 = f0 * f6 + f1 * f7 + f2 * f8,
+                ff12 = f3 * f6 + f4 * f7 + f5 * f8;
+        kf_real rf00 = x0 * f0 + x1 * f1 + x2 * f2, rf11 = x3 * f3 + x4 * f4 + x5 * f5,
+                rf22 = x6 * f6 + x7 * f7 + x8 * f8;
         kf_real rf01 = x0 * f3 + x1 * f4 + x2 * f5, rf10 = x3 * f0 + x4 * f1 + x5 * f2;
         kf_real rf02 = x0 * f6 + x1 * f7 + x2 * f8, rf20 = x6 * f0 + x7 * f1 + x8 * f2;
         kf_real rf12 = x3 * f6 + x4 * f7 + x5 * f8, rf21 = x6 * f3 + x7 * f4 + x8 * f5;
@@ -171,44 +174,44 @@ static inline kf_real hb_exp(kf_real x) {
 /* one Jacobi rotation in the (p, q) plane of the symmetric A (six planes
  * a00 a11 a22 a01 a02 a12), accumulated into the columns of V; r is the
  * third index. Angle as kf_svd3: t = 2g sgn(d)/(|d| + √(d² + 4g²)). */
-#define HB_ROT(app, aqq, apq, arp, arq, P, Q)                                                          \
-    for (int j = 0; j < n; j++) {                                                                      \
-        kf_real a = app[j], b = aqq[j], g = apq[j];                                                    \
-        kf_real d = b - a, r = kf_sqrt(d * d + 4 * g * g), w = kf_fabs(d) + r, rw = 2 * r * w;         \
-        int live = rw > KF_R(1e-30);                                                                   \
-        kf_real inv = 1 / kf_sqrt(live ? rw : 1);                                                      \
-        kf_real c = live ? w * inv : 1, s = live ? (d >= 0 ? 2 * g : -2 * g) * inv : 0;                \
-        kf_real cs = c * s;                                                                            \
-        app[j] = c * c * a - 2 * cs * g + s * s * b;                                                   \
-        aqq[j] = s * s * a + 2 * cs * g + c * c * b;                                                   \
-        apq[j] = 0;                                                                                    \
-        kf_real xp = arp[j], xq = arq[j];                                                              \
-        arp[j] = c * xp - s * xq;                                                                      \
-        arq[j] = s * xp + c * xq;                                                                      \
-        for (int i = 0; i < 3; i++) {                                                                  \
-            kf_real vp = V[3 * i + P][j], vq = V[3 * i + Q][j];                                        \
-            V[3 * i + P][j] = c * vp - s * vq;                                                         \
-            V[3 * i + Q][j] = s * vp + c * vq;                                                         \
-        }                                                                                              \
+#define HB_ROT(app, aqq, apq, arp, arq, P, Q)                                                                          \
+    for (int j = 0; j < n; j++) {                                                                                      \
+        kf_real a = app[j], b = aqq[j], g = apq[j];                                                                    \
+        kf_real d = b - a, r = kf_sqrt(d * d + 4 * g * g), w = kf_fabs(d) + r, rw = 2 * r * w;                         \
+        int live = rw > KF_R(1e-30);                                                                                   \
+        kf_real inv = 1 / kf_sqrt(live ? rw : 1);                                                                      \
+        kf_real c = live ? w * inv : 1, s = live ? (d >= 0 ? 2 * g : -2 * g) * inv : 0;                                \
+        kf_real cs = c * s;                                                                                            \
+        app[j] = c * c * a - 2 * cs * g + s * s * b;                                                                   \
+        aqq[j] = s * s * a + 2 * cs * g + c * c * b;                                                                   \
+        apq[j] = 0;                                                                                                    \
+        kf_real xp = arp[j], xq = arq[j];                                                                              \
+        arp[j] = c * xp - s * xq;                                                                                      \
+        arq[j] = s * xp + c * xq;                                                                                      \
+        for (int i = 0; i < 3; i++) {                                                                                  \
+            kf_real vp = V[3 * i + P][j], vq = V[3 * i + Q][j];                                                        \
+            V[3 * i + P][j] = c * vp - s * vq;                                                                         \
+            V[3 * i + Q][j] = s * vp + c * vq;                                                                         \
+        }                                                                                                              \
     }
 
 /* sort step on the σ² of columns p < q: swap when q is larger, negating the
  * new column q so det V stays +1 */
-#define HB_SORT(P, Q)                                                                                  \
-    for (int j = 0; j < n; j++) {                                                                      \
-        kf_real sp = S2[P][j], sq = S2[Q][j];                                                          \
-        int sw = sq > sp;                                                                              \
-        S2[P][j] = sw ? sq : sp;                                                                       \
-        S2[Q][j] = sw ? sp : sq;                                                                       \
-        for (int i = 0; i < 3; i++) {                                                                  \
-            kf_real vp = V[3 * i + P][j], vq = V[3 * i + Q][j];                                        \
-            V[3 * i + P][j] = sw ? vq : vp;                                                            \
-            V[3 * i + Q][j] = sw ? -vp : vq;                                                           \
-        }                                                                                              \
+#define HB_SORT(P, Q)                                                                                                  \
+    for (int j = 0; j < n; j++) {                                                                                      \
+        kf_real sp = S2[P][j], sq = S2[Q][j];                                                                          \
+        int sw = sq > sp;                                                                                              \
+        S2[P][j] = sw ? sq : sp;                                                                                       \
+        S2[Q][j] = sw ? sp : sq;                                                                                       \
+        for (int i = 0; i < 3; i++) {                                                                                  \
+            kf_real vp = V[3 * i + P][j], vq = V[3 * i + Q][j];                                                        \
+            V[3 * i + P][j] = sw ? vq : vp;                                                                            \
+            V[3 * i + Q][j] = sw ? -vp : vq;                                                                           \
+        }                                                                                                              \
     }
 
-static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project,
-                         size_t first, kf_real *const tau[6]) {
+static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
+                         kf_real *const tau[6]) {
     kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], S2[3][BATCH], E[3][BATCH];
     kf_real a00[BATCH], a11[BATCH], a22[BATCH], a01[BATCH], a02[BATCH], a12[BATCH];
     int ok[BATCH];
@@ -349,7 +352,8 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
                 G[3 * i + k][j] = chg[j] ? g : F[3 * i + k][j];
             }
         kf_real tr = la * (e0 + e1 + e2), d0 = mu2 * e0 + tr, d1 = mu2 * e1 + tr, d2 = mu2 * e2 + tr;
-#define HB_T(a, b) (U[3 * a][j] * d0 * U[3 * b][j] + U[3 * a + 1][j] * d1 * U[3 * b + 1][j] + U[3 * a + 2][j] * d2 * U[3 * b + 2][j])
+#define HB_T(a, b)                                                                                                     \
+    (U[3 * a][j] * d0 * U[3 * b][j] + U[3 * a + 1][j] * d1 * U[3 * b + 1][j] + U[3 * a + 2][j] * d2 * U[3 * b + 2][j])
         T[0][j] = HB_T(0, 0), T[1][j] = HB_T(1, 1), T[2][j] = HB_T(2, 2);
         T[3][j] = HB_T(0, 1), T[4][j] = HB_T(0, 2), T[5][j] = HB_T(1, 2);
 #undef HB_T

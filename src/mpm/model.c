@@ -83,8 +83,9 @@ int kf_model_add_material(kf_model *m, const kf_material *mat, char *err, size_t
     const char *bad = kf_material_check(mat);
     if (bad && bad[0]) return fail(err, errlen, bad);
     if (mat->model == KF_MAT_WATER && m->sim.integrator == KF_INTEGRATOR_IMPLICIT)
-        return fail(err, errlen, "water needs the explicit integrator (sim.integrator: explicit): the implicit solve "
-                                 "covers the elastic and elastoplastic solids");
+        return fail(err, errlen,
+                    "water needs the explicit integrator (sim.integrator: explicit): the implicit solve "
+                    "covers the elastic and elastoplastic solids");
     int id = m->nmat++;
     m->mat_def[id] = *mat;
     kf_mat_compile(&m->mat[id], mat);
@@ -106,7 +107,8 @@ int kf_model_add_collider(kf_model *m, const kf_collider *c, char *err, size_t e
         const char *bad = kf_sdf_grid_check(c->sdf);
         if (*bad) return fail(err, errlen, bad);
     }
-    if (c->inside && c->shape == KF_SHAPE_PLANE) return fail(err, errlen, "a plane collider cannot keep material inside");
+    if (c->inside && c->shape == KF_SHAPE_PLANE)
+        return fail(err, errlen, "a plane collider cannot keep material inside");
     if (!finite3(c->center) || !finite3(c->rotate) || !finite3(c->velocity))
         return fail(err, errlen, "collider center, rotate and velocity must be finite");
     if ((int)c->interp < KF_INTERP_LINEAR || c->interp > KF_INTERP_SMOOTH)
@@ -146,12 +148,12 @@ int kf_model_add_rigid(kf_model *m, const kf_rigid_def *r, char *err, size_t err
         return fail(err, errlen, "rigid bodies (CPIC) need the explicit integrator (sim.integrator: explicit)");
     if (m->nrigid >= KF_MAX_RIGIDS) {
         if (err && errlen)
-            snprintf(err, errlen, "too many rigid bodies (at most %d: each takes 2 bits of a grid node's 32-bit colour)",
+            snprintf(err, errlen,
+                     "too many rigid bodies (at most %d: each takes 2 bits of a grid node's 32-bit colour)",
                      KF_MAX_RIGIDS);
         return -1;
     }
-    if (m->sim.kernel != KF_KERNEL_QUADRATIC)
-        return fail(err, errlen, "rigid bodies (CPIC) need the quadratic kernel");
+    if (m->sim.kernel != KF_KERNEL_QUADRATIC) return fail(err, errlen, "rigid bodies (CPIC) need the quadratic kernel");
     if (kf_rigid_compile(&m->rigid[m->nrigid], r, m->sim.dx, err, errlen)) return -1;
     return m->nrigid++;
 }

@@ -34,11 +34,11 @@ struct kf_model {
 struct kf_state {
     kf_particles p;
     kf_grid g;
-    double time;       /* s */
-    long substep;      /* substeps taken since creation */
-    uint32_t next_id;  /* id of the next particle added */
+    double time;           /* s */
+    long substep;          /* substeps taken since creation */
+    uint32_t next_id;      /* id of the next particle added */
     kf_particles snapshot; /* particles at the start of the interval being advanced */
-    int tau_valid;     /* particle stress planes match F (set by kf_stress) */
+    int tau_valid;         /* particle stress planes match F (set by kf_stress) */
     int snapshot_tau_valid;
     /* rigid bodies (CPIC): motion state and the solver, created with the
      * state from the model's bodies; copies for retrying an interval */
@@ -48,9 +48,9 @@ struct kf_state {
     kf_rigid_state snapshot_rigid[KF_MAX_RIGIDS];
     void *snapshot_rsim; /* kf_rigid_sim_save bytes */
     size_t snapshot_rsim_size;
-    double drive_cells; /* the fastest rigid surface so far, cells per substep (step.c's speed bound) */
-    int fault_done;    /* the testing fault (kf_model.fault_substep) has happened */
-    struct kf_cpic *cpic; /* CPIC scratch (grid colored distance field, particle distances), src/cpic */
+    double drive_cells;         /* the fastest rigid surface so far, cells per substep (step.c's speed bound) */
+    int fault_done;             /* the testing fault (kf_model.fault_substep) has happened */
+    struct kf_cpic *cpic;       /* CPIC scratch (grid colored distance field, particle distances), src/cpic */
     struct kf_contact *contact; /* contact between objects: per-field node slots (contact.h) */
     /* implicit midpoint: per particle (dv, dC) the G2P of the grid's
      * v_{n+1} − v_{n+½} adds after kf_g2p (12 floats a particle) */

@@ -60,11 +60,11 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
 
 /* scatter one array through dest into scratch, then copy back; each plane is
  * an independent task, so the planes run in parallel */
-#define PERMUTE_PLANE(T, arr)                                                  \
-    do {                                                                       \
-        T *tmp_ = (T *)scratch_t;                                              \
-        for (size_t i_ = 0; i_ < n; i_++) tmp_[dest[i_]] = (arr)[i_];          \
-        memcpy((arr), tmp_, n * sizeof(T));                                    \
+#define PERMUTE_PLANE(T, arr)                                                                                          \
+    do {                                                                                                               \
+        T *tmp_ = (T *)scratch_t;                                                                                      \
+        for (size_t i_ = 0; i_ < n; i_++) tmp_[dest[i_]] = (arr)[i_];                                                  \
+        memcpy((arr), tmp_, n * sizeof(T));                                                                            \
     } while (0)
 
 void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, int threads) {

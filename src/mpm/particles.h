@@ -30,12 +30,12 @@ typedef struct kf_particles {
         };
         kf_real *plane[KF_PARTICLE_REAL_PLANES];
     };
-    uint16_t *mat;     /* (n) material index into the model */
-    uint16_t *obj;     /* (n) shot object index (surfacing per object) */
-    uint32_t *colour;  /* (n) CPIC colour: bit 2r = side (1 = negative), bit 2r+1 = affinity to body r */
-    uint32_t *id;      /* (n) stable particle index */
-    uint64_t *key;     /* (n) grid block key of the base node at the last sort */
-    int32_t *block;    /* (n) grid block owning the particle at the last sort */
+    uint16_t *mat;    /* (n) material index into the model */
+    uint16_t *obj;    /* (n) shot object index (surfacing per object) */
+    uint32_t *colour; /* (n) CPIC colour: bit 2r = side (1 = negative), bit 2r+1 = affinity to body r */
+    uint32_t *id;     /* (n) stable particle index */
+    uint64_t *key;    /* (n) grid block key of the base node at the last sort */
+    int32_t *block;   /* (n) grid block owning the particle at the last sort */
 } kf_particles;
 
 /* Bytes one particle holds while a shot runs: the state's arrays and their

@@ -17,8 +17,8 @@ static int rigid_init(kf_state *s, const kf_model *m) {
     double walls[6];
     for (int a = 0; a < 3; a++) walls[a] = m->sim.domain_min[a], walls[3 + a] = m->sim.domain_max[a];
     char err[256];
-    s->rsim = kf_rigid_sim_create(m->rigid, m->nrigid, m->joint, m->njoint, m->sim.gravity,
-                                  m->sim.walls ? walls : NULL, err, sizeof err);
+    s->rsim = kf_rigid_sim_create(m->rigid, m->nrigid, m->joint, m->njoint, m->sim.gravity, m->sim.walls ? walls : NULL,
+                                  err, sizeof err);
     return s->rsim ? 0 : -1;
 }
 
@@ -236,8 +236,8 @@ static int inside_sphere(const double x[3], const void *ctx) {
     return r2 < c[3] * c[3];
 }
 
-long kf_state_fill_sphere(kf_state *s, const kf_model *m, const double c[3], double r, int material,
-                          const double v[3], int ppc_axis, uint32_t seed) {
+long kf_state_fill_sphere(kf_state *s, const kf_model *m, const double c[3], double r, int material, const double v[3],
+                          int ppc_axis, uint32_t seed) {
     double ctx[4] = {c[0], c[1], c[2], r}, lo[3], hi[3];
     for (int a = 0; a < 3; a++) lo[a] = c[a] - r, hi[a] = c[a] + r;
     return fill(s, m, lo, hi, inside_sphere, ctx, material, v, ppc_axis, seed);

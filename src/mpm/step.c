@@ -210,8 +210,8 @@ static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
         for (int k = 0; k < nmat; k++) local[k] = 1;
 #pragma omp for schedule(static) nowait
         for (size_t i = 0; i < n; i++) {
-            double v2 = (double)p->v[0][i] * p->v[0][i] + (double)p->v[1][i] * p->v[1][i] +
-                        (double)p->v[2][i] * p->v[2][i];
+            double v2 =
+                (double)p->v[0][i] * p->v[0][i] + (double)p->v[1][i] * p->v[1][i] + (double)p->v[2][i] * p->v[2][i];
             if (v2 > v2max) v2max = v2;
             uint16_t k = p->mat[i];
             if (p->ps[0][i] < local[k] && m->mat[k].model != KF_MAT_SAND) local[k] = p->ps[0][i];

@@ -37,8 +37,8 @@ _Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like
 
 /* ---- P2G ---------------------------------------------------------------------- */
 
-KF_INLINE void p2g_block_cache(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt,
-                               kf_v4 *cache, chunk *ck, step_acc *acc, int lohi[6]) {
+KF_INLINE void p2g_block_cache(int KW, int CLASSIC, const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,
+                               chunk *ck, step_acc *acc, int lohi[6]) {
     const int CD = CD_MAX;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
@@ -101,7 +101,8 @@ KF_INLINE void p2g_block_cache(int KW, int CLASSIC, const kf_model *m, kf_state 
         /* near a rigid surface: compatible nodes only, impulses on the bodies */
         if (band) kf_cpic_p2g_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
         /* scatter: one node row per vector op, Q d as three column FMAs */
-        else for (int j = 0; j < n; j++) scatter_one(KW, CLASSIC, ck, j, cache);
+        else
+            for (int j = 0; j < n; j++) scatter_one(KW, CLASSIC, ck, j, cache);
         /* where objects meet: each particle's share into its own field too */
         if (fields) kf_contact_p2g_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
     }
@@ -125,9 +126,9 @@ KF_INLINE void p2g_flush(int KW, kf_grid *g, const int32_t *nb, const kf_v4 *cac
  * machine code, so their caches agree to the bit (a second inlined copy may
  * contract multiply-adds differently). */
 #define P2G_VARIANT(name, KW, CLASSIC)                                                                                 \
-    __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,    \
-                                               chunk *ck, step_acc *acc, int lohi[6]) {                               \
-        p2g_block_cache(KW, CLASSIC, m, s, r, dt, cache, ck, acc, lohi);                                             \
+    __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,     \
+                                               chunk *ck, step_acc *acc, int lohi[6]) {                                \
+        p2g_block_cache(KW, CLASSIC, m, s, r, dt, cache, ck, acc, lohi);                                               \
     }
 P2G_VARIANT(p2g_q_mls, 3, 0)
 P2G_VARIANT(p2g_q_classic, 3, 1)
@@ -265,10 +266,12 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
             kf_real *const *F = p->F;
             for (int rr = 0; rr < 3; rr++)
                 for (int cc = 0; cc < 3; cc++) {
-                    const kf_real *restrict f0 = F[cc] + i0, *restrict f1 = F[3 + cc] + i0, *restrict f2 = F[6 + cc] + i0;
+                    const kf_real *restrict f0 = F[cc] + i0, *restrict f1 = F[3 + cc] + i0,
+                                            *restrict f2 = F[6 + cc] + i0;
                     for (int j = 0; j < n; j++) {
                         kf_real fr = (rr == 0 ? f0 : rr == 1 ? f1 : f2)[j];
-                        Fn[3 * rr + cc][j] = fr + dt * (L[3 * rr][j] * f0[j] + L[3 * rr + 1][j] * f1[j] + L[3 * rr + 2][j] * f2[j]);
+                        Fn[3 * rr + cc][j] =
+                            fr + dt * (L[3 * rr][j] * f0[j] + L[3 * rr + 1][j] * f1[j] + L[3 * rr + 2][j] * f2[j]);
                     }
                 }
             for (int j = 0; j < n; j++)
@@ -339,8 +342,10 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
             for (int j = 0; j < n; j++) {
                 size_t i = i0 + (size_t)j;
                 kf_real v2 = ck->v[0][j] * ck->v[0][j] + ck->v[1][j] * ck->v[1][j] + ck->v[2][j] * ck->v[2][j];
-                if (!(v2 < (kf_real)1e30) || J[j] != J[j]) note_trouble(acc, p, i, "NaN or Inf velocity", (double)v2, s->substep);
-                else if (!(J[j] > jmin && J[j] < jmax)) note_trouble(acc, p, i, "J = det F out of range", (double)J[j], s->substep);
+                if (!(v2 < (kf_real)1e30) || J[j] != J[j])
+                    note_trouble(acc, p, i, "NaN or Inf velocity", (double)v2, s->substep);
+                else if (!(J[j] > jmin && J[j] < jmax))
+                    note_trouble(acc, p, i, "J = det F out of range", (double)J[j], s->substep);
             }
         }
     }
@@ -349,8 +354,8 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, const kf_model *m, kf_state *s, si
 }
 
 #define G2P_VARIANT(name, KW, CLASSIC)                                                                                 \
-    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, chunk *ck, step_acc *acc) { \
-        g2p_block(KW, CLASSIC, m, s, r, dt, cache, ck, acc);                                                         \
+    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, chunk *ck, step_acc *acc) {   \
+        g2p_block(KW, CLASSIC, m, s, r, dt, cache, ck, acc);                                                           \
     }
 G2P_VARIANT(g2p_q_mls, 3, 0)
 G2P_VARIANT(g2p_q_classic, 3, 1)

@@ -14,21 +14,21 @@
 
 #define KF_INLINE static inline __attribute__((always_inline))
 #define CD_MAX KF_CACHE_EDGE /* cache edge: the owner's 2x2x2 block neighbourhood (grid.h) */
-#define KF_CHUNK 16 /* particles per phase: one AVX-512 register of floats */
+#define KF_CHUNK 16          /* particles per phase: one AVX-512 register of floats */
 
 /* per-thread scratch of one chunk, structure of arrays across particles */
 typedef struct chunk {
     int n;
-    int l[3][KF_CHUNK];                /* base node offset inside the owner block */
-    kf_real w[3][4][KF_CHUNK];         /* kernel weights per axis */
-    kf_real dw[3][4][KF_CHUNK];        /* their derivatives (grid units) */
-    kf_real d[3][4][KF_CHUNK];         /* node minus particle, m */
-    kf_real q[9][KF_CHUNK];            /* P2G: MLS Q, or APIC m C for classic */
-    kf_real t[9][KF_CHUNK];            /* P2G classic: -Δt V⁰ τ / Δx */
-    kf_real mv[4][KF_CHUNK];           /* P2G: m v, m */
-    kf_real v[3][KF_CHUNK];            /* G2P: Σ w v_i */
-    kf_real b[9][KF_CHUNK];            /* G2P: Σ w v_i dᵀ */
-    kf_real g[9][KF_CHUNK];            /* G2P classic: Σ v_i ∇wᵀ (grid units) */
+    int l[3][KF_CHUNK];         /* base node offset inside the owner block */
+    kf_real w[3][4][KF_CHUNK];  /* kernel weights per axis */
+    kf_real dw[3][4][KF_CHUNK]; /* their derivatives (grid units) */
+    kf_real d[3][4][KF_CHUNK];  /* node minus particle, m */
+    kf_real q[9][KF_CHUNK];     /* P2G: MLS Q, or APIC m C for classic */
+    kf_real t[9][KF_CHUNK];     /* P2G classic: -Δt V⁰ τ / Δx */
+    kf_real mv[4][KF_CHUNK];    /* P2G: m v, m */
+    kf_real v[3][KF_CHUNK];     /* G2P: Σ w v_i */
+    kf_real b[9][KF_CHUNK];     /* G2P: Σ w v_i dᵀ */
+    kf_real g[9][KF_CHUNK];     /* G2P classic: Σ v_i ∇wᵀ (grid units) */
 } chunk;
 
 /* ---- kernels ----------------------------------------------------------------
@@ -87,7 +87,8 @@ typedef struct step_acc {
     double max_cells;
 } step_acc;
 
-static inline void note_trouble(step_acc *acc, const kf_particles *p, size_t i, const char *what, double value, long substep) {
+static inline void note_trouble(step_acc *acc, const kf_particles *p, size_t i, const char *what, double value,
+                                long substep) {
     if (acc->trouble.found && acc->trouble.particle <= p->id[i]) return;
     acc->trouble.found = 1;
     snprintf(acc->trouble.what, sizeof acc->trouble.what, "%s", what);

@@ -41,8 +41,8 @@ static int poses(const kf_shot *shot, const kf_scene *sc, const char *vdb, int f
     double t = kf_shot_frame_time(shot, frame);
     for (int i = 0; i < m->nrigid; i++) {
         if (m->rigid[i].def.motion == KF_RIGID_DYNAMIC) {
-            snprintf(err, errlen, "the pose of dynamic rigid '%s' is in the frame's checkpoint: %s", m->rigid[i].def.name,
-                     why);
+            snprintf(err, errlen, "the pose of dynamic rigid '%s' is in the frame's checkpoint: %s",
+                     m->rigid[i].def.name, why);
             return -1;
         }
         kf_rigid_state_at(&m->rigid[i], t, &st[i]);

@@ -68,8 +68,8 @@ static void surface_params(const kf_shot *shot, kf_vdb_surface_params *p, const 
     p->average_radius = shot->surface_average_radius * spacing;
     p->dilate = shot->surface_dilate;
     /* automatic erosion puts the zero crossing back on the material boundary */
-    p->erode = shot->surface_erode >= 0 ? shot->surface_erode
-                                        : (shot->surface_radius - 0.5) * spacing + shot->surface_dilate;
+    p->erode =
+        shot->surface_erode >= 0 ? shot->surface_erode : (shot->surface_radius - 0.5) * spacing + shot->surface_dilate;
     p->clamp_small = 1;
     p->name = name;
 }
@@ -77,7 +77,8 @@ static void surface_params(const kf_shot *shot, kf_vdb_surface_params *p, const 
 /* The groups a frame is surfaced in (surface.group): per material, or per
  * shot object. Group g of particle i, the number of groups, and their names. */
 static int group_count(const kf_shot *shot) {
-    return shot->surface_group ? (shot->nobjects > 0 ? shot->nobjects : 1) : (shot->nmaterials > 0 ? shot->nmaterials : 1);
+    return shot->surface_group ? (shot->nobjects > 0 ? shot->nobjects : 1)
+                               : (shot->nmaterials > 0 ? shot->nmaterials : 1);
 }
 
 static const char *group_name(const kf_shot *shot, int g) {
@@ -86,7 +87,7 @@ static const char *group_name(const kf_shot *shot, int g) {
 }
 
 int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
-                     size_t errlen) {
+                        size_t errlen) {
     kf_checkpoint_info info;
     if (kf_checkpoint_read(fp->checkpoint, sc->model, sc->state, &info, err, errlen)) return -1;
     kf_particles_view pv = kf_state_particles_read(sc->state);
@@ -255,8 +256,8 @@ void kf_particle_bounds_add(const kf_scene *sc, float lo[3], float hi[3]) {
 
 kf_render_opts kf_render_opts_for(const kf_shot *shot, const float blo[3], const float bhi[3]) {
     /* the shot's size and sampling, with --quality already applied */
-    kf_render_opts o = {shot->render_width, shot->render_height, shot->render_samples, 0, 0, {0, 0, 0}, {1, 1, 1},
-                        shot->render_ground, shot->render_shadow};
+    kf_render_opts o = {shot->render_width, shot->render_height, shot->render_samples, 0, 0, {0, 0, 0},
+                        {1, 1, 1},          shot->render_ground, shot->render_shadow};
     if (!(bhi[0] >= blo[0])) return o; /* no particles */
     float lo[3], hi[3];
     for (int a = 0; a < 3; a++) lo[a] = blo[a], hi[a] = bhi[a];
@@ -311,7 +312,8 @@ static int soup_grow(tri_soup *s, size_t nv, size_t nt) {
 static void place(const kf_collider *c, const kf_collider_pose *ps, const double X[3], float out[3]) {
     double R0[9], y[3], z[3];
     kf_euler_matrix(c->rotate, R0);
-    for (int i = 0; i < 3; i++) y[i] = (R0[3 * i] * X[0] + R0[3 * i + 1] * X[1] + R0[3 * i + 2] * X[2]) * (ps->s[i] ? ps->s[i] : 1);
+    for (int i = 0; i < 3; i++)
+        y[i] = (R0[3 * i] * X[0] + R0[3 * i + 1] * X[1] + R0[3 * i + 2] * X[2]) * (ps->s[i] ? ps->s[i] : 1);
     for (int i = 0; i < 3; i++) z[i] = ps->R[3 * i] * y[0] + ps->R[3 * i + 1] * y[1] + ps->R[3 * i + 2] * y[2];
     for (int i = 0; i < 3; i++) out[i] = (float)(ps->p[i] + z[i]);
 }
@@ -351,7 +353,8 @@ static int collider_mesh(const kf_shot_collider *sc, double t, tri_soup *s, char
         return rc;
     }
     if (c->shape == KF_SHAPE_BOX) {
-        static const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+        static const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                                        {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
         if (soup_grow(s, 8, 12)) return -1;
         for (int k = 0; k < 8; k++) {
             double X[3] = {(k & 4 ? 1 : -1) * c->half[0], (k & 2 ? 1 : -1) * c->half[1], (k & 1 ? 1 : -1) * c->half[2]};
@@ -359,8 +362,10 @@ static int collider_mesh(const kf_shot_collider *sc, double t, tri_soup *s, char
         }
         for (int q = 0; q < 6; q++) {
             uint32_t *t2 = &s->tri[3 * s->nt];
-            t2[0] = (uint32_t)base + quads[q][0], t2[1] = (uint32_t)base + quads[q][1], t2[2] = (uint32_t)base + quads[q][2];
-            t2[3] = (uint32_t)base + quads[q][0], t2[4] = (uint32_t)base + quads[q][2], t2[5] = (uint32_t)base + quads[q][3];
+            t2[0] = (uint32_t)base + quads[q][0], t2[1] = (uint32_t)base + quads[q][1],
+            t2[2] = (uint32_t)base + quads[q][2];
+            t2[3] = (uint32_t)base + quads[q][0], t2[4] = (uint32_t)base + quads[q][2],
+            t2[5] = (uint32_t)base + quads[q][3];
             s->nt += 2;
         }
         s->nv += 8;
@@ -377,7 +382,8 @@ static int collider_mesh(const kf_shot_collider *sc, double t, tri_soup *s, char
             }
         for (int i = 0; i < RINGS; i++)
             for (int j = 0; j < SEGS; j++) {
-                uint32_t a = (uint32_t)(base + (size_t)(i * SEGS + j)), b = (uint32_t)(base + (size_t)(i * SEGS + (j + 1) % SEGS));
+                uint32_t a = (uint32_t)(base + (size_t)(i * SEGS + j)),
+                         b = (uint32_t)(base + (size_t)(i * SEGS + (j + 1) % SEGS));
                 uint32_t *t2 = &s->tri[3 * s->nt];
                 t2[0] = a, t2[1] = b, t2[2] = a + SEGS, t2[3] = b, t2[4] = b + SEGS, t2[5] = a + SEGS;
                 s->nt += 2;
@@ -396,12 +402,14 @@ static const float palette[6][3] = {{0.80f, 0.62f, 0.38f}, {0.85f, 0.25f, 0.30f}
  * tan and matte, snow white, ...), else the palette by its place in the
  * file; colour, specular and roughness given in the shot win */
 static void material_look(const kf_shot *shot, int i, kf_render_material *m) {
-    static const struct { const char *preset; float rgb[3], spec, rough; } known[] = {
-        {"water", {0.25f, 0.50f, 0.85f}, 0.60f, 0.15f},  {"sand", {0.80f, 0.65f, 0.42f}, 0.05f, 0.90f},
-        {"wet_sand", {0.55f, 0.43f, 0.30f}, 0.15f, 0.60f}, {"snow", {0.92f, 0.94f, 0.97f}, 0.15f, 0.70f},
-        {"jello", {0.85f, 0.25f, 0.30f}, 0.50f, 0.25f},  {"rubber", {0.25f, 0.55f, 0.85f}, 0.30f, 0.45f},
-        {"goo", {0.45f, 0.75f, 0.40f}, 0.50f, 0.20f},    {"cheese", {0.95f, 0.80f, 0.35f}, 0.20f, 0.50f},
-        {"metal", {0.70f, 0.72f, 0.75f}, 0.80f, 0.30f}};
+    static const struct {
+        const char *preset;
+        float rgb[3], spec, rough;
+    } known[] = {{"water", {0.25f, 0.50f, 0.85f}, 0.60f, 0.15f},    {"sand", {0.80f, 0.65f, 0.42f}, 0.05f, 0.90f},
+                 {"wet_sand", {0.55f, 0.43f, 0.30f}, 0.15f, 0.60f}, {"snow", {0.92f, 0.94f, 0.97f}, 0.15f, 0.70f},
+                 {"jello", {0.85f, 0.25f, 0.30f}, 0.50f, 0.25f},    {"rubber", {0.25f, 0.55f, 0.85f}, 0.30f, 0.45f},
+                 {"goo", {0.45f, 0.75f, 0.40f}, 0.50f, 0.20f},      {"cheese", {0.95f, 0.80f, 0.35f}, 0.20f, 0.50f},
+                 {"metal", {0.70f, 0.72f, 0.75f}, 0.80f, 0.30f}};
     memcpy(m->diffuse, palette[(i < 0 ? 0 : i) % 6], sizeof m->diffuse);
     m->specular = 0.3f;
     m->roughness = 0.5f;
@@ -459,7 +467,8 @@ static void fit_box(kf_camera *c, const float lo[3], const float hi[3], float as
     len = sqrtf(len);
     if (!(len > 0)) return;
     for (int a = 0; a < 3; a++) d[a] /= len;
-    r[0] = d[1] * c->up[2] - d[2] * c->up[1], r[1] = d[2] * c->up[0] - d[0] * c->up[2], r[2] = d[0] * c->up[1] - d[1] * c->up[0];
+    r[0] = d[1] * c->up[2] - d[2] * c->up[1], r[1] = d[2] * c->up[0] - d[0] * c->up[2],
+    r[2] = d[0] * c->up[1] - d[1] * c->up[0];
     float rl = sqrtf(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
     if (!(rl > 0)) return;
     for (int a = 0; a < 3; a++) r[a] /= rl;
@@ -480,7 +489,7 @@ static void fit_box(kf_camera *c, const float lo[3], const float hi[3], float as
 }
 
 int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
-                    const kf_render_opts *ro, char *err, size_t errlen) {
+                       const kf_render_opts *ro, char *err, size_t errlen) {
     (void)sc;
     kf_vdb_file_info info;
     if (kf_vdb_info(vdb, &info, err, errlen)) return -1;
@@ -488,7 +497,8 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
      * (files of kerf 0.1 held `surface` and `surface.<material>` both) */
     int use_groups = 0;
     for (int g = 0; g < info.ngrids; g++)
-        use_groups |= strncmp(info.grids[g].name, "surface_", 8) == 0 || strncmp(info.grids[g].name, "surface.", 8) == 0;
+        use_groups |=
+            strncmp(info.grids[g].name, "surface_", 8) == 0 || strncmp(info.grids[g].name, "surface.", 8) == 0;
     kf_vdb_trimesh meshes[KF_VDB_MAX_GRIDS];
     kf_render_mesh rm[KF_VDB_MAX_GRIDS];
     int nm = 0, rc = -1;
@@ -558,7 +568,7 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
     /* looking from the front right, above: view_dir points from the eye to the subject */
     float view[3] = {-0.55f, -0.45f, -1.0f}, fov = (float)shot->render_fov;
     kf_camera cam = ro->turntable_n > 0 ? kf_camera_turntable(lo, hi, ro->turntable_k, ro->turntable_n, 25.0f, fov)
-                                         : kf_camera_frame_bounds(lo, hi, view, fov);
+                                        : kf_camera_frame_bounds(lo, hi, view, fov);
     if (ro->turntable_n == 0) fit_box(&cam, lo, hi, (float)ro->width / (float)ro->height);
     if (shot->ncamera_keys > 0 && ro->turntable_n == 0) {
         /* the keyed camera (render.camera_keys) */
@@ -566,7 +576,8 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
         for (int k = 0; k < shot->ncamera_keys; k++) {
             keys[k].frame = shot->camera_keys[k].frame;
             for (int a = 0; a < 3; a++)
-                keys[k].eye[a] = (float)shot->camera_keys[k].eye[a], keys[k].target[a] = (float)shot->camera_keys[k].target[a];
+                keys[k].eye[a] = (float)shot->camera_keys[k].eye[a],
+                keys[k].target[a] = (float)shot->camera_keys[k].target[a];
             keys[k].fov_deg = (float)(shot->camera_keys[k].fov > 0 ? shot->camera_keys[k].fov : shot->render_fov);
         }
         cam = kf_camera_keyed(keys, shot->ncamera_keys, frame, shot->render_interp);

@@ -34,7 +34,7 @@ int kf_output_current(const char *output, const char *input);
  * `surface_<name>` (and `surface_<name>_vel`) each → .vdb. Returns 0, or -1
  * with a message. */
 int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_paths *fp, int frame, char *err,
-                     size_t errlen);
+                        size_t errlen);
 
 /* Render settings that are not in the shot file yet: size and sampling. */
 typedef struct kf_render_opts {
@@ -58,6 +58,6 @@ kf_render_opts kf_render_opts_for(const kf_shot *shot, const float lo[3], const 
 
 /* .vdb → a mesh per group surface, each in its group's colour and shading → PNG at `png`. */
 int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
-                    const kf_render_opts *ro, char *err, size_t errlen);
+                       const kf_render_opts *ro, char *err, size_t errlen);
 
 #endif

@@ -61,8 +61,8 @@ kf_rigid_bvh *kf_rigid_bvh_build(const double *vert, int nvert, const int *tri, 
     rtcSetSceneFlags(b->scn, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(b->scn, RTC_BUILD_QUALITY_HIGH);
     RTCGeometry g = rtcNewGeometry(b->dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                        (size_t)nvert);
+    float *vb =
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), (size_t)nvert);
     unsigned *ib =
         rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), (size_t)ntri);
     if (!vb || !ib) {
@@ -113,8 +113,8 @@ int kf_rigid_bvh_first_hit(const kf_rigid_bvh *b, const double p0[3], const doub
 
 /* The closest point of triangle (a, b, c) to p, and whether it lies inside
  * the triangle (not on an edge or a corner): Ericson's region test. */
-static void closest_on_triangle(const double p[3], const double a[3], const double b[3], const double c[3],
-                                double q[3], int *interior) {
+static void closest_on_triangle(const double p[3], const double a[3], const double b[3], const double c[3], double q[3],
+                                int *interior) {
     double ab[3], ac[3], ap[3];
     for (int i = 0; i < 3; i++) ab[i] = b[i] - a[i], ac[i] = c[i] - a[i], ap[i] = p[i] - a[i];
 #define DOT(u, v) ((u)[0] * (v)[0] + (u)[1] * (v)[1] + (u)[2] * (v)[2])
@@ -160,10 +160,10 @@ static void closest_on_triangle(const double p[3], const double a[3], const doub
 
 typedef struct closest_ctx {
     const kf_rigid_bvh *b;
-    double p[3];   /* shifted */
+    double p[3]; /* shifted */
     double best2;
     int prim, interior;
-    double q[3];   /* shifted */
+    double q[3]; /* shifted */
 } closest_ctx;
 
 static bool closest_cb(struct RTCPointQueryFunctionArguments *args) {
@@ -172,8 +172,8 @@ static bool closest_cb(struct RTCPointQueryFunctionArguments *args) {
     double q[3];
     int interior;
     closest_on_triangle(c->p, &c->b->vert[3 * t[0]], &c->b->vert[3 * t[1]], &c->b->vert[3 * t[2]], q, &interior);
-    double d2 = (q[0] - c->p[0]) * (q[0] - c->p[0]) + (q[1] - c->p[1]) * (q[1] - c->p[1]) +
-                (q[2] - c->p[2]) * (q[2] - c->p[2]);
+    double d2 =
+        (q[0] - c->p[0]) * (q[0] - c->p[0]) + (q[1] - c->p[1]) * (q[1] - c->p[1]) + (q[2] - c->p[2]) * (q[2] - c->p[2]);
     if (d2 < c->best2) {
         c->best2 = d2;
         c->prim = (int)args->primID;

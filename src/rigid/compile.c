@@ -103,7 +103,8 @@ static int check(const kf_rigid_def *d, double dx, char *err, size_t errlen) {
             return fail(err, errlen, "rigid %s: a dynamic body needs density > 0", nm);
         if (!d->thin && !closed_mesh(d->triangles, d->ntriangles, d->nvertices))
             return fail(err, errlen,
-                        "rigid %s: a dynamic solid must be a closed, consistently wound mesh (or make it thin: true)", nm);
+                        "rigid %s: a dynamic solid must be a closed, consistently wound mesh (or make it thin: true)",
+                        nm);
     }
     return 0;
 }
@@ -127,7 +128,8 @@ static int guard_surface(kf_rigid_body *b, const double axis[3]) {
     for (int t = 0; t < b->ntri; t++) {
         const int *f = &b->tri[3 * t];
         const double *p0 = &b->vert[3 * f[0]], *p1 = &b->vert[3 * f[1]], *p2 = &b->vert[3 * f[2]];
-        double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]}, e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+        double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]},
+               e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
         double nn[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
         double a2 = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
         if (sheet && fabs(nn[0] * axis[0] + nn[1] * axis[1] + nn[2] * axis[2]) < 0.3 * a2) {
@@ -180,10 +182,8 @@ int kf_rigid_compile(kf_rigid_body *b, const kf_rigid_def *d, double dx, char *e
 
     if (d->motion == KF_RIGID_DYNAMIC) {
         kf_mass_props mp;
-        if (d->thin)
-            kf_mass_shell(b->vert, b->tri, b->ntri, d->density, &mp);
-        else
-            kf_mass_solid(b->vert, b->tri, b->ntri, d->density, &mp);
+        if (d->thin) kf_mass_shell(b->vert, b->tri, b->ntri, d->density, &mp);
+        else kf_mass_solid(b->vert, b->tri, b->ntri, d->density, &mp);
         if (!(mp.measure > 0) || !(mp.mass > 0)) {
             kf_rigid_body_free(b);
             return fail(err, errlen,

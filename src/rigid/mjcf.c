@@ -165,8 +165,7 @@ char *kf_rigid_mjcf(const kf_rigid_body *bodies, int nbodies, const kf_joint_def
             int d = worldlike(&c, a) ? b : a;
             if (c.parent[d] == -2) c.parent[d] = -1, c.pjoint[d] = k, kind = KF_MJ_JOINT_TREE;
         } else if (dynamic(&c, a) && dynamic(&c, b)) {
-            if (c.parent[b] == -2 && !descends(&c, a, b))
-                c.parent[b] = a, c.pjoint[b] = k, kind = KF_MJ_JOINT_TREE;
+            if (c.parent[b] == -2 && !descends(&c, a, b)) c.parent[b] = a, c.pjoint[b] = k, kind = KF_MJ_JOINT_TREE;
             else if (c.parent[a] == -2 && !descends(&c, b, a))
                 c.parent[a] = b, c.pjoint[a] = k, kind = KF_MJ_JOINT_TREE;
         }

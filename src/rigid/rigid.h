@@ -22,33 +22,33 @@
 #include <kerf/kerf.h>
 
 typedef struct kf_rigid_body {
-    kf_rigid_def def;   /* as given; def.vertices / def.triangles point at vert / tri below */
-    double *vert;       /* (nvert x 3) mesh frame, metres */
+    kf_rigid_def def; /* as given; def.vertices / def.triangles point at vert / tri below */
+    double *vert;     /* (nvert x 3) mesh frame, metres */
     int nvert;
-    int *tri;           /* (ntri x 3) */
+    int *tri; /* (ntri x 3) */
     int ntri;
-    double mass;        /* kg; dynamic bodies only (0 otherwise) */
-    double com[3];      /* centre of mass in the mesh frame (dynamic), else the pivot def.center */
-    double inertia[9];  /* about com, mesh-frame axes, kg·m², row-major; dynamic only */
-    double reach;       /* farthest vertex from com, m: |ω| reach bounds the surface's spin speed */
+    double mass;       /* kg; dynamic bodies only (0 otherwise) */
+    double com[3];     /* centre of mass in the mesh frame (dynamic), else the pivot def.center */
+    double inertia[9]; /* about com, mesh-frame axes, kg·m², row-major; dynamic only */
+    double reach;      /* farthest vertex from com, m: |ω| reach bounds the surface's spin speed */
     /* rigid particles on the surface, mesh frame (§5.2.1): every triangle holds
      * at least one, and every point of the surface is within spacing of one */
     size_t nseed;
-    float *seed;        /* (nseed x 3) */
-    int32_t *seed_tri;  /* (nseed) the triangle each seed lies on */
+    float *seed;       /* (nseed x 3) */
+    int32_t *seed_tri; /* (nseed) the triangle each seed lies on */
     /* the triangles in an Embree scene (mesh frame): the crossing guard's
      * segment queries (bvh.h, src/cpic/guard.c) */
     struct kf_rigid_bvh *bvh; /* NULL when no triangle is guarded */
     int *guard_tri;           /* (nguard_tri) the mesh triangle of each of its primitives */
     int nguard_tri;
-    uint8_t *tri_edge;        /* (ntri) 1: a narrow side of a closed thin body, not part of its sheet */
-    double sheet_thickness;   /* a closed thin body (a blade with two faces): its thickness, m; else 0 */
+    uint8_t *tri_edge;      /* (ntri) 1: a narrow side of a closed thin body, not part of its sheet */
+    double sheet_thickness; /* a closed thin body (a blade with two faces): its thickness, m; else 0 */
 } kf_rigid_body;
 
 typedef struct kf_rigid_state {
-    double R[9], t[3];  /* x_world = R x_mesh + t */
-    double com[3];      /* world centre of mass (static/kinematic: the pivot) */
-    double v[3], w[3];  /* linear velocity of com, angular velocity (rad/s), world */
+    double R[9], t[3]; /* x_world = R x_mesh + t */
+    double com[3];     /* world centre of mass (static/kinematic: the pivot) */
+    double v[3], w[3]; /* linear velocity of com, angular velocity (rad/s), world */
 } kf_rigid_state;
 
 /* Check the def, copy its mesh, compute mass properties (dynamic) and seed the

@@ -30,10 +30,10 @@ typedef struct kf_seed_lattice {
 } kf_seed_lattice;
 
 typedef struct kf_seed_crossing {
-    double x[3];   /* the crossing point, on its triangle */
-    int32_t tri;   /* the triangle crossed */
-    int8_t axis;   /* the line runs along this axis ... */
-    int32_t i, j;  /* ... through (o_b + i h, o_c + j h) */
+    double x[3];  /* the crossing point, on its triangle */
+    int32_t tri;  /* the triangle crossed */
+    int8_t axis;  /* the line runs along this axis ... */
+    int32_t i, j; /* ... through (o_b + i h, o_c + j h) */
 } kf_seed_crossing;
 
 /* A growing list of crossings, as both finders collect them; after a

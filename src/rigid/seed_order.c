@@ -54,8 +54,7 @@ size_t kf_seed_crossings_order(kf_seed_crossing *c, size_t n, const double *vert
             for (; m > 0 && cmp_crossing(&c[m - 1], &x) > 0; m--) c[m] = c[m - 1];
             c[m] = x;
         }
-    } else
-        qsort(c, n, sizeof *c, cmp_crossing);
+    } else qsort(c, n, sizeof *c, cmp_crossing);
     /* a line through a shared edge or vertex crosses every triangle there at
      * one point: keep the first (lowest triangle index at the lowest position) */
     size_t m = 1;

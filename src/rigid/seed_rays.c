@@ -124,8 +124,8 @@ static int scene_build(scene *s, const double *vert, int nvert, const int *tri, 
     rtcSetSceneFlags(s->scn, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(s->scn, RTC_BUILD_QUALITY_MEDIUM);
     RTCGeometry g = rtcNewGeometry(s->dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                        (size_t)nvert);
+    float *vb =
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), (size_t)nvert);
     unsigned *ib =
         rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), (size_t)ntri);
     if (!vb || !ib) {

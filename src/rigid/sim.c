@@ -29,9 +29,9 @@ struct kf_rigid_sim {
     /* motors: actuator a drives joint act_joint[a] (mjcf.c emits them in joint order) */
     int nact;
     int act_joint[KF_MAX_JOINTS];
-    int joint_act[KF_MAX_JOINTS];       /* the actuator of each joint, or -1 */
+    int joint_act[KF_MAX_JOINTS];        /* the actuator of each joint, or -1 */
     kf_joint_def act_def[KF_MAX_JOINTS]; /* (nact) its joint's motor settings */
-    double act_peak[KF_MAX_JOINTS];     /* largest |torque| since the last load or reset, N·m */
+    double act_peak[KF_MAX_JOINTS];      /* largest |torque| since the last load or reset, N·m */
 };
 
 static void set_err(char *err, size_t errlen, const char *msg) {
@@ -307,10 +307,8 @@ void kf_rigid_sim_step(kf_rigid_sim *sim, const kf_rigid_body *bodies, int nbodi
     for (int a = 0; a < sim->nact; a++) {
         const kf_joint_def *jd = &sim->act_def[a];
         const double rate = 2 * mjPI * jd->frequency;
-        if (jd->motor == KF_MOTOR_POSITION)
-            d->ctrl[a] = jd->angle * (mjPI / 180) + rate * t + jd->kv / jd->kp * rate;
-        else
-            d->ctrl[a] = rate;
+        if (jd->motor == KF_MOTOR_POSITION) d->ctrl[a] = jd->angle * (mjPI / 180) + rate * t + jd->kv / jd->kp * rate;
+        else d->ctrl[a] = rate;
     }
     sim->m->opt.timestep = dt;
     /* MuJoCo answers a non-finite or huge acceleration by resetting the whole

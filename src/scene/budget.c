@@ -154,8 +154,7 @@ int kf_budget_check(const kf_shot *shot, const kf_budget *b, kf_diag *diag) {
             snprintf(why, sizeof why, "dt %.3g s: material %s's wave speed %.3g m/s at sim.cfl %g", b->dt, m->mat.name,
                      b->wave_speed, shot->sim.cfl);
             at = &m->stiffness_at;
-        } else
-            snprintf(why, sizeof why, "dt %.3g s from sim.cfl %g", b->dt, shot->sim.cfl);
+        } else snprintf(why, sizeof why, "dt %.3g s from sim.cfl %g", b->dt, shot->sim.cfl);
         kf_shot_report(diag, at, KF_DIAG_ERROR,
                        "about %s substeps per frame (%s), over the budget of %.0f: %d frames of about %s particles "
                        "would take about %.2g hours on %d cores (--force to run anyway)",

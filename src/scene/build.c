@@ -73,8 +73,10 @@ static int check_in_domain(const kf_shot_object *o, const kf_sim_def *sd, const 
         out += !in;
     }
     if (out)
-        kf_shot_report(diag, &o->at, KF_DIAG_WARNING, "object '%s': %zu of its %zu particles start outside the domain "
-                       "[%g, %g, %g]-[%g, %g, %g]", o->name, out, pts->n, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+        kf_shot_report(diag, &o->at, KF_DIAG_WARNING,
+                       "object '%s': %zu of its %zu particles start outside the domain "
+                       "[%g, %g, %g]-[%g, %g, %g]",
+                       o->name, out, pts->n, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     return 0;
 }
 
@@ -162,12 +164,14 @@ int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_
             continue;
         }
         if (pts.n == 0)
-            kf_shot_report(diag, &o->at, KF_DIAG_WARNING, "object '%s' holds no particles at dx %g (thinner than the lattice)",
-                           o->name, sd.dx);
+            kf_shot_report(diag, &o->at, KF_DIAG_WARNING,
+                           "object '%s' holds no particles at dx %g (thinner than the lattice)", o->name, sd.dx);
         else {
-            long first = kf_state_add_particles(sc->state, sc->model, pts.n, pts.x, pts.v, NULL, o->material, pts.volume);
+            long first =
+                kf_state_add_particles(sc->state, sc->model, pts.n, pts.x, pts.v, NULL, o->material, pts.volume);
             if (first < 0) {
-                kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name, pts.n);
+                kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name,
+                               pts.n);
                 bad = 1;
             } else {
                 /* remember the object each particle came from (surface.group: object) */
@@ -219,29 +223,84 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
      * 5 ms for a 5 MB executable) */
     h = kf_hash_file(h, "/proc/self/exe");
     const kf_sim_def *s = &shot->sim;
-    double sim[] = {s->dx, s->cfl, s->dt_max, s->dt_fixed, s->gravity[0], s->gravity[1], s->gravity[2],
-                    s->kernel, s->force, s->transfer, s->walls, s->domain_min[0], s->domain_min[1],
-                    s->domain_min[2], s->domain_max[0], s->domain_max[1], s->domain_max[2], s->wall_boundary,
-                    s->wall_friction, s->max_retries, s->j_min, s->j_max, s->max_cells_per_step,
-                    s->integrator, s->newton_tol, s->newton_max, s->krylov_tol, s->krylov_max, s->precond,
-                    s->implicit_scheme, s->retry_fixed, s->contact, s->contact_friction,
-                    shot->ppc, shot->jitter, shot->seed, shot->fps, shot->frame_start, sizeof(kf_real)};
+    double sim[] = {s->dx,
+                    s->cfl,
+                    s->dt_max,
+                    s->dt_fixed,
+                    s->gravity[0],
+                    s->gravity[1],
+                    s->gravity[2],
+                    s->kernel,
+                    s->force,
+                    s->transfer,
+                    s->walls,
+                    s->domain_min[0],
+                    s->domain_min[1],
+                    s->domain_min[2],
+                    s->domain_max[0],
+                    s->domain_max[1],
+                    s->domain_max[2],
+                    s->wall_boundary,
+                    s->wall_friction,
+                    s->max_retries,
+                    s->j_min,
+                    s->j_max,
+                    s->max_cells_per_step,
+                    s->integrator,
+                    s->newton_tol,
+                    s->newton_max,
+                    s->krylov_tol,
+                    s->krylov_max,
+                    s->precond,
+                    s->implicit_scheme,
+                    s->retry_fixed,
+                    s->contact,
+                    s->contact_friction,
+                    shot->ppc,
+                    shot->jitter,
+                    shot->seed,
+                    shot->fps,
+                    shot->frame_start,
+                    sizeof(kf_real)};
     hash_vals(&h, sim, (int)(sizeof sim / sizeof *sim));
     for (int i = 0; i < shot->nmaterials; i++) {
         const kf_material *m = &shot->materials[i].mat;
-        double v[] = {m->model, m->density, m->E, m->nu, m->yield_stress, m->friction_angle, m->cohesion,
-                      m->hardening, m->h0, m->h1, m->h2, m->h3, m->volume_correction, m->bulk_modulus, m->gamma,
-                      m->viscosity, m->theta_c, m->theta_s, m->xi};
+        double v[] = {
+            m->model,   m->density, m->E,  m->nu, m->yield_stress,      m->friction_angle, m->cohesion, m->hardening,
+            m->h0,      m->h1,      m->h2, m->h3, m->volume_correction, m->bulk_modulus,   m->gamma,    m->viscosity,
+            m->theta_c, m->theta_s, m->xi};
         hash_vals(&h, v, (int)(sizeof v / sizeof *v));
     }
     for (int i = 0; i < shot->nobjects; i++) {
         const kf_shot_object *o = &shot->objects[i];
         const kf_placement *p = &o->place;
-        double v[] = {o->shape, o->material, o->size[0], o->size[1], o->size[2], o->radius, o->height,
-                      p->translate[0], p->translate[1], p->translate[2], p->rotate[0], p->rotate[1], p->rotate[2],
-                      p->scale[0], p->scale[1], p->scale[2], p->fit, p->fit_center[0], p->fit_center[1],
-                      p->fit_center[2], p->fit_size, o->velocity[0], o->velocity[1], o->velocity[2],
-                      o->angular_velocity[0], o->angular_velocity[1], o->angular_velocity[2]};
+        double v[] = {o->shape,
+                      o->material,
+                      o->size[0],
+                      o->size[1],
+                      o->size[2],
+                      o->radius,
+                      o->height,
+                      p->translate[0],
+                      p->translate[1],
+                      p->translate[2],
+                      p->rotate[0],
+                      p->rotate[1],
+                      p->rotate[2],
+                      p->scale[0],
+                      p->scale[1],
+                      p->scale[2],
+                      p->fit,
+                      p->fit_center[0],
+                      p->fit_center[1],
+                      p->fit_center[2],
+                      p->fit_size,
+                      o->velocity[0],
+                      o->velocity[1],
+                      o->velocity[2],
+                      o->angular_velocity[0],
+                      o->angular_velocity[1],
+                      o->angular_velocity[2]};
         hash_vals(&h, v, (int)(sizeof v / sizeof *v));
         if (o->shape == KF_SOURCE_MESH) h = kf_hash_file(h, o->mesh_path);
     }
@@ -249,10 +308,10 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
         const kf_shot_collider *sc = &shot->colliders[i];
         const kf_collider *c = &sc->col;
         const kf_placement *p = &sc->place;
-        double v[] = {c->shape, c->boundary, c->friction, c->center[0], c->center[1], c->center[2], c->normal[0],
-                      c->normal[1], c->normal[2], c->half[0], c->half[1], c->half[2], c->radius, c->rotate[0],
-                      c->rotate[1], c->rotate[2], c->velocity[0], c->velocity[1], c->velocity[2], c->interp,
-                      c->nkeys, c->inside};
+        double v[] = {c->shape,       c->boundary,  c->friction,  c->center[0], c->center[1],   c->center[2],
+                      c->normal[0],   c->normal[1], c->normal[2], c->half[0],   c->half[1],     c->half[2],
+                      c->radius,      c->rotate[0], c->rotate[1], c->rotate[2], c->velocity[0], c->velocity[1],
+                      c->velocity[2], c->interp,    c->nkeys,     c->inside};
         hash_vals(&h, v, (int)(sizeof v / sizeof *v));
         for (int k = 0; k < c->nkeys; k++) {
             const kf_key *key = &c->keys[k];
@@ -260,9 +319,9 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
             hash_vals(&h, key->rotate, 3), hash_vals(&h, key->scale, 3);
         }
         if (c->shape == KF_SHAPE_MESH) {
-            double pl[] = {p->translate[0], p->translate[1], p->translate[2], p->rotate[0], p->rotate[1],
-                           p->rotate[2], p->scale[0], p->scale[1], p->scale[2], p->fit, p->fit_center[0],
-                           p->fit_center[1], p->fit_center[2], p->fit_size};
+            double pl[] = {p->translate[0],  p->translate[1],  p->translate[2],  p->rotate[0], p->rotate[1],
+                           p->rotate[2],     p->scale[0],      p->scale[1],      p->scale[2],  p->fit,
+                           p->fit_center[0], p->fit_center[1], p->fit_center[2], p->fit_size};
             hash_vals(&h, pl, (int)(sizeof pl / sizeof *pl));
             h = kf_hash_file(h, sc->mesh_path);
         }

@@ -165,11 +165,38 @@ uint64_t kf_shot_rigids_hash(const kf_shot *shot, uint64_t h) {
     for (int i = 0; i < shot->nrigids; i++) {
         const kf_shot_rigid *r = &shot->rigids[i];
         const kf_rigid_def *d = &r->def;
-        double v[] = {r->shape, r->size[0], r->size[1], r->size[2], r->scale[0], r->scale[1], r->scale[2],
-                      r->pivot_set, r->pivot[0], r->pivot[1], r->pivot[2], d->thin, d->motion, d->position[0],
-                      d->position[1], d->position[2], d->rotate[0], d->rotate[1], d->rotate[2], d->interp, d->nkeys,
-                      d->velocity[0], d->velocity[1], d->velocity[2], d->angular_velocity[0], d->angular_velocity[1],
-                      d->angular_velocity[2], d->density, d->boundary, d->friction, d->penalty, d->push};
+        double v[] = {r->shape,
+                      r->size[0],
+                      r->size[1],
+                      r->size[2],
+                      r->scale[0],
+                      r->scale[1],
+                      r->scale[2],
+                      r->pivot_set,
+                      r->pivot[0],
+                      r->pivot[1],
+                      r->pivot[2],
+                      d->thin,
+                      d->motion,
+                      d->position[0],
+                      d->position[1],
+                      d->position[2],
+                      d->rotate[0],
+                      d->rotate[1],
+                      d->rotate[2],
+                      d->interp,
+                      d->nkeys,
+                      d->velocity[0],
+                      d->velocity[1],
+                      d->velocity[2],
+                      d->angular_velocity[0],
+                      d->angular_velocity[1],
+                      d->angular_velocity[2],
+                      d->density,
+                      d->boundary,
+                      d->friction,
+                      d->penalty,
+                      d->push};
         mix_vals(&h, v, (int)(sizeof v / sizeof *v));
         for (int k = 0; k < d->nkeys; k++) {
             const kf_key *key = &d->keys[k];
@@ -179,8 +206,8 @@ uint64_t kf_shot_rigids_hash(const kf_shot *shot, uint64_t h) {
     }
     for (int i = 0; i < shot->njoints; i++) {
         const kf_joint_def *j = &shot->joints[i].def;
-        double v[] = {shot->joints[i].type, j->body_a, j->body_b, j->anchor[0], j->anchor[1], j->anchor[2],
-                      j->axis[0], j->axis[1], j->axis[2], j->damping};
+        double v[] = {shot->joints[i].type, j->body_a,  j->body_b,  j->anchor[0], j->anchor[1],
+                      j->anchor[2],         j->axis[0], j->axis[1], j->axis[2],   j->damping};
         mix_vals(&h, v, (int)(sizeof v / sizeof *v));
         /* a motor changes the motion; a shot without one keeps its hash */
         if (j->motor == KF_MOTOR_NONE) continue;

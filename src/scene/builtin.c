@@ -73,7 +73,8 @@ int kf_scene_bench_cube(kf_scene *sc, int cells, kf_force force, int threads, ch
     if (id < 0) return -1;
     sc->state = kf_state_create(sc->model);
     /* the cube sits centred in the grid */
-    double o = (grid - cells) / 2 * sd.dx, lo[3] = {o, o, o}, hi[3] = {o + cells * sd.dx, o + cells * sd.dx, o + cells * sd.dx};
+    double o = (grid - cells) / 2 * sd.dx, lo[3] = {o, o, o},
+           hi[3] = {o + cells * sd.dx, o + cells * sd.dx, o + cells * sd.dx};
     if (kf_state_fill_box(sc->state, sc->model, lo, hi, id, NULL, 2, 0) < 0) {
         snprintf(err, errlen, "out of memory seeding particles");
         return -1;

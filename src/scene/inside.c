@@ -25,11 +25,11 @@
 struct kf_mesh_inside {
     RTCDevice dev;
     RTCScene scene;
-    double c[3];      /* the mesh was shifted by -c before going to float */
-    float *nrm;       /* (ntri x 3) unit face normals, for the grazing test */
+    double c[3]; /* the mesh was shifted by -c before going to float */
+    float *nrm;  /* (ntri x 3) unit face normals, for the grazing test */
     int ndirs;
     float dirs[KF_INSIDE_MAX_DIRS][3];
-    char error[256];  /* last Embree error message */
+    char error[256]; /* last Embree error message */
 };
 
 /* per-ray state: Embree hands the context to the filter, so ours extends it */
@@ -77,8 +77,8 @@ static void on_error(void *user, enum RTCError code, const char *str) {
 /* directions: the columns of three generic rotations (angles chosen to be far
  * from the axes, the diagonals and each other) */
 int kf_mesh_inside_default_dirs(double dirs[KF_INSIDE_MAX_DIRS][3]) {
-    static const double euler[4][3] = {{0.4137, 0.7923, 0.2311}, {1.1329, 0.3571, 2.0713},
-                                       {2.4671, 1.2113, 0.8209}, {0.9091, 2.7183, 1.6180}};
+    static const double euler[4][3] = {
+        {0.4137, 0.7923, 0.2311}, {1.1329, 0.3571, 2.0713}, {2.4671, 1.2113, 0.8209}, {0.9091, 2.7183, 1.6180}};
     int n = 0;
     for (int r = 0; r < 4; r++) {
         double a = euler[r][0], b = euler[r][1], g = euler[r][2];
@@ -127,7 +127,8 @@ kf_mesh_inside *kf_mesh_inside_create(const kf_mesh *m, const double (*dirs)[3],
     rtcSetSceneBuildQuality(q->scene, RTC_BUILD_QUALITY_MEDIUM);
     RTCGeometry g = rtcNewGeometry(q->dev, RTC_GEOMETRY_TYPE_TRIANGLE);
     float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m->nvert);
-    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), m->ntri);
+    unsigned *ib =
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), m->ntri);
     if (!vb || !ib) {
         snprintf(err, errlen, "%s: %s", m->path, q->error[0] ? q->error : "Embree buffer allocation failed");
         rtcReleaseGeometry(g);

@@ -74,10 +74,12 @@ static long count_data_lines(FILE *f, int skip_comments) {
 }
 
 static int ply_type_size(const char *t) {
-    static const struct { const char *name; int size; } types[] = {
-        {"char", 1},  {"int8", 1},   {"uchar", 1},   {"uint8", 1}, {"short", 2},   {"int16", 2},
-        {"ushort", 2}, {"uint16", 2}, {"int", 4},     {"int32", 4}, {"uint", 4},    {"uint32", 4},
-        {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
+    static const struct {
+        const char *name;
+        int size;
+    } types[] = {{"char", 1},   {"int8", 1},    {"uchar", 1},  {"uint8", 1},  {"short", 2}, {"int16", 2},
+                 {"ushort", 2}, {"uint16", 2},  {"int", 4},    {"int32", 4},  {"uint", 4},  {"uint32", 4},
+                 {"float", 4},  {"float32", 4}, {"double", 8}, {"float64", 8}};
     for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
         if (!strcmp(t, types[i].name)) return types[i].size;
     return 0;
@@ -261,8 +263,9 @@ static int check_off(FILE *f, char *why, size_t whylen) {
         }
     }
     if (got < 2 || counts[0] < 0 || counts[1] < 0) {
-        snprintf(why, whylen, keyword ? "truncated file: no vertex and face counts after the OFF keyword"
-                                      : "not an OFF file: no OFF keyword and no vertex and face counts");
+        snprintf(why, whylen,
+                 keyword ? "truncated file: no vertex and face counts after the OFF keyword"
+                         : "not an OFF file: no OFF keyword and no vertex and face counts");
         return -1;
     }
     /* lines before the one the data starts in (for messages: the next line read is lineno + 1) */
@@ -312,7 +315,7 @@ static int cmp_wv(const void *a, const void *b) {
 typedef struct edge_ref {
     uint64_t key; /* min << 32 | max */
     uint32_t tri;
-    uint8_t fwd;  /* 1 when the triangle walks min -> max */
+    uint8_t fwd; /* 1 when the triangle walks min -> max */
 } edge_ref;
 
 static int cmp_edge(const void *a, const void *b) {
@@ -325,7 +328,8 @@ static double tri_signed_volume(const double *v, const uint32_t *t, const double
     const double *a = &v[3 * t[0]], *b = &v[3 * t[1]], *d = &v[3 * t[2]];
     double p[3], q[3], r[3];
     for (int k = 0; k < 3; k++) p[k] = a[k] - c[k], q[k] = b[k] - c[k], r[k] = d[k] - c[k];
-    return (p[0] * (q[1] * r[2] - q[2] * r[1]) - p[1] * (q[0] * r[2] - q[2] * r[0]) + p[2] * (q[0] * r[1] - q[1] * r[0])) /
+    return (p[0] * (q[1] * r[2] - q[2] * r[1]) - p[1] * (q[0] * r[2] - q[2] * r[0]) +
+            p[2] * (q[0] * r[1] - q[1] * r[0])) /
            6.0;
 }
 
@@ -367,8 +371,8 @@ static void flip_tri(uint32_t *t) {
 static int analyse_edges(kf_mesh *m) {
     size_t ne = 3 * m->ntri;
     edge_ref *e = malloc((ne ? ne : 1) * sizeof *e);
-    uint32_t *nbr = malloc((ne ? ne : 1) * sizeof *nbr);   /* neighbour across edge 3t+k, or UINT32_MAX */
-    uint8_t *same = malloc((ne ? ne : 1) * sizeof *same);  /* 1: neighbour walks the edge the same way */
+    uint32_t *nbr = malloc((ne ? ne : 1) * sizeof *nbr);  /* neighbour across edge 3t+k, or UINT32_MAX */
+    uint8_t *same = malloc((ne ? ne : 1) * sizeof *same); /* 1: neighbour walks the edge the same way */
     int32_t *comp = malloc((m->ntri ? m->ntri : 1) * sizeof *comp);
     uint8_t *flip = calloc(m->ntri ? m->ntri : 1, 1);
     uint32_t *queue = malloc((m->ntri ? m->ntri : 1) * sizeof *queue);
@@ -628,12 +632,9 @@ int kf_mesh_load(const char *path, kf_mesh *out, char *err, size_t errlen) {
     size_t got = fread(magic, 1, 7, f);
     magic[got] = 0;
     rewind(f);
-    if (!strncmp(magic, "ply", 3))
-        bad = check_ply(f, fsize, why, sizeof why);
-    else if (has_ext(path, ".off"))
-        bad = check_off(f, why, sizeof why);
-    else if (has_ext(path, ".stl"))
-        bad = check_stl(f, fsize, why, sizeof why);
+    if (!strncmp(magic, "ply", 3)) bad = check_ply(f, fsize, why, sizeof why);
+    else if (has_ext(path, ".off")) bad = check_off(f, why, sizeof why);
+    else if (has_ext(path, ".stl")) bad = check_stl(f, fsize, why, sizeof why);
     fclose(f);
     if (bad) return fail(err, errlen, path, "%s", why);
 
@@ -726,8 +727,8 @@ void kf_mesh_transform(kf_mesh *m, const double M[12]) {
         for (int r = 0; r < 3; r++) q[r] = M[4 * r] * p[0] + M[4 * r + 1] * p[1] + M[4 * r + 2] * p[2] + M[4 * r + 3];
         memcpy(p, q, sizeof q);
     }
-    double det = M[0] * (M[5] * M[10] - M[6] * M[9]) - M[1] * (M[4] * M[10] - M[6] * M[8]) +
-                 M[2] * (M[4] * M[9] - M[5] * M[8]);
+    double det =
+        M[0] * (M[5] * M[10] - M[6] * M[9]) - M[1] * (M[4] * M[10] - M[6] * M[8]) + M[2] * (M[4] * M[9] - M[5] * M[8]);
     if (det < 0)
         for (size_t t = 0; t < m->ntri; t++) flip_tri(&m->tri[3 * t]);
     update_measures(m);

@@ -20,14 +20,14 @@
 #include <stdint.h>
 
 typedef struct kf_mesh {
-    char path[256];           /* file (or name) it came from, for messages */
+    char path[256]; /* file (or name) it came from, for messages */
     size_t nvert;
     size_t ntri;
-    double *vert;             /* (nvert x 3) positions, file units (metres once placed) */
-    uint32_t *tri;            /* (ntri x 3) vertex indices; counter-clockwise seen from outside when oriented */
-    double lo[3], hi[3];      /* bounds of the vertices */
-    double volume;            /* enclosed volume by the divergence theorem (meaningful when closed) */
-    double area;              /* surface area */
+    double *vert;        /* (nvert x 3) positions, file units (metres once placed) */
+    uint32_t *tri;       /* (ntri x 3) vertex indices; counter-clockwise seen from outside when oriented */
+    double lo[3], hi[3]; /* bounds of the vertices */
+    double volume;       /* enclosed volume by the divergence theorem (meaningful when closed) */
+    double area;         /* surface area */
     /* what loading found and did */
     size_t welded;            /* input vertices merged into another at the same position (assimp's
                                  OBJ and STL readers give each face corner its own vertex) */

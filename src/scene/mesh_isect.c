@@ -307,8 +307,10 @@ int kf_mesh_self_intersections(const kf_mesh *m, int threads, kf_mesh_isect *out
                             if (ti[u] == tj[v]) shared++, sp = u, sq = v;
                     if (shared >= 2) continue; /* neighbours across an edge */
                     ttri P, Q;
-                    ttri_make(&P, &m->vert[3 * (size_t)ti[0]], &m->vert[3 * (size_t)ti[1]], &m->vert[3 * (size_t)ti[2]]);
-                    ttri_make(&Q, &m->vert[3 * (size_t)tj[0]], &m->vert[3 * (size_t)tj[1]], &m->vert[3 * (size_t)tj[2]]);
+                    ttri_make(&P, &m->vert[3 * (size_t)ti[0]], &m->vert[3 * (size_t)ti[1]],
+                              &m->vert[3 * (size_t)ti[2]]);
+                    ttri_make(&Q, &m->vert[3 * (size_t)tj[0]], &m->vert[3 * (size_t)tj[1]],
+                              &m->vert[3 * (size_t)tj[2]]);
                     double at[3];
                     if (!pair_meets(&P, &Q, shared ? sp : -1, shared ? sq : -1, at)) continue;
                     mine++;
@@ -345,7 +347,8 @@ int kf_mesh_check_self_intersection(const kf_mesh *m, int threads, char *err, si
         snprintf(dropped, sizeof dropped, ", not counting %zu degenerate or repeated %s", gone,
                  gone == 1 ? "triangle" : "triangles");
     if (x.pairs > 1) snprintf(more, sizeof more, "; %zu pairs of triangles intersect", x.pairs);
-    snprintf(err, errlen, "%s: intersects itself: triangles %u and %u meet at (%.6g, %.6g, %.6g) (file coordinates%s)%s",
-             m->path, x.tri[0] + 1, x.tri[1] + 1, x.at[0], x.at[1], x.at[2], dropped, more);
+    snprintf(err, errlen,
+             "%s: intersects itself: triangles %u and %u meet at (%.6g, %.6g, %.6g) (file coordinates%s)%s", m->path,
+             x.tri[0] + 1, x.tri[1] + 1, x.at[0], x.at[1], x.at[2], dropped, more);
     return -1;
 }

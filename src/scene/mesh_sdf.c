@@ -33,7 +33,7 @@ double kf_point_triangle_dist2(const double p[3], const double a[3], const doubl
     double ab[3], ac[3], ap[3], r[3];
     for (int k = 0; k < 3; k++) ab[k] = b[k] - a[k], ac[k] = c[k] - a[k], ap[k] = p[k] - a[k];
     double d1 = kf_v3d_dot(ab, ap), d2 = kf_v3d_dot(ac, ap);
-    double s = 0, t = 0; /* r = a + s ab + t ac */
+    double s = 0, t = 0;               /* r = a + s ab + t ac */
     if (d1 <= 0 && d2 <= 0) goto done; /* vertex a */
     double bp[3], cp[3];
     for (int k = 0; k < 3; k++) bp[k] = p[k] - b[k], cp[k] = p[k] - c[k];
@@ -81,8 +81,8 @@ typedef struct sdf_work {
     const uint32_t *T; /* (ntri x 3) */
     double o[3], h;    /* grid origin and spacing */
     int n[3];
-    float *d;          /* (nodes) unsigned distance, m */
-    int32_t *tri;      /* (nodes) the triangle it is the distance to, -1 none yet */
+    float *d;     /* (nodes) unsigned distance, m */
+    int32_t *tri; /* (nodes) the triangle it is the distance to, -1 none yet */
 } sdf_work;
 
 static inline size_t node_index(const sdf_work *w, int i, int j, int k) {
@@ -148,7 +148,8 @@ static int band_pass(sdf_work *w, size_t ntri, double band, int nt) {
         for (size_t e = start[c]; e < start[c + 1]; e++) {
             int32_t t = list[e];
             tri_range(w, (size_t)t, band, l, u);
-            int i0 = l[0] > c * CHUNK ? l[0] : c * CHUNK, i1 = u[0] < c * CHUNK + CHUNK - 1 ? u[0] : c * CHUNK + CHUNK - 1;
+            int i0 = l[0] > c * CHUNK ? l[0] : c * CHUNK,
+                i1 = u[0] < c * CHUNK + CHUNK - 1 ? u[0] : c * CHUNK + CHUNK - 1;
             for (int i = i0; i <= i1; i++)
                 for (int j = l[1]; j <= u[1]; j++)
                     for (int k = l[2]; k <= u[2]; k++) try_tri(w, node_index(w, i, j, k), i, j, k, t);
@@ -246,8 +247,8 @@ static int sign_pass(sdf_work *w, const double origin[3], const kf_mesh_inside *
     return 0;
 }
 
-int kf_mesh_sdf_build(const kf_mesh *m, const double origin[3], const kf_mesh_sdf_def *def, kf_mesh_sdf *out,
-                      char *err, size_t errlen) {
+int kf_mesh_sdf_build(const kf_mesh *m, const double origin[3], const kf_mesh_sdf_def *def, kf_mesh_sdf *out, char *err,
+                      size_t errlen) {
     double t0 = kf_now_ms();
     memset(out, 0, sizeof *out);
     if (!(def->spacing > 0 && isfinite(def->spacing))) {

@@ -40,8 +40,8 @@ typedef struct kf_mesh_sdf_def {
 kf_mesh_sdf_def kf_default_mesh_sdf_def(void);
 
 typedef struct kf_mesh_sdf {
-    kf_sdf_grid grid; /* ready for kf_collider.sdf (grid.phi = values) */
-    float *values;    /* owned */
+    kf_sdf_grid grid;     /* ready for kf_collider.sdf (grid.phi = values) */
+    float *values;        /* owned */
     double spacing_asked; /* def->spacing; grid.spacing is larger when the grid had to fit max_nodes */
     long inside_tests;    /* Embree inside tests made */
     double seconds;       /* wall time */
@@ -51,14 +51,13 @@ typedef struct kf_mesh_sdf {
  * origin is `origin` (the collider's pivot: grid positions are x - origin).
  * Returns 0, or -1 with "path: reason" (not closed, no triangles, bad def,
  * out of memory). */
-int kf_mesh_sdf_build(const kf_mesh *m, const double origin[3], const kf_mesh_sdf_def *def, kf_mesh_sdf *out,
-                      char *err, size_t errlen);
+int kf_mesh_sdf_build(const kf_mesh *m, const double origin[3], const kf_mesh_sdf_def *def, kf_mesh_sdf *out, char *err,
+                      size_t errlen);
 
 void kf_mesh_sdf_free(kf_mesh_sdf *s);
 
 /* Squared distance from p to the triangle (a, b, c), and the closest point
  * in q (may be NULL). */
-double kf_point_triangle_dist2(const double p[3], const double a[3], const double b[3], const double c[3],
-                               double q[3]);
+double kf_point_triangle_dist2(const double p[3], const double a[3], const double b[3], const double c[3], double q[3]);
 
 #endif

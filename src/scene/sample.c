@@ -103,7 +103,6 @@ static int check_def(const kf_sample_def *d, char *err, size_t errlen) {
 
 /* ---- placement ---------------------------------------------------------------- */
 
-
 int kf_sample_placement(const kf_sample_def *def, const kf_mesh *mesh, double M[12], double lo[3], double hi[3],
                         char *err, size_t errlen) {
     const kf_placement *pl = &def->place;
@@ -123,7 +122,8 @@ int kf_sample_placement(const kf_sample_def *def, const kf_mesh *mesh, double M[
         break;
     case KF_SOURCE_SPHERE:
         for (int i = 0; i < 3; i++) {
-            double e = def->radius * sqrt(A[3 * i] * A[3 * i] + A[3 * i + 1] * A[3 * i + 1] + A[3 * i + 2] * A[3 * i + 2]);
+            double e =
+                def->radius * sqrt(A[3 * i] * A[3 * i] + A[3 * i + 1] * A[3 * i + 1] + A[3 * i + 2] * A[3 * i + 2]);
             blo[i] = -e, bhi[i] = e;
         }
         break;
@@ -149,9 +149,7 @@ int kf_sample_placement(const kf_sample_def *def, const kf_mesh *mesh, double M[
             }
         }
         break;
-    default:
-        snprintf(err, errlen, "sample: unknown shape kind %d", (int)def->kind);
-        return -1;
+    default: snprintf(err, errlen, "sample: unknown shape kind %d", (int)def->kind); return -1;
     }
     double s = 1, t[3];
     if (pl->fit) {
@@ -173,7 +171,8 @@ int kf_sample_placement(const kf_sample_def *def, const kf_mesh *mesh, double M[
         lo[i] = t[i] + s * blo[i];
         hi[i] = t[i] + s * bhi[i];
     }
-    double det = A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) + A[2] * (A[3] * A[7] - A[4] * A[6]);
+    double det =
+        A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) + A[2] * (A[3] * A[7] - A[4] * A[6]);
     if (!(fabs(det) > 0) || !isfinite(det)) {
         snprintf(err, errlen, "sample: the placement is singular (a zero scale?)");
         return -1;
@@ -222,7 +221,7 @@ static inline void lattice_point(const lattice *L, int64_t i, int64_t j, int64_t
 /* the shape's own inside test */
 typedef struct shape_ctx {
     kf_source_kind kind;
-    double inv[9], t[3];   /* world -> local: inv (x - t) */
+    double inv[9], t[3]; /* world -> local: inv (x - t) */
     double half[3], r2, hh;
     const kf_mesh_inside *mesh;
 } shape_ctx;
@@ -382,7 +381,8 @@ int kf_sample_shape(const kf_sample_def *def, kf_points *out, char *err, size_t 
         }
         /* a solid to fill: closed, and bounding its inside once (in the
          * file's coordinates, before it is placed) */
-        if (kf_mesh_check_closed(mesh, err, errlen) || kf_mesh_check_self_intersection(mesh, def->threads, err, errlen)) {
+        if (kf_mesh_check_closed(mesh, err, errlen) ||
+            kf_mesh_check_self_intersection(mesh, def->threads, err, errlen)) {
             kf_mesh_free(&loaded);
             return -1;
         }

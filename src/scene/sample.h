@@ -34,22 +34,22 @@ typedef struct kf_sample_def {
     const char *mesh_path; /* mesh: file to load when mesh is NULL */
     const kf_mesh *mesh;   /* mesh: already loaded (not changed; takes precedence over mesh_path) */
     kf_placement place;
-    double dx;             /* grid spacing, m */
-    int ppc;               /* particles per cell: 1, 8, 27 or 64 (0 = 8) */
-    uint32_t seed;         /* 0 = regular lattice, else jittered with this seed */
-    double velocity[3];    /* v0, m/s */
+    double dx;                  /* grid spacing, m */
+    int ppc;                    /* particles per cell: 1, 8, 27 or 64 (0 = 8) */
+    uint32_t seed;              /* 0 = regular lattice, else jittered with this seed */
+    double velocity[3];         /* v0, m/s */
     double angular_velocity[3]; /* ω, rad/s: v = v0 + ω × (x − centroid of the seeded particles) */
-    int threads;           /* 0 = OpenMP default */
+    int threads;                /* 0 = OpenMP default */
 } kf_sample_def;
 
 /* Zero everything, ppc = 8, scale = 1. */
 kf_sample_def kf_default_sample_def(void);
 
 typedef struct kf_sample_stats {
-    long candidates;   /* lattice points in the shape's bounding box */
-    long tested;       /* mesh inside tests actually made (blocks away from the surface take one) */
+    long candidates; /* lattice points in the shape's bounding box */
+    long tested;     /* mesh inside tests actually made (blocks away from the surface take one) */
     kf_inside_stats inside;
-    double seconds;    /* wall time of kf_sample_shape */
+    double seconds; /* wall time of kf_sample_shape */
 } kf_sample_stats;
 
 typedef struct kf_points {

@@ -23,8 +23,8 @@ void kf_diag_free(kf_diag *d) {
 
 static char *dup_or_null(const char *s) { return s ? strdup(s) : NULL; }
 
-static void diag_vadd(kf_diag *d, kf_severity sev, int order, const char *file, int line, int col,
-                      const char *source, const char *fmt, va_list ap) {
+static void diag_vadd(kf_diag *d, kf_severity sev, int order, const char *file, int line, int col, const char *source,
+                      const char *fmt, va_list ap) {
     if (d->count == d->cap) {
         int cap = d->cap ? 2 * d->cap : 16;
         kf_diag_entry *e = realloc(d->entry, (size_t)cap * sizeof *e);
@@ -48,8 +48,8 @@ static void diag_vadd(kf_diag *d, kf_severity sev, int order, const char *file, 
     else d->warnings++;
 }
 
-void kf_diag_add(kf_diag *d, kf_severity sev, const char *file, int line, int col, const char *source,
-                 const char *fmt, ...) {
+void kf_diag_add(kf_diag *d, kf_severity sev, const char *file, int line, int col, const char *source, const char *fmt,
+                 ...) {
     va_list ap;
     va_start(ap, fmt);
     diag_vadd(d, sev, 0, file, line, col, source, fmt, ap);

@@ -39,8 +39,8 @@ typedef struct kf_diag {
 void kf_diag_init(kf_diag *d);
 void kf_diag_free(kf_diag *d);
 /* Append an entry (file and source are copied; either may be NULL). */
-void kf_diag_add(kf_diag *d, kf_severity sev, const char *file, int line, int col, const char *source,
-                 const char *fmt, ...) __attribute__((format(printf, 7, 8)));
+void kf_diag_add(kf_diag *d, kf_severity sev, const char *file, int line, int col, const char *source, const char *fmt,
+                 ...) __attribute__((format(printf, 7, 8)));
 /* Order entries by input, line, column (stable). */
 void kf_diag_sort(kf_diag *d);
 /* `file:line:col: error: message`, then the line echoed with a caret under

@@ -14,13 +14,13 @@
  * line and column; a command-line string reports `--set:N:col` where N is
  * which --set and col counts from the start of the whole override. */
 typedef struct kf_src {
-    char *file;   /* the name printed */
-    char *text;   /* the text parsed (owned) */
+    char *file; /* the name printed */
+    char *text; /* the text parsed (owned) */
     size_t len;
-    int line;     /* > 0: every node of this input reports this line */
-    int col0;     /* added to columns (an override: the length of "path=") */
-    char *echo;   /* with line > 0: the text echoed under the message */
-    int order;    /* diagnostics sort by input: 0 the file, then the command line */
+    int line;   /* > 0: every node of this input reports this line */
+    int col0;   /* added to columns (an override: the length of "path=") */
+    char *echo; /* with line > 0: the text echoed under the message */
+    int order;  /* diagnostics sort by input: 0 the file, then the command line */
 } kf_src;
 
 typedef struct kf_srcs {
@@ -37,9 +37,9 @@ typedef enum ky_kind { KY_SCALAR, KY_MAP, KY_SEQ } ky_kind;
 
 typedef struct ky_node {
     ky_kind kind;
-    int src, line, col; /* input, and 1-based position in it */
-    char *text;         /* scalar: the value (unescaped, NUL-terminated) */
-    int quoted;         /* scalar: written in quotes (so never a number) */
+    int src, line, col;    /* input, and 1-based position in it */
+    char *text;            /* scalar: the value (unescaped, NUL-terminated) */
+    int quoted;            /* scalar: written in quotes (so never a number) */
     struct ky_node **item; /* seq: n items; map: n pairs as key, value, key, value, ... */
     int n, cap;
 } ky_node;
@@ -69,7 +69,7 @@ void kf_report(kf_diag *d, const kf_srcs *srcs, int src, int line, int col, kf_s
  * (the text is in buf, or the input's own echo). */
 const char *kf_locate(const kf_srcs *srcs, int src, int line, int col, const char **file, int *pline, int *pcol,
                       char *buf, size_t n);
-#define kf_report_at(d, srcs, node, sev, ...) \
+#define kf_report_at(d, srcs, node, sev, ...)                                                                          \
     kf_report((d), (srcs), (node)->src, (node)->line, (node)->col, (sev), __VA_ARGS__)
 
 /* Damerau–Levenshtein (optimal string alignment) distance, case-insensitive. */
@@ -95,7 +95,16 @@ typedef enum kf_ktype {
 } kf_ktype;
 
 /* which struct a key's offset is into */
-typedef enum kf_scope { KS_TOP = 0, KS_MATERIAL, KS_OBJECT, KS_COLLIDER, KS_KEY, KS_RIGID, KS_JOINT, KS_COUNT } kf_scope;
+typedef enum kf_scope {
+    KS_TOP = 0,
+    KS_MATERIAL,
+    KS_OBJECT,
+    KS_COLLIDER,
+    KS_KEY,
+    KS_RIGID,
+    KS_JOINT,
+    KS_COUNT
+} kf_scope;
 
 enum {
     KB_LO = 1,      /* has a lower bound */
@@ -115,11 +124,11 @@ enum {
 };
 
 typedef struct kf_keydef {
-    const char *path;    /* "sim.dx", "materials.*.E", "objects[].fit.size" */
+    const char *path; /* "sim.dx", "materials.*.E", "objects[].fit.size" */
     kf_ktype type;
-    kf_scope scope;      /* leaves: the struct written; DICT, LIST: the scope of their entries */
-    size_t off, size;    /* the field in that struct */
-    unsigned bounds;     /* KB_* */
+    kf_scope scope;   /* leaves: the struct written; DICT, LIST: the scope of their entries */
+    size_t off, size; /* the field in that struct */
+    unsigned bounds;  /* KB_* */
     double lo, hi;
     const char *choices; /* KT_ENUM, KT_INT: "a|b|c" */
     const char *def;     /* default, parsed like input; "(text)" = computed, described; NULL = none */
@@ -132,7 +141,7 @@ typedef struct kf_keydef {
 /* the structs the table's offsets point into, beyond the public ones */
 typedef struct kf_top {
     kf_shot s;
-    int walls; /* index into domain.walls' choices: none, sticky, slip, separate */
+    int walls;   /* index into domain.walls' choices: none, sticky, slip, separate */
     int contact; /* index into sim.contact's choices: on, off, auto */
 } kf_top;
 
@@ -171,8 +180,7 @@ const char *kf_key_choice(const kf_keydef *k, int i, char *buf, size_t n);
 
 /* Convert node into the key's field at base + off. `what` names the value
  * in messages (e.g. "objects[1].radius"). Returns 0, or -1 after reporting. */
-int kf_key_set(const kf_keydef *k, const ky_node *node, void *base, const char *what, kf_diag *d,
-               const kf_srcs *srcs);
+int kf_key_set(const kf_keydef *k, const ky_node *node, void *base, const char *what, kf_diag *d, const kf_srcs *srcs);
 /* Write a key's default into base (nothing for computed or no default).
  * Returns -1 if the default does not satisfy the key (a table bug). */
 int kf_key_default(const kf_keydef *k, void *base);

@@ -96,7 +96,11 @@ static void choices_text(const kf_keydef *k, char *out, size_t n) {
     out[0] = '\0';
     for (int i = 0; i < count; i++) {
         size_t l = strlen(out);
-        snprintf(out + l, n - l, "%s%s", i == 0 ? "" : i == count - 1 ? " or " : ", ", kf_key_choice(k, i, buf, sizeof buf));
+        snprintf(out + l, n - l, "%s%s",
+                 i == 0           ? ""
+                 : i == count - 1 ? " or "
+                                  : ", ",
+                 kf_key_choice(k, i, buf, sizeof buf));
     }
 }
 
@@ -178,8 +182,10 @@ static int number_at(const kf_keydef *k, const ky_node *n, const char *what, int
         int quoted_number = n->kind == KY_SCALAR && n->quoted && !parse_number(n->text, out);
         describe(n, got, sizeof got);
         kf_report_at(d, srcs, n, KF_DIAG_ERROR, "%s%s: expected %s, got %s%s", what, ax,
-                     whole ? "a whole number" : (k->flags & KF_AUTO) ? "auto or a number" : "a number", got,
-                     quoted_number ? " (drop the quotes)" : "");
+                     whole                  ? "a whole number"
+                     : (k->flags & KF_AUTO) ? "auto or a number"
+                                            : "a number",
+                     got, quoted_number ? " (drop the quotes)" : "");
         return -1;
     }
     if (k->choices) {
@@ -216,8 +222,8 @@ static int string_at(const kf_keydef *k, const ky_node *n, const char *what, cha
     if (k->flags & KF_IDENT) {
         for (const char *p = n->text; *p; p++)
             if (!isalnum((unsigned char)*p) && *p != '_' && *p != '-') {
-                kf_report_at(d, srcs, n, KF_DIAG_ERROR, "%s '%s': a name holds only letters, digits, '_' and '-'",
-                             what, n->text);
+                kf_report_at(d, srcs, n, KF_DIAG_ERROR, "%s '%s': a name holds only letters, digits, '_' and '-'", what,
+                             n->text);
                 return -1;
             }
     }
@@ -233,8 +239,7 @@ static int string_at(const kf_keydef *k, const ky_node *n, const char *what, cha
     return 0;
 }
 
-int kf_key_set(const kf_keydef *k, const ky_node *n, void *base, const char *what, kf_diag *d,
-               const kf_srcs *srcs) {
+int kf_key_set(const kf_keydef *k, const ky_node *n, void *base, const char *what, kf_diag *d, const kf_srcs *srcs) {
     char *dst = (char *)base + k->off;
     char got[96], list[256];
     double v;

@@ -121,7 +121,8 @@ static int walk(const kf_shot *shot, const char *prefix, const char *name, const
         kf_key_bounds_text(k, v.bounds, sizeof v.bounds);
         if (!strcmp(k->path, "domain.walls"))
             snprintf(v.value, sizeof v.value, "%s",
-                     !shot->sim.walls ? "none" : (const char *[]){"sticky", "slip", "separate"}[shot->sim.wall_boundary]);
+                     !shot->sim.walls ? "none"
+                                      : (const char *[]){"sticky", "slip", "separate"}[shot->sim.wall_boundary]);
         else if (k->off + k->size <= base_size) value_text(k, base, v.value, sizeof v.value);
         /* a camera or pivot left out is computed: no value of its own to show */
         if ((!strcmp(k->path, "render.eye") && !shot->render_eye_set) ||

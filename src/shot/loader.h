@@ -13,15 +13,15 @@
 typedef struct inst {
     kf_scope scope;
     void *base;
-    char prefix[32];        /* table path of its keys: "", "materials.*", "objects[]" */
-    char label[96];         /* in messages: "", "materials.jelly", "objects[1]" */
-    const ky_node *map;     /* its mapping */
-    const ky_node *name;    /* materials: the name key */
-    const ky_node **at;     /* (kf_nkeys) the value node of each key given */
-    const ky_node **keyat;  /* (kf_nkeys) its key node */
-    unsigned char *ok;      /* (kf_nkeys) 1 = given and valid */
-    int parent;             /* keys: the collider's instance */
-    int errors;             /* errors in its own keys */
+    char prefix[32];       /* table path of its keys: "", "materials.*", "objects[]" */
+    char label[96];        /* in messages: "", "materials.jelly", "objects[1]" */
+    const ky_node *map;    /* its mapping */
+    const ky_node *name;   /* materials: the name key */
+    const ky_node **at;    /* (kf_nkeys) the value node of each key given */
+    const ky_node **keyat; /* (kf_nkeys) its key node */
+    unsigned char *ok;     /* (kf_nkeys) 1 = given and valid */
+    int parent;            /* keys: the collider's instance */
+    int errors;            /* errors in its own keys */
 } inst;
 
 typedef struct loader {
@@ -33,7 +33,9 @@ typedef struct loader {
 } loader;
 
 /* a key that holds a value (not a section, dict or list) */
-static inline int is_leaf(const kf_keydef *k) { return k->type != KT_SECTION && k->type != KT_DICT && k->type != KT_LIST; }
+static inline int is_leaf(const kf_keydef *k) {
+    return k->type != KT_SECTION && k->type != KT_DICT && k->type != KT_LIST;
+}
 
 /* ---- the walk (walk.c) ---------------------------------------------------------- */
 

@@ -109,8 +109,8 @@ int kf_override_apply(ky_doc *doc, ky_node *root, kf_srcs *srcs, const char *tex
             int ce = kf_key_find(child_tp);
             if (!next || ky_is_null(next)) {
                 if (ce >= 0 && kf_keys[ce].type == KT_LIST) {
-                    kf_report(d, srcs, psrc, 1, off + len + 2, KF_DIAG_ERROR, "%s%s%s has no items to set",
-                              where, where[0] ? "." : "", seg);
+                    kf_report(d, srcs, psrc, 1, off + len + 2, KF_DIAG_ERROR, "%s%s%s has no items to set", where,
+                              where[0] ? "." : "", seg);
                     return -1;
                 }
                 next = ky_new(doc, KY_MAP, psrc, 1, col);
@@ -187,12 +187,13 @@ int kf_frames_parse(const char *text, kf_srcs *srcs, int start, int end, int *fi
         return -1;
     }
     if (a < start || a > end) {
-        kf_report(d, srcs, src, 1, 1, KF_DIAG_ERROR, "--frames: frame %ld is outside the shot's frames %d-%d", a,
-                  start, end);
+        kf_report(d, srcs, src, 1, 1, KF_DIAG_ERROR, "--frames: frame %ld is outside the shot's frames %d-%d", a, start,
+                  end);
         return -1;
     }
     if (b > end) {
-        kf_report(d, srcs, src, 1, bcol, KF_DIAG_ERROR, "--frames: frame %ld is after the shot's last frame %d", b, end);
+        kf_report(d, srcs, src, 1, bcol, KF_DIAG_ERROR, "--frames: frame %ld is after the shot's last frame %d", b,
+                  end);
         return -1;
     }
     *first = (int)a;
@@ -206,14 +207,14 @@ int kf_frames_parse(const char *text, kf_srcs *srcs, int start, int end, int *fi
 static int tmpl_run(const char *t, const kf_shot *s, int frame, char *out, size_t outlen, int *at, char *msg,
                     size_t msglen) {
     size_t o = 0;
-#define PUT(str)                                                                                    \
-    do {                                                                                            \
-        if (out) {                                                                                  \
-            size_t l_ = strlen(str);                                                                \
-            if (o + l_ >= outlen) return snprintf(msg, msglen, "the expansion is too long"), -1;    \
-            memcpy(out + o, str, l_ + 1);                                                           \
-            o += l_;                                                                                \
-        }                                                                                           \
+#define PUT(str)                                                                                                       \
+    do {                                                                                                               \
+        if (out) {                                                                                                     \
+            size_t l_ = strlen(str);                                                                                   \
+            if (o + l_ >= outlen) return snprintf(msg, msglen, "the expansion is too long"), -1;                       \
+            memcpy(out + o, str, l_ + 1);                                                                              \
+            o += l_;                                                                                                   \
+        }                                                                                                              \
     } while (0)
     for (const char *p = t; *p;) {
         *at = (int)(p - t);
@@ -250,7 +251,8 @@ static int tmpl_run(const char *t, const kf_shot *s, int frame, char *out, size_
             /* capped as it is read: a long run of digits must not overflow (fuzz_shot) */
             for (; isdigit((unsigned char)*q); q++) width = width > 12 ? 13 : width * 10 + (*q - '0');
             if (strcmp(q, "d") != 0 || width > 12)
-                return snprintf(msg, msglen, "bad format '%s' in {%s:...}; write e.g. {%s:04d}", spec, field, field), -1;
+                return snprintf(msg, msglen, "bad format '%s' in {%s:...}; write e.g. {%s:04d}", spec, field, field),
+                       -1;
         }
         char val[80];
         if (is_shot) snprintf(val, sizeof val, "%s", s ? s->name : "");

@@ -63,8 +63,8 @@ void kf_resolve_material(loader *L, inst *I, kf_shot *s, kf_shot_material *out) 
     if (I->at[KK_MATERIALS_FRICTION_ANGLE] && !I->at[KK_MATERIALS_HARDENING]) out->mat.hardening = 0;
     snprintf(out->mat.name, sizeof out->mat.name, "%s", I->name->text);
     out->at = loc_of(L, s, I->name);
-    out->stiffness_at = loc_of(L, s, kf_node_for(I, out->mat.model == KF_MAT_WATER ? KK_MATERIALS_BULK_MODULUS
-                                                                                 : KK_MATERIALS_E));
+    out->stiffness_at =
+        loc_of(L, s, kf_node_for(I, out->mat.model == KF_MAT_WATER ? KK_MATERIALS_BULK_MODULUS : KK_MATERIALS_E));
     if (!based) return;
     ((kf_shot_material *)I->base)->mat.model = out->mat.model; /* what `only: model=...` reads */
     kf_check_presence(L, I);
@@ -87,7 +87,6 @@ static void default_name(char *name, size_t n, const inst *I, kf_key_id shape_ke
     kf_key_choice(k, *(const int *)((const char *)I->base + k->off), shape, sizeof shape);
     snprintf(name, n, "%s%d", shape, index);
 }
-
 
 /* the inverse: degrees about x, y, z of a rotation matrix (any at gimbal lock) */
 static void euler_angles(const double R[9], double deg[3]) {
@@ -122,7 +121,8 @@ static void placement(kf_shot_object *o) {
         double U[9], R[9];
         kf_euler_matrix(o->rotate, U);
         for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) R[3 * i + j] = U[3 * i] * A[j] + U[3 * i + 1] * A[3 + j] + U[3 * i + 2] * A[6 + j];
+            for (int j = 0; j < 3; j++)
+                R[3 * i + j] = U[3 * i] * A[j] + U[3 * i + 1] * A[3 + j] + U[3 * i + 2] * A[6 + j];
         euler_angles(R, p->rotate);
         double sx = o->scale[0], sy = o->scale[1], sz = o->scale[2];
         if (o->axis == 0) p->scale[0] = sy, p->scale[1] = sx, p->scale[2] = sz;
@@ -179,12 +179,15 @@ void kf_resolve_object(loader *L, inst *I, int index, kf_shot *s, kf_shot_object
                 size_t l = strlen(list);
                 snprintf(list + l, sizeof list - l, "%s%s", j ? ", " : "", names[j]);
             }
-            if (near) snprintf(msg, sizeof msg, "%s: material '%s' is not defined (did you mean '%s'?)", I->label,
-                               o->material_name, near);
-            else if (nm) snprintf(msg, sizeof msg, "%s: material '%s' is not defined; materials: %s", I->label,
-                                  o->material_name, list);
-            else snprintf(msg, sizeof msg, "%s: material '%s' is not defined (the shot has no materials:)", I->label,
-                          o->material_name);
+            if (near)
+                snprintf(msg, sizeof msg, "%s: material '%s' is not defined (did you mean '%s'?)", I->label,
+                         o->material_name, near);
+            else if (nm)
+                snprintf(msg, sizeof msg, "%s: material '%s' is not defined; materials: %s", I->label, o->material_name,
+                         list);
+            else
+                snprintf(msg, sizeof msg, "%s: material '%s' is not defined (the shot has no materials:)", I->label,
+                         o->material_name);
             kf_report_inst(L, I, KK_OBJECTS_MATERIAL, KF_DIAG_ERROR, msg);
         }
     }
@@ -320,8 +323,8 @@ void kf_resolve_rigid(loader *L, int ii, int index, kf_shot *s, int times_ok, kf
     }
     if (nk > 0 && (I->at[KK_RIGIDS_VELOCITY] || I->at[KK_RIGIDS_ANGULAR_VELOCITY])) {
         snprintf(msg, sizeof msg, "%s: give velocities or keys, not both (keys define the motion)", I->label);
-        kf_report_inst(L, I, I->at[KK_RIGIDS_VELOCITY] ? KK_RIGIDS_VELOCITY : KK_RIGIDS_ANGULAR_VELOCITY,
-                    KF_DIAG_ERROR, msg);
+        kf_report_inst(L, I, I->at[KK_RIGIDS_VELOCITY] ? KK_RIGIDS_VELOCITY : KK_RIGIDS_ANGULAR_VELOCITY, KF_DIAG_ERROR,
+                       msg);
     }
     if (nk < 2 && I->at[KK_RIGIDS_INTERPOLATION] && r->def.motion == KF_RIGID_KINEMATIC) {
         snprintf(msg, sizeof msg, "%s.interpolation has no effect with %s", I->label,
@@ -349,9 +352,11 @@ static int joint_body(loader *L, inst *I, const kf_shot *s, kf_key_id key, const
             size_t l = strlen(list);
             snprintf(list + l, sizeof list - l, "%s%s", i ? ", " : "", names[i]);
         }
-        if (near) snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined (did you mean '%s'?)", I->label, name, near);
-        else if (n) snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined; rigid bodies: %s%s", I->label, name,
-                             list, world_ok ? " (or world)" : "");
+        if (near)
+            snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined (did you mean '%s'?)", I->label, name, near);
+        else if (n)
+            snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined; rigid bodies: %s%s", I->label, name, list,
+                     world_ok ? " (or world)" : "");
         else snprintf(msg, sizeof msg, "%s: rigid body '%s' is not defined (the shot has no rigids:)", I->label, name);
         kf_report_inst(L, I, key, KF_DIAG_ERROR, msg);
         return -2;
@@ -389,7 +394,8 @@ void kf_resolve_joint(loader *L, inst *I, int index, kf_shot *s, kf_shot_joint *
                  I->label);
         kf_report_inst(L, I, I->at[KK_JOINTS_KV] ? KK_JOINTS_KV : KK_JOINTS_MOTOR, KF_DIAG_ERROR, msg);
     }
-    double len = sqrt(j->def.axis[0] * j->def.axis[0] + j->def.axis[1] * j->def.axis[1] + j->def.axis[2] * j->def.axis[2]);
+    double len =
+        sqrt(j->def.axis[0] * j->def.axis[0] + j->def.axis[1] * j->def.axis[1] + j->def.axis[2] * j->def.axis[2]);
     if (len > 0)
         for (int k = 0; k < 3; k++) j->def.axis[k] /= len;
 }
@@ -423,7 +429,8 @@ static int has_dotdot(const char *p) {
 static void check_output_paths(loader *L, inst *T, const kf_shot *s) {
     char msg[700];
     if (T->at[KK_OUTPUT_DIR] && T->ok[KK_OUTPUT_DIR] && strspn(s->output_dir, " \t") == strlen(s->output_dir)) {
-        snprintf(msg, sizeof msg, "output.dir is empty: give a directory, relative to where kerf runs (e.g. out/{shot})");
+        snprintf(msg, sizeof msg,
+                 "output.dir is empty: give a directory, relative to where kerf runs (e.g. out/{shot})");
         kf_report_inst(L, T, KK_OUTPUT_DIR, KF_DIAG_ERROR, msg);
     }
     if (T->at[KK_OUTPUT_NAME] && T->ok[KK_OUTPUT_NAME] && has_dotdot(s->output_name)) {
@@ -449,7 +456,8 @@ void kf_resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
     }
     int sk = KK_FRAMES_START, ek = KK_FRAMES_END;
     if (T->at[ek] && T->ok[ek] && (!T->at[sk] || T->ok[sk]) && s->frame_end < s->frame_start) {
-        snprintf(msg, sizeof msg, "frames.end must not be before frames.start (%d), got %d", s->frame_start, s->frame_end);
+        snprintf(msg, sizeof msg, "frames.end must not be before frames.start (%d), got %d", s->frame_start,
+                 s->frame_end);
         kf_report_inst(L, T, KK_FRAMES_END, KF_DIAG_ERROR, msg);
     }
     /* a camera must look somewhere: eye and target may not coincide */
@@ -458,7 +466,8 @@ void kf_resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
     s->render_target_set = T->at[tk] != NULL;
     if (s->render_eye_set && T->ok[ek2] && (!s->render_target_set || T->ok[tk])) {
         double d2 = 0;
-        for (int a = 0; a < 3; a++) d2 += (s->render_eye[a] - s->render_target[a]) * (s->render_eye[a] - s->render_target[a]);
+        for (int a = 0; a < 3; a++)
+            d2 += (s->render_eye[a] - s->render_target[a]) * (s->render_eye[a] - s->render_target[a]);
         if (s->render_target_set && !(d2 > 1e-12)) {
             snprintf(msg, sizeof msg, "render.eye is at render.target (%g, %g, %g): the camera looks nowhere",
                      s->render_eye[0], s->render_eye[1], s->render_eye[2]);
@@ -497,7 +506,8 @@ void kf_resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
         s->ncamera_keys++;
     }
     if (s->ncamera_keys && (s->render_eye_set || s->render_target_set)) {
-        snprintf(msg, sizeof msg, "give render.eye/render.target or render.camera_keys, not both (keys move the camera)");
+        snprintf(msg, sizeof msg,
+                 "give render.eye/render.target or render.camera_keys, not both (keys move the camera)");
         kf_report_inst(L, T, s->render_eye_set ? KK_RENDER_EYE : KK_RENDER_TARGET, KF_DIAG_ERROR, msg);
     }
     if (T->at[KK_OUTPUT_IMAGES] && s->output_images && !s->output_surface) {
@@ -509,7 +519,7 @@ void kf_resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
         for (int a = 0; a < 3; a++)
             if (!(s->sim.domain_max[a] > s->sim.domain_min[a])) {
                 snprintf(msg, sizeof msg, "domain.max must be above domain.min on every axis (%c: %g <= %g)", "xyz"[a],
-                         s->sim.domain_max[a], s->sim.domain_min[a]);
+                         s -> sim.domain_max[a], s->sim.domain_min[a]);
                 kf_report_inst(L, T, T->at[xk] ? KK_DOMAIN_MAX : KK_DOMAIN_MIN, KF_DIAG_ERROR, msg);
                 break;
             }
@@ -517,7 +527,8 @@ void kf_resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
     s->sim.wall_boundary = t->walls ? (kf_boundary)(t->walls - 1) : KF_BOUNDARY_SEPARATE;
     s->ppc_axis = (int)lround(cbrt((double)s->ppc));
     if (!strstr(s->output_name, "{frame")) {
-        snprintf(msg, sizeof msg, "output.name must contain {frame} (or {frame:04d}) so frames do not overwrite each other");
+        snprintf(msg, sizeof msg,
+                 "output.name must contain {frame} (or {frame:04d}) so frames do not overwrite each other");
         kf_report_inst(L, T, KK_OUTPUT_NAME, KF_DIAG_ERROR, msg);
     }
     check_output_paths(L, T, s);

@@ -90,7 +90,8 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
     size_t len = 0;
     char *text = read_file(path, &len);
     if (!s || !text) {
-        kf_diag_add(d, KF_DIAG_ERROR, path, 0, 0, NULL, "cannot read the shot file: %s", strerror(errno ? errno : ENOMEM));
+        kf_diag_add(d, KF_DIAG_ERROR, path, 0, 0, NULL, "cannot read the shot file: %s",
+                    strerror(errno ? errno : ENOMEM));
         free(text);
         goto done;
     }
@@ -167,7 +168,8 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
         if (L.v[i].scope == KS_RIGID && r++ == KF_MAX_RIGIDS)
             kf_report_at(d, &L.srcs, L.v[i].map, KF_DIAG_ERROR,
                          "%s: too many rigid bodies: %d (at most %d: a grid node holds 2 bits per body in one 32-bit "
-                         "word)", L.v[i].label, nr, KF_MAX_RIGIDS);
+                         "word)",
+                         L.v[i].label, nr, KF_MAX_RIGIDS);
     if (nj > KF_MAX_JOINTS) kf_report_inst(&L, T, KK_JOINTS, KF_DIAG_ERROR, "too many joints (at most 32)");
     kf_check_unique(&L, KS_OBJECT, KK_OBJECTS_NAME, s->objects[0].name, sizeof *s->objects, no);
     /* sim.contact auto: on where objects can touch each other, or a thin

@@ -53,18 +53,18 @@ typedef enum kf_quality {
 /* Where a value was written, so a later stage (the builder loading a mesh)
  * can report at it with kf_shot_report. Strings are owned by the kf_shot. */
 typedef struct kf_loc {
-    const char *file;   /* NULL: unknown */
+    const char *file; /* NULL: unknown */
     int line, col;
     const char *source; /* the line's text, or NULL */
 } kf_loc;
 
 typedef struct kf_shot_material {
-    kf_material mat;  /* ready for kf_model_add_material; mat.name is the shot's name for it */
-    char preset[32];  /* the preset it started from, "" when none */
-    double color[3];  /* sRGB render colour; negative: by kind (unset) */
+    kf_material mat;            /* ready for kf_model_add_material; mat.name is the shot's name for it */
+    char preset[32];            /* the preset it started from, "" when none */
+    double color[3];            /* sRGB render colour; negative: by kind (unset) */
     double specular, roughness; /* render shading, [0, 1]; negative: by kind (unset) */
-    kf_loc at;        /* its name under materials: */
-    kf_loc stiffness_at; /* its E (water: bulk_modulus) where given, else its name: the budget points here */
+    kf_loc at;                  /* its name under materials: */
+    kf_loc stiffness_at;        /* its E (water: bulk_modulus) where given, else its name: the budget points here */
 } kf_shot_material;
 
 /* An object is filled with particles at t = 0. `place` is ready for the
@@ -77,25 +77,25 @@ typedef struct kf_shot_object {
     char name[64];
     kf_source_kind shape;
     char material_name[32];
-    int material;              /* index into kf_shot.materials */
-    double center[3];          /* m; box, sphere, cylinder (a fitted mesh: place.fit_center) */
-    double size[3];            /* box: full edge lengths, m */
-    double radius;             /* sphere, cylinder, m */
-    double height;             /* cylinder, m */
-    int axis;                  /* cylinder: 0 x, 1 y, 2 z */
-    char mesh[256];            /* mesh: the path as written */
-    char mesh_path[1024];      /* mesh: resolved against the shot file's directory (exists) */
-    int fit;                   /* mesh: 1 = fit its bounding box */
-    double fit_center[3];      /* m, as written */
-    double fit_size;           /* m: the largest bounding box extent becomes this */
-    double rotate[3];          /* degrees about x, then y, then z (R = Rz Ry Rx) */
-    double scale[3];           /* factors */
-    double translate[3];       /* m */
-    double velocity[3];        /* m/s, initial */
-    double angular_velocity[3];/* rad/s, initial, about the centroid of its particles */
-    kf_placement place;        /* all of the above as the sampler wants it */
-    kf_loc at;                 /* the object's entry */
-    kf_loc mesh_at;            /* its mesh: value (mesh objects) */
+    int material;               /* index into kf_shot.materials */
+    double center[3];           /* m; box, sphere, cylinder (a fitted mesh: place.fit_center) */
+    double size[3];             /* box: full edge lengths, m */
+    double radius;              /* sphere, cylinder, m */
+    double height;              /* cylinder, m */
+    int axis;                   /* cylinder: 0 x, 1 y, 2 z */
+    char mesh[256];             /* mesh: the path as written */
+    char mesh_path[1024];       /* mesh: resolved against the shot file's directory (exists) */
+    int fit;                    /* mesh: 1 = fit its bounding box */
+    double fit_center[3];       /* m, as written */
+    double fit_size;            /* m: the largest bounding box extent becomes this */
+    double rotate[3];           /* degrees about x, then y, then z (R = Rz Ry Rx) */
+    double scale[3];            /* factors */
+    double translate[3];        /* m */
+    double velocity[3];         /* m/s, initial */
+    double angular_velocity[3]; /* rad/s, initial, about the centroid of its particles */
+    kf_placement place;         /* all of the above as the sampler wants it */
+    kf_loc at;                  /* the object's entry */
+    kf_loc mesh_at;             /* its mesh: value (mesh objects) */
 } kf_shot_object;
 
 /* A collider. Analytic shapes are complete in `col`; a mesh collider also
@@ -105,23 +105,23 @@ typedef struct kf_shot_object {
  * absolute pivot positions (pivot + translate), rotate and scale as written. */
 typedef struct kf_shot_collider {
     char name[64];
-    double color[3];  /* sRGB render colour */
+    double color[3];            /* sRGB render colour */
     double specular, roughness; /* render shading, [0, 1] */
-    kf_collider col;  /* ready for kf_model_add_collider except a mesh's col.sdf: box half = size/2, plane
-                         normal unit, col.rotate the box's rest orientation (a mesh's is in place) */
-    double size[3];   /* box: full edge lengths as written, m */
-    char mesh[256];         /* mesh: the path as written */
-    char mesh_path[1024];   /* mesh: resolved against the shot file's directory (exists) */
-    int fit;                /* mesh: 1 = fit its bounding box */
-    double fit_center[3];   /* m, as written */
-    double fit_size;        /* m */
-    double rotate[3];       /* degrees about x, then y, then z (R = Rz Ry Rx) */
-    double scale[3];        /* mesh: factors */
-    double translate[3];    /* mesh: m */
-    double pivot[3];        /* mesh: m, as written (col.center is the one used) */
-    kf_placement place;     /* mesh: for kf_sample_placement (kind KF_SOURCE_MESH) */
-    kf_loc at;              /* the collider's entry */
-    kf_loc mesh_at;         /* its mesh: value (mesh colliders) */
+    kf_collider col;            /* ready for kf_model_add_collider except a mesh's col.sdf: box half = size/2, plane
+                                   normal unit, col.rotate the box's rest orientation (a mesh's is in place) */
+    double size[3];             /* box: full edge lengths as written, m */
+    char mesh[256];             /* mesh: the path as written */
+    char mesh_path[1024];       /* mesh: resolved against the shot file's directory (exists) */
+    int fit;                    /* mesh: 1 = fit its bounding box */
+    double fit_center[3];       /* m, as written */
+    double fit_size;            /* m */
+    double rotate[3];           /* degrees about x, then y, then z (R = Rz Ry Rx) */
+    double scale[3];            /* mesh: factors */
+    double translate[3];        /* mesh: m */
+    double pivot[3];            /* mesh: m, as written (col.center is the one used) */
+    kf_placement place;         /* mesh: for kf_sample_placement (kind KF_SOURCE_MESH) */
+    kf_loc at;                  /* the collider's entry */
+    kf_loc mesh_at;             /* its mesh: value (mesh colliders) */
 } kf_shot_collider;
 
 /* A rigid body (CPIC). `def` is ready for kf_model_add_rigid except its
@@ -134,88 +134,88 @@ typedef struct kf_shot_collider {
  * frames.start, absolute pivot positions (center + translate), rotate as
  * written, scale 1. */
 typedef struct kf_shot_rigid {
-    kf_rigid_def def;       /* name, thin, motion, pose, keys, velocities, density, boundary, ... */
-    int shape;              /* 0 box, 1 mesh (the order of rigids[].shape's choices) */
-    double size[3];         /* box: edge lengths, m */
-    char mesh[256];         /* mesh: the path as written */
-    char mesh_path[1024];   /* mesh: resolved against the shot file's directory (exists) */
-    double scale[3];        /* mesh: factors about the mesh's origin */
-    double pivot[3];        /* mesh: in the scaled mesh's coordinates, when pivot_set */
+    kf_rigid_def def;     /* name, thin, motion, pose, keys, velocities, density, boundary, ... */
+    int shape;            /* 0 box, 1 mesh (the order of rigids[].shape's choices) */
+    double size[3];       /* box: edge lengths, m */
+    char mesh[256];       /* mesh: the path as written */
+    char mesh_path[1024]; /* mesh: resolved against the shot file's directory (exists) */
+    double scale[3];      /* mesh: factors about the mesh's origin */
+    double pivot[3];      /* mesh: in the scaled mesh's coordinates, when pivot_set */
     int pivot_set;
-    double color[3];        /* sRGB render colour */
-    kf_loc at;              /* the body's entry */
-    kf_loc mesh_at;         /* its mesh: value (mesh bodies) */
+    double color[3]; /* sRGB render colour */
+    kf_loc at;       /* the body's entry */
+    kf_loc mesh_at;  /* its mesh: value (mesh bodies) */
 } kf_shot_rigid;
 
 /* A hinge: def.body_a / body_b are indices into kf_shot.rigids (-1 world),
  * def.axis is unit. */
 typedef struct kf_shot_joint {
     char name[64];
-    int type;               /* 0 hinge */
-    char body[32], to[32];  /* as written ("world" for the world) */
+    int type;              /* 0 hinge */
+    char body[32], to[32]; /* as written ("world" for the world) */
     kf_joint_def def;
     kf_loc at;
 } kf_shot_joint;
 
 typedef struct kf_shot {
-    char name[64];               /* {shot}: `shot:` or the file's stem */
-    int version;                 /* {version} */
-    char path[1024];             /* the shot file as given */
-    char dir[1024];              /* its directory ("." when none); meshes are relative to it */
+    char name[64];   /* {shot}: `shot:` or the file's stem */
+    int version;     /* {version} */
+    char path[1024]; /* the shot file as given */
+    char dir[1024];  /* its directory ("." when none); meshes are relative to it */
 
-    int frame_start, frame_end;  /* the shot's frame range, inclusive */
+    int frame_start, frame_end; /* the shot's frame range, inclusive */
     double fps;
-    int first, last;             /* the frames this run should produce (--frames, else the range) */
+    int first, last; /* the frames this run should produce (--frames, else the range) */
 
     kf_quality quality;
-    double resolution_scale;     /* images: 1 final, 0.5 preview */
+    double resolution_scale; /* images: 1 final, 0.5 preview */
 
-    kf_sim_def sim;              /* dx (quality applied), walls and domain filled */
+    kf_sim_def sim;                               /* dx (quality applied), walls and domain filled */
     kf_loc dx_at, cfl_at, dt_fixed_at, dt_max_at; /* sim.dx, .cfl, .dt_fixed, .dt_max where given (else the
                                                      top of the file): what the budget's messages point at */
-    int ppc;                     /* particles per cell: 1, 8, 27 or 64 */
-    int ppc_axis;                /* its cube root, for kf_state_fill_*() */
-    int jitter;                  /* 1 = jittered lattice */
-    uint32_t seed;               /* jitter seed (>= 1); sampler seed for object i: jitter ? seed + i : 0 */
+    int ppc;                                      /* particles per cell: 1, 8, 27 or 64 */
+    int ppc_axis;                                 /* its cube root, for kf_state_fill_*() */
+    int jitter;                                   /* 1 = jittered lattice */
+    uint32_t seed; /* jitter seed (>= 1); sampler seed for object i: jitter ? seed + i : 0 */
 
     kf_shot_material *materials; /* (nmaterials), in file order */
     int nmaterials;
-    kf_shot_object *objects;     /* (nobjects), in file order */
+    kf_shot_object *objects; /* (nobjects), in file order */
     int nobjects;
     kf_shot_collider *colliders; /* (ncolliders), in file order */
     int ncolliders;
-    kf_shot_rigid *rigids;       /* (nrigids <= KF_MAX_RIGIDS), in file order = model indices */
+    kf_shot_rigid *rigids; /* (nrigids <= KF_MAX_RIGIDS), in file order = model indices */
     int nrigids;
-    kf_shot_joint *joints;       /* (njoints), in file order */
+    kf_shot_joint *joints; /* (njoints), in file order */
     int njoints;
 
-    char output_dir[512];        /* template: {shot}, {version:03d}, {frame:04d} */
-    char output_name[256];       /* template of a frame's file stem (no extension) */
-    int output_particles;        /* write particles each frame */
-    int output_checkpoints;      /* write checkpoints each frame */
-    int output_surface;          /* surface each frame to .vdb */
-    int output_images;           /* render each frame to .png */
-    int output_points;           /* particles as OpenVDB points each frame */
+    char output_dir[512];   /* template: {shot}, {version:03d}, {frame:04d} */
+    char output_name[256];  /* template of a frame's file stem (no extension) */
+    int output_particles;   /* write particles each frame */
+    int output_checkpoints; /* write checkpoints each frame */
+    int output_surface;     /* surface each frame to .vdb */
+    int output_images;      /* render each frame to .png */
+    int output_points;      /* particles as OpenVDB points each frame */
 
-    double surface_voxel;            /* particle spacings */
-    double surface_radius;           /* particle spacings */
-    int surface_smooth;              /* 0 none, 1 mean curvature, 2 gaussian, 3 laplacian */
+    double surface_voxel;  /* particle spacings */
+    double surface_radius; /* particle spacings */
+    int surface_smooth;    /* 0 none, 1 mean curvature, 2 gaussian, 3 laplacian */
     int surface_iterations;
-    double surface_average;          /* 0..1: centre smoothing weight (Yu & Turk) */
-    double surface_average_radius;   /* particle spacings */
+    double surface_average;               /* 0..1: centre smoothing weight (Yu & Turk) */
+    double surface_average_radius;        /* particle spacings */
     double surface_dilate, surface_erode; /* m; erode < 0: automatic */
-    int surface_group;               /* 0: a level set per material, 1: per object */
-    int surface_quality;             /* 0 final, 1 preview (preset applied to the fields above) */
+    int surface_group;                    /* 0: a level set per material, 1: per object */
+    int surface_quality;                  /* 0 final, 1 preview (preset applied to the fields above) */
 
-    int render_width, render_height; /* pixels, quality applied */
-    int render_samples;              /* anti-aliasing samples (1 in preview) */
-    int render_quality;              /* 0 final, 1 preview (preset applied) */
-    int render_shadow;               /* shadow map texels a side; 0: automatic */
+    int render_width, render_height;        /* pixels, quality applied */
+    int render_samples;                     /* anti-aliasing samples (1 in preview) */
+    int render_quality;                     /* 0 final, 1 preview (preset applied) */
+    int render_shadow;                      /* shadow map texels a side; 0: automatic */
     double render_eye[3], render_target[3]; /* m, when render_eye_set / render_target_set */
     int render_eye_set, render_target_set;
-    double render_fov;               /* vertical, degrees */
-    int render_interp;               /* camera keys: 0 linear, 1 smooth */
-    int ncamera_keys;                /* render.keys, frames increasing */
+    double render_fov; /* vertical, degrees */
+    int render_interp; /* camera keys: 0 linear, 1 smooth */
+    int ncamera_keys;  /* render.keys, frames increasing */
     struct {
         double frame, eye[3], target[3], fov; /* fov 0: render_fov */
     } camera_keys[KF_MAX_KEYS];
@@ -226,7 +226,7 @@ typedef struct kf_shot {
     } lights[3];
     int render_ground;
 
-    char **strings;              /* (nstrings) owned by the shot: the text kf_loc points to */
+    char **strings; /* (nstrings) owned by the shot: the text kf_loc points to */
     int nstrings;
 } kf_shot;
 

@@ -11,8 +11,8 @@
 
 /* ---- instances: one per struct the walk fills ------------------------------------ */
 
-static const size_t scope_size[KS_COUNT] = {sizeof(kf_top), sizeof(kf_shot_material), sizeof(kf_shot_object),
-                                            sizeof(kf_shot_collider), sizeof(kf_rawkey), sizeof(kf_shot_rigid),
+static const size_t scope_size[KS_COUNT] = {sizeof(kf_top),           sizeof(kf_shot_material), sizeof(kf_shot_object),
+                                            sizeof(kf_shot_collider), sizeof(kf_rawkey),        sizeof(kf_shot_rigid),
                                             sizeof(kf_shot_joint)};
 
 int kf_inst_new(loader *L, kf_scope scope, const char *prefix, const char *label, const ky_node *map, int parent) {
@@ -56,7 +56,6 @@ static void what_of(const inst *I, const kf_keydef *k, char *out, size_t n) {
 }
 
 /* ---- the walk -------------------------------------------------------------------- */
-
 
 static void unknown_key(loader *L, const ky_node *key, const char *prefix, const char *where) {
     const char *cand[64];
@@ -241,8 +240,8 @@ void kf_check_presence(loader *L, inst *I) {
         if (I->at[e] && holds == 0) {
             const char *opts = strchr(k->only, '=') + 1;
             if (k->flags & KF_SOFT)
-                kf_report_at(L->d, &L->srcs, I->keyat[e], KF_DIAG_WARNING,
-                             "%s has no effect with %s %s (only with %s)", what, cond, val, opts);
+                kf_report_at(L->d, &L->srcs, I->keyat[e], KF_DIAG_WARNING, "%s has no effect with %s %s (only with %s)",
+                             what, cond, val, opts);
             else
                 kf_report_at(L->d, &L->srcs, I->keyat[e], KF_DIAG_ERROR, "%s does not apply to %s %s (only to %s)",
                              what, cond, val, opts);

@@ -284,8 +284,7 @@ ky_node *ky_parse(ky_doc *doc, const kf_srcs *srcs, int src, int json, kf_diag *
         char msg[512];
         if (first_error(cap.buf, &line, &col, msg, sizeof msg) == 0)
             kf_report(d, srcs, src, line, col, KF_DIAG_ERROR, "YAML syntax: %s", msg);
-        else
-            kf_report(d, srcs, src, 0, 0, KF_DIAG_ERROR, "YAML syntax error");
+        else kf_report(d, srcs, src, 0, 0, KF_DIAG_ERROR, "YAML syntax error");
         failed = 1;
     }
     for (int i = 0; i < nanchors; i++) free(anchors[i].name);

@@ -6,7 +6,7 @@
 #include <stddef.h>
 
 typedef struct kf_buf {
-    char *s;    /* (len + 1), NUL-terminated; NULL until the first write */
+    char *s; /* (len + 1), NUL-terminated; NULL until the first write */
     size_t len, cap;
     int failed; /* an allocation failed: the text is cut short */
 } kf_buf;

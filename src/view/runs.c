@@ -131,8 +131,10 @@ int kf_view_start_run(kf_view *v, char **sets, int n, kf_buf *out) {
     for (int i = 0; i < v->nruns; i++) live += v->runs[i].pid > 0;
     if (live >= 2 || v->nruns == KF_VIEW_MAX_RUNS) {
         out->len = 0;
-        kf_buf_printf(out, "{\"ok\":false,\"errors\":[{\"set\":-1,\"severity\":\"error\",\"where\":\"\",\"message\":"
-                           "\"%d runs are going already: wait for one to end\"}]}", live);
+        kf_buf_printf(out,
+                      "{\"ok\":false,\"errors\":[{\"set\":-1,\"severity\":\"error\",\"where\":\"\",\"message\":"
+                      "\"%d runs are going already: wait for one to end\"}]}",
+                      live);
         return 409;
     }
     /* a new version: {version} in output.dir when the template has it, else view_NNN under the root */

@@ -96,7 +96,8 @@ static enum MHD_Result send_asset(kf_view *v, struct MHD_Connection *c, const ch
         kf_buf_put(&b, v->token, strlen(v->token));
         size_t rest = (size_t)(at - (const char *)a->data) + strlen(mark);
         kf_buf_put(&b, (const char *)a->data + rest, a->size - rest);
-        enum MHD_Result ok = b.failed ? send_text(c, 500, "out of memory\n") : send_buf(c, 200, type_of(name), b.s, b.len);
+        enum MHD_Result ok =
+            b.failed ? send_text(c, 500, "out of memory\n") : send_buf(c, 200, type_of(name), b.s, b.len);
         kf_buf_free(&b);
         return ok;
     }
@@ -180,7 +181,8 @@ static enum MHD_Result answer(void *cls, struct MHD_Connection *c, const char *u
     }
     if (*upload_size) {
         /* the body, kept up to the limit and drained past it */
-        if (!rq->too_big && rq->body.len + *upload_size <= KF_VIEW_MAX_BODY) kf_buf_put(&rq->body, upload, *upload_size);
+        if (!rq->too_big && rq->body.len + *upload_size <= KF_VIEW_MAX_BODY)
+            kf_buf_put(&rq->body, upload, *upload_size);
         else rq->too_big = 1;
         *upload_size = 0;
         return MHD_YES;
@@ -266,8 +268,10 @@ static int listen_loopback(int port, int *actual, char *err, size_t errlen) {
     if (bind(s, (struct sockaddr *)&a, sizeof a) != 0 || listen(s, 32) != 0) {
         int e = errno;
         if (e == EADDRINUSE)
-            snprintf(err, errlen, "kerf view: 127.0.0.1:%d is in use (another kerf view, or another program); stop "
-                                  "it or choose another port with --port N", port);
+            snprintf(err, errlen,
+                     "kerf view: 127.0.0.1:%d is in use (another kerf view, or another program); stop "
+                     "it or choose another port with --port N",
+                     port);
         else snprintf(err, errlen, "kerf view: cannot listen on 127.0.0.1:%d: %s", port, strerror(e));
         close(s);
         return -1;
@@ -325,15 +329,11 @@ kf_view *kf_view_start(const kf_view_opts *o, kf_diag *diag, int *status, char *
 
     v->sock = listen_loopback(o->port, &v->port, err, errlen);
     if (v->sock < 0) goto fail;
-    v->mhd = MHD_start_daemon(MHD_USE_AUTO_INTERNAL_THREAD, 0, NULL, NULL, answer, v,
-                              MHD_OPTION_LISTEN_SOCKET, v->sock,
-                              MHD_OPTION_CONNECTION_LIMIT, (unsigned)64,
-                              MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)30,
+    v->mhd = MHD_start_daemon(MHD_USE_AUTO_INTERNAL_THREAD, 0, NULL, NULL, answer, v, MHD_OPTION_LISTEN_SOCKET, v->sock,
+                              MHD_OPTION_CONNECTION_LIMIT, (unsigned)64, MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)30,
                               /* headers and URL of one request, all together */
-                              MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)32768,
-                              MHD_OPTION_UNESCAPE_CALLBACK, no_unescape, NULL,
-                              MHD_OPTION_NOTIFY_COMPLETED, completed, NULL,
-                              MHD_OPTION_END);
+                              MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)32768, MHD_OPTION_UNESCAPE_CALLBACK,
+                              no_unescape, NULL, MHD_OPTION_NOTIFY_COMPLETED, completed, NULL, MHD_OPTION_END);
     if (!v->mhd) {
         snprintf(err, errlen, "kerf view: the HTTP server did not start on 127.0.0.1:%d", v->port);
         goto fail;

@@ -155,16 +155,19 @@ void print_profile(FILE *o, const run *r) {
     const double ns = (double)r->substeps, sub_ms = 1e3 * r->cpu_per_frame * FRAMES / ns;
     const kf_imp_profile *p = &r->prof;
     double sum = 0;
-    fprintf(o, "  per substep: %.3f CPU ms; %.2f linearisations, %.2f energies, %.2f Hessian products, "
-                    "%.2f preconditioner applications\n",
+    fprintf(o,
+            "  per substep: %.3f CPU ms; %.2f linearisations, %.2f energies, %.2f Hessian products, "
+            "%.2f preconditioner applications\n",
             sub_ms, p->linearizations / ns, p->energy_evals / ns, p->hessian_products / ns,
             p->precond_applications / ns);
     for (int j = 0; j < KF_IMP_T_COUNT; j++) {
         sum += p->ms[j];
-        fprintf(o, "    %-12s %7.3f ms  %5.1f%%\n", kf_imp_profile_stage(j), p->ms[j] / ns, 100 * p->ms[j] / ns / sub_ms);
+        fprintf(o, "    %-12s %7.3f ms  %5.1f%%\n", kf_imp_profile_stage(j), p->ms[j] / ns,
+                100 * p->ms[j] / ns / sub_ms);
     }
     const char *other[] = {"sort", "p2g", "grid", "g2p", "stress"};
-    fprintf(o, "    %-12s %7.3f ms  %5.1f%%  (implicit grid stage, profiled)\n", "sum", sum / ns, 100 * sum / ns / sub_ms);
+    fprintf(o, "    %-12s %7.3f ms  %5.1f%%  (implicit grid stage, profiled)\n", "sum", sum / ns,
+            100 * sum / ns / sub_ms);
     for (int j = 0; j < 5; j++)
         if (j != KF_STAGE_GRID && j != KF_STAGE_P2G)
             fprintf(o, "    %-12s %7.3f ms  %5.1f%%  (kerf's wall-clock stage timer)\n", other[j], r->other_ms[j] / ns,

@@ -34,18 +34,18 @@ static inline double *traj_frame(double *traj, int f) { return traj + (size_t)f 
 typedef enum integ { EXPLICIT = 0, BACKWARD_EULER = 1, MIDPOINT = 2 } integ;
 
 typedef struct run {
-    double dt;         /* fixed step (0 = CFL) */
+    double dt; /* fixed step (0 = CFL) */
     double cfl;
-    integ implicit;    /* EXPLICIT (0) or the implicit scheme */
+    integ implicit;     /* EXPLICIT (0) or the implicit scheme */
     kf_precond precond; /* implicit: CG's preconditioner */
     int ok;
     double cpu_per_frame;
-    double rms;     /* the error: the largest over the frames of the RMS position difference to the reference */
-    double rms_end; /* the same at the last frame alone (the metric before: it depends on the swing's phase) */
-    double maxerr;  /* the largest position difference of any particle at any frame */
+    double rms;       /* the error: the largest over the frames of the RMS position difference to the reference */
+    double rms_end;   /* the same at the last frame alone (the metric before: it depends on the swing's phase) */
+    double maxerr;    /* the largest position difference of any particle at any frame */
     double solve_rms; /* implicit: RMS position difference to the same step solved to TIGHT_TOL */
     long substeps, newton, krylov;
-    kf_imp_profile prof; /* the implicit solve's stages (g_profile) */
+    kf_imp_profile prof;             /* the implicit solve's stages (g_profile) */
     double other_ms[KF_STAGE_COUNT]; /* kerf's stage timers (wall ms; CPU ms on an idle core) */
 } run;
 

@@ -33,12 +33,12 @@ typedef struct ev_variant {
 
 /* One run: the error against the exact answer and its cost. */
 typedef struct ev_run {
-    double error;   /* relative, problem-specific (see each run function) */
-    double value;   /* the measured quantity (period, ωa/c_p, L2 error) */
-    double cpu_s;   /* process CPU seconds spent inside kf_step */
+    double error; /* relative, problem-specific (see each run function) */
+    double value; /* the measured quantity (period, ωa/c_p, L2 error) */
+    double cpu_s; /* process CPU seconds spent inside kf_step */
     long particles;
     long steps;
-    int ok;         /* 0: numerical trouble or too few zero crossings */
+    int ok; /* 0: numerical trouble or too few zero crossings */
 } ev_run;
 
 static inline double ev_cpu_s(void) {
@@ -306,8 +306,8 @@ static inline ev_mms_field ev_mms_exact(const double X[3], double t, double k, d
 }
 
 /* b_a / ρ at X, t (acceleration from the body force) */
-static inline void ev_mms_body_accel(const double X[3], double t, double k, double w, double mu, double lam,
-                                     double rho, double out[3]) {
+static inline void ev_mms_body_accel(const double X[3], double t, double k, double w, double mu, double lam, double rho,
+                                     double out[3]) {
     double f[3], fp[3], s[3];
     for (int a = 0; a < 3; a++) {
         double ph = w * t + a * 2 * EV_PI / 3;

@@ -18,7 +18,7 @@
 
 typedef struct ev_stab {
     int stable;
-    char why[96];       /* what ended an unstable run */
+    char why[96]; /* what ended an unstable run */
     long steps;
     double energy_ratio; /* largest (K + U) / (K + U)₀ seen */
 } ev_stab;
@@ -133,9 +133,9 @@ static inline double ev_cfl_threshold(kf_kernel kernel, kf_force force, const ch
 typedef struct ev_recovery {
     int rc, rc_ref;
     int retries, retries_ref;
-    double cfl_used;       /* sim.cfl / 2^retries */
-    double max_dx_rel;     /* max |x − x_ref| / Δx over particles */
-    double max_dv_rel;     /* max |v − v_ref| / max |v_ref| */
+    double cfl_used;   /* sim.cfl / 2^retries */
+    double max_dx_rel; /* max |x − x_ref| / Δx over particles */
+    double max_dv_rel; /* max |v − v_ref| / max |v_ref| */
     uint64_t hash, hash_ref;
     char msg[512];
 } ev_recovery;

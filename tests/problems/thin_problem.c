@@ -52,9 +52,9 @@ static void sheet_coords(const sheet *s, const kf_rigid_pose *p, const double x[
 /* the scene of each motion: sheet, material box, keys or spin, substeps */
 typedef struct scene {
     sheet sh;
-    double lo[3], hi[3];      /* material box */
-    double travel;            /* m along the normal (sweeps) or rad (rotate) */
-    double axis_pt[3];        /* rotate: a point on the axis (the pivot) */
+    double lo[3], hi[3]; /* material box */
+    double travel;       /* m along the normal (sweeps) or rad (rotate) */
+    double axis_pt[3];   /* rotate: a point on the axis (the pivot) */
 } scene;
 
 static void build_scene(thin_motion mo, scene *sc) {
@@ -64,7 +64,7 @@ static void build_scene(thin_motion mo, scene *sc) {
         const double lo[3] = {0.35, 0.0, 0.35}, hi[3] = {0.65, 0.12, 0.65};
         memcpy(sc->lo, lo, sizeof lo), memcpy(sc->hi, hi, sizeof hi);
         double u[3] = {0, 1, 0}, v[3] = {0, 0, 1}; /* normal +x */
-        double start = -0.2;                         /* the plane's offset from the bed's centre */
+        double start = -0.2;                       /* the plane's offset from the bed's centre */
         if (mo == THIN_DIAGONAL) {
             const double h = sqrt(0.5);
             v[0] = -h, v[2] = h; /* normal (1, 0, 1)/√2 */
@@ -150,7 +150,8 @@ int thin_run(const thin_case *c, thin_result *r) {
         d.motion = KF_RIGID_STATIC;
         hold_steps = (long)ceil(0.3 / dt);
     }
-    if (kf_model_add_rigid(m, &d, err, sizeof err) < 0) return fprintf(stderr, "thin: %s\n", err), kf_model_destroy(m), -1;
+    if (kf_model_add_rigid(m, &d, err, sizeof err) < 0)
+        return fprintf(stderr, "thin: %s\n", err), kf_model_destroy(m), -1;
     kf_state *s = kf_state_create(m);
     if (!s) return kf_model_destroy(m), -1;
     const double still[3] = {0, 0, 0};

@@ -22,19 +22,19 @@
 typedef enum thin_motion { THIN_SWEEP = 0, THIN_DIAGONAL, THIN_ROTATE, THIN_REST } thin_motion;
 
 typedef struct thin_case {
-    const char *material;  /* a preset: jello, goo, water, sand, snow, metal */
+    const char *material; /* a preset: jello, goo, water, sand, snow, metal */
     thin_motion motion;
-    double cells;          /* the sheet's fastest point, cells per substep */
-    double dx;             /* m */
-    int frames;            /* output frames checked (every frame_substeps substeps) */
+    double cells; /* the sheet's fastest point, cells per substep */
+    double dx;    /* m */
+    int frames;   /* output frames checked (every frame_substeps substeps) */
     int threads;
-    int defaults;          /* 1: the sheet's penalty and push as a shot leaves them (auto); 0: both off */
-    int adaptive;          /* 1: the default CFL rule instead of the fixed step (cells: the body's speed in
-                              cells per rest step, 0.3 dx / c); checked after each rest step's worth */
+    int defaults; /* 1: the sheet's penalty and push as a shot leaves them (auto); 0: both off */
+    int adaptive; /* 1: the default CFL rule instead of the fixed step (cells: the body's speed in
+                     cells per rest step, 0.3 dx / c); checked after each rest step's worth */
 } thin_case;
 
 typedef struct thin_result {
-    int failed;            /* numerical trouble (message in trouble) */
+    int failed; /* numerical trouble (message in trouble) */
     char trouble[320];
     long particles;
     long substeps;

@@ -30,9 +30,9 @@ typedef ev_run (*ev_problem_fn)(double res, const ev_variant *v);
 typedef struct problem {
     const char *name, *title, *res_name, *error_name;
     ev_problem_fn run;
-    double res[5];     /* the Δx sweep (cells per length scale), coarse to fine */
+    double res[5]; /* the Δx sweep (cells per length scale), coarse to fine */
     int nres;
-    double cfl_res;    /* resolution of the CFL sweep */
+    double cfl_res; /* resolution of the CFL sweep */
 } problem;
 
 typedef struct row {
@@ -66,9 +66,11 @@ static void add(const char *sweep, int pi, const problem *p, double res, const e
     char name[64];
     ev_run r = measure(p, res, v);
     rows[nrows++] = (row){sweep, pi, *v, res, r, 0};
-    fprintf(stderr, "  %-4s %-6s %-16s C=%.2f res %6.2f: %8ld particles x %5ld steps, %8.3f s CPU, %6.1f ns/p-step, "
-            "error %.3e%s\n", sweep, p->name, ev_variant_name(v, name, sizeof name), v->cfl, res, r.particles, r.steps,
-            r.cpu_s, 1e9 * r.cpu_s / ((double)r.particles * r.steps), r.error, r.ok ? "" : "  (FAILED)");
+    fprintf(stderr,
+            "  %-4s %-6s %-16s C=%.2f res %6.2f: %8ld particles x %5ld steps, %8.3f s CPU, %6.1f ns/p-step, "
+            "error %.3e%s\n",
+            sweep, p->name, ev_variant_name(v, name, sizeof name), v->cfl, res, r.particles, r.steps, r.cpu_s,
+            1e9 * r.cpu_s / ((double)r.particles * r.steps), r.error, r.ok ? "" : "  (FAILED)");
 }
 
 static int same_variant(const ev_variant *a, const ev_variant *b) {
@@ -144,23 +146,37 @@ int main(int argc, char **argv) {
     }
     problem probs[3] = {
         {"bar", "V4 axial bar: period error", "L/dx", "rel. period error", ev_bar, {12.5, 25, 50, 100}, 4, 25},
-        {"mms", "V5 manufactured solution: RMS displacement error / A after one period", "1/dx", "RMS error / A", ev_mms,
-         {8, 12, 16, 24}, 4, 12},
-        {"sphere", "V6 breathing sphere: frequency error", "a/dx", "rel. frequency error", ev_sphere, {6, 8, 12, 16}, 4, 8},
+        {"mms",
+         "V5 manufactured solution: RMS displacement error / A after one period",
+         "1/dx",
+         "RMS error / A",
+         ev_mms,
+         {8, 12, 16, 24},
+         4,
+         12},
+        {"sphere",
+         "V6 breathing sphere: frequency error",
+         "a/dx",
+         "rel. frequency error",
+         ev_sphere,
+         {6, 8, 12, 16},
+         4,
+         8},
     };
     if (quick)
         for (int p = 0; p < 3; p++) probs[p].nres = 2;
     /* the variants of the Δx sweep: kernel x force at 8 particles per cell,
      * and 27 per cell for the MLS force of each kernel */
     const ev_variant variants[] = {
-        {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0.3, 1},     {KF_KERNEL_QUADRATIC, KF_FORCE_CLASSIC, 2, 0.3, 1},
-        {KF_KERNEL_CUBIC, KF_FORCE_MLS, 2, 0.3, 1},         {KF_KERNEL_CUBIC, KF_FORCE_CLASSIC, 2, 0.3, 1},
-        {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 3, 0.3, 1},     {KF_KERNEL_CUBIC, KF_FORCE_MLS, 3, 0.3, 1},
+        {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0.3, 1}, {KF_KERNEL_QUADRATIC, KF_FORCE_CLASSIC, 2, 0.3, 1},
+        {KF_KERNEL_CUBIC, KF_FORCE_MLS, 2, 0.3, 1},     {KF_KERNEL_CUBIC, KF_FORCE_CLASSIC, 2, 0.3, 1},
+        {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 3, 0.3, 1}, {KF_KERNEL_CUBIC, KF_FORCE_MLS, 3, 0.3, 1},
     };
     const int nvar = quick ? 2 : (int)(sizeof variants / sizeof *variants);
     const double cfls[] = {0.05, 0.1, 0.2, 0.3, 0.4, 0.6, 0.8};
     const int ncfl = quick ? 2 : 7;
-    const ev_variant cfl_variants[] = {{KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0, 1}, {KF_KERNEL_CUBIC, KF_FORCE_MLS, 2, 0, 1}};
+    const ev_variant cfl_variants[] = {{KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0, 1},
+                                       {KF_KERNEL_CUBIC, KF_FORCE_MLS, 2, 0, 1}};
 
     const char *const pnames[3] = {probs[0].name, probs[1].name, probs[2].name};
     if (tables_only && read_csv(dir, pnames)) {
@@ -198,9 +214,10 @@ int main(int argc, char **argv) {
         double dx = w->problem == 0 ? EV_BAR_L / w->res : 1.0 / w->res;
         fprintf(csv, "%s,%s,%s,%s,%s,%d,%.3f,%.2f,%.6g,%ld,%ld,%.4f,%.2f,%.6e,%.8g,%d,%d\n", w->sweep,
                 probs[w->problem].name, ev_variant_name(&w->v, name, sizeof name),
-                w->v.kernel == KF_KERNEL_CUBIC ? "cubic" : "quadratic", w->v.force == KF_FORCE_CLASSIC ? "classic" : "mls",
-                w->v.ppc * w->v.ppc * w->v.ppc, w->v.cfl, w->res, dx, w->r.particles, w->r.steps, w->r.cpu_s,
-                1e9 * w->r.cpu_s / ((double)w->r.particles * w->r.steps), w->r.error, w->r.value, w->r.ok, w->pareto);
+                w->v.kernel == KF_KERNEL_CUBIC ? "cubic" : "quadratic",
+                w->v.force == KF_FORCE_CLASSIC ? "classic" : "mls", w->v.ppc * w->v.ppc * w->v.ppc, w->v.cfl, w->res,
+                dx, w->r.particles, w->r.steps, w->r.cpu_s, 1e9 * w->r.cpu_s / ((double)w->r.particles * w->r.steps),
+                w->r.error, w->r.value, w->r.ok, w->pareto);
     }
     fclose(csv);
 
@@ -212,15 +229,18 @@ int main(int argc, char **argv) {
         const problem *pr = &probs[p];
         fprintf(md, "### %s\n\nΔx sweep at CFL 0.3 (%s = ", pr->title, pr->res_name);
         for (int k = 0; k < pr->nres; k++) fprintf(md, "%s%g", k ? ", " : "", pr->res[k]);
-        fprintf(md, "):\n\n| variant | %s | particles | steps | CPU s | ns/p-step | %s | |\n|---|---|---|---|---|---|---|---|\n",
+        fprintf(md,
+                "):\n\n| variant | %s | particles | steps | CPU s | ns/p-step | %s | "
+                "|\n|---|---|---|---|---|---|---|---|\n",
                 pr->res_name, pr->error_name);
         for (int i = 0; i < nrows; i++) {
             const row *w = &rows[i];
             char name[64];
             if (w->problem != p || strcmp(w->sweep, "dx")) continue;
-            fprintf(md, "| %s | %g | %ld | %ld | %.3f | %.0f | %s%.3e | %s |\n", ev_variant_name(&w->v, name, sizeof name),
-                    w->res, w->r.particles, w->r.steps, w->r.cpu_s, 1e9 * w->r.cpu_s / ((double)w->r.particles * w->r.steps),
-                    w->r.ok ? "" : "FAILED ", w->r.error, w->pareto ? "★" : "");
+            fprintf(md, "| %s | %g | %ld | %ld | %.3f | %.0f | %s%.3e | %s |\n",
+                    ev_variant_name(&w->v, name, sizeof name), w->res, w->r.particles, w->r.steps, w->r.cpu_s,
+                    1e9 * w->r.cpu_s / ((double)w->r.particles * w->r.steps), w->r.ok ? "" : "FAILED ", w->r.error,
+                    w->pareto ? "★" : "");
         }
         /* fitted orders, and the per-variant plot files */
         fprintf(md, "\n| variant | fitted order | order, finest pair |\n|---|---|---|\n");
@@ -247,8 +267,9 @@ int main(int argc, char **argv) {
             snprintf(file, sizeof file, "fit_%s_%s.dat", pr->name, name);
             f = open_out(dir, file);
             fprintf(f, "\"dx\" \"fit\"\n");
-            if (n >= 2) fprintf(f, "%.6g %.6e\n%.6g %.6e\n", dx[0], exp(logc + order * log(dx[0])), dx[n - 1],
-                                exp(logc + order * log(dx[n - 1])));
+            if (n >= 2)
+                fprintf(f, "%.6g %.6e\n%.6g %.6e\n", dx[0], exp(logc + order * log(dx[0])), dx[n - 1],
+                        exp(logc + order * log(dx[n - 1])));
             fclose(f);
             snprintf(file, sizeof file, "cost_%s_%s.dat", pr->name, name);
             f = open_out(dir, file);
@@ -294,7 +315,9 @@ int main(int argc, char **argv) {
         }
         fclose(f);
         /* the cheapest run that meets each error budget */
-        fprintf(md, "\nCheapest run meeting an error budget:\n\n| budget | variant | CFL | %s | CPU s |\n|---|---|---|---|---|\n",
+        fprintf(md,
+                "\nCheapest run meeting an error budget:\n\n| budget | variant | CFL | %s | CPU s "
+                "|\n|---|---|---|---|---|\n",
                 pr->res_name);
         const double budgets[] = {3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5};
         for (int b = 0; b < 7; b++) {

@@ -118,9 +118,10 @@ int main(int argc, char **argv) {
             for (long i = 0; i < s->n; i++) mx = fmax(mx, s->e[i]);
             fprintf(md, "| %s | %s | %ld | %s%.4f | %.4f | %.4f | %.2f |\n", b ? "colliding balls" : "oscillating cube",
                     k ? "classic" : "MLS", s->n - 1, s->ok ? "" : "FAILED ", s->e[s->n - 1], mx, dmax, s->cpu_s);
-            fprintf(stderr, "  %-16s %-7s %ld steps, E(end)/E0 %.4f, max %.4f, max |MLS - classic| %.4f E0, %.2f s CPU\n",
-                    b ? "colliding balls" : "oscillating cube", k ? "classic" : "MLS", s->n - 1, s->e[s->n - 1], mx, dmax,
-                    s->cpu_s);
+            fprintf(stderr,
+                    "  %-16s %-7s %ld steps, E(end)/E0 %.4f, max %.4f, max |MLS - classic| %.4f E0, %.2f s CPU\n",
+                    b ? "colliding balls" : "oscillating cube", k ? "classic" : "MLS", s->n - 1, s->e[s->n - 1], mx,
+                    dmax, s->cpu_s);
         }
         free(a.t), free(a.e), free(c.t), free(c.e);
     }

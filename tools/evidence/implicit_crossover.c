@@ -48,20 +48,24 @@ int crossover(const char *out, const double *Es, int nE) {
         fprintf(stderr, "cannot write into %s\n", out);
         return 1;
     }
-    fprintf(csv, "E,integrator,cfl,steps_per_frame,ok,cpu_s_per_frame,rms_error_m,ref_rms_displacement_m,substeps,newton,krylov\n");
-    fprintf(md, "# Explicit against implicit by stiffness: the cheapest run that meets an error budget\n\n%s (dx = %g m, %d frames at 24 fps, 1 thread, CPU seconds per frame, "
-                "median of %d runs; error = the largest over the frames of the RMS particle position difference to "
-                "explicit at CFL %g). "
-                "Explicit runs at CFL 0.4 and 0.8; implicit (multigrid-CG, kerf's default solver settings), by backward "
-                "Euler and by the midpoint scheme, at a fixed "
-                "number of steps per frame, whatever the stiffness. \"motion\" is the reference's largest RMS particle "
-                "displacement from the start, the size of what the error is measured against: a budget above it is met "
-                "by a body that does not move at all, so such a budget (marked \"above the motion\") does not count "
-                "towards the crossover.\n\n",
-                g_tumble ? "The bar of implicit_sweep.md's cantilever, free in the air: thrown up at 1.2 m/s and spinning at "
-                           "4 rad/s about z, under gravity (no wall touches it)"
-                         : "The cantilever of implicit_sweep.md",
-                g_dx, FRAMES, g_repeat, XO_REF_CFL);
+    fprintf(csv, "E,integrator,cfl,steps_per_frame,ok,cpu_s_per_frame,rms_error_m,ref_rms_displacement_m,substeps,"
+                 "newton,krylov\n");
+    fprintf(md,
+            "# Explicit against implicit by stiffness: the cheapest run that meets an error budget\n\n%s (dx = %g m, "
+            "%d frames at 24 fps, 1 thread, CPU seconds per frame, "
+            "median of %d runs; error = the largest over the frames of the RMS particle position difference to "
+            "explicit at CFL %g). "
+            "Explicit runs at CFL 0.4 and 0.8; implicit (multigrid-CG, kerf's default solver settings), by backward "
+            "Euler and by the midpoint scheme, at a fixed "
+            "number of steps per frame, whatever the stiffness. \"motion\" is the reference's largest RMS particle "
+            "displacement from the start, the size of what the error is measured against: a budget above it is met "
+            "by a body that does not move at all, so such a budget (marked \"above the motion\") does not count "
+            "towards the crossover.\n\n",
+            g_tumble
+                ? "The bar of implicit_sweep.md's cantilever, free in the air: thrown up at 1.2 m/s and spinning at "
+                  "4 rad/s about z, under gravity (no wall touches it)"
+                : "The cantilever of implicit_sweep.md",
+            g_dx, FRAMES, g_repeat, XO_REF_CFL);
     /* [E][kind][budget]: the cheapest run meeting it, INFINITY = none */
     double cost[8][XO_NKIND][XO_NBUDGET];
     int best_n[8][XO_NKIND][XO_NBUDGET];
@@ -74,9 +78,11 @@ int crossover(const char *out, const double *Es, int nE) {
         const double disp = motion[e] = traj_motion(ref, n);
         fprintf(stderr, "crossover E %.0e: reference %s, %.2f s/frame, motion %.3g m\n", E, rr.ok ? "ok" : "FAILED",
                 rr.cpu_per_frame, disp);
-        fprintf(md, "## E = %.0e Pa (c = %.0f m/s; reference %.2f CPU s/frame; motion %.3g m)\n\n"
-                    "| integrator | step | CPU s/frame | RMS error (m) | error / dx | error / motion | substeps | Newton | CG |\n"
-                    "|---|---|---|---|---|---|---|---|---|\n",
+        fprintf(md,
+                "## E = %.0e Pa (c = %.0f m/s; reference %.2f CPU s/frame; motion %.3g m)\n\n"
+                "| integrator | step | CPU s/frame | RMS error (m) | error / dx | error / motion | substeps | Newton | "
+                "CG |\n"
+                "|---|---|---|---|---|---|---|---|---|\n",
                 E, c, rr.cpu_per_frame, disp);
         for (int k = 0; k < XO_NKIND; k++)
             for (int b = 0; b < XO_NBUDGET; b++) cost[e][k][b] = INFINITY, best_n[e][k][b] = 0;
@@ -110,7 +116,8 @@ int crossover(const char *out, const double *Es, int nE) {
      * Euler, midpoint; NaN = none meets it or it is above the motion) */
     fprintf(md, "## The cheapest run meeting each error budget (CPU s/frame; bold: the cheapest)\n\n"
                 "Implicit columns: backward Euler / midpoint, each with its steps per frame.\n\n| E | motion (m) |");
-    for (int b = 0; b < XO_NBUDGET; b++) fprintf(md, " %.3g dx (%.2g m): explicit | implicit |", XO_BUDGET[b], XO_BUDGET[b] * g_dx);
+    for (int b = 0; b < XO_NBUDGET; b++)
+        fprintf(md, " %.3g dx (%.2g m): explicit | implicit |", XO_BUDGET[b], XO_BUDGET[b] * g_dx);
     fprintf(md, "\n|---|---|");
     for (int b = 0; b < XO_NBUDGET; b++) fprintf(md, "---|---|");
     fprintf(md, "\n");
@@ -127,7 +134,9 @@ int crossover(const char *out, const double *Es, int nE) {
             for (int k = BACKWARD_EULER; k <= MIDPOINT; k++) {
                 const double ck = cost[e][k][b];
                 const int bold = ck < ex && ck <= im;
-                if (isfinite(ck)) fprintf(md, "%s%s%.4f (%d / frame)%s", k == MIDPOINT ? " / " : " ", bold ? "**" : "", ck, best_n[e][k][b], bold ? "**" : "");
+                if (isfinite(ck))
+                    fprintf(md, "%s%s%.4f (%d / frame)%s", k == MIDPOINT ? " / " : " ", bold ? "**" : "", ck,
+                            best_n[e][k][b], bold ? "**" : "");
                 else fprintf(md, "%snone", k == MIDPOINT ? " / " : " ");
             }
             fprintf(md, " |");
@@ -140,12 +149,15 @@ int crossover(const char *out, const double *Es, int nE) {
         snprintf(path, sizeof path, "%s/%s_%d.dat", out, name, b);
         FILE *d = fopen(path, "w");
         if (d)
-            fprintf(d, "# E explicit backward_euler midpoint: CPU s/frame of the cheapest run within %g dx (NaN = none "
-                       "meets it, or it is above the motion)\n", XO_BUDGET[b]);
+            fprintf(d,
+                    "# E explicit backward_euler midpoint: CPU s/frame of the cheapest run within %g dx (NaN = none "
+                    "meets it, or it is above the motion)\n",
+                    XO_BUDGET[b]);
         for (int e = 0; e < nE && d; e++) {
             const int counts = budget < motion[e];
             fprintf(d, "%g", Es[e]);
-            for (int k = 0; k < XO_NKIND; k++) fprintf(d, " %.6g", counts && isfinite(cost[e][k][b]) ? cost[e][k][b] : NAN);
+            for (int k = 0; k < XO_NKIND; k++)
+                fprintf(d, " %.6g", counts && isfinite(cost[e][k][b]) ? cost[e][k][b] : NAN);
             fprintf(d, "\n");
         }
         if (d) fclose(d);

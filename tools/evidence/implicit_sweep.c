@@ -91,10 +91,11 @@ static int target_verdict(FILE *md, const run *im, const run *ex, int nex, doubl
     for (int j = 0; j < nex; j++) {
         if (!ex[j].ok) continue;
         if (ex[j].rms <= im->rms) acc = &ex[j]; /* the least accurate of those at least as accurate */
-        else if (!less) less = &ex[j];           /* the most accurate of those less accurate */
+        else if (!less) less = &ex[j];          /* the most accurate of those less accurate */
     }
-    fprintf(md, "Target (E = %.0e, k = %d), %s: %.4f %s s/frame at RMS error %.3g m (solve error %.2g m); one step "
-                "costs %.0f explicit substeps at CFL 0.4. ",
+    fprintf(md,
+            "Target (E = %.0e, k = %d), %s: %.4f %s s/frame at RMS error %.3g m (solve error %.2g m); one step "
+            "costs %.0f explicit substeps at CFL 0.4. ",
             TARGET_E, TARGET_K, run_name(im), im->cpu_per_frame, g_wall ? "wall-clock" : "CPU", im->rms, im->solve_rms,
             step_cost);
     double at = NAN;
@@ -103,20 +104,21 @@ static int target_verdict(FILE *md, const run *im, const run *ex, int nex, doubl
         const double t = (log(im->rms) - log(acc->rms)) / (log(less->rms) - log(acc->rms));
         at = exp(log(acc->cpu_per_frame) + t * (log(less->cpu_per_frame) - log(acc->cpu_per_frame)));
         met = im->cpu_per_frame < at;
-        fprintf(md, "Explicit at the same error lies between CFL %g (%.3g m, %.4f s) and CFL %g (%.3g m, %.4f s): "
-                    "%.4f s/frame interpolated, so implicit costs %.2fx as much",
+        fprintf(md,
+                "Explicit at the same error lies between CFL %g (%.3g m, %.4f s) and CFL %g (%.3g m, %.4f s): "
+                "%.4f s/frame interpolated, so implicit costs %.2fx as much",
                 acc->cfl, acc->rms, acc->cpu_per_frame, less->cfl, less->rms, less->cpu_per_frame, at,
                 im->cpu_per_frame / at);
     } else if (acc) {
         /* less accurate than every explicit run: explicit at its error would need a step above CFL 0.8 */
         met = im->cpu_per_frame < acc->cpu_per_frame;
-        fprintf(md, "Every explicit run is at least as accurate; the cheapest, CFL %g, costs %.4f s at %.3g m", acc->cfl,
-                acc->cpu_per_frame, acc->rms);
+        fprintf(md, "Every explicit run is at least as accurate; the cheapest, CFL %g, costs %.4f s at %.3g m",
+                acc->cfl, acc->cpu_per_frame, acc->rms);
     } else if (less) {
         /* more accurate than every explicit run: explicit would need a step below the finest measured */
         met = im->cpu_per_frame < less->cpu_per_frame;
-        fprintf(md, "More accurate than every explicit run; the most accurate, CFL %g, has %.3g m at %.4f s",
-                less->cfl, less->rms, less->cpu_per_frame);
+        fprintf(md, "More accurate than every explicit run; the most accurate, CFL %g, has %.3g m at %.4f s", less->cfl,
+                less->rms, less->cpu_per_frame);
     }
     for (int j = 0; j < nex; j++)
         if (ex[j].ok && ex[j].rms <= im->rms && ex[j].cpu_per_frame <= im->cpu_per_frame) {
@@ -137,9 +139,10 @@ static void profile_table(FILE *md, double E, integ how, double dt, double *x) {
     g_profile = 0;
     if (pr.substeps <= 0) return;
     const double ns = (double)pr.substeps;
-    fprintf(md, "Profile of %s at the target point (a separate run with the stage clocks on; CPU ms per implicit step, "
-                "%.2f linearisations, %.2f energy evaluations, %.1f Hessian products and preconditioner applications per "
-                "step):\n\n| stage | CPU ms / step |\n|---|---|\n",
+    fprintf(md,
+            "Profile of %s at the target point (a separate run with the stage clocks on; CPU ms per implicit step, "
+            "%.2f linearisations, %.2f energy evaluations, %.1f Hessian products and preconditioner applications per "
+            "step):\n\n| stage | CPU ms / step |\n|---|---|\n",
             run_name(&pr), pr.prof.linearizations / ns, pr.prof.energy_evals / ns, pr.prof.hessian_products / ns);
     double sum = 0;
     for (int j = 0; j < KF_IMP_T_COUNT; j++) {
@@ -186,17 +189,19 @@ static int ksweep(const char *out, const double *Es, int nE) {
         }
         fprintf(csv, "E,integrator,cfl,dt,k,ok,cpu_s_per_frame,rms_error_m,max_error_m,substeps,newton,krylov,"
                      "solve_rms_error_m,rms_error_last_frame_m\n");
-        fprintf(md, "# Explicit against implicit integration: CPU time per frame against error\n\n"
-                    "%s, dx = %g m, %d frames at 24 fps, 1 thread, %s seconds per frame (median of %d runs); error = "
-                    "the largest over the frames of the RMS particle position difference to explicit at CFL %g (last "
-                    "frame: the same at the last frame alone); solve error = the same difference to the same implicit "
-                    "step solved to a Newton tolerance of %g (what the solver's tolerance adds). k = implicit step / "
-                    "explicit step (0.4 dx / c). Implicit: backward Euler with multigrid-CG (kerf's default) and "
-                    "Jacobi-CG, the midpoint scheme with multigrid-CG.\n\n",
+        fprintf(md,
+                "# Explicit against implicit integration: CPU time per frame against error\n\n"
+                "%s, dx = %g m, %d frames at 24 fps, 1 thread, %s seconds per frame (median of %d runs); error = "
+                "the largest over the frames of the RMS particle position difference to explicit at CFL %g (last "
+                "frame: the same at the last frame alone); solve error = the same difference to the same implicit "
+                "step solved to a Newton tolerance of %g (what the solver's tolerance adds). k = implicit step / "
+                "explicit step (0.4 dx / c). Implicit: backward Euler with multigrid-CG (kerf's default) and "
+                "Jacobi-CG, the midpoint scheme with multigrid-CG.\n\n",
                 problem_text(), g_dx, FRAMES, g_wall ? "wall-clock" : "CPU", g_repeat, REF_CFL, TIGHT_TOL);
         if (g_newton_tol > 0 || g_krylov_tol > 0 || g_newton_max > 0 || g_krylov_max > 0)
-            fprintf(md, "Solver settings other than kerf's defaults: newton_tol %g, krylov_tol %g, newton_max %d, "
-                        "krylov_max %d (0 = default).\n\n",
+            fprintf(md,
+                    "Solver settings other than kerf's defaults: newton_tol %g, krylov_tol %g, newton_max %d, "
+                    "krylov_max %d (0 = default).\n\n",
                     g_newton_tol, g_krylov_tol, g_newton_max, g_krylov_max);
     }
     double *ref = malloc(sizeof(double) * TRAJ_DOUBLES), *x = malloc(sizeof(double) * TRAJ_DOUBLES);
@@ -217,11 +222,13 @@ static int ksweep(const char *out, const double *Es, int nE) {
         }
         run rr = simulate(E, EXPLICIT, KF_PRECOND_MULTIGRID, REF_CFL, 0, ref, &n);
         const double motion = traj_motion(ref, n);
-        fprintf(stderr, "E %.0e: reference %s, %.2f s/frame, %zu particles, motion %.3g m\n", E, rr.ok ? "ok" : "FAILED",
-                rr.cpu_per_frame, n, motion);
-        fprintf(md, "## E = %.0e Pa (c = %.1f m/s, explicit step %.3g s, reference %.2f CPU s/frame, motion %.3g m)\n\n"
-                    "| integrator | step | CPU s/frame | RMS error (m) | last frame (m) | solve error (m) | substeps | Newton | CG |\n"
-                    "|---|---|---|---|---|---|---|---|---|\n",
+        fprintf(stderr, "E %.0e: reference %s, %.2f s/frame, %zu particles, motion %.3g m\n", E,
+                rr.ok ? "ok" : "FAILED", rr.cpu_per_frame, n, motion);
+        fprintf(md,
+                "## E = %.0e Pa (c = %.1f m/s, explicit step %.3g s, reference %.2f CPU s/frame, motion %.3g m)\n\n"
+                "| integrator | step | CPU s/frame | RMS error (m) | last frame (m) | solve error (m) | substeps | "
+                "Newton | CG |\n"
+                "|---|---|---|---|---|---|---|---|---|\n",
                 E, c, dt_exp, rr.cpu_per_frame, motion);
         run rows[NEX + NIMP * NK];
         int nr = 0, kof[NEX + NIMP * NK] = {0};
@@ -233,7 +240,8 @@ static int ksweep(const char *out, const double *Es, int nE) {
         /* each step solved tightly once per scheme (untimed): the solve-error references */
         g_tight = 1;
         for (int s = 0; s < 2; s++)
-            for (int k = 0; k < NK; k++) simulate(E, s ? MIDPOINT : BACKWARD_EULER, KF_PRECOND_MULTIGRID, 0.4, KS[k] * dt_exp, tight[s][k], &n);
+            for (int k = 0; k < NK; k++)
+                simulate(E, s ? MIDPOINT : BACKWARD_EULER, KF_PRECOND_MULTIGRID, 0.4, KS[k] * dt_exp, tight[s][k], &n);
         g_tight = 0;
         for (int i = 0; i < NIMP; i++)
             for (int k = 0; k < NK; k++) {
@@ -250,11 +258,12 @@ static int ksweep(const char *out, const double *Es, int nE) {
             else snprintf(step, sizeof step, "CFL %g", r->cfl);
             if (r->implicit) snprintf(serr, sizeof serr, "%.2g", r->solve_rms);
             else snprintf(serr, sizeof serr, "-");
-            fprintf(csv, "%g,%s,%g,%g,%d,%d,%.6g,%.6g,%.6g,%ld,%ld,%ld,%.6g,%.6g\n", E, run_name(r), r->cfl, r->dt, kof[j],
-                    r->ok, r->cpu_per_frame, r->rms, r->maxerr, r->substeps, r->newton, r->krylov,
+            fprintf(csv, "%g,%s,%g,%g,%d,%d,%.6g,%.6g,%.6g,%ld,%ld,%ld,%.6g,%.6g\n", E, run_name(r), r->cfl, r->dt,
+                    kof[j], r->ok, r->cpu_per_frame, r->rms, r->maxerr, r->substeps, r->newton, r->krylov,
                     r->implicit ? r->solve_rms : 0.0, r->rms_end);
-            fprintf(md, "| %s | %s | %.4f | %s%.3g | %.3g | %s | %ld | %ld | %ld |\n", run_name(r), step, r->cpu_per_frame,
-                    r->ok ? "" : "failed ", r->rms, r->rms_end, serr, r->substeps, r->newton, r->krylov);
+            fprintf(md, "| %s | %s | %.4f | %s%.3g | %.3g | %s | %ld | %ld | %ld |\n", run_name(r), step,
+                    r->cpu_per_frame, r->ok ? "" : "failed ", r->rms, r->rms_end, serr, r->substeps, r->newton,
+                    r->krylov);
             fprintf(stderr, "  %-22s %-18s %.4f s/frame  rms %.3g m  solve %s m  substeps %ld newton %ld cg %ld\n",
                     run_name(r), step, r->cpu_per_frame, r->rms, serr, r->substeps, r->newton, r->krylov);
         }
@@ -301,11 +310,13 @@ static int ksweep(const char *out, const double *Es, int nE) {
 }
 
 static void usage(const char *argv0) {
-    fprintf(stderr,
-            "usage: %s --out DIR [--tumble | --bend] [--quick | --dx H] [--crossover] [--E 1e6,3e6,1e7,3e7] [--repeat N]\n"
-            "       [--only-k K [--jacobi] [--midpoint] [--profile]] [--wall] [--newton-tol X] [--newton-max N] [--krylov-tol X] "
-            "[--krylov-max N]\n",
-            argv0);
+    fprintf(
+        stderr,
+        "usage: %s --out DIR [--tumble | --bend] [--quick | --dx H] [--crossover] [--E 1e6,3e6,1e7,3e7] [--repeat N]\n"
+        "       [--only-k K [--jacobi] [--midpoint] [--profile]] [--wall] [--newton-tol X] [--newton-max N] "
+        "[--krylov-tol X] "
+        "[--krylov-max N]\n",
+        argv0);
 }
 
 int main(int argc, char **argv) {

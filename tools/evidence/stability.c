@@ -135,8 +135,8 @@ static void run_scene(scene_result *r, kf_model *m, kf_state *s, double duration
  * one above: MPM bonds them) settle on a sticky floor: E ratio `ratio`. */
 static scene_result scene_contrast(double ratio, double duration) {
     scene_result r = {.name = "stiffness contrast"};
-    snprintf(r.setting, sizeof r.setting, "jello E=2e4 under jello E=%.0e (ratio %.0e), gravity, %.2f s", 2e4 * ratio, ratio,
-             duration);
+    snprintf(r.setting, sizeof r.setting, "jello E=2e4 under jello E=%.0e (ratio %.0e), gravity, %.2f s", 2e4 * ratio,
+             ratio, duration);
     kf_model *m = walled_model(0.02, 9.81, KF_BOUNDARY_STICKY);
     int soft = add_mat(m, "jello", 0), stiff = add_mat(m, "jello", 2e4 * ratio);
     kf_state *s = kf_state_create(m);
@@ -203,7 +203,8 @@ static scene_result scene_inverted(double f, double duration) {
          * (it cannot be retried away, it is in the start state), names the
          * particle and leaves the state as it was */
         r.pass = r.rc == 1 && strstr(r.msg, "J = det F out of range") && strstr(r.msg, "particle 0,") && r.finite;
-        snprintf(r.check, sizeof r.check, "refused as trouble naming J and the first inverted particle (id 0), state untouched");
+        snprintf(r.check, sizeof r.check,
+                 "refused as trouble naming J and the first inverted particle (id 0), state untouched");
     } else {
         /* the fixed-corotated energy pushes the crushed particles back: none
          * is inverted at the end, and the motion is bounded by the stored energy */
@@ -219,7 +220,8 @@ static scene_result scene_inverted(double f, double duration) {
  * kernel support (1.4 Δx away). Gravity, 0.3 s. */
 static scene_result scene_tiny(double duration) {
     scene_result r = {.name = "isolated tiny masses"};
-    snprintf(r.setting, sizeof r.setting, "jello block + 16 particles of volume 1e-9 h^3 at walls, corners, support edge");
+    snprintf(r.setting, sizeof r.setting,
+             "jello block + 16 particles of volume 1e-9 h^3 at walls, corners, support edge");
     const double dx = 0.02;
     kf_model *m = walled_model(dx, 9.81, KF_BOUNDARY_SLIP);
     int id = add_mat(m, "jello", 0);
@@ -234,7 +236,9 @@ static scene_result scene_tiny(double duration) {
     const double mids[4][3] = {{0.5, E, 0.5}, {e, 0.5, 0.5}, {0.5, 0.5, E}, {E, 0.3, 0.5}};
     for (int c = 0; c < 4; c++, n++)
         for (int a = 0; a < 3; a++) x[3 * n + a] = mids[c][a];
-    const double edge[4][3] = {{0.6 + 1.4 * dx, 0.1, 0.5}, {0.4 - 1.4 * dx, 0.1, 0.5}, {0.5, 0.22 + 1.4 * dx, 0.5},
+    const double edge[4][3] = {{0.6 + 1.4 * dx, 0.1, 0.5},
+                               {0.4 - 1.4 * dx, 0.1, 0.5},
+                               {0.5, 0.22 + 1.4 * dx, 0.5},
                                {0.5, 0.1, 0.6 + 1.4 * dx}};
     for (int c = 0; c < 4; c++, n++)
         for (int a = 0; a < 3; a++) x[3 * n + a] = edge[c][a];
@@ -245,8 +249,8 @@ static scene_result scene_tiny(double duration) {
     /* nothing can move faster than free fall from the top of the domain */
     const double vbound = sqrt(2 * 9.81 * H);
     r.pass = r.rc == 0 && r.finite && r.inside && r.vmax <= vbound && r.energy_ratio <= 1.005;
-    snprintf(r.check, sizeof r.check, "completes, finite, < 0.5 dx beyond walls, speed <= sqrt(2 g H) = %.2f m/s, E_end/E_0 <= 1.005",
-             vbound);
+    snprintf(r.check, sizeof r.check,
+             "completes, finite, < 0.5 dx beyond walls, speed <= sqrt(2 g H) = %.2f m/s, E_end/E_0 <= 1.005", vbound);
     kf_state_destroy(s), kf_model_destroy(m);
     return r;
 }
@@ -270,20 +274,21 @@ static scene_result scene_impact(const char *preset, double speed, kf_boundary b
 }
 
 static void log_scene(const scene_result *r) {
-    fprintf(stderr, "  %-26s %-70s %s: rc %d, %d retries, %ld substeps, E_end/E_0 %.4f, J in [%.3f, %.3f], "
-            "|v|max %.3g, finite %d, inside %d (farthest out %.3g dx), %.1f s %s\n", r->name, r->setting,
-            r->pass ? "PASS" : "FAIL", r->rc, r->retries, r->substeps, r->energy_ratio, r->j_min, r->j_max, r->vmax,
-            r->finite, r->inside, r->outside, r->cpu_s, r->msg);
+    fprintf(stderr,
+            "  %-26s %-70s %s: rc %d, %d retries, %ld substeps, E_end/E_0 %.4f, J in [%.3f, %.3f], "
+            "|v|max %.3g, finite %d, inside %d (farthest out %.3g dx), %.1f s %s\n",
+            r->name, r->setting, r->pass ? "PASS" : "FAIL", r->rc, r->retries, r->substeps, r->energy_ratio, r->j_min,
+            r->j_max, r->vmax, r->finite, r->inside, r->outside, r->cpu_s, r->msg);
 }
 
 /* ---- injected NaN ----------------------------------------------------------- */
 
 typedef struct nan_result {
-    int step_caught;          /* kf_step returned trouble */
+    int step_caught; /* kf_step returned trouble */
     char what[64];
     uint32_t particle, injected;
-    double distance_dx;       /* from the injected particle to the one named, in Δx, before the step */
-    int advance_rc;           /* kf_advance on the corrupted state */
+    double distance_dx; /* from the injected particle to the one named, in Δx, before the step */
+    int advance_rc;     /* kf_advance on the corrupted state */
     double time_before, time_after;
     char msg[512];
 } nan_result;
@@ -313,7 +318,8 @@ static nan_result nan_check(void) {
             if (c.id[i] == out.particle) xn[a] = c.x[a][i];
         }
     out.distance_dx = sqrt((xi[0] - xn[0]) * (xi[0] - xn[0]) + (xi[1] - xn[1]) * (xi[1] - xn[1]) +
-                           (xi[2] - xn[2]) * (xi[2] - xn[2])) / kf_model_sim(m)->dx;
+                           (xi[2] - xn[2]) * (xi[2] - xn[2])) /
+                      kf_model_sim(m)->dx;
     out.time_before = kf_state_time(bad);
     kf_step_stats st = {0};
     out.advance_rc = kf_advance(m, bad, 1.0 / 24, &st, out.msg, sizeof out.msg);
@@ -329,7 +335,8 @@ int main(int argc, char **argv) {
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--out") && i + 1 < argc) dir = argv[++i];
         else if (!strcmp(argv[i], "--quick")) quick = 1;
-        else if (!strcmp(argv[i], "--no-thresholds")) skip_thresholds = 1; /* scenes and recovery only (a scratch DIR) */
+        else if (!strcmp(argv[i], "--no-thresholds"))
+            skip_thresholds = 1; /* scenes and recovery only (a scratch DIR) */
         else {
             fprintf(stderr, "usage: kf_evid_stability --out DIR [--quick]\n");
             return 2;
@@ -358,8 +365,10 @@ int main(int argc, char **argv) {
             double c0 = ev_cpu_s();
             thr[k][v] = ev_cfl_threshold(ker, frc, names[k], 0.1, 4.0, quick ? 0.1 : 0.03, steps, &lo_bad, &first);
             worst = fmin(worst, thr[k][v]);
-            fprintf(stderr, "  %-9s %-9s %-8s largest stable CFL %.3f%s (default %.2f, margin %.2fx); above it: %s "
-                    "[%.1f s]\n", names[k], v < 2 ? "quadratic" : "cubic", v % 2 ? "classic" : "mls", thr[k][v],
+            fprintf(stderr,
+                    "  %-9s %-9s %-8s largest stable CFL %.3f%s (default %.2f, margin %.2fx); above it: %s "
+                    "[%.1f s]\n",
+                    names[k], v < 2 ? "quadratic" : "cubic", v % 2 ? "classic" : "mls", thr[k][v],
                     lo_bad ? " (unstable at the bottom of the range)" : "", default_cfl, thr[k][v] / default_cfl,
                     first.why, ev_cpu_s() - c0);
             fprintf(csv, "%s,%s,%s,%.4f,%.2f,%.3f,\"%s\"\n", names[k], v < 2 ? "quadratic" : "cubic",
@@ -386,13 +395,14 @@ int main(int argc, char **argv) {
     ADD(scene_impact("rubber", 20, KF_BOUNDARY_SLIP));
     if (!quick) ADD(scene_impact("rubber", 100, KF_BOUNDARY_STICKY)), ADD(scene_impact("metal", 100, KF_BOUNDARY_SLIP));
     FILE *scsv = open_out(dir, "stress.csv");
-    fprintf(scsv, "scene,setting,pass,rc,retries,substeps,energy_ratio,j_min,j_max,vmax,finite,inside,beyond_wall_dx,cpu_s,"
-                  "message\n");
+    fprintf(scsv,
+            "scene,setting,pass,rc,retries,substeps,energy_ratio,j_min,j_max,vmax,finite,inside,beyond_wall_dx,cpu_s,"
+            "message\n");
     for (int i = 0; i < ns; i++) {
         scene_result *r = &sc[i];
-        fprintf(scsv, "%s,\"%s\",%d,%d,%d,%ld,%.6f,%.4f,%.4f,%.4g,%d,%d,%.4f,%.2f,\"%s\"\n", r->name, r->setting, r->pass,
-                r->rc, r->retries, r->substeps, r->energy_ratio, r->j_min, r->j_max, r->vmax, r->finite, r->inside,
-                r->outside, r->cpu_s, r->msg);
+        fprintf(scsv, "%s,\"%s\",%d,%d,%d,%ld,%.6f,%.4f,%.4f,%.4g,%d,%d,%.4f,%.2f,\"%s\"\n", r->name, r->setting,
+                r->pass, r->rc, r->retries, r->substeps, r->energy_ratio, r->j_min, r->j_max, r->vmax, r->finite,
+                r->inside, r->outside, r->cpu_s, r->msg);
     }
     fclose(scsv);
 
@@ -400,28 +410,38 @@ int main(int argc, char **argv) {
     nan_result nr = nan_check();
     const double fault_cfl = 2.0, dur = 0.1;
     ev_recovery rec = ev_recovery_check(fault_cfl, dur);
-    fprintf(stderr, "  NaN injected into particle %u: kf_step %s (\"%s\", particle %u, %.2f dx away); kf_advance on "
-            "the corrupted state rc %d, time %.5f -> %.5f: %s\n", nr.injected, nr.step_caught ? "caught it" : "MISSED it",
-            nr.what, nr.particle, nr.distance_dx, nr.advance_rc, nr.time_before, nr.time_after, nr.msg);
-    fprintf(stderr, "  kf_advance at sim.cfl %.2f: rc %d after %d retries (cfl %.4f); reference run at cfl %.4f: rc %d, "
-            "%d retries; max |dx|/dx %.3g, max |dv|/|v|max %.3g, hashes %s\n", fault_cfl, rec.rc, rec.retries,
-            rec.cfl_used, rec.cfl_used, rec.rc_ref, rec.retries_ref, rec.max_dx_rel, rec.max_dv_rel,
-            rec.hash == rec.hash_ref ? "identical" : "differ");
+    fprintf(stderr,
+            "  NaN injected into particle %u: kf_step %s (\"%s\", particle %u, %.2f dx away); kf_advance on "
+            "the corrupted state rc %d, time %.5f -> %.5f: %s\n",
+            nr.injected, nr.step_caught ? "caught it" : "MISSED it", nr.what, nr.particle, nr.distance_dx,
+            nr.advance_rc, nr.time_before, nr.time_after, nr.msg);
+    fprintf(stderr,
+            "  kf_advance at sim.cfl %.2f: rc %d after %d retries (cfl %.4f); reference run at cfl %.4f: rc %d, "
+            "%d retries; max |dx|/dx %.3g, max |dv|/|v|max %.3g, hashes %s\n",
+            fault_cfl, rec.rc, rec.retries, rec.cfl_used, rec.cfl_used, rec.rc_ref, rec.retries_ref, rec.max_dx_rel,
+            rec.max_dv_rel, rec.hash == rec.hash_ref ? "identical" : "differ");
 
     /* the report section */
     FILE *md = open_out(dir, "stability.md");
-    fprintf(md, "#### Largest stable CFL number (free 8³-cell block, 2³ particles per cell, %ld substeps of "
-                "Δt = C Δx/(c + |v|max), bisection to %.0f%%)\n\n", steps, quick ? 10.0 : 3.0);
-    fprintf(md, "| material | quadratic MLS | quadratic classic | cubic MLS | cubic classic | margin over default %.2f |\n"
-                "|---|---|---|---|---|---|\n", default_cfl);
+    fprintf(md,
+            "#### Largest stable CFL number (free 8³-cell block, 2³ particles per cell, %ld substeps of "
+            "Δt = C Δx/(c + |v|max), bisection to %.0f%%)\n\n",
+            steps, quick ? 10.0 : 3.0);
+    fprintf(md,
+            "| material | quadratic MLS | quadratic classic | cubic MLS | cubic classic | margin over default %.2f |\n"
+            "|---|---|---|---|---|---|\n",
+            default_cfl);
     for (int k = 0; k < nmat; k++) {
         double mn = 1e300;
         fprintf(md, "| %s |", names[k]);
-        for (int v = 0; v < 4; v++) fprintf(md, " %.2f%s |", thr[k][v], thr[k][v] >= 4.0 ? "+" : ""), mn = fmin(mn, thr[k][v]);
+        for (int v = 0; v < 4; v++)
+            fprintf(md, " %.2f%s |", thr[k][v], thr[k][v] >= 4.0 ? "+" : ""), mn = fmin(mn, thr[k][v]);
         fprintf(md, " %.2fx |\n", mn / default_cfl);
     }
-    fprintf(md, "\nThe smallest threshold measured is %.2f, %.2fx the default CFL number %.2f. What ended the run "
-                "just above each threshold is in stability.csv (first_unstable).\n\n", worst, worst / default_cfl, default_cfl);
+    fprintf(md,
+            "\nThe smallest threshold measured is %.2f, %.2fx the default CFL number %.2f. What ended the run "
+            "just above each threshold is in stability.csv (first_unstable).\n\n",
+            worst, worst / default_cfl, default_cfl);
     fprintf(md, "#### Stress scenes (kf_advance with the default settings, 1/24 s frames, 1 thread)\n\n"
                 "| scene | setting | result | retries | substeps | E_end/E_0 | J range at end | max speed m/s | "
                 "farthest beyond a wall (Δx) | check |\n|---|---|---|---|---|---|---|---|---|---|\n");
@@ -432,21 +452,24 @@ int main(int argc, char **argv) {
                 r->outside, r->check, r->msg[0] ? "; " : "", r->msg);
     }
     fprintf(md, "\n#### Recovery from numerical trouble\n\n");
-    fprintf(md, "- A NaN written into the y velocity of particle %u through `kf_state_particles` between two `kf_step` "
-                "calls: `kf_step` %s (\"%s\", particle %u, %.2f Δx from the injected one: the NaN reaches "
-                "its grid neighbours through P2G/G2P before the check after G2P). `kf_advance` on that corrupted state returns %d and leaves "
-                "the state at its interval start (t = %.5f before, %.5f after): \"%s\". A fault that is in the "
-                "interval's start state cannot be retried away; the public API has no hook to inject one *inside* "
-                "an interval (requested in the report).\n",
+    fprintf(md,
+            "- A NaN written into the y velocity of particle %u through `kf_state_particles` between two `kf_step` "
+            "calls: `kf_step` %s (\"%s\", particle %u, %.2f Δx from the injected one: the NaN reaches "
+            "its grid neighbours through P2G/G2P before the check after G2P). `kf_advance` on that corrupted state "
+            "returns %d and leaves "
+            "the state at its interval start (t = %.5f before, %.5f after): \"%s\". A fault that is in the "
+            "interval's start state cannot be retried away; the public API has no hook to inject one *inside* "
+            "an interval (requested in the report).\n",
             nr.injected, nr.step_caught ? "reports trouble" : "**does not report it**", nr.what, nr.particle,
             nr.distance_dx, nr.advance_rc, nr.time_before, nr.time_after, nr.msg);
-    fprintf(md, "- A fault inside the interval: `kf_advance` with `sim.cfl = %.2f`, above every measured quadratic "
-                "threshold, on a rubber block thrown at the floor for %.4f s. The first attempt fails, the interval is "
-                "restarted at half the CFL number; it succeeded (rc %d) after %d retries at CFL %.4f. A run made "
-                "directly at `sim.cfl = %.4f` (rc %d, %d retries) ends at max |x − x_ref| = %.3g Δx and max |v − v_ref| = "
-                "%.3g |v|max (tolerance 1e-3); state hashes %s.\n",
-            fault_cfl, dur, rec.rc, rec.retries, rec.cfl_used, rec.cfl_used, rec.rc_ref, rec.retries_ref, rec.max_dx_rel,
-            rec.max_dv_rel, rec.hash == rec.hash_ref ? "identical (bit for bit)" : "differ");
+    fprintf(md,
+            "- A fault inside the interval: `kf_advance` with `sim.cfl = %.2f`, above every measured quadratic "
+            "threshold, on a rubber block thrown at the floor for %.4f s. The first attempt fails, the interval is "
+            "restarted at half the CFL number; it succeeded (rc %d) after %d retries at CFL %.4f. A run made "
+            "directly at `sim.cfl = %.4f` (rc %d, %d retries) ends at max |x − x_ref| = %.3g Δx and max |v − v_ref| = "
+            "%.3g |v|max (tolerance 1e-3); state hashes %s.\n",
+            fault_cfl, dur, rec.rc, rec.retries, rec.cfl_used, rec.cfl_used, rec.rc_ref, rec.retries_ref,
+            rec.max_dx_rel, rec.max_dv_rel, rec.hash == rec.hash_ref ? "identical (bit for bit)" : "differ");
     fclose(md);
     return 0;
 }

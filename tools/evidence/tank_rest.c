@@ -34,7 +34,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--depth")) depth = atof(argv[i + 1]);
         else if (!strcmp(argv[i], "--zcells")) zcells = atof(argv[i + 1]);
         else if (!strcmp(argv[i], "--walls"))
-            walls = !strcmp(argv[i + 1], "slip") ? KF_BOUNDARY_SLIP
+            walls = !strcmp(argv[i + 1], "slip")     ? KF_BOUNDARY_SLIP
                     : !strcmp(argv[i + 1], "sticky") ? KF_BOUNDARY_STICKY
                                                      : KF_BOUNDARY_SEPARATE;
     }

@@ -24,7 +24,10 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--cells") && i + 1 < argc) only_cells = atof(argv[++i]);
         else if (!strcmp(argv[i], "--off")) defaults = 0;
         else if (!strcmp(argv[i], "--adaptive")) adaptive = 1;
-        else return fprintf(stderr, "usage: %s [--dx DX] [--material M] [--motion M] [--cells C] [--off] [--adaptive]\n", argv[0]), 2;
+        else
+            return fprintf(stderr, "usage: %s [--dx DX] [--material M] [--motion M] [--cells C] [--off] [--adaptive]\n",
+                           argv[0]),
+                   2;
     }
     static const char *mats[] = {"sand", "goo", "water", "jello", "snow", NULL};
     static const double speeds[] = {0.05, 0.25, 0.5, 1.0, 0};

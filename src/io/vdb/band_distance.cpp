@@ -16,8 +16,7 @@ constexpr float GAP2 = 0.125f;
 // an inside voxel with an outside face neighbour (a missing leaf is
 // outside): its splat value places the zero crossing, as the values beside
 // a crossing do in fast sweeping's initialisation
-bool at_crossing(const dense_band &b, size_t i, int v)
-{
+bool at_crossing(const dense_band &b, size_t i, int v) {
     const int c[3] = {v >> 6, (v >> 3) & 7, v & 7};
     for (int a = 0; a < 3; a++)
         for (int s = -1; s <= 1; s += 2) {
@@ -30,8 +29,7 @@ bool at_crossing(const dense_band &b, size_t i, int v)
     return false;
 }
 
-void band_distance(dense_band &b, const surface_points &s, float exact_out, float W)
-{
+void band_distance(dense_band &b, const surface_points &s, float exact_out, float W) {
     if (!(W > 0 && W <= 7)) throw std::runtime_error("band distance: width over 7 voxels");
     const float W2 = W * W;
     std::vector<float> out(b.phi.size());
@@ -40,15 +38,19 @@ void band_distance(dense_band &b, const surface_points &s, float exact_out, floa
         for (size_t i = rg.begin(); i != rg.end(); i++) {
             std::fill(d2, d2 + LEAF_SIZE, W2);
             const openvdb::Coord lc = leaf_coord(b.key[i]);
-            const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM; // not << : leaves may be below 0
+            const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM,
+                      oz = lc.z() * LEAF_DIM; // not << : leaves may be below 0
             for (int n = 0; n < 27; n++) {
                 const int32_t j = b.nbr[27 * i + n];
                 if (j < 0) continue;
                 for (uint32_t q = s.at[j]; q < s.at[j + 1]; q++) {
                     const float px = s.x[q], py = s.y[q], pz = s.z[q];
-                    const int x0 = std::max(ox, int(std::ceil(px - W))), x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(px + W)));
-                    const int y0 = std::max(oy, int(std::ceil(py - W))), y1 = std::min(oy + LEAF_DIM - 1, int(std::floor(py + W)));
-                    const int z0 = std::max(oz, int(std::ceil(pz - W))), z1 = std::min(oz + LEAF_DIM - 1, int(std::floor(pz + W)));
+                    const int x0 = std::max(ox, int(std::ceil(px - W))),
+                              x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(px + W)));
+                    const int y0 = std::max(oy, int(std::ceil(py - W))),
+                              y1 = std::min(oy + LEAF_DIM - 1, int(std::floor(py + W)));
+                    const int z0 = std::max(oz, int(std::ceil(pz - W))),
+                              z1 = std::min(oz + LEAF_DIM - 1, int(std::floor(pz + W)));
                     if (x0 > x1 || y0 > y1 || z0 > z1) continue;
                     // whole 8-voxel rows, branch-free so they vectorise
                     for (int x = x0; x <= x1; x++) {

@@ -13,8 +13,7 @@ namespace {
 constexpr int P = LEAF_DIM + 2; // a leaf with a one-voxel apron
 
 // the leaf and its apron from the 26 neighbours (missing ones: +W)
-void gather(const dense_band &b, size_t i, float W, float *pad)
-{
+void gather(const dense_band &b, size_t i, float W, float *pad) {
     for (int px = 0; px < P; px++) {
         const int lx = px - 1, dx = lx < 0 ? -1 : (lx >= LEAF_DIM ? 1 : 0), x = lx - dx * LEAF_DIM;
         for (int py = 0; py < P; py++) {
@@ -31,8 +30,7 @@ void gather(const dense_band &b, size_t i, float W, float *pad)
 
 // one explicit step of phi_t = kappa |grad phi| (OpenVDB's
 // meanCurvatureNormGrad with dt = dx^2 / 3), into out
-void curvature_step(const dense_band &b, float W, std::vector<float> &out)
-{
+void curvature_step(const dense_band &b, float W, std::vector<float> &out) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, b.size(), 4), [&](const tbb::blocked_range<size_t> &rg) {
         float pad[P * P * P];
         for (size_t i = rg.begin(); i != rg.end(); i++) {
@@ -56,13 +54,15 @@ void curvature_step(const dense_band &b, float W, std::vector<float> &out)
                         }
                         const float *q = pad + ((x + 1) * P + (y + 1)) * P + (z + 1);
                         const int sx = P * P, sy = P;
-                        const float Dx = 0.5f * (q[sx] - q[-sx]), Dy = 0.5f * (q[sy] - q[-sy]), Dz = 0.5f * (q[1] - q[-1]);
+                        const float Dx = 0.5f * (q[sx] - q[-sx]), Dy = 0.5f * (q[sy] - q[-sy]),
+                                    Dz = 0.5f * (q[1] - q[-1]);
                         const float Dx2 = Dx * Dx, Dy2 = Dy * Dy, Dz2 = Dz * Dz, g2 = Dx2 + Dy2 + Dz2;
                         if (g2 <= 1e-8f) {
                             o[v] = c;
                             continue;
                         }
-                        const float Dxx = q[sx] + q[-sx] - 2 * c, Dyy = q[sy] + q[-sy] - 2 * c, Dzz = q[1] + q[-1] - 2 * c;
+                        const float Dxx = q[sx] + q[-sx] - 2 * c, Dyy = q[sy] + q[-sy] - 2 * c,
+                                    Dzz = q[1] + q[-1] - 2 * c;
                         const float Dxy = 0.25f * (q[sx + sy] - q[sx - sy] - q[-sx + sy] + q[-sx - sy]);
                         const float Dxz = 0.25f * (q[sx + 1] - q[sx - 1] - q[-sx + 1] + q[-sx - 1]);
                         const float Dyz = 0.25f * (q[sy + 1] - q[sy - 1] - q[-sy + 1] + q[-sy - 1]);
@@ -74,8 +74,7 @@ void curvature_step(const dense_band &b, float W, std::vector<float> &out)
     });
 }
 
-void shift(dense_band &b, float by)
-{
+void shift(dense_band &b, float by) {
     if (by == 0) return;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, b.phi.size(), 1 << 16), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t v = rg.begin(); v != rg.end(); v++) b.phi[v] += by;
@@ -84,8 +83,7 @@ void shift(dense_band &b, float by)
 
 } // namespace
 
-void band_smooth(dense_band &b, float W, float dilate, int iterations, float erode)
-{
+void band_smooth(dense_band &b, float W, float dilate, int iterations, float erode) {
     shift(b, -dilate);
     std::vector<float> out(iterations > 0 ? b.phi.size() : 0);
     for (int k = 0; k < iterations; k++) {

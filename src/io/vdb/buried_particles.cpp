@@ -16,8 +16,7 @@ namespace {
 
 // keep only the voxels whose window [-M, M] along one axis (stride st, n
 // voxels a line, lines given by the two other strides) is all set
-void erode_axis(std::vector<uint8_t> &a, std::vector<uint8_t> &tmp, int S, int M, int st, int s1, int s2)
-{
+void erode_axis(std::vector<uint8_t> &a, std::vector<uint8_t> &tmp, int S, int M, int st, int s1, int s2) {
     std::vector<int> run(S + 1);
     for (int i = 0; i < S; i++)
         for (int j = 0; j < S; j++) {
@@ -35,8 +34,8 @@ void erode_axis(std::vector<uint8_t> &a, std::vector<uint8_t> &tmp, int S, int M
 } // namespace
 
 std::vector<uint8_t> buried_particles(const float *x, const float *y, const float *z,
-                                      const std::vector<uint64_t> &bin_key, const std::vector<uint32_t> &bin_at, int M)
-{
+                                      const std::vector<uint64_t> &bin_key, const std::vector<uint32_t> &bin_at,
+                                      int M) {
     if (M < 1 || M > 8) throw std::runtime_error("buried particles: M outside 1..8");
     const size_t nb = bin_key.size();
     std::vector<uint8_t> flag(bin_at.empty() ? 0 : bin_at.back(), 0);
@@ -46,11 +45,13 @@ std::vector<uint8_t> buried_particles(const float *x, const float *y, const floa
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nb, 16), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t b = rg.begin(); b != rg.end(); b++) {
             const openvdb::Coord lc = leaf_coord(bin_key[b]);
-            const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM; // not << : leaves may be below 0
+            const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM,
+                      oz = lc.z() * LEAF_DIM; // not << : leaves may be below 0
             for (uint32_t q = bin_at[b]; q < bin_at[b + 1]; q++) {
                 const int vx = int(std::floor(x[q] + 0.5f)) - ox, vy = int(std::floor(y[q] + 0.5f)) - oy,
                           vz = int(std::floor(z[q] + 0.5f)) - oz;
-                if (vx < LEAF_DIM && vy < LEAF_DIM && vz < LEAF_DIM) occ[b * LEAF_SIZE + (vx << 6) + (vy << 3) + vz] = 1;
+                if (vx < LEAF_DIM && vy < LEAF_DIM && vz < LEAF_DIM)
+                    occ[b * LEAF_SIZE + (vx << 6) + (vy << 3) + vz] = 1;
             }
         }
     });
@@ -66,7 +67,8 @@ std::vector<uint8_t> buried_particles(const float *x, const float *y, const floa
                     for (int k = -1; k <= 1; k++) {
                         const uint64_t key = leaf_key(lc.x() + i, lc.y() + j, lc.z() + k);
                         auto it = std::lower_bound(bin_key.begin(), bin_key.end(), key);
-                        nbr[(i + 1) * 9 + (j + 1) * 3 + k + 1] = it != bin_key.end() && *it == key ? long(it - bin_key.begin()) : -1;
+                        nbr[(i + 1) * 9 + (j + 1) * 3 + k + 1] =
+                            it != bin_key.end() && *it == key ? long(it - bin_key.begin()) : -1;
                     }
             for (int vx = 0; vx < S; vx++)
                 for (int vy = 0; vy < S; vy++)

@@ -24,8 +24,7 @@ namespace kf_vdb {
 // leaf bins (bin_key ascending, bin_at: first particle of each bin, and n
 // at the end). Returns a flag per particle: 1 buried within M (M <= 8).
 std::vector<uint8_t> buried_particles(const float *x, const float *y, const float *z,
-                                      const std::vector<uint64_t> &bin_key, const std::vector<uint32_t> &bin_at,
-                                      int M);
+                                      const std::vector<uint64_t> &bin_key, const std::vector<uint32_t> &bin_at, int M);
 
 } // namespace kf_vdb
 

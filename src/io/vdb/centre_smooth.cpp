@@ -13,16 +13,14 @@ namespace kf_vdb {
 namespace {
 
 // a cell key from integer cell coordinates (21 bits each, offset to stay positive)
-inline uint64_t cell_key(int64_t i, int64_t j, int64_t k)
-{
+inline uint64_t cell_key(int64_t i, int64_t j, int64_t k) {
     const int64_t o = int64_t(1) << 20;
     return (uint64_t(i + o) & 0x1fffff) | (uint64_t(j + o) & 0x1fffff) << 21 | (uint64_t(k + o) & 0x1fffff) << 42;
 }
 
 } // namespace
 
-std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, double lambda, double R)
-{
+std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, double lambda, double R) {
     std::vector<float> out(3 * n);
     auto pos = [&](size_t i, int a) { return xd ? xd[3 * i + a] : double(xf[3 * i + a]); };
     // particles sorted into cells of edge R (ties by index: deterministic)
@@ -34,7 +32,8 @@ std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, d
                           int64_t(std::floor(pos(i, 2) * invR)));
         order[i] = i;
     }
-    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
+    std::sort(order.begin(), order.end(),
+              [&](size_t a, size_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
     std::unordered_map<uint64_t, std::pair<size_t, size_t>> cells;
     cells.reserve(n / 4 + 16);
     for (size_t s0 = 0; s0 < n;) {
@@ -96,8 +95,7 @@ std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, d
     return out;
 }
 
-double shift_depth(double lambda, double R, double h)
-{
+double shift_depth(double lambda, double R, double h) {
     // A centre at depth u below a flat face of a continuum filled below it:
     // the weighted mean of the ball of radius R clipped at the face sits
     // below the centre by m(u) = int w(r) z dV / int w(r) dV over the

@@ -7,8 +7,7 @@
 namespace kf_vdb {
 
 // one binary search per neighbour, once: every later pass reads the table
-void dense_band::link()
-{
+void dense_band::link() {
     nbr.assign(27 * key.size(), -1);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, key.size(), 64), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t i = rg.begin(); i != rg.end(); i++) {

@@ -24,14 +24,12 @@ constexpr int LEAF_DIM = 1 << LEAF_LOG2;
 constexpr int LEAF_SIZE = LEAF_DIM * LEAF_DIM * LEAF_DIM;
 constexpr int64_t LEAF_BIAS = int64_t(1) << 20; // leaf coordinates in +/- 2^20 pack into 21 bits
 
-inline uint64_t leaf_key(int64_t lx, int64_t ly, int64_t lz)
-{
+inline uint64_t leaf_key(int64_t lx, int64_t ly, int64_t lz) {
     return (uint64_t(lx + LEAF_BIAS) << 42) | (uint64_t(ly + LEAF_BIAS) << 21) | uint64_t(lz + LEAF_BIAS);
 }
 
 // leaf coordinates (voxel origin >> 3) of a key
-inline openvdb::Coord leaf_coord(uint64_t k)
-{
+inline openvdb::Coord leaf_coord(uint64_t k) {
     const uint64_t m = (uint64_t(1) << 21) - 1;
     return openvdb::Coord(int(int64_t((k >> 42) & m) - LEAF_BIAS), int(int64_t((k >> 21) & m) - LEAF_BIAS),
                           int(int64_t(k & m) - LEAF_BIAS));
@@ -49,8 +47,7 @@ struct dense_band {
     const float *leaf(size_t i) const { return phi.data() + i * LEAF_SIZE; }
     static int nbr_slot(int dx, int dy, int dz) { return (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1); }
 
-    long find(uint64_t k) const
-    {
+    long find(uint64_t k) const {
         auto it = std::lower_bound(key.begin(), key.end(), k);
         return it != key.end() && *it == k ? long(it - key.begin()) : -1;
     }

@@ -38,8 +38,7 @@ constexpr int64_t BIAS = LEAF_BIAS;
 static_assert(Leaf::LOG2DIM == LEAF_LOG2, "OpenVDB's leaves are 8^3");
 
 // process CPU seconds (all threads): honest when other work shares the machine
-double cpu_now()
-{
+double cpu_now() {
     timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
@@ -60,25 +59,21 @@ struct sorted_particles {
 
     // the particles splatted as spheres in the bin with this key, and the
     // buried ones after them, [first, last) (empty when there is no bin)
-    std::pair<uint32_t, uint32_t> spheres(uint64_t key) const
-    {
+    std::pair<uint32_t, uint32_t> spheres(uint64_t key) const {
         const long b = find(key);
         return b < 0 ? std::make_pair(0u, 0u) : std::make_pair(bin_at[size_t(b)], bin_mid[size_t(b)]);
     }
-    std::pair<uint32_t, uint32_t> buried(uint64_t key) const
-    {
+    std::pair<uint32_t, uint32_t> buried(uint64_t key) const {
         const long b = find(key);
         return b < 0 ? std::make_pair(0u, 0u) : std::make_pair(bin_mid[size_t(b)], bin_at[size_t(b) + 1]);
     }
-    long find(uint64_t key) const
-    {
+    long find(uint64_t key) const {
         auto it = std::lower_bound(bin_key.begin(), bin_key.end(), key);
         return it == bin_key.end() || *it != key ? -1 : long(it - bin_key.begin());
     }
 };
 
-sorted_particles sort_particles(const sphere_set &s, double h)
-{
+sorted_particles sort_particles(const sphere_set &s, double h) {
     const size_t n = s.n;
     if (n >= (size_t(1) << 32)) throw std::runtime_error("more than 2^32 particles");
     std::vector<std::pair<uint64_t, uint32_t>> order(n);
@@ -125,8 +120,7 @@ sorted_particles sort_particles(const sphere_set &s, double h)
 // put each bin's buried particles last (bin_mid), so the splat gives them
 // only their nearest voxel: that keeps every voxel they reach inside, as
 // all those voxels hold particles (buried_particles.h)
-void mark_buried(sorted_particles &p, int M)
-{
+void mark_buried(sorted_particles &p, int M) {
     const std::vector<uint8_t> buried = buried_particles(p.x.data(), p.y.data(), p.z.data(), p.bin_key, p.bin_at, M);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, p.bin_key.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
         std::vector<uint32_t> order;
@@ -159,8 +153,7 @@ struct leaf_buffer {
     int32_t who[Leaf::SIZE]; // closest particle (sorted index), -1: none
 };
 
-void splat_leaf(const sorted_particles &p, Coord leaf, int reach, float w, bool track, leaf_buffer &b)
-{
+void splat_leaf(const sorted_particles &p, Coord leaf, int reach, float w, bool track, leaf_buffer &b) {
     std::fill(b.d, b.d + Leaf::SIZE, w);
     if (track) std::fill(b.who, b.who + Leaf::SIZE, -1);
     const int ox = leaf.x() * DIM, oy = leaf.y() * DIM, oz = leaf.z() * DIM; // not << : leaves may be below 0
@@ -175,9 +168,12 @@ void splat_leaf(const sorted_particles &p, Coord leaf, int reach, float w, bool 
                     if (px + ext < fox || px - ext > fox + (DIM - 1) || py + ext < foy || py - ext > foy + (DIM - 1) ||
                         pz + ext < foz || pz - ext > foz + (DIM - 1))
                         continue;
-                    const int x0 = std::max(ox, int(std::ceil(px - ext))), x1 = std::min(ox + DIM - 1, int(std::floor(px + ext)));
-                    const int y0 = std::max(oy, int(std::ceil(py - ext))), y1 = std::min(oy + DIM - 1, int(std::floor(py + ext)));
-                    const int z0 = std::max(oz, int(std::ceil(pz - ext))), z1 = std::min(oz + DIM - 1, int(std::floor(pz + ext)));
+                    const int x0 = std::max(ox, int(std::ceil(px - ext))),
+                              x1 = std::min(ox + DIM - 1, int(std::floor(px + ext)));
+                    const int y0 = std::max(oy, int(std::ceil(py - ext))),
+                              y1 = std::min(oy + DIM - 1, int(std::floor(py + ext)));
+                    const int z0 = std::max(oz, int(std::ceil(pz - ext))),
+                              z1 = std::min(oz + DIM - 1, int(std::floor(pz + ext)));
                     if (z0 > z1) continue;
                     // whole 8-voxel rows, branch-free so they vectorise: beyond
                     // the reach a distance exceeds w and min() keeps the buffer
@@ -228,16 +224,18 @@ void splat_leaf(const sorted_particles &p, Coord leaf, int reach, float w, bool 
 }
 
 // the point of the circle where spheres q and u meet nearest to (vx, vy, vz)
-void crease_point(const sorted_particles &p, uint32_t q, uint32_t u, float vx, float vy, float vz, std::vector<float> &out)
-{
-    const float ex = p.x[u] - p.x[q], ey = p.y[u] - p.y[q], ez = p.z[u] - p.z[q], L = std::sqrt(ex * ex + ey * ey + ez * ez);
+void crease_point(const sorted_particles &p, uint32_t q, uint32_t u, float vx, float vy, float vz,
+                  std::vector<float> &out) {
+    const float ex = p.x[u] - p.x[q], ey = p.y[u] - p.y[q], ez = p.z[u] - p.z[q],
+                L = std::sqrt(ex * ex + ey * ey + ez * ez);
     const float R = p.r[q], S = p.r[u];
     if (!(L > std::fabs(R - S) && L < R + S)) return; // no circle
     const float t = (L * L + R * R - S * S) / (2 * L), rc = std::sqrt(std::max(R * R - t * t, 0.f));
     const float nx = ex / L, ny = ey / L, nz = ez / L;
     const float cx = p.x[q] + t * nx, cy = p.y[q] + t * ny, cz = p.z[q] + t * nz;
     const float wx = vx - cx, wy = vy - cy, wz = vz - cz, along = wx * nx + wy * ny + wz * nz;
-    const float ux = wx - along * nx, uy = wy - along * ny, uz = wz - along * nz, ul = std::sqrt(ux * ux + uy * uy + uz * uz);
+    const float ux = wx - along * nx, uy = wy - along * ny, uz = wz - along * nz,
+                ul = std::sqrt(ux * ux + uy * uy + uz * uz);
     if (!(ul > 1e-6f)) return;
     out.push_back(cx + rc * ux / ul);
     out.push_back(cy + rc * uy / ul);
@@ -246,8 +244,7 @@ void crease_point(const sorted_particles &p, uint32_t q, uint32_t u, float vx, f
 
 // a leaf's closest points on the spheres, from its voxels just outside
 // (0 <= d < 1): on the closest sphere, which outside the union is exact
-void closest_points(const sorted_particles &p, openvdb::Coord lc, const leaf_buffer &b, std::vector<float> &out)
-{
+void closest_points(const sorted_particles &p, openvdb::Coord lc, const leaf_buffer &b, std::vector<float> &out) {
     const int ox = lc.x() * DIM, oy = lc.y() * DIM, oz = lc.z() * DIM;
     for (int v = 0; v < LEAF_SIZE; v++) {
         const float d = b.d[v];
@@ -285,8 +282,7 @@ struct splat_leaf_out {
 } // namespace
 
 FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, const band_filter *f, Vec3SGrid::Ptr *vel,
-                                 raster_timing *timing)
-{
+                                 raster_timing *timing) {
     double t0 = cpu_now();
     const float bg = float(hw * h);
     // Spheres are splatted only SPLAT voxels beyond their radius: exact
@@ -369,7 +365,8 @@ FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, const
         for (size_t i = rg.begin(); i != rg.end(); i++) {
             auto it = std::lower_bound(targets.begin(), targets.end(), band.key[i]);
             const long t = it != targets.end() && *it == band.key[i] && kept[size_t(it - targets.begin())].d
-                               ? long(it - targets.begin()) : -1;
+                               ? long(it - targets.begin())
+                               : -1;
             from[i] = t;
             float *phi = band.leaf(i);
             int32_t *w = who.data() + i * Leaf::SIZE;
@@ -390,7 +387,8 @@ FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, const
             if (from[i] < 0) continue;
             auto &pts = kept[size_t(from[i])].pts;
             for (size_t k = 0; 3 * k < pts.size(); k++)
-                sp.x[sp.at[i] + k] = pts[3 * k], sp.y[sp.at[i] + k] = pts[3 * k + 1], sp.z[sp.at[i] + k] = pts[3 * k + 2];
+                sp.x[sp.at[i] + k] = pts[3 * k], sp.y[sp.at[i] + k] = pts[3 * k + 1],
+                                sp.z[sp.at[i] + k] = pts[3 * k + 2];
         }
     });
     kept.clear();

@@ -29,8 +29,8 @@ struct sphere_set {
     const float *xf;
     const float *radii; // per particle, or null: r
     double r;
-    double rmin;        // 0: no clamp
-    const float *vel;   // n x 3, or null
+    double rmin;      // 0: no clamp
+    const float *vel; // n x 3, or null
 };
 
 struct raster_timing {

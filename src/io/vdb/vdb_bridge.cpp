@@ -55,8 +55,7 @@ struct bridge_error : std::runtime_error {
 };
 
 std::string fmt(const char *f, ...) __attribute__((format(printf, 1, 2)));
-std::string fmt(const char *f, ...)
-{
+std::string fmt(const char *f, ...) {
     char buf[1024];
     va_list ap;
     va_start(ap, f);
@@ -66,21 +65,18 @@ std::string fmt(const char *f, ...)
 }
 
 // process CPU seconds (all threads)
-double cpu_seconds()
-{
+double cpu_seconds() {
     timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
-void set_err(char *err, size_t errlen, const char *what, const char *msg)
-{
+void set_err(char *err, size_t errlen, const char *what, const char *msg) {
     if (err && errlen) snprintf(err, errlen, "vdb: %s: %s", what, msg);
 }
 
 // run body; every exception becomes a message and -1
-template <class F> int guard(const char *what, char *err, size_t errlen, F &&body)
-{
+template <class F> int guard(const char *what, char *err, size_t errlen, F &&body) {
     try {
         openvdb::initialize();
         body();
@@ -111,20 +107,17 @@ struct particle_list {
     const float *vel;
 
     size_t size() const { return n; }
-    void getPos(size_t i, Vec3R &p) const
-    {
+    void getPos(size_t i, Vec3R &p) const {
         if (xd) p = Vec3R(xd[3 * i], xd[3 * i + 1], xd[3 * i + 2]);
         else p = Vec3R(xf[3 * i], xf[3 * i + 1], xf[3 * i + 2]);
     }
-    double radius(size_t i) const
-    {
+    double radius(size_t i) const {
         double ri = radii ? double(radii[i]) : r;
         return ri < rmin ? rmin : ri;
     }
 };
 
-void apply_filter(FloatGrid &g, kf_vdb_op op, double amount, int iterations)
-{
+void apply_filter(FloatGrid &g, kf_vdb_op op, double amount, int iterations) {
     if (op == KF_VDB_OP_NONE) return;
     if ((op == KF_VDB_OP_DILATE || op == KF_VDB_OP_ERODE) && !(amount >= 0 && std::isfinite(amount)))
         throw bridge_error(fmt("dilate/erode amount %g m must be finite and >= 0", amount));
@@ -137,7 +130,7 @@ void apply_filter(FloatGrid &g, kf_vdb_op op, double amount, int iterations)
         const float d = float(op == KF_VDB_OP_ERODE ? amount : -amount);
         openvdb::tools::LevelSetTracker<FloatGrid> t(g);
         t.setNormCount(1);
-        t.leafs().foreach([d](FloatGrid::TreeType::LeafNodeType &leaf, size_t) {
+        t.leafs().foreach ([d](FloatGrid::TreeType::LeafNodeType &leaf, size_t) {
             for (auto it = leaf.beginValueOn(); it; ++it) it.setValue(*it + d);
         });
         t.track();
@@ -149,28 +142,36 @@ void apply_filter(FloatGrid &g, kf_vdb_op op, double amount, int iterations)
     // surface under a voxel; 2.4x faster, the sphere moves < 0.1 voxel more
     f.setNormCount(1);
     switch (op) {
-    case KF_VDB_OP_DILATE: if (amount > 0) f.offset(float(-amount)); break;
-    case KF_VDB_OP_ERODE: if (amount > 0) f.offset(float(amount)); break;
-    case KF_VDB_OP_MEAN_CURVATURE: for (int i = 0; i < iterations; i++) f.meanCurvature(); break;
-    case KF_VDB_OP_GAUSSIAN: for (int i = 0; i < iterations; i++) f.gaussian(1); break;
-    case KF_VDB_OP_LAPLACIAN: for (int i = 0; i < iterations; i++) f.laplacian(); break;
+    case KF_VDB_OP_DILATE:
+        if (amount > 0) f.offset(float(-amount));
+        break;
+    case KF_VDB_OP_ERODE:
+        if (amount > 0) f.offset(float(amount));
+        break;
+    case KF_VDB_OP_MEAN_CURVATURE:
+        for (int i = 0; i < iterations; i++) f.meanCurvature();
+        break;
+    case KF_VDB_OP_GAUSSIAN:
+        for (int i = 0; i < iterations; i++) f.gaussian(1);
+        break;
+    case KF_VDB_OP_LAPLACIAN:
+        for (int i = 0; i < iterations; i++) f.laplacian();
+        break;
     default: throw bridge_error(fmt("unknown filter op %d", int(op)));
     }
 }
 
 // the four promised keys plus the compression actually used
-void put_meta(openvdb::MetaMap &m, const kf_vdb_meta *meta, const char *compression)
-{
+void put_meta(openvdb::MetaMap &m, const kf_vdb_meta *meta, const char *compression) {
     m.insertMeta("shot", openvdb::StringMetadata(meta ? meta->shot : ""));
     m.insertMeta("frame", openvdb::Int32Metadata(meta ? meta->frame : 0));
-    m.insertMeta("kerf_version", openvdb::StringMetadata(
-        meta && meta->kerf_version[0] ? meta->kerf_version : KERF_VERSION));
+    m.insertMeta("kerf_version",
+                 openvdb::StringMetadata(meta && meta->kerf_version[0] ? meta->kerf_version : KERF_VERSION));
     m.insertMeta("dx", openvdb::DoubleMetadata(meta ? meta->dx : 0.0));
     m.insertMeta("compression", openvdb::StringMetadata(compression));
 }
 
-void get_meta(const openvdb::MetaMap &m, kf_vdb_meta *meta)
-{
+void get_meta(const openvdb::MetaMap &m, kf_vdb_meta *meta) {
     if (!meta) return;
     memset(meta, 0, sizeof *meta);
     if (auto s = m.getMetadata<openvdb::StringMetadata>("shot"))
@@ -193,16 +194,15 @@ struct memory_archive : openvdb::io::Archive {
 };
 
 // what a failed write says: a full disk in words an artist reads
-std::string write_failure(const std::string &path, const char *step, int e)
-{
+std::string write_failure(const std::string &path, const char *step, int e) {
     if (e == ENOSPC || e == EDQUOT)
-        return fmt("cannot write '%s': no space left on the device (%s)", path.c_str(), e == EDQUOT ? "quota" : "disk full");
+        return fmt("cannot write '%s': no space left on the device (%s)", path.c_str(),
+                   e == EDQUOT ? "quota" : "disk full");
     return fmt("cannot write '%s': %s: %s", path.c_str(), step, strerror(e));
 }
 
 // all of bytes to a new file at tmp, fsync'ed; throws with errno's reason
-void write_file(const std::string &tmp, const std::string &path, const std::string &bytes)
-{
+void write_file(const std::string &tmp, const std::string &path, const std::string &bytes) {
     int fd = open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (fd < 0) throw bridge_error(write_failure(path, "create", errno));
     const char *p = bytes.data();
@@ -227,8 +227,7 @@ void write_file(const std::string &tmp, const std::string &path, const std::stri
 }
 
 // write grids to path.tmp-<pid>, fsync, rename over path, fsync the directory
-void write_atomic(const std::string &path, const openvdb::GridPtrVec &grids, const kf_vdb_meta *meta)
-{
+void write_atomic(const std::string &path, const openvdb::GridPtrVec &grids, const kf_vdb_meta *meta) {
     if (path.empty()) throw bridge_error("empty output path");
     const bool blosc = openvdb::io::Archive::hasBloscCompression();
     const char *comp = blosc ? "blosc" : "zip";
@@ -265,8 +264,7 @@ void write_atomic(const std::string &path, const openvdb::GridPtrVec &grids, con
 // open for reading with a message that names the path
 struct reader {
     openvdb::io::File f;
-    explicit reader(const char *path) : f(path ? path : "")
-    {
+    explicit reader(const char *path) : f(path ? path : "") {
         if (!path || !*path) throw bridge_error("empty input path");
         try {
             f.open();
@@ -274,14 +272,15 @@ struct reader {
             throw bridge_error(fmt("cannot open '%s': %s", path, e.what()));
         }
     }
-    ~reader()
-    {
-        try { if (f.isOpen()) f.close(); } catch (...) {}
+    ~reader() {
+        try {
+            if (f.isOpen()) f.close();
+        } catch (...) {
+        }
     }
 };
 
-void mesh_grid(const FloatGrid &g, double iso, double adaptivity, kf_vdb_trimesh *out)
-{
+void mesh_grid(const FloatGrid &g, double iso, double adaptivity, kf_vdb_trimesh *out) {
     if (!(adaptivity >= 0 && adaptivity <= 1)) throw bridge_error(fmt("adaptivity %g outside 0..1", adaptivity));
     std::vector<Vec3s> pts;
     std::vector<openvdb::Vec3I> tri;
@@ -293,7 +292,9 @@ void mesh_grid(const FloatGrid &g, double iso, double adaptivity, kf_vdb_trimesh
     float *nrm = (float *)malloc((nv ? nv : 1) * 3 * sizeof(float));
     uint32_t *t = (uint32_t *)malloc((nt ? nt : 1) * 3 * sizeof(uint32_t));
     if (!v || !nrm || !t) {
-        free(v); free(nrm); free(t);
+        free(v);
+        free(nrm);
+        free(t);
         throw std::bad_alloc();
     }
     // normals: gradient of the signed distance by central differences of
@@ -316,11 +317,20 @@ void mesh_grid(const FloatGrid &g, double iso, double adaptivity, kf_vdb_trimesh
     // (checked by the tests' signed volume); reverse to counter-clockwise
     size_t j = 0;
     for (auto &q : tri) {
-        t[3 * j] = q[0]; t[3 * j + 1] = q[2]; t[3 * j + 2] = q[1]; j++;
+        t[3 * j] = q[0];
+        t[3 * j + 1] = q[2];
+        t[3 * j + 2] = q[1];
+        j++;
     }
     for (auto &q : quad) {
-        t[3 * j] = q[0]; t[3 * j + 1] = q[2]; t[3 * j + 2] = q[1]; j++;
-        t[3 * j] = q[0]; t[3 * j + 1] = q[3]; t[3 * j + 2] = q[2]; j++;
+        t[3 * j] = q[0];
+        t[3 * j + 1] = q[2];
+        t[3 * j + 2] = q[1];
+        j++;
+        t[3 * j] = q[0];
+        t[3 * j + 1] = q[3];
+        t[3 * j + 2] = q[2];
+        j++;
     }
     out->nverts = nv;
     out->ntris = nt;
@@ -329,13 +339,12 @@ void mesh_grid(const FloatGrid &g, double iso, double adaptivity, kf_vdb_trimesh
     out->tris = t;
 }
 
-FloatGrid::Ptr find_levelset(openvdb::io::File &f, const char *path, const char *name)
-{
+FloatGrid::Ptr find_levelset(openvdb::io::File &f, const char *path, const char *name) {
     if (!f.hasGrid(name)) throw bridge_error(fmt("'%s' has no grid named '%s'", path, name));
     auto base = f.readGrid(name);
     auto g = openvdb::gridPtrCast<FloatGrid>(base);
-    if (!g) throw bridge_error(fmt("'%s': grid '%s' is %s, not a float level set", path, name,
-                                   base->valueType().c_str()));
+    if (!g)
+        throw bridge_error(fmt("'%s': grid '%s' is %s, not a float level set", path, name, base->valueType().c_str()));
     if (g->getGridClass() != openvdb::GRID_LEVEL_SET)
         throw bridge_error(fmt("'%s': grid '%s' is a %s, not a level set", path, name,
                                openvdb::GridBase::gridClassToString(g->getGridClass()).c_str()));
@@ -346,19 +355,16 @@ FloatGrid::Ptr find_levelset(openvdb::io::File &f, const char *path, const char 
 
 extern "C" {
 
-void kf_vdb_surface_params_default(kf_vdb_surface_params *p)
-{
+void kf_vdb_surface_params_default(kf_vdb_surface_params *p) {
     memset(p, 0, sizeof *p);
     p->radius_factor = KF_VDB_RADIUS_FACTOR;
     p->half_width = 3.0;
     p->name = "surface";
 }
 
-int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
-                                   const float *radii, const float *vel,
-                                   const kf_vdb_surface_params *pp, kf_vdb_grid **out,
-                                   kf_vdb_surface_stats *stats, char *err, size_t errlen)
-{
+int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, const float *radii, const float *vel,
+                                   const kf_vdb_surface_params *pp, kf_vdb_grid **out, kf_vdb_surface_stats *stats,
+                                   char *err, size_t errlen) {
     if (out) *out = nullptr;
     return guard("surfacing", err, errlen, [&] {
         auto t0 = std::chrono::steady_clock::now();
@@ -366,13 +372,11 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
         kf_vdb_surface_params_default(&p);
         if (pp) p = *pp;
         if (!out) throw bridge_error("no output handle");
-        if ((xd == nullptr) == (xf == nullptr))
-            throw bridge_error("give exactly one of double or float positions");
+        if ((xd == nullptr) == (xf == nullptr)) throw bridge_error("give exactly one of double or float positions");
         if (n == 0) throw bridge_error("no particles to surface");
         const double factor = p.radius_factor > 0 ? p.radius_factor : KF_VDB_RADIUS_FACTOR;
         double r = p.radius > 0 ? p.radius : factor * p.spacing;
-        if (!radii && !(r > 0))
-            throw bridge_error("particle spacing (or a radius) must be > 0");
+        if (!radii && !(r > 0)) throw bridge_error("particle spacing (or a radius) must be > 0");
         double voxel = p.voxel > 0 ? p.voxel : (p.spacing > 0 ? 0.5 * p.spacing : 0.5 * r);
         if (!(voxel > 0 && std::isfinite(voxel))) throw bridge_error(fmt("voxel size %g must be > 0", voxel));
         const double hw = p.half_width > 0 ? p.half_width : 3.0;
@@ -401,8 +405,8 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
             if (ri < rlo) rlo = ri;
         }
         if (nbad)
-            throw bridge_error(fmt("%zu particles have a non-finite position or a radius <= 0 (first: #%zu)",
-                                   nbad, first_bad));
+            throw bridge_error(
+                fmt("%zu particles have a non-finite position or a radius <= 0 (first: #%zu)", nbad, first_bad));
         if (nsmall && !p.clamp_small)
             throw bridge_error(fmt("%zu of %zu particles have radius under %.1f voxels (smallest %g m, "
                                    "voxel %g m, need >= %g m); OpenVDB would drop them: raise the radius, "
@@ -473,8 +477,7 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf,
     });
 }
 
-int kf_vdb_union(kf_vdb_grid *a, kf_vdb_grid *b, char *err, size_t errlen)
-{
+int kf_vdb_union(kf_vdb_grid *a, kf_vdb_grid *b, char *err, size_t errlen) {
     return guard("union", err, errlen, [&] {
         if (!a || !b) throw bridge_error("no grid");
         if (a->ls->voxelSize() != b->ls->voxelSize())
@@ -490,16 +493,14 @@ int kf_vdb_union(kf_vdb_grid *a, kf_vdb_grid *b, char *err, size_t errlen)
     });
 }
 
-int kf_vdb_filter(kf_vdb_grid *g, kf_vdb_op op, double amount, int iterations, char *err, size_t errlen)
-{
+int kf_vdb_filter(kf_vdb_grid *g, kf_vdb_op op, double amount, int iterations, char *err, size_t errlen) {
     return guard("filter", err, errlen, [&] {
         if (!g) throw bridge_error("no grid");
         apply_filter(*g->ls, op, amount, iterations);
     });
 }
 
-int kf_vdb_set_name(kf_vdb_grid *g, const char *name, char *err, size_t errlen)
-{
+int kf_vdb_set_name(kf_vdb_grid *g, const char *name, char *err, size_t errlen) {
     return guard("set name", err, errlen, [&] {
         if (!g || !name || !*name) throw bridge_error("no grid or empty name");
         g->ls->setName(name);
@@ -512,8 +513,7 @@ double kf_vdb_voxel_size(const kf_vdb_grid *g) { return g ? g->ls->voxelSize()[0
 size_t kf_vdb_active_voxels(const kf_vdb_grid *g) { return g ? size_t(g->ls->activeVoxelCount()) : 0; }
 
 int kf_vdb_write(const char *path, kf_vdb_grid *const *grids, int ngrids, const kf_vdb_meta *meta, char *err,
-                 size_t errlen)
-{
+                 size_t errlen) {
     return guard("write", err, errlen, [&] {
         if (!path) throw bridge_error("no output path");
         if (ngrids < 0 || (ngrids > 0 && !grids)) throw bridge_error("bad grid list");
@@ -530,8 +530,7 @@ int kf_vdb_write(const char *path, kf_vdb_grid *const *grids, int ngrids, const 
 const char *const kf_vdb_point_float_names[KF_VDB_PT_FLOATS] = {"Jp", "von_mises", "J", "plastic_strain"};
 
 int kf_vdb_points_write(const char *path, size_t n, const float *x, const float *v, const int32_t *material,
-                        const float *const *floats, double voxel, const kf_vdb_meta *meta, char *err, size_t errlen)
-{
+                        const float *const *floats, double voxel, const kf_vdb_meta *meta, char *err, size_t errlen) {
     namespace pts = openvdb::points;
     return guard("points write", err, errlen, [&] {
         if (!path) throw bridge_error("no output path");
@@ -571,8 +570,7 @@ int kf_vdb_points_write(const char *path, size_t n, const float *x, const float 
     });
 }
 
-int kf_vdb_points_read(const char *path, kf_vdb_points *out, char *err, size_t errlen)
-{
+int kf_vdb_points_read(const char *path, kf_vdb_points *out, char *err, size_t errlen) {
     namespace pts = openvdb::points;
     if (out) memset(out, 0, sizeof *out);
     int rc = guard("points read", err, errlen, [&] {
@@ -607,12 +605,16 @@ int kf_vdb_points_read(const char *path, kf_vdb_points *out, char *err, size_t e
             if (hm) Mh.reset(new pts::AttributeHandle<int32_t>(leaf->constAttributeArray("material")));
             for (int a = 0; a < KF_VDB_PT_FLOATS; a++)
                 if (hf[a])
-                    Fh[a].reset(new pts::AttributeHandle<float>(leaf->constAttributeArray(kf_vdb_point_float_names[a])));
+                    Fh[a].reset(
+                        new pts::AttributeHandle<float>(leaf->constAttributeArray(kf_vdb_point_float_names[a])));
             for (auto it = leaf->beginIndexOn(); it; ++it) {
                 if (k >= n) throw bridge_error("point count mismatch");
                 const Vec3R w = grid->transform().indexToWorld(Ph.get(*it) + it.getCoord().asVec3d());
                 for (int c = 0; c < 3; c++) out->x[3 * k + c] = float(w[c]);
-                if (Vh) { Vec3s vv = Vh->get(*it); for (int c = 0; c < 3; c++) out->v[3 * k + c] = vv[c]; }
+                if (Vh) {
+                    Vec3s vv = Vh->get(*it);
+                    for (int c = 0; c < 3; c++) out->v[3 * k + c] = vv[c];
+                }
                 if (Mh) out->material[k] = Mh->get(*it);
                 for (int a = 0; a < KF_VDB_PT_FLOATS; a++)
                     if (Fh[a]) out->f[a][k] = Fh[a]->get(*it);
@@ -625,17 +627,17 @@ int kf_vdb_points_read(const char *path, kf_vdb_points *out, char *err, size_t e
     return rc;
 }
 
-void kf_vdb_points_free(kf_vdb_points *p)
-{
+void kf_vdb_points_free(kf_vdb_points *p) {
     if (!p) return;
-    free(p->x); free(p->v); free(p->material);
+    free(p->x);
+    free(p->v);
+    free(p->material);
     for (int a = 0; a < KF_VDB_PT_FLOATS; a++) free(p->f[a]);
     memset(p, 0, sizeof *p);
 }
 
 int kf_vdb_mesh(const kf_vdb_grid *g, double isovalue, double adaptivity, kf_vdb_trimesh *out, char *err,
-                size_t errlen)
-{
+                size_t errlen) {
     if (out) memset(out, 0, sizeof *out);
     return guard("mesh", err, errlen, [&] {
         if (!g || !out) throw bridge_error("no grid or no output");
@@ -643,15 +645,15 @@ int kf_vdb_mesh(const kf_vdb_grid *g, double isovalue, double adaptivity, kf_vdb
     });
 }
 
-void kf_vdb_mesh_free(kf_vdb_trimesh *m)
-{
+void kf_vdb_mesh_free(kf_vdb_trimesh *m) {
     if (!m) return;
-    free(m->verts); free(m->normals); free(m->tris);
+    free(m->verts);
+    free(m->normals);
+    free(m->tris);
     memset(m, 0, sizeof *m);
 }
 
-int kf_vdb_info(const char *path, kf_vdb_file_info *info, char *err, size_t errlen)
-{
+int kf_vdb_info(const char *path, kf_vdb_file_info *info, char *err, size_t errlen) {
     if (info) memset(info, 0, sizeof *info);
     return guard("info", err, errlen, [&] {
         if (!info) throw bridge_error("no output");
@@ -669,8 +671,7 @@ int kf_vdb_info(const char *path, kf_vdb_file_info *info, char *err, size_t errl
 }
 
 int kf_vdb_read_levelset(const char *path, const char *name, kf_vdb_grid **out, kf_vdb_meta *meta, char *err,
-                         size_t errlen)
-{
+                         size_t errlen) {
     if (out) *out = nullptr;
     return guard("read", err, errlen, [&] {
         if (!out) throw bridge_error("no output handle");
@@ -683,8 +684,7 @@ int kf_vdb_read_levelset(const char *path, const char *name, kf_vdb_grid **out, 
     });
 }
 
-int kf_vdb_sample(const kf_vdb_grid *g, const double *xyz, size_t n, double *out, char *err, size_t errlen)
-{
+int kf_vdb_sample(const kf_vdb_grid *g, const double *xyz, size_t n, double *out, char *err, size_t errlen) {
     return guard("sample", err, errlen, [&] {
         if (!g || (n && (!xyz || !out))) throw bridge_error("no grid or no arrays");
         openvdb::tools::GridSampler<FloatGrid, openvdb::tools::BoxSampler> s(*g->ls);
@@ -692,9 +692,8 @@ int kf_vdb_sample(const kf_vdb_grid *g, const double *xyz, size_t n, double *out
     });
 }
 
-int kf_vdb_read_vec3_sample(const char *path, const char *name, const double *xyz, size_t n, double *out,
-                            char *err, size_t errlen)
-{
+int kf_vdb_read_vec3_sample(const char *path, const char *name, const double *xyz, size_t n, double *out, char *err,
+                            size_t errlen) {
     return guard("read", err, errlen, [&] {
         if (n && (!xyz || !out)) throw bridge_error("no arrays");
         reader r(path);
@@ -712,8 +711,7 @@ int kf_vdb_read_vec3_sample(const char *path, const char *name, const double *xy
 }
 
 int kf_vdb_read_surface_mesh(const char *path, double adaptivity, kf_vdb_trimesh *out, kf_vdb_meta *meta, char *err,
-                             size_t errlen)
-{
+                             size_t errlen) {
     if (out) memset(out, 0, sizeof *out);
     return guard("read surface", err, errlen, [&] {
         if (!out) throw bridge_error("no output");
