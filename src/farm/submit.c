@@ -34,9 +34,12 @@
 #include "farm_internal.h"
 #include "slurm.h"
 
-/* An MPI sim with N ranks needs only this prefix on its command line (and
- * --ntasks=N on its job, which the submission already sets): */
-#define SIM_LAUNCH(ranks) ((ranks) > 1 ? "srun --ntasks=%d " : "")
+/* An MPI sim with N ranks needs only an srun prefix after exec (and
+ * --ntasks=N on its job, which the submission already sets) */
+static void sim_launch(FILE *f, int ranks) {
+    fprintf(f, "exec ");
+    if (ranks > 1) fprintf(f, "srun --ntasks=%d ", ranks);
+}
 
 /* a shell word: 'text' with each ' written as '\'' */
 static void sh_word(FILE *f, const char *s) {
@@ -107,8 +110,7 @@ static int write_sim_script(const char *farm, const char *name, const char *kerf
     if (script_open(&af, farm, name, path, n)) return -1;
     FILE *f = af.f;
     fprintf(f, "export OMP_WAIT_POLICY=PASSIVE\n");
-    fprintf(f, SIM_LAUNCH(ranks), ranks);
-    fprintf(f, "exec ");
+    sim_launch(f, ranks);
     sh_word(f, kerf);
     fprintf(f, " farm task sim ");
     sh_common(f, o);
@@ -213,7 +215,7 @@ int kf_farm_submit(kf_farm_opts *fo) {
     kf_cli_opts *o = &fo->o;
     char why[4500];
     if (fo->ranks > 1) {
-        /* the one place that changes when the MPI build lands (SIM_LAUNCH has the srun line) */
+        /* the one place that changes when the MPI build lands (sim_launch has the srun line) */
         fprintf(stderr,
                 "kerf farm: --ranks %d: one simulation over several MPI ranks is not in kerf yet; submit "
                 "with --ranks 1 (the default). Nothing submitted.\n",
