@@ -6,7 +6,9 @@
 # wedges: a 6-frame preview shot with 2 wedges on the farm: every PNG, .vdb
 #   and checkpoint exists and equals a local `kerf run --wedge` byte for byte
 #   (a .vdb except its file UUID), the contact sheet exists; status and the
-#   refusals (no Slurm, --ranks 2) say what they should and submit nothing.
+#   refusals (no Slurm, --ranks 2 on a shot the ranks cannot run) say what
+#   they should and submit nothing; --ranks 2 on one they can run is one srun
+#   step of 2 MPI ranks whose outputs equal a local one-rank run's.
 # resume: the sim job is killed mid-run: its waiting tasks are cancelled,
 #   nothing stays queued; a re-submit resumes from the last checkpoint,
 #   skips the current frames, and ends equal to a local run; cancel touches
@@ -68,6 +70,8 @@ wait_idle() { # wait_idle <jobs.txt> <seconds>
 cp "$tests/cli/tiny.yaml" "$work/"
 cd "$work"
 export OMP_WAIT_POLICY=PASSIVE OMP_NUM_THREADS=1
+# the 2-rank sim: Open MPI asks root to say it means it
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
 if [ "$mode" = wedges ]; then
     shot=(tiny.yaml --quality preview --frames 1001-1006)
@@ -90,10 +94,23 @@ eval "$("$tools/slurm_local.sh" start "$work/cluster")" || { echo "FAIL  the loc
 echo "ok    a one-node Slurm is up ($SLURM_CONF)"
 
 if [ "$mode" = wedges ]; then
+    # --- --ranks 2: a shot the ranks cannot run is refused before anything is queued;
+    # one they can run is one srun step of 2 ranks, equal to a local one-rank run
     "$kerf" farm submit "${shot[@]}" --ranks 2 > /dev/null 2> ranks.txt
     rc=$?
-    check "--ranks 2 exits 2 (got $rc): no MPI build yet, nothing submitted" \
-        bash -c "test $rc -eq 2 && grep -q 'not in kerf yet' ranks.txt && test -z \"\$(squeue -h)\""
+    check "--ranks 2 on a shot with contact between objects exits 2 (got $rc), names it, submits nothing" \
+        bash -c "test $rc -eq 2 && grep -q 'contact between objects (sim.contact) does not run over several MPI ranks' ranks.txt && test -z \"\$(squeue -h)\""
+    nocontact=(--set sim.contact=off)
+    "$kerf" farm submit "${shot[@]}" "${nocontact[@]}" --ranks 2 --out mpi > mpisubmit.txt 2>&1
+    rc=$?
+    check "--ranks 2 on a shot the ranks can run is submitted (exit $rc)" test $rc -eq 0
+    wait_idle mpi/farm/jobs.txt 240
+    check "the 2-rank submission ends within 4 minutes" test $? -eq 0
+    check "its sim ran on 2 ranks (the frame log's balance line)" \
+        bash -c "grep -qE '^frame 1006: 2 ranks: ' mpi/farm/logs/tiny_w00_sim.*.log"
+    "$kerf" run "${shot[@]}" "${nocontact[@]}" --out mpilocal --quiet
+    compare_dirs mpi mpilocal 18
+    check "6 checkpoints, 6 .vdb and 6 PNGs from 2 ranks on the farm, each equal to a local one-rank run's" test $? -eq 0
     t0=$(date +%s.%N)
     "$kerf" farm submit "${shot[@]}" "${wedge[@]}" > submit.txt 2>&1
     rc=$?

@@ -72,11 +72,18 @@ void kf_cli_usage(FILE *f, const char *cmd) {
 
 static int dispatch(int argc, char **argv);
 
-/* Under a launcher (mpirun -np N) the ranks run one simulation together;
- * only `kerf run` knows how. Without one, or with one rank, nothing changes. */
+/* Under a launcher (mpirun -np N, or srun in a farm's sim job) the ranks run
+ * one simulation together; only `kerf run` and the farm's sim task (a run
+ * that also releases the frames' held jobs, from rank 0) know how. Without
+ * one, or with one rank, nothing changes. */
+static int runs_over_ranks(int argc, char **argv) {
+    if (argc >= 2 && !strcmp(argv[1], "run")) return 1;
+    return argc >= 4 && !strcmp(argv[1], "farm") && !strcmp(argv[2], "task") && !strcmp(argv[3], "sim");
+}
+
 int main(int argc, char **argv) {
     int ranks = kf_dist_init(&argc, &argv), rc;
-    if (ranks > 1 && (argc < 2 || strcmp(argv[1], "run"))) {
+    if (ranks > 1 && !runs_over_ranks(argc, argv)) {
         if (kf_dist_rank() == 0)
             fprintf(stderr,
                     "kerf: only `kerf run` runs over several MPI ranks (%d here); run `kerf %s` without mpirun\n",

@@ -38,12 +38,14 @@ void kf_dist_abort(int code) {
 
 double kf_dist_clock(void) { return kf_now_ms(); }
 
-const char *kf_dist_unsupported(const kf_model *m) {
-    if (m->nrigid) return "rigid bodies (rigids:, CPIC thin boundaries and two-way coupling)";
-    if (m->sim.integrator == KF_INTEGRATOR_IMPLICIT) return "the implicit integrator (sim.integrator: implicit)";
-    if (m->sim.contact) return "contact between objects (sim.contact)";
+const char *kf_dist_unsupported_def(const kf_sim_def *sim, int nrigid) {
+    if (nrigid) return "rigid bodies (rigids:, CPIC thin boundaries and two-way coupling)";
+    if (sim->integrator == KF_INTEGRATOR_IMPLICIT) return "the implicit integrator (sim.integrator: implicit)";
+    if (sim->contact) return "contact between objects (sim.contact)";
     return NULL;
 }
+
+const char *kf_dist_unsupported(const kf_model *m) { return kf_dist_unsupported_def(&m->sim, m->nrigid); }
 
 int kf_dist_reserve(void **buf, size_t *cap, size_t want) {
     if (want <= *cap && *buf) return 0;

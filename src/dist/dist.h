@@ -57,8 +57,11 @@ int kf_dist_bcast_int(int v);
 /* every rank stops now, with this exit code (a rank's fatal error) */
 void kf_dist_abort(int code);
 
-/* The feature of this model the distributed step does not cover, or NULL. */
+/* The feature of this model the distributed step does not cover, or NULL;
+ * the _def form answers from the settings and the rigid body count alone,
+ * so a farm can refuse a shot before it queues a job. */
 const char *kf_dist_unsupported(const kf_model *m);
+const char *kf_dist_unsupported_def(const kf_sim_def *sim, int nrigid);
 
 /* Split a state every rank holds whole (built, or read from a checkpoint)
  * into this rank's part; s->dist is set. Returns 0 or -1 (out of memory). */

@@ -22,7 +22,7 @@ static void usage(FILE *f) {
                "  Frames whose images are current are not submitted again. A failed surface or render task\n"
                "  is retried once; a failed or cancelled sim cancels the tasks still waiting on it.\n"
                "  Array index = frame - first frame. Logs: <dir>/farm/logs/. The sim job gets --threads N cores\n"
-               "  (default 1), each task one. --ranks N > 1 needs kerf's MPI build (not there yet).\n"
+               "  (default 1), each task one. --ranks N > 1 runs the sim as one srun step of N MPI ranks.\n"
                "status: each job's state, frames done, ETA and failures (with the failed task's log)\n"
                "cancel: cancels the jobs that submission made, and nothing else\n"
                "Without a shot, status and cancel act on every submission made from this directory\n"

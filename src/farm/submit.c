@@ -31,14 +31,18 @@
 
 #include "../pipeline/stages.h"
 #include "../io/atomic_file.h"
+#include "../dist/dist.h"
 #include "farm_internal.h"
 #include "slurm.h"
 
-/* An MPI sim with N ranks needs only an srun prefix after exec (and
- * --ntasks=N on its job, which the submission already sets) */
+/* An MPI sim with N ranks is one srun step of its job (which the
+ * submission gives --ntasks=N): srun starts the ranks and wires them up
+ * through PMIx, the interface Debian's Open MPI and Slurm share. A site whose
+ * MPI wants another plugin sets SLURM_MPI_TYPE (pmi2, say) where it submits;
+ * the job inherits it. */
 static void sim_launch(FILE *f, int ranks) {
     fprintf(f, "exec ");
-    if (ranks > 1) fprintf(f, "srun --ntasks=%d ", ranks);
+    if (ranks > 1) fprintf(f, "srun --ntasks=%d --mpi=\"${SLURM_MPI_TYPE:-pmix}\" ", ranks);
 }
 
 /* a shell word: 'text' with each ' written as '\'' */
@@ -214,14 +218,6 @@ static void remember(const char *farm) {
 int kf_farm_submit(kf_farm_opts *fo) {
     kf_cli_opts *o = &fo->o;
     char why[4500];
-    if (fo->ranks > 1) {
-        /* the one place that changes when the MPI build lands (sim_launch has the srun line) */
-        fprintf(stderr,
-                "kerf farm: --ranks %d: one simulation over several MPI ranks is not in kerf yet; submit "
-                "with --ranks 1 (the default). Nothing submitted.\n",
-                fo->ranks);
-        return KF_EXIT_USAGE;
-    }
     if (kf_slurm_check(why, sizeof why)) {
         fprintf(stderr, "kerf farm: %s Nothing submitted.\n", why);
         return KF_EXIT_USAGE;
@@ -270,6 +266,15 @@ int kf_farm_submit(kf_farm_opts *fo) {
         ws[k] = kf_shot_load(wo[k].shot, wo[k].sets, wo[k].nsets, wo[k].quality, wo[k].frames, &d);
         kf_diag_free(&d);
         if (!ws[k] || kf_cli_version_taken(&wo[k], ws[k])) problems++;
+        /* what the ranks would refuse, refused before anything is queued */
+        const char *no_mpi = ws[k] && fo->ranks > 1 ? kf_dist_unsupported_def(&ws[k]->sim, ws[k]->nrigids) : NULL;
+        if (no_mpi) {
+            fprintf(stderr,
+                    "kerf farm: %s: --ranks %d: %s does not run over several MPI ranks yet; submit with "
+                    "--ranks 1\n",
+                    wo[k].shot, fo->ranks, no_mpi);
+            problems++;
+        }
         snprintf(js[k].name, sizeof js[k].name, "%s_w%02d", shot->name, nw ? k + 1 : 0);
         js[k].surface = js[k].render = js[k].sim = js[k].guard = -1; /* -1: not submitted (yet) */
     }

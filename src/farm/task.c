@@ -12,6 +12,7 @@
 
 #include "farm_internal.h"
 #include "slurm.h"
+#include "../dist/dist.h"
 
 typedef struct release_ctx {
     long job;
@@ -32,7 +33,7 @@ static int task_sim(kf_farm_opts *f) {
     kf_diag d;
     kf_diag_init(&d);
     kf_shot *shot = kf_shot_load(o.shot, o.sets, o.nsets, o.quality, o.frames, &d);
-    kf_diag_print(stderr, &d);
+    if (kf_dist_rank() == 0) kf_diag_print(stderr, &d); /* once, not once per MPI rank */
     kf_diag_free(&d);
     if (!shot) return KF_EXIT_USAGE;
     r.first = shot->first, r.last = shot->last;
