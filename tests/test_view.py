@@ -273,6 +273,32 @@ def token_tests(work, port):
     check('keys come from the key table: sim.cfl (help, bounds, value)', cfl.get('bounds') == 'in (0, 2]' and
           cfl.get('value') == '0.4' and cfl.get('doc', '').startswith('CFL number'), cfl)
     check('... materials.jelly.E with its unit', e.get('unit') == 'Pa' and e.get('editable'), e)
+    # the lists, as written (loaded, a key is in seconds and absolute position)
+    for path, value in [('colliders.post.keys.1.frame', '1003'), ('colliders.post.keys.1.translate', '[0, 0.1, 0]'),
+                        ('colliders.post.center', '[0.9, 0.4, 0.9]'), ('colliders.post.friction', '0.3'),
+                        ('render.camera_keys.1.eye', '[1.8, 1.4, 2.3]')]:
+        k = keys.get(path, {})
+        check('the list key %s is editable with its value as written (%s)' % (path, value),
+              k.get('value') == value and k.get('editable') and k.get('applies'), k)
+    st, data = request(port, 'POST', '/api/check', b'sim.cfl=0.3\ncolliders.post.keys.1.translate=[0, 0.1]',
+                       {'X-Kerf-Token': token_of(port)})
+    j = json.loads(data)
+    check('a keyframe edit is checked as --set checks it, at its line (set 1)', st == 200 and not j['ok'] and
+          [e['set'] for e in j['errors']] == [1] and 'colliders[0].keys[1].translate' in j['errors'][0]['message'], data[:300])
+
+    # joints and rigid bodies: a robot's hinges, a leg's rotation as written (loaded, it is baked into the mesh)
+    q, qport = start_view(os.path.join(os.path.dirname(TESTS), 'shots/robot_sand.yaml'), work)
+    keys = {k['path']: k for k in json.loads(request(qport, 'GET', '/api/keys')[1])['keys']}
+    for path, value in [('joints.hip_fl.kp', '1'), ('joints.hip_fl.axis', '[0, 0, -1]'), ('joints.hip_fl.motor', 'position'),
+                        ('rigids.leg_fr.rotate', '[0, 0, 180]'), ('rigids.leg_fr.pivot', '[0, 0, 0]')]:
+        k = keys.get(path, {})
+        check('%s is editable with its value as written (%s)' % (path, value), k.get('value') == value and k.get('editable'), k)
+    st, data = request(qport, 'POST', '/api/check', b'joints.hip_fl.kp=-1', {'X-Kerf-Token': token_of(qport)})
+    j = json.loads(data)
+    check('a joint edit out of bounds: --set\'s message at its key', st == 200 and not j['ok'] and
+          j['errors'][0]['set'] == 0 and j['errors'][0]['message'] == 'joints[0].kp must be > 0 N m/rad, got -1', data[:300])
+    q.send_signal(signal.SIGTERM)
+    q.wait(timeout=20)
 
 
 def browser_flipbook(b, port, root):
@@ -350,6 +376,15 @@ def browser_flipbook(b, port, root):
     w = b.js("return document.getElementById('plot0').getBoundingClientRect().width")
     b.click_at('#plot0', w / 2 - 5, 0)
     check('a click at the plot\'s right end jumps to frame 1008', bool(wait_for(lambda: shown(b)[0] == 1008, 5)), shown(b))
+    titles = b.js("return [...document.querySelectorAll('#stats .plot span')].map(s => s.textContent)")
+    i = titles.index('thin: crossings') if 'thin: crossings' in titles else -1
+    check('the thin-body audit is plotted (%s)' % titles, i >= 0 and 'thin: deepest, cells' in titles)
+    if i >= 0:
+        lay = b.js("const r = document.getElementById('plot%d').getBoundingClientRect(); return [r.left, r.right];" % i)
+        check('... on screen at 1280x720 (%s)' % lay, lay[0] >= 0 and lay[1] <= 1280 - 380)
+        w = b.js("return document.getElementById('plot%d').getBoundingClientRect().width" % i)
+        b.click_at('#plot%d' % i, -w / 2 + 4 + (w - 8) * 3 / 6, 0)  # 1005: the third of six steps from 1002
+        check('... and a click on its peak jumps to frame 1005', bool(wait_for(lambda: shown(b)[0] == 1005, 5)), shown(b))
 
     # turntables play the same way
     b.js("const s = document.getElementById('seqA'); s.value = [...s.options].find(o => o.value.includes('turntable')).value;"
@@ -393,6 +428,17 @@ def browser_tweak(b, port, work):
     ok = wait_for(lambda: b.js("return !document.getElementById('rerun').disabled && "
                                "document.getElementById('err-sim.cfl').textContent === ''"), 20)
     check('a valid value clears the error and allows a re-run', bool(ok))
+    kid = 'colliders\\.post\\.keys\\.1\\.translate'
+    b.js("document.getElementById('key-colliders.post.keys.1.translate').closest('details').querySelector('summary').click()")
+    b.type('#key-' + kid, '[0, 0.1]\n')
+    err = wait_for(lambda: b.js("return document.getElementById('err-colliders.post.keys.1.translate').textContent"), 20)
+    check('a keyframe edited to two numbers: the error at that key (%r)' % err,
+          bool(err) and err.startswith('error: colliders[0].keys[1].translate') and
+          b.js("return document.getElementById('rerun').disabled") is True)
+    b.type('#key-' + kid, '[0, 0.05, 0]\n')
+    ok = wait_for(lambda: b.js("return !document.getElementById('rerun').disabled && "
+                               "document.getElementById('err-colliders.post.keys.1.translate').textContent === ''"), 20)
+    check('... and a valid keyframe clears it', bool(ok))
     before = b.js("return document.querySelectorAll('#versions .version').length")
     b.click('#rerun')
     # the new version appears in the grid, then its frames
@@ -430,7 +476,9 @@ def main():
         with open(os.path.join(root, 'v001/frames.jsonl'), 'w') as fr:
             for f in range(1002, 1009):
                 fr.write(json.dumps({'frame': f, 'substeps': f - 1000, 'max_cfl': 0.4, 'ms': 1.0, 'retries': 0,
-                                     'warnings': 0, 'thin_caught': 0, 'ms_stage': {k: 0.1 for k in
+                                     'warnings': 0, 'thin_caught': 0, 'thin_deepest': 0,
+                                     'thin_across': 7 if f == 1005 else 0, 'thin_across_deepest': 0.5 if f == 1005 else 0,
+                                     'ms_stage': {k: 0.1 for k in
                                      ('sort', 'p2g', 'grid', 'g2p', 'stress', 'cdf', 'rigid')}}) + '\n')
             fr.write('{"frame": 1009, "subst')  # a line cut short by a kill
         # a wedge set as kerf run --wedge leaves it: w01, w02, their labels, the contact sheet
@@ -452,7 +500,10 @@ def main():
 
         # a small real shot, run once at preview quality (v001), viewed as a shot
         shot = open(os.path.join(TESTS, 'cli/tiny.yaml')).read().replace('end: 1012', 'end: 1003')
-        shot += 'render: {width: 160, height: 90}\n'
+        shot += ('colliders:\n  - {name: post, shape: box, center: [0.9, 0.4, 0.9], size: [0.06, 0.2, 0.06],\n'
+                 '     keys: [{frame: 1001}, {frame: 1003, translate: [0, 0.1, 0]}]}\n'
+                 'render: {width: 160, height: 90, camera_keys: [{frame: 1001, eye: [2, 1.5, 2.5], target: [0.5, 0.3, 0.5]},\n'
+                 '                                               {frame: 1003, eye: [1.8, 1.4, 2.3], target: [0.5, 0.3, 0.5]}]}\n')
         open(os.path.join(work, 'tiny.yaml'), 'w').write(shot)
         env = dict(os.environ, OMP_NUM_THREADS='1', OMP_WAIT_POLICY='PASSIVE')
         r = subprocess.run([KERF, 'run', 'tiny.yaml', '--quality', 'preview'], cwd=work, env=env,
@@ -461,6 +512,8 @@ def main():
         recs = [json.loads(l) for l in open(os.path.join(work, 'tiny/v001/frames.jsonl'))]
         check('kerf run writes a record per simulated frame (1002, 1003)', [x['frame'] for x in recs] == [1002, 1003] and
               all(x['substeps'] > 0 and 0 < x['max_cfl'] <= 0.4 + 1e-6 for x in recs), recs)
+        check('... with the thin-body audit at each frame\'s end (no bodies: 0 across, 0 deep)',
+              all(x.get('thin_across') == 0 and x.get('thin_across_deepest') == 0 for x in recs), recs)
         run = json.load(open(os.path.join(work, 'tiny/v001/run.json')))
         check('... and run.json says done, frames 1001-1003 of tiny at 24 fps', run['stage'] == 'done' and
               run['first'] == 1001 and run['last'] == 1003 and run['shot'] == 'tiny' and run['fps'] == 24, run)

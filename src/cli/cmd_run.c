@@ -466,7 +466,11 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         kf_dist_stats_reset(sc.state);
         kf_dist_rebalance(sc.state, 1.1);
         double elapsed = (kf_now_ms() - start) / 1e3;
-        if (root()) kf_record_frame(rp.dir, frame, kf_state_count(whole ? whole : sc.state), &st, frame_ms);
+        /* thin boundaries: who is on the wrong side of a body at the frame's end */
+        double deep_left = 0;
+        long left = kf_model_rigid_count(sc.model) > 0 ? kf_state_thin_audit(sc.model, sc.state, &deep_left) : 0;
+        if (root())
+            kf_record_frame(rp.dir, frame, kf_state_count(whole ? whole : sc.state), &st, frame_ms, left, deep_left);
         if (root()) kf_record_progress(rp.dir, shot, "sim", frame, done, todo, elapsed / done * (todo - done));
         if (o.quiet) continue;
         char eta[32];
@@ -504,8 +508,6 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
             /* thin boundaries: crossings the guard caught and undid this frame, and
              * a fixed step an opted-in retry halved */
             if (kf_model_rigid_count(sc.model) > 0) {
-                double deep_left = 0;
-                long left = kf_state_thin_audit(sc.model, sc.state, &deep_left);
                 fprintf(stderr,
                         "frame %d: crossings: %ld caught and put back (deepest %.2f cells behind); %ld across at the "
                         "frame's end (deepest %.2f cells)\n",

@@ -17,8 +17,11 @@
  * frames.jsonl (a resume keeps it). */
 void kf_record_begin(const char *dir, int fresh);
 
-/* One frame's statistics, appended to <dir>/frames.jsonl. */
-void kf_record_frame(const char *dir, int frame, size_t particles, const kf_step_stats *st, double frame_ms);
+/* One frame's statistics, appended to <dir>/frames.jsonl; with them the
+ * thin-body audit at the frame's end: how many particles are on the wrong side
+ * of a thin body and the deepest of them, in cells (0, 0 without bodies). */
+void kf_record_frame(const char *dir, int frame, size_t particles, const kf_step_stats *st, double frame_ms,
+                     long thin_across, double thin_across_deepest);
 
 /* Where the run of shot stands: stage "sim", "surface", "render", "done" or
  * "failed"; frame the last one finished; done of todo in this stage; eta_s < 0

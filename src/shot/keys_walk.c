@@ -5,9 +5,10 @@
  * through the same validation as the command line. */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
-#include "internal.h"
+#include "loader.h"
 
 static const char *type_name(kf_ktype t) {
     switch (t) {
@@ -96,10 +97,12 @@ static int only_holds(const kf_keydef *k, const void *base, size_t base_size) {
     return 0;
 }
 
-/* the keys of one instance: prefix "" (top), "materials.*", "objects[]", ...;
- * name: its --set name */
-static int walk(const kf_shot *shot, const char *prefix, const char *name, const void *base, size_t base_size,
-                kf_shot_key_fn fn, void *ctx) {
+/* the keys of one instance: prefix "" (top), "materials.*", "objects[]",
+ * "rigids[].keys[]", ...; set: its --set path ("rigids.knife.keys.2"), "" at
+ * the top. With I (an instance of the file as written), a key shows the value
+ * the file gives it, else its plain default, else nothing (computed). */
+static int walk(const kf_shot *shot, const char *prefix, const char *set, const void *base, size_t base_size,
+                const inst *I, kf_shot_key_fn fn, void *ctx) {
     size_t pl = strlen(prefix);
     for (int e = 0; e < kf_nkeys; e++) {
         const kf_keydef *k = &kf_keys[e];
@@ -109,7 +112,7 @@ static int walk(const kf_shot *shot, const char *prefix, const char *name, const
         if (pl && (strstr(k->path + pl, "[]") || strchr(k->path + pl, '*'))) continue; /* keys of keys */
         kf_shot_keyview v;
         memset(&v, 0, sizeof v);
-        if (pl) snprintf(v.path, sizeof v.path, "%.*s.%s%s", (int)strcspn(prefix, ".["), prefix, name, k->path + pl);
+        if (pl) snprintf(v.path, sizeof v.path, "%s%s", set, k->path + pl);
         else snprintf(v.path, sizeof v.path, "%s", k->path);
         v.key = k->path;
         v.type = type_name(k->type);
@@ -123,11 +126,12 @@ static int walk(const kf_shot *shot, const char *prefix, const char *name, const
             snprintf(v.value, sizeof v.value, "%s",
                      !shot->sim.walls ? "none"
                                       : (const char *[]){"sticky", "slip", "separate"}[shot->sim.wall_boundary]);
+        else if (I && !I->at[e] && (!k->def || k->def[0] == '('))
+            v.value[0] = 0; /* not in the file, and computed: no value of its own to show */
         else if (k->off + k->size <= base_size) value_text(k, base, v.value, sizeof v.value);
-        /* a camera or pivot left out is computed: no value of its own to show */
+        /* a camera left out is computed: no value of its own to show */
         if ((!strcmp(k->path, "render.eye") && !shot->render_eye_set) ||
-            (!strcmp(k->path, "render.target") && !shot->render_target_set) ||
-            (!strcmp(k->path, "rigids[].pivot") && !((const kf_shot_rigid *)base)->pivot_set))
+            (!strcmp(k->path, "render.target") && !shot->render_target_set))
             v.value[0] = 0;
         /* names, paths, templates and the version are the tool's to choose, not an edit's */
         v.editable = k->type != KT_STR && strcmp(k->path, "version") && strncmp(k->path, "output.", 7) &&
@@ -138,14 +142,99 @@ static int walk(const kf_shot *shot, const char *prefix, const char *name, const
     return 0;
 }
 
+/* ---- the lists as written ------------------------------------------------------
+ * A loaded collider, rigid body, joint or key holds values the loader has
+ * transformed (keys in seconds and absolute positions, a body's rotation baked
+ * into its surface, axes normalised), so these come from the file itself,
+ * walked against the same table the loader uses. */
+
+static char *read_all(const char *path, size_t *len) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    size_t cap = 1 << 16, n = 0;
+    char *t = malloc(cap);
+    for (size_t r; t && (r = fread(t + n, 1, cap - n - 1, f)) > 0;) {
+        n += r;
+        if (n + 1 == cap) {
+            char *g = realloc(t, cap *= 2);
+            if (!g) free(t);
+            t = g;
+        }
+    }
+    fclose(f);
+    if (t) t[n] = 0, *len = n;
+    return t;
+}
+
+/* an item's --set path: its parent's, the list's key, then its name where the
+ * file gives one, else its index ("rigids.knife.keys.2", "joints.0") */
+static void set_path(const loader *L, int ii, char *out, size_t n) {
+    const inst *I = &L->v[ii], *P = &L->v[I->parent];
+    char parent[256] = "";
+    if (P->scope != KS_TOP) set_path(L, I->parent, parent, sizeof parent);
+    const char *rel = I->prefix + strlen(P->prefix);
+    if (*rel == '.') rel++;
+    int rl = (int)strcspn(rel, "[");
+    const char *open = strrchr(I->label, '[');
+    int index = open ? atoi(open + 1) : 0;
+    const ky_node *name = I->map ? ky_get(I->map, "name", NULL) : NULL;
+    char item[80];
+    if (name && name->kind == KY_SCALAR && name->text[0]) snprintf(item, sizeof item, "%s", name->text);
+    else snprintf(item, sizeof item, "%d", index);
+    snprintf(out, n, "%s%s%.*s.%s", parent, parent[0] ? "." : "", rl, rel, item);
+}
+
+/* the instance and, after it, the keys it holds */
+static int walk_item(const kf_shot *shot, const loader *L, int ii, kf_shot_key_fn fn, void *ctx) {
+    static const size_t size[KS_COUNT] = {
+        0, 0, 0, sizeof(kf_shot_collider), sizeof(kf_rawkey), sizeof(kf_shot_rigid), sizeof(kf_shot_joint)};
+    const inst *I = &L->v[ii];
+    char set[256];
+    set_path(L, ii, set, sizeof set);
+    int rc = walk(shot, I->prefix, set, I->base, size[I->scope], I, fn, ctx);
+    for (int j = ii + 1; !rc && j < L->n; j++)
+        if (L->v[j].scope == KS_KEY && L->v[j].parent == ii) rc = walk_item(shot, L, j, fn, ctx);
+    return rc;
+}
+
 int kf_shot_keys_each(const kf_shot *shot, kf_shot_key_fn fn, void *ctx) {
-    int rc = walk(shot, "", "", shot, sizeof *shot, fn, ctx);
-    for (int i = 0; !rc && i < shot->nmaterials; i++)
-        rc = walk(shot, "materials.*", shot->materials[i].mat.name, &shot->materials[i], sizeof shot->materials[i], fn,
-                  ctx);
-    for (int i = 0; !rc && i < shot->nobjects; i++)
-        rc = walk(shot, "objects[]", shot->objects[i].name, &shot->objects[i], sizeof shot->objects[i], fn, ctx);
-    for (int i = 0; !rc && i < shot->nrigids; i++)
-        rc = walk(shot, "rigids[]", shot->rigids[i].def.name, &shot->rigids[i], sizeof shot->rigids[i], fn, ctx);
+    int rc = walk(shot, "", "", shot, sizeof *shot, NULL, fn, ctx);
+    for (int i = 0; !rc && i < shot->nmaterials; i++) {
+        char set[160];
+        snprintf(set, sizeof set, "materials.%s", shot->materials[i].mat.name);
+        rc = walk(shot, "materials.*", set, &shot->materials[i], sizeof shot->materials[i], NULL, fn, ctx);
+    }
+    for (int i = 0; !rc && i < shot->nobjects; i++) {
+        char set[160];
+        snprintf(set, sizeof set, "objects.%s", shot->objects[i].name);
+        rc = walk(shot, "objects[]", set, &shot->objects[i], sizeof shot->objects[i], NULL, fn, ctx);
+    }
+    if (rc) return rc;
+
+    /* camera keys, colliders, rigid bodies (each with its keys), joints: from the file */
+    loader L = {0};
+    kf_diag d;
+    kf_diag_init(&d);
+    L.d = &d;
+    size_t len = 0;
+    char *text = read_all(shot->path, &len);
+    int src = text ? kf_srcs_add(&L.srcs, shot->path, text, len, 0, 0, NULL) : -1, empty = 0;
+    if (text && src < 0) free(text);
+    size_t pl = strlen(shot->path);
+    int json = pl > 5 && !strcmp(shot->path + pl - 5, ".json");
+    ky_node *root = src >= 0 ? ky_parse(&L.doc, &L.srcs, src, json, &d, &empty) : NULL;
+    if (root && root->kind == KY_MAP && kf_inst_new(&L, KS_TOP, "", "", root, -1) == 0) {
+        kf_walk_map(&L, 0, root, "");
+        static const kf_scope order[] = {KS_KEY, KS_COLLIDER, KS_RIGID, KS_JOINT};
+        for (int o = 0; o < 4; o++)
+            for (int i = 1; !rc && i < L.n; i++)
+                if (L.v[i].scope == order[o] && (order[o] != KS_KEY || L.v[i].parent == 0))
+                    rc = walk_item(shot, &L, i, fn, ctx);
+    }
+    for (int i = 0; i < L.n; i++) kf_inst_free(&L.v[i]);
+    free(L.v);
+    ky_free(&L.doc);
+    kf_srcs_free(&L.srcs);
+    kf_diag_free(&d);
     return rc;
 }

@@ -261,7 +261,7 @@ int kf_shot_expand(const char *tmpl, const kf_shot *shot, int frame, char *out, 
  * --set takes it back. */
 typedef struct kf_shot_keyview {
     const char *key;     /* the table's path: "materials.*.E" */
-    char path[160];      /* the --set path: "materials.jelly.E" */
+    char path[160];      /* the --set path: "materials.jelly.E", "rigids.knife.keys.2.translate" */
     const char *type;    /* number, integer, bool, string, enum, vec3, preset, material */
     const char *choices; /* "a|b|c", or NULL */
     const char *def;     /* the default as text, or NULL */
@@ -273,8 +273,12 @@ typedef struct kf_shot_keyview {
     int editable;        /* 0: names, paths, templates, version: not a value to tweak */
 } kf_shot_keyview;
 typedef int (*kf_shot_key_fn)(const kf_shot_keyview *k, void *ctx);
-/* Call fn for every key of the top level, each material, object and rigid
- * body, in table order; stops at the first non-zero return and returns it. */
+/* Call fn for every key of the top level, each material and object (their
+ * loaded values), then the camera keys, each collider, rigid body (with its
+ * keys) and joint, whose values are read again from the shot file as written
+ * (the loaded ones are transformed: keys in seconds, a body's rotation baked
+ * into its surface); in table order; stops at the first non-zero return and
+ * returns it. */
 int kf_shot_keys_each(const kf_shot *shot, kf_shot_key_fn fn, void *ctx);
 
 /* `kerf help shot`: every key, generated from the key table. */

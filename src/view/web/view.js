@@ -330,7 +330,11 @@ const PLOTS = [
   {title: 'ms per stage', legend: ['p2g', 'grid', 'g2p', 'stress', 'cdf', 'rigid'],
    get: (r) => ['p2g', 'grid', 'g2p', 'stress', 'cdf', 'rigid'].map((k) => (r.ms_stage || {})[k])},
   {title: 'retries, warnings', legend: ['retries', 'warnings'], get: (r) => [r.retries, r.warnings]},
-  {title: 'thin crossings caught', get: (r) => [r.thin_caught]},
+  // thin bodies: crossings the guard caught and put back during the frame, and
+  // the audit at its end (particles still on the wrong side of a body)
+  {title: 'thin: crossings', legend: ['caught', 'across at end'], get: (r) => [r.thin_caught, r.thin_across]},
+  {title: 'thin: deepest, cells', legend: ['caught', 'across at end'],
+   get: (r) => [r.thin_deepest, r.thin_across_deepest]},
 ];
 const COLOURS = ['#6fb3ff', '#ffb36f', '#9fd39f', '#e07be0', '#e0e070', '#ff7b72'];
 
@@ -431,7 +435,7 @@ function plot(cv, p, fs, recs) {
 function section(path) {
   const p = path.split('.');
   if (p.length === 1) return 'shot';
-  return p[0] === 'materials' || p[0] === 'objects' || p[0] === 'rigids' ? p[0] + '.' + p[1] : p[0];
+  return ['materials', 'objects', 'colliders', 'rigids', 'joints'].includes(p[0]) ? p[0] + '.' + p[1] : p[0];
 }
 
 async function loadKeys() {
