@@ -78,7 +78,11 @@
     X(PFNGLVERTEXATTRIBPOINTERPROC, VertexAttribPointer)                                                               \
     X(PFNGLENABLEVERTEXATTRIBARRAYPROC, EnableVertexAttribArray)                                                       \
     X(PFNGLDISABLEVERTEXATTRIBARRAYPROC, DisableVertexAttribArray)                                                     \
-    X(PFNGLVERTEXATTRIB3FPROC, VertexAttrib3f)
+    X(PFNGLVERTEXATTRIB3FPROC, VertexAttrib3f)                                                                         \
+    X(PFNGLDRAWBUFFERSPROC, DrawBuffers)                                                                               \
+    X(PFNGLCLEARBUFFERFVPROC, ClearBufferfv)                                                                           \
+    X(PFNGLUNIFORM2FPROC, Uniform2f)                                                                                   \
+    X(PFNGLUNIFORM4FVPROC, Uniform4fv)
 
 typedef struct kf_gl {
 #define KF_GL_MEMBER(type, name) type name;

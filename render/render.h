@@ -43,6 +43,9 @@ typedef struct kf_render_mesh {
     const uint32_t *tris; /* (ntris x 3) vertex indices, counter-clockwise seen from outside */
     size_t ntris;
     kf_render_material mat;
+    const float *motion; /* (nverts x 3) world-space displacement over one frame, m (NULL = still):
+                            motion vectors and motion blur */
+    int id;              /* the ID matte's value, 1..2047 (0 = none: counts as background) */
 } kf_render_mesh;
 
 typedef struct kf_render_scene {
@@ -132,6 +135,52 @@ const char *kf_render_backend(const kf_render_ctx *r);
 /* Draw scene from cam into rgba_out (w*h*4 bytes, rows top-down). */
 int kf_render_frame(kf_render_ctx *r, const kf_render_scene *scene, const kf_camera *cam, uint8_t *rgba_out, char *err,
                     size_t errlen);
+
+/* ---- AOVs and motion blur ------------------------------------------------- */
+
+/* Z where no surface is: the largest finite half, so a depth-of-field or fog
+ * node never meets infinity */
+#define KF_RENDER_Z_BACKGROUND 65504.0f
+/* ID mattes coverage is computed for at most this many ids a frame */
+#define KF_RENDER_MAX_MATTES 64
+
+/* The passes a compositor wants beside the picture. Every plane is w x h,
+ * rows top-down like the RGBA8 image; a NULL plane is not made.
+ *   rgba    (x4) linear light: the picture before its 2.2 encoding (so
+ *           rgba^(1/2.2) is the PNG), anti-aliased in linear light, not
+ *           clipped at 1; A = 1 (the backdrop is part of the picture)
+ *   z       (x1) camera depth, m: distance from the eye along the view
+ *           axis (camera-space -z), KF_RENDER_Z_BACKGROUND where nothing is
+ *   normal  (x3) world-space unit normal of the surface seen, facing the
+ *           eye; 0 where nothing is
+ *   id      (x1) the frontmost mesh's id at the pixel centre (0: ground,
+ *           background or a mesh without one); never blended
+ *   motion  (x2) screen-space motion over the next frame, pixels, x right
+ *           and y up, from the meshes' motion and the camera's (cam_next)
+ *   matte   (x nmatte) coverage in [0, 1] of the meshes whose id is
+ *           matte_ids[k] (anti-aliased with the image's samples), plane k
+ *           at matte + k*w*h
+ * Filled on return: the camera as OpenEXR's worldToCamera and worldToNDC
+ * attributes (row vectors, row-major: p' = p M). */
+typedef struct kf_render_aovs {
+    float *rgba, *z, *normal, *id, *motion, *matte;
+    const int *matte_ids;
+    int nmatte;
+    float world_to_camera[16], world_to_ndc[16];
+    int blur_samples; /* filled: shutter samples the picture took (1: no blur) */
+} kf_render_aovs;
+
+/* kf_render_frame with motion: cam_next is the camera one frame later (NULL:
+ * a still camera); shutter the fraction of a frame the shutter is open,
+ * centred on the frame (0: no motion blur). With a shutter, the picture
+ * (rgba_out and aov->rgba) is the average of n renders at times spread
+ * evenly over the shutter, each mesh moved by t x its motion and the camera
+ * interpolated, with n such that the fastest vertex moves at most a pixel
+ * between renders (at most KF_RENDER_MAX_BLUR_SAMPLES). The other AOVs are
+ * of the frame itself. rgba_out or aov may be NULL. */
+#define KF_RENDER_MAX_BLUR_SAMPLES 32
+int kf_render_frame_ex(kf_render_ctx *r, const kf_render_scene *scene, const kf_camera *cam, const kf_camera *cam_next,
+                       float shutter, uint8_t *rgba_out, kf_render_aovs *aov, char *err, size_t errlen);
 
 /* ---- PNG ----------------------------------------------------------------- */
 

@@ -15,96 +15,84 @@
 #include <string.h>
 
 #include "camera.h"
-#include "context.h"
-#include "gl_api.h"
-#include "render.h"
-
-struct kf_render_ctx {
-    kf_gl_context *glc;
-    kf_gl gl;
-    int w, h, samples, shadow_size;
-    char renderer_name[128];
-    GLuint prog_main, prog_depth, prog_bg;
-    GLuint vao;
-    GLuint fbo_draw, rb_color, rb_depth; /* multisampled when samples > 1 */
-    GLuint fbo_resolve, rb_resolve;      /* single-sample; only when samples > 1 */
-    GLuint fbo_shadow, tex_shadow;
-    GLuint ground_vbo[2], ground_ebo;
-    /* per-mesh buffers, grown as needed: positions, normals, indices */
-    GLuint *vbo_pos, *vbo_nrm, *ebo;
-    int nbuf;
-    uint8_t *readback; /* (h x w x 4) bottom-up */
-};
+#include "internal.h"
 
 /* ---- shaders ------------------------------------------------------------- */
 
 static const char *vs_main = "#version 330 core\n"
                              "layout(location=0) in vec3 a_pos;\n"
                              "layout(location=1) in vec3 a_nrm;\n"
-                             "uniform mat4 u_viewproj, u_light;\n"
+                             "layout(location=2) in vec3 a_mot;\n"
+                             "uniform mat4 u_viewproj, u_light; uniform float u_t;\n"
                              "out vec3 v_wpos, v_nrm; out vec4 v_lpos;\n"
                              "void main() {\n"
-                             "  v_wpos = a_pos; v_nrm = a_nrm; v_lpos = u_light * vec4(a_pos, 1.0);\n"
-                             "  gl_Position = u_viewproj * vec4(a_pos, 1.0);\n"
+                             /* u_t: where in the shutter, in frames (0: the frame itself) */
+                             "  vec3 p = a_pos + u_t * a_mot;\n"
+                             "  v_wpos = p; v_nrm = a_nrm; v_lpos = u_light * vec4(p, 1.0);\n"
+                             "  gl_Position = u_viewproj * vec4(p, 1.0);\n"
                              "}\n";
 
-static const char *fs_main = "#version 330 core\n"
-                             "in vec3 v_wpos, v_nrm; in vec4 v_lpos;\n"
-                             "uniform vec3 u_eye, u_key_dir, u_key_col, u_fill_dir, u_fill_col, u_rim_dir, u_rim_col;\n"
-                             "uniform float u_ambient;\n"
-                             "uniform vec3 u_diffuse; uniform float u_spec, u_rough;\n"
-                             "uniform int u_flat, u_shadows, u_ground;\n"
-                             "uniform sampler2DShadow u_shadow; uniform float u_texel;\n"
-                             "uniform vec3 u_bg_top, u_bg_bottom; uniform float u_height;\n"
-                             "uniform vec3 u_center; uniform float u_fade0, u_fade1;\n"
-                             "out vec4 o_col;\n"
-                             "vec3 lin(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }\n"
-                             "float shadow_at(float ndl) {\n"
-                             "  if (u_shadows == 0) return 1.0;\n"
-                             "  vec3 p = v_lpos.xyz / v_lpos.w * 0.5 + 0.5;\n"
-                             "  if (p.x <= 0.0 || p.x >= 1.0 || p.y <= 0.0 || p.y >= 1.0 || p.z >= 1.0) return 1.0;\n"
-                             "  float bias = u_texel * (1.0 + 2.0 * sqrt(1.0 - ndl * ndl) / max(ndl, 0.2));\n"
-                             "  float s = 0.0;\n"
-                             "  for (int i = -1; i <= 1; i++) for (int j = -1; j <= 1; j++)\n"
-                             "    s += texture(u_shadow, vec3(p.xy + vec2(i, j) * u_texel, p.z - bias));\n"
-                             "  return s / 9.0;\n"
-                             "}\n"
-                             "float blinn(vec3 n, vec3 l, vec3 v, float shin) {\n"
-                             "  vec3 h = normalize(l + v);\n"
-                             "  return (shin + 8.0) / 25.13 * pow(max(dot(n, h), 0.0), shin);\n"
-                             "}\n"
-                             "void main() {\n"
-                             "  vec3 n;\n"
-                             "  if (u_flat != 0) n = normalize(cross(dFdx(v_wpos), dFdy(v_wpos)));\n"
-                             "  else { n = normalize(v_nrm); if (!gl_FrontFacing) n = -n; }\n"
-                             "  vec3 v = normalize(u_eye - v_wpos);\n"
-                             "  vec3 albedo = lin(u_diffuse);\n"
-                             "  float r = clamp(u_rough, 0.03, 1.0);\n"
-                             "  float shin = clamp(2.0 / (r * r * r * r) - 2.0, 1.0, 4096.0);\n"
-                             "  float ndk = max(dot(n, u_key_dir), 0.0), ndf = max(dot(n, u_fill_dir), 0.0);\n"
-                             "  float sh = ndk > 0.0 ? shadow_at(ndk) : 0.0;\n"
-                             "  vec3 amb = u_ambient * mix(vec3(0.35, 0.33, 0.3), vec3(1.0), 0.5 + 0.5 * n.y);\n"
-                             "  vec3 c = albedo * (amb + u_key_col * ndk * sh + u_fill_col * ndf);\n"
-                             "  c += u_spec * (u_key_col * ndk * sh * blinn(n, u_key_dir, v, shin)\n"
-                             "               + u_fill_col * ndf * blinn(n, u_fill_dir, v, shin));\n"
-                             /* the rim: light from behind grazing the silhouette, strongest where the
-                              * surface turns away from the eye */
-                             "  float edge = 1.0 - max(dot(n, v), 0.0);\n"
-                             "  c += u_rim_col * max(dot(n, u_rim_dir), 0.0) * edge * edge * (albedo + vec3(u_spec));\n"
-                             "  c = c / (1.0 + 0.15 * c);\n" /* a gentle shoulder so highlights do not clip hard */
-                             "  c = pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2));\n"
-                             "  if (u_ground != 0) {\n"
-                             "    vec3 bg = mix(u_bg_bottom, u_bg_top, gl_FragCoord.y / u_height);\n"
-                             "    float f = smoothstep(u_fade0, u_fade1, distance(v_wpos.xz, u_center.xz));\n"
-                             "    c = mix(c, bg, f);\n"
-                             "  }\n"
-                             "  o_col = vec4(c, 1.0);\n"
-                             "}\n";
+static const char *fs_main =
+    "#version 330 core\n"
+    "in vec3 v_wpos, v_nrm; in vec4 v_lpos;\n"
+    "uniform vec3 u_eye, u_key_dir, u_key_col, u_fill_dir, u_fill_col, u_rim_dir, u_rim_col;\n"
+    "uniform float u_ambient;\n"
+    "uniform vec3 u_diffuse; uniform float u_spec, u_rough;\n"
+    "uniform int u_flat, u_shadows, u_ground, u_linear;\n"
+    "uniform sampler2DShadow u_shadow; uniform float u_texel;\n"
+    "uniform vec3 u_bg_top, u_bg_bottom; uniform float u_height;\n"
+    "uniform vec3 u_center; uniform float u_fade0, u_fade1;\n"
+    "out vec4 o_col;\n"
+    "vec3 lin(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }\n"
+    "float shadow_at(float ndl) {\n"
+    "  if (u_shadows == 0) return 1.0;\n"
+    "  vec3 p = v_lpos.xyz / v_lpos.w * 0.5 + 0.5;\n"
+    "  if (p.x <= 0.0 || p.x >= 1.0 || p.y <= 0.0 || p.y >= 1.0 || p.z >= 1.0) return 1.0;\n"
+    "  float bias = u_texel * (1.0 + 2.0 * sqrt(1.0 - ndl * ndl) / max(ndl, 0.2));\n"
+    "  float s = 0.0;\n"
+    "  for (int i = -1; i <= 1; i++) for (int j = -1; j <= 1; j++)\n"
+    "    s += texture(u_shadow, vec3(p.xy + vec2(i, j) * u_texel, p.z - bias));\n"
+    "  return s / 9.0;\n"
+    "}\n"
+    "float blinn(vec3 n, vec3 l, vec3 v, float shin) {\n"
+    "  vec3 h = normalize(l + v);\n"
+    "  return (shin + 8.0) / 25.13 * pow(max(dot(n, h), 0.0), shin);\n"
+    "}\n"
+    "void main() {\n"
+    "  vec3 n;\n"
+    "  if (u_flat != 0) n = normalize(cross(dFdx(v_wpos), dFdy(v_wpos)));\n"
+    "  else { n = normalize(v_nrm); if (!gl_FrontFacing) n = -n; }\n"
+    "  vec3 v = normalize(u_eye - v_wpos);\n"
+    "  vec3 albedo = lin(u_diffuse);\n"
+    "  float r = clamp(u_rough, 0.03, 1.0);\n"
+    "  float shin = clamp(2.0 / (r * r * r * r) - 2.0, 1.0, 4096.0);\n"
+    "  float ndk = max(dot(n, u_key_dir), 0.0), ndf = max(dot(n, u_fill_dir), 0.0);\n"
+    "  float sh = ndk > 0.0 ? shadow_at(ndk) : 0.0;\n"
+    "  vec3 amb = u_ambient * mix(vec3(0.35, 0.33, 0.3), vec3(1.0), 0.5 + 0.5 * n.y);\n"
+    "  vec3 c = albedo * (amb + u_key_col * ndk * sh + u_fill_col * ndf);\n"
+    "  c += u_spec * (u_key_col * ndk * sh * blinn(n, u_key_dir, v, shin)\n"
+    "               + u_fill_col * ndf * blinn(n, u_fill_dir, v, shin));\n"
+    /* the rim: light from behind grazing the silhouette, strongest where the
+     * surface turns away from the eye */
+    "  float edge = 1.0 - max(dot(n, v), 0.0);\n"
+    "  c += u_rim_col * max(dot(n, u_rim_dir), 0.0) * edge * edge * (albedo + vec3(u_spec));\n"
+    "  c = c / (1.0 + 0.15 * c);\n" /* a gentle shoulder so highlights do not clip hard */
+    /* the PNG's values clip at white; linear light keeps what the shoulder left */
+    "  c = u_linear != 0 ? pow(max(c, 0.0), vec3(1.0 / 2.2)) : pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2));\n"
+    "  if (u_ground != 0) {\n"
+    "    vec3 bg = mix(u_bg_bottom, u_bg_top, gl_FragCoord.y / u_height);\n"
+    "    float f = smoothstep(u_fade0, u_fade1, distance(v_wpos.xz, u_center.xz));\n"
+    "    c = mix(c, bg, f);\n"
+    "  }\n"
+    /* linear: the same picture decoded, so encoding it gives the PNG back */
+    "  o_col = vec4(u_linear != 0 ? pow(c, vec3(2.2)) : c, 1.0);\n"
+    "}\n";
 
 static const char *vs_depth = "#version 330 core\n"
                               "layout(location=0) in vec3 a_pos;\n"
-                              "uniform mat4 u_light;\n"
-                              "void main() { gl_Position = u_light * vec4(a_pos, 1.0); }\n";
+                              "layout(location=2) in vec3 a_mot;\n"
+                              "uniform mat4 u_light; uniform float u_t;\n"
+                              "void main() { gl_Position = u_light * vec4(a_pos + u_t * a_mot, 1.0); }\n";
 
 static const char *fs_depth = "#version 330 core\n"
                               "void main() {}\n";
@@ -118,8 +106,11 @@ static const char *vs_bg = "#version 330 core\n"
                            "}\n";
 
 static const char *fs_bg = "#version 330 core\n"
-                           "in float v_t; uniform vec3 u_bg_top, u_bg_bottom; out vec4 o_col;\n"
-                           "void main() { o_col = vec4(mix(u_bg_bottom, u_bg_top, clamp(v_t, 0.0, 1.0)), 1.0); }\n";
+                           "in float v_t; uniform vec3 u_bg_top, u_bg_bottom; uniform int u_linear; out vec4 o_col;\n"
+                           "void main() {\n"
+                           "  vec3 c = mix(u_bg_bottom, u_bg_top, clamp(v_t, 0.0, 1.0));\n"
+                           "  o_col = vec4(u_linear != 0 ? pow(c, vec3(2.2)) : c, 1.0);\n"
+                           "}\n";
 
 static GLuint compile(kf_gl *gl, GLenum type, const char *src, const char *what, char *err, size_t errlen) {
     GLuint s = gl->CreateShader(type);
@@ -137,7 +128,7 @@ static GLuint compile(kf_gl *gl, GLenum type, const char *src, const char *what,
     return s;
 }
 
-static GLuint program(kf_gl *gl, const char *vs, const char *fs, const char *what, char *err, size_t errlen) {
+GLuint kf_gl_program(kf_gl *gl, const char *vs, const char *fs, const char *what, char *err, size_t errlen) {
     GLuint v = compile(gl, GL_VERTEX_SHADER, vs, what, err, errlen);
     if (!v) return 0;
     GLuint f = compile(gl, GL_FRAGMENT_SHADER, fs, what, err, errlen);
@@ -165,7 +156,7 @@ static GLuint program(kf_gl *gl, const char *vs, const char *fs, const char *wha
 
 /* ---- create / destroy ------------------------------------------------------ */
 
-static int fbo_complete(kf_gl *gl, const char *what, char *err, size_t errlen) {
+int kf_fbo_complete(kf_gl *gl, const char *what, char *err, size_t errlen) {
     GLenum st = gl->CheckFramebufferStatus(GL_FRAMEBUFFER);
     if (st != GL_FRAMEBUFFER_COMPLETE) {
         snprintf(err, errlen, "render: %s framebuffer incomplete (status 0x%x)", what, st);
@@ -217,9 +208,9 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
     r->shadow_size = longest < 512 ? 512 : (longest > 2048 ? 2048 : longest);
     if (r->shadow_size > max_tex) r->shadow_size = max_tex;
 
-    if (!(r->prog_main = program(gl, vs_main, fs_main, "mesh", err, errlen)) ||
-        !(r->prog_depth = program(gl, vs_depth, fs_depth, "shadow", err, errlen)) ||
-        !(r->prog_bg = program(gl, vs_bg, fs_bg, "background", err, errlen))) {
+    if (!(r->prog_main = kf_gl_program(gl, vs_main, fs_main, "mesh", err, errlen)) ||
+        !(r->prog_depth = kf_gl_program(gl, vs_depth, fs_depth, "shadow", err, errlen)) ||
+        !(r->prog_bg = kf_gl_program(gl, vs_bg, fs_bg, "background", err, errlen))) {
         kf_render_destroy(r);
         return NULL;
     }
@@ -237,7 +228,7 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
     gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_depth);
     gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, r->samples > 1 ? r->samples : 0, GL_DEPTH_COMPONENT24, w, h);
     gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, r->rb_depth);
-    if (fbo_complete(gl, "image", err, errlen) != 0) {
+    if (kf_fbo_complete(gl, "image", err, errlen) != 0) {
         kf_render_destroy(r);
         return NULL;
     }
@@ -248,7 +239,7 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
         gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_resolve);
         gl->RenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
         gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, r->rb_resolve);
-        if (fbo_complete(gl, "resolve", err, errlen) != 0) {
+        if (kf_fbo_complete(gl, "resolve", err, errlen) != 0) {
             kf_render_destroy(r);
             return NULL;
         }
@@ -270,7 +261,7 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
     gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, r->tex_shadow, 0);
     gl->DrawBuffer(GL_NONE);
     gl->ReadBuffer(GL_NONE);
-    if (fbo_complete(gl, "shadow", err, errlen) != 0) {
+    if (kf_fbo_complete(gl, "shadow", err, errlen) != 0) {
         kf_render_destroy(r);
         return NULL;
     }
@@ -295,7 +286,9 @@ void kf_render_destroy(kf_render_ctx *r) {
                 gl->DeleteBuffers(r->nbuf, r->vbo_pos);
                 gl->DeleteBuffers(r->nbuf, r->vbo_nrm);
                 gl->DeleteBuffers(r->nbuf, r->ebo);
+                gl->DeleteBuffers(r->nbuf, r->vbo_mot);
             }
+            kf_aov_destroy(r);
             gl->DeleteBuffers(2, r->ground_vbo);
             gl->DeleteBuffers(1, &r->ground_ebo);
             gl->DeleteFramebuffers(1, &r->fbo_draw);
@@ -315,7 +308,9 @@ void kf_render_destroy(kf_render_ctx *r) {
     free(r->vbo_pos);
     free(r->vbo_nrm);
     free(r->ebo);
+    free(r->vbo_mot);
     free(r->readback);
+    free(r->readback_f);
     free(r);
 }
 
@@ -393,22 +388,25 @@ int kf_render_scene_bounds(const kf_render_scene *sc, float lo[3], float hi[3]) 
 
 static int grow_buffers(kf_render_ctx *r, int n) {
     if (n <= r->nbuf) return 0;
-    GLuint *p = realloc(r->vbo_pos, n * sizeof *p), *q, *e;
+    GLuint *p = realloc(r->vbo_pos, n * sizeof *p), *q, *e, *mo;
     if (!p) return -1;
     r->vbo_pos = p;
     if (!(q = realloc(r->vbo_nrm, n * sizeof *q))) return -1;
     r->vbo_nrm = q;
     if (!(e = realloc(r->ebo, n * sizeof *e))) return -1;
     r->ebo = e;
+    if (!(mo = realloc(r->vbo_mot, n * sizeof *mo))) return -1;
+    r->vbo_mot = mo;
     int add = n - r->nbuf;
     r->gl.GenBuffers(add, r->vbo_pos + r->nbuf);
     r->gl.GenBuffers(add, r->vbo_nrm + r->nbuf);
     r->gl.GenBuffers(add, r->ebo + r->nbuf);
+    r->gl.GenBuffers(add, r->vbo_mot + r->nbuf);
     r->nbuf = n;
     return 0;
 }
 
-static void bind_mesh(kf_gl *gl, GLuint pos, GLuint nrm, int has_nrm, GLuint ebo) {
+void kf_bind_mesh(kf_gl *gl, GLuint pos, GLuint nrm, int has_nrm, GLuint mot, int has_mot, GLuint ebo) {
     gl->BindBuffer(GL_ARRAY_BUFFER, pos);
     gl->VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, NULL);
     gl->EnableVertexAttribArray(0);
@@ -419,6 +417,15 @@ static void bind_mesh(kf_gl *gl, GLuint pos, GLuint nrm, int has_nrm, GLuint ebo
     } else {
         gl->DisableVertexAttribArray(1);
         gl->VertexAttrib3f(1, 0, 1, 0);
+    }
+    /* a still mesh moves by nothing: a + t * 0 is a, bit for bit */
+    if (has_mot) {
+        gl->BindBuffer(GL_ARRAY_BUFFER, mot);
+        gl->VertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, 0, NULL);
+        gl->EnableVertexAttribArray(2);
+    } else {
+        gl->DisableVertexAttribArray(2);
+        gl->VertexAttrib3f(2, 0, 0, 0);
     }
     gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo);
 }
@@ -436,9 +443,9 @@ static void to_world(float out[3], const float d[3], const float m_view[16], int
     else out[1] = 1;
 }
 
-int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera *cam, uint8_t *rgba_out, char *err,
-                    size_t errlen) {
-    if (!r || !sc || !cam || !rgba_out) {
+int kf_frame_begin(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera *cam, kf_frame *f, char *err,
+                   size_t errlen) {
+    if (!r || !sc || !cam) {
         snprintf(err, errlen, "render: frame needs a context, a scene, a camera and an image");
         return -1;
     }
@@ -470,45 +477,21 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
     gl->GetError(); /* clear stale errors */
 
     /* the subject: bounding sphere of the meshes */
-    float lo[3], hi[3], center[3], rad = 0;
-    int empty = kf_render_scene_bounds(sc, lo, hi) != 0;
+    float lo[3], hi[3];
+    f->rad = 0;
+    f->empty = kf_render_scene_bounds(sc, lo, hi) != 0;
     for (int i = 0; i < 3; i++) {
-        center[i] = 0.5f * (lo[i] + hi[i]);
-        rad += 0.25f * (hi[i] - lo[i]) * (hi[i] - lo[i]);
+        f->center[i] = 0.5f * (lo[i] + hi[i]);
+        f->rad += 0.25f * (hi[i] - lo[i]) * (hi[i] - lo[i]);
     }
-    rad = sqrtf(rad);
-    if (!(rad > 1e-6f)) rad = 0.5f;
-    float ground_y = isnan(sc->ground_y) ? lo[1] : sc->ground_y;
-    int draw_ground = sc->ground != 0;
-    if (empty && isnan(sc->ground_y)) ground_y = 0;
-    float fade0 = 2.5f * rad, fade1 = 8.0f * rad;
-
-    /* camera */
-    float view[16], proj[16], viewproj[16];
-    if (kf_m4_look_at(view, cam->eye, cam->target, cam->up) != 0) {
-        snprintf(err, errlen, "render: degenerate camera (eye == target, or up parallel to the view)");
-        return -1;
-    }
-    if (!(cam->fov_deg > 0.5f && cam->fov_deg < 179.5f)) {
-        snprintf(err, errlen, "render: camera fov %g degrees is outside (0.5, 179.5)", (double)cam->fov_deg);
-        return -1;
-    }
-    float dx = cam->eye[0] - center[0], dy = cam->eye[1] - center[1], dz = cam->eye[2] - center[2];
-    float dist = sqrtf(dx * dx + dy * dy + dz * dz);
-    float zfar = cam->zfar > 0 ? cam->zfar : dist + rad + (draw_ground ? fade1 + rad : 0);
-    float znear = cam->znear > 0 ? cam->znear : fmaxf(0.5f * (dist - rad), zfar * 2e-4f);
-    if (!(zfar > znear)) {
-        snprintf(err, errlen, "render: camera near %g >= far %g", (double)znear, (double)zfar);
-        return -1;
-    }
-    kf_m4_perspective(proj, cam->fov_deg, (float)r->w / r->h, znear, zfar);
-    kf_m4_mul(viewproj, proj, view);
-
-    /* lights in world space */
-    float key[3], fill[3], rim[3];
-    to_world(key, sc->key_dir, view, sc->lights_in_world);
-    to_world(fill, sc->fill_dir, view, sc->lights_in_world);
-    to_world(rim, sc->rim_dir, view, sc->lights_in_world);
+    f->rad = sqrtf(f->rad);
+    if (!(f->rad > 1e-6f)) f->rad = 0.5f;
+    f->ground_y = isnan(sc->ground_y) ? lo[1] : sc->ground_y;
+    f->draw_ground = sc->ground != 0;
+    if (f->empty && isnan(sc->ground_y)) f->ground_y = 0;
+    f->fade0 = 2.5f * f->rad, f->fade1 = 8.0f * f->rad;
+    f->shadows = sc->shadows && !f->empty;
+    if (kf_frame_camera(r, sc, cam, NULL, f, err, errlen) != 0) return -1;
 
     /* upload meshes (every frame: the caller's arrays may have changed) */
     if (grow_buffers(r, sc->nmeshes) != 0) {
@@ -525,13 +508,16 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
             gl->BindBuffer(GL_ARRAY_BUFFER, r->vbo_nrm[m]);
             gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(me->nverts * 12), me->normals, GL_STREAM_DRAW);
         }
+        if (me->motion) {
+            gl->BindBuffer(GL_ARRAY_BUFFER, r->vbo_mot[m]);
+            gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(me->nverts * 12), me->motion, GL_STREAM_DRAW);
+        }
         gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ebo[m]);
         gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(me->ntris * 12), me->tris, GL_STREAM_DRAW);
     }
-    if (draw_ground) {
-        float g = fade1 * 1.5f, cx = center[0], cz = center[2];
-        float gp[12] = {cx - g, ground_y, cz - g, cx + g, ground_y, cz - g,
-                        cx + g, ground_y, cz + g, cx - g, ground_y, cz + g};
+    if (f->draw_ground) {
+        float g = f->fade1 * 1.5f, cx = f->center[0], cz = f->center[2], gy = f->ground_y;
+        float gp[12] = {cx - g, gy, cz - g, cx + g, gy, cz - g, cx + g, gy, cz + g, cx - g, gy, cz + g};
         float gn[12] = {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0};
         uint32_t gi[6] = {0, 2, 1, 0, 3, 2};
         gl->BindBuffer(GL_ARRAY_BUFFER, r->ground_vbo[0]);
@@ -541,41 +527,83 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
         gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ground_ebo);
         gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, sizeof gi, gi, GL_STREAM_DRAW);
     }
+    return 0;
+}
 
-    /* 1. shadow map: orthographic from the key light, fitted to the subject's sphere */
-    float light_vp[16];
-    int shadows = sc->shadows && !empty;
-    {
-        float leye[3], lup[3] = {0, 1, 0};
-        for (int i = 0; i < 3; i++) leye[i] = center[i] + key[i] * 3.0f * rad;
-        if (fabsf(key[1]) > 0.99f) lup[1] = 0, lup[2] = 1;
-        float lview[16], lproj[16];
-        kf_m4_look_at(lview, leye, center, lup);
-        kf_m4_ortho(lproj, -1.05f * rad, 1.05f * rad, -1.05f * rad, 1.05f * rad, 0.5f * rad, 3.0f * rad + fade1 + rad);
-        kf_m4_mul(light_vp, lproj, lview);
+/* the near and far planes and the projection for camera c */
+static int camera_matrices(const kf_render_ctx *r, const kf_frame *f, const kf_camera *c, float view[16],
+                           float viewproj[16], float proj[16], char *err, size_t errlen) {
+    if (kf_m4_look_at(view, c->eye, c->target, c->up) != 0) {
+        snprintf(err, errlen, "render: degenerate camera (eye == target, or up parallel to the view)");
+        return -1;
     }
+    if (!(c->fov_deg > 0.5f && c->fov_deg < 179.5f)) {
+        snprintf(err, errlen, "render: camera fov %g degrees is outside (0.5, 179.5)", (double)c->fov_deg);
+        return -1;
+    }
+    float dx = c->eye[0] - f->center[0], dy = c->eye[1] - f->center[1], dz = c->eye[2] - f->center[2];
+    float dist = sqrtf(dx * dx + dy * dy + dz * dz);
+    float zfar = c->zfar > 0 ? c->zfar : dist + f->rad + (f->draw_ground ? f->fade1 + f->rad : 0);
+    float znear = c->znear > 0 ? c->znear : fmaxf(0.5f * (dist - f->rad), zfar * 2e-4f);
+    if (!(zfar > znear)) {
+        snprintf(err, errlen, "render: camera near %g >= far %g", (double)znear, (double)zfar);
+        return -1;
+    }
+    kf_m4_perspective(proj, c->fov_deg, (float)r->w / r->h, znear, zfar);
+    kf_m4_mul(viewproj, proj, view);
+    return 0;
+}
+
+int kf_frame_camera(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera *cam, const kf_camera *cam_next,
+                    kf_frame *f, char *err, size_t errlen) {
+    float view_n[16], proj_n[16];
+    if (camera_matrices(r, f, cam, f->view, f->viewproj, f->proj, err, errlen) != 0) return -1;
+    if (!cam_next) memcpy(f->viewproj_next, f->viewproj, sizeof f->viewproj);
+    else if (camera_matrices(r, f, cam_next, view_n, f->viewproj_next, proj_n, err, errlen) != 0) return -1;
+    memcpy(f->eye, cam->eye, sizeof f->eye);
+    /* lights in world space */
+    to_world(f->key, sc->key_dir, f->view, sc->lights_in_world);
+    to_world(f->fill, sc->fill_dir, f->view, sc->lights_in_world);
+    to_world(f->rim, sc->rim_dir, f->view, sc->lights_in_world);
+    /* the shadow map: orthographic from the key light, fitted to the subject's sphere */
+    float leye[3], lup[3] = {0, 1, 0};
+    for (int i = 0; i < 3; i++) leye[i] = f->center[i] + f->key[i] * 3.0f * f->rad;
+    if (fabsf(f->key[1]) > 0.99f) lup[1] = 0, lup[2] = 1;
+    float lview[16], lproj[16];
+    kf_m4_look_at(lview, leye, f->center, lup);
+    kf_m4_ortho(lproj, -1.05f * f->rad, 1.05f * f->rad, -1.05f * f->rad, 1.05f * f->rad, 0.5f * f->rad,
+                3.0f * f->rad + f->fade1 + f->rad);
+    kf_m4_mul(f->light_vp, lproj, lview);
+    return 0;
+}
+
+void kf_frame_shadow(kf_render_ctx *r, const kf_render_scene *sc, kf_frame *f, float t) {
+    kf_gl *gl = &r->gl;
     gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_shadow);
     gl->Viewport(0, 0, r->shadow_size, r->shadow_size);
     gl->Enable(GL_DEPTH_TEST);
     gl->DepthFunc(GL_LESS);
     gl->DepthMask(GL_TRUE);
     gl->Clear(GL_DEPTH_BUFFER_BIT);
-    if (shadows) {
-        gl->UseProgram(r->prog_depth);
-        gl->UniformMatrix4fv(gl->GetUniformLocation(r->prog_depth, "u_light"), 1, GL_FALSE, light_vp);
-        gl->Enable(GL_POLYGON_OFFSET_FILL);
-        gl->PolygonOffset(1.5f, 2.0f);
-        for (int m = 0; m < sc->nmeshes; m++) {
-            const kf_render_mesh *me = &sc->meshes[m];
-            if (me->ntris == 0) continue;
-            bind_mesh(gl, r->vbo_pos[m], 0, 0, r->ebo[m]);
-            gl->DrawElements(GL_TRIANGLES, (GLsizei)(me->ntris * 3), GL_UNSIGNED_INT, NULL);
-        }
-        gl->Disable(GL_POLYGON_OFFSET_FILL);
+    if (!f->shadows) return;
+    gl->UseProgram(r->prog_depth);
+    gl->UniformMatrix4fv(gl->GetUniformLocation(r->prog_depth, "u_light"), 1, GL_FALSE, f->light_vp);
+    gl->Uniform1f(gl->GetUniformLocation(r->prog_depth, "u_t"), t);
+    gl->Enable(GL_POLYGON_OFFSET_FILL);
+    gl->PolygonOffset(1.5f, 2.0f);
+    for (int m = 0; m < sc->nmeshes; m++) {
+        const kf_render_mesh *me = &sc->meshes[m];
+        if (me->ntris == 0) continue;
+        kf_bind_mesh(gl, r->vbo_pos[m], 0, 0, r->vbo_mot[m], me->motion != NULL, r->ebo[m]);
+        gl->DrawElements(GL_TRIANGLES, (GLsizei)(me->ntris * 3), GL_UNSIGNED_INT, NULL);
     }
+    gl->Disable(GL_POLYGON_OFFSET_FILL);
+}
 
-    /* 2. background gradient */
-    gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_draw);
+void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame *f, GLuint fbo, int linear, float t) {
+    kf_gl *gl = &r->gl;
+    /* background gradient */
+    gl->BindFramebuffer(GL_FRAMEBUFFER, fbo);
     gl->Viewport(0, 0, r->w, r->h);
     if (r->samples > 1) gl->Enable(GL_MULTISAMPLE);
     gl->ClearColor(0, 0, 0, 1);
@@ -585,32 +613,35 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
     gl->UseProgram(r->prog_bg);
     gl->Uniform3fv(gl->GetUniformLocation(r->prog_bg, "u_bg_top"), 1, sc->bg_top);
     gl->Uniform3fv(gl->GetUniformLocation(r->prog_bg, "u_bg_bottom"), 1, sc->bg_bottom);
+    gl->Uniform1i(gl->GetUniformLocation(r->prog_bg, "u_linear"), linear);
     gl->DrawArrays(GL_TRIANGLES, 0, 3);
     gl->Enable(GL_DEPTH_TEST);
     gl->DepthMask(GL_TRUE);
 
-    /* 3. meshes and ground */
+    /* meshes and ground */
     GLuint p = r->prog_main;
     gl->UseProgram(p);
 #define U(name) gl->GetUniformLocation(p, name)
-    gl->UniformMatrix4fv(U("u_viewproj"), 1, GL_FALSE, viewproj);
-    gl->UniformMatrix4fv(U("u_light"), 1, GL_FALSE, light_vp);
-    gl->Uniform3fv(U("u_eye"), 1, cam->eye);
-    gl->Uniform3fv(U("u_key_dir"), 1, key);
+    gl->UniformMatrix4fv(U("u_viewproj"), 1, GL_FALSE, f->viewproj);
+    gl->UniformMatrix4fv(U("u_light"), 1, GL_FALSE, f->light_vp);
+    gl->Uniform1f(U("u_t"), t);
+    gl->Uniform1i(U("u_linear"), linear);
+    gl->Uniform3fv(U("u_eye"), 1, f->eye);
+    gl->Uniform3fv(U("u_key_dir"), 1, f->key);
     gl->Uniform3fv(U("u_key_col"), 1, sc->key_color);
-    gl->Uniform3fv(U("u_fill_dir"), 1, fill);
+    gl->Uniform3fv(U("u_fill_dir"), 1, f->fill);
     gl->Uniform3fv(U("u_fill_col"), 1, sc->fill_color);
-    gl->Uniform3fv(U("u_rim_dir"), 1, rim);
+    gl->Uniform3fv(U("u_rim_dir"), 1, f->rim);
     gl->Uniform3fv(U("u_rim_col"), 1, sc->rim_color);
     gl->Uniform1f(U("u_ambient"), sc->ambient);
-    gl->Uniform1i(U("u_shadows"), shadows);
+    gl->Uniform1i(U("u_shadows"), f->shadows);
     gl->Uniform1f(U("u_texel"), 1.0f / r->shadow_size);
     gl->Uniform3fv(U("u_bg_top"), 1, sc->bg_top);
     gl->Uniform3fv(U("u_bg_bottom"), 1, sc->bg_bottom);
     gl->Uniform1f(U("u_height"), (float)r->h);
-    gl->Uniform3fv(U("u_center"), 1, center);
-    gl->Uniform1f(U("u_fade0"), fade0);
-    gl->Uniform1f(U("u_fade1"), fade1);
+    gl->Uniform3fv(U("u_center"), 1, f->center);
+    gl->Uniform1f(U("u_fade0"), f->fade0);
+    gl->Uniform1f(U("u_fade1"), f->fade1);
     gl->ActiveTexture(GL_TEXTURE0);
     gl->BindTexture(GL_TEXTURE_2D, r->tex_shadow);
     gl->Uniform1i(U("u_shadow"), 0);
@@ -625,26 +656,30 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
         gl->Uniform1f(u_spec, me->mat.specular);
         gl->Uniform1f(u_rough, me->mat.roughness > 0 ? me->mat.roughness : 0.5f);
         gl->Uniform1i(u_flat, me->normals == NULL);
-        bind_mesh(gl, r->vbo_pos[m], r->vbo_nrm[m], me->normals != NULL, r->ebo[m]);
+        kf_bind_mesh(gl, r->vbo_pos[m], r->vbo_nrm[m], me->normals != NULL, r->vbo_mot[m], me->motion != NULL,
+                     r->ebo[m]);
         gl->DrawElements(GL_TRIANGLES, (GLsizei)(me->ntris * 3), GL_UNSIGNED_INT, NULL);
     }
-    if (draw_ground) {
+    if (f->draw_ground) {
         gl->Uniform1i(u_ground, 1);
         gl->Uniform3fv(u_diffuse, 1, sc->ground_mat.diffuse);
         gl->Uniform1f(u_spec, sc->ground_mat.specular);
         gl->Uniform1f(u_rough, sc->ground_mat.roughness > 0 ? sc->ground_mat.roughness : 0.8f);
         gl->Uniform1i(u_flat, 0);
-        bind_mesh(gl, r->ground_vbo[0], r->ground_vbo[1], 1, r->ground_ebo);
+        kf_bind_mesh(gl, r->ground_vbo[0], r->ground_vbo[1], 1, 0, 0, r->ground_ebo);
         gl->DrawElements(GL_TRIANGLES, 6, GL_UNSIGNED_INT, NULL);
     }
+}
 
-    /* 4. resolve and read back (GL rows are bottom-up) */
-    GLuint src = r->fbo_draw;
+int kf_frame_read8(kf_render_ctx *r, GLuint fbo, GLuint resolve, uint8_t *out, char *err, size_t errlen) {
+    kf_gl *gl = &r->gl;
+    /* resolve and read back (GL rows are bottom-up) */
+    GLuint src = fbo;
     if (r->samples > 1) {
-        gl->BindFramebuffer(GL_READ_FRAMEBUFFER, r->fbo_draw);
-        gl->BindFramebuffer(GL_DRAW_FRAMEBUFFER, r->fbo_resolve);
+        gl->BindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
+        gl->BindFramebuffer(GL_DRAW_FRAMEBUFFER, resolve);
         gl->BlitFramebuffer(0, 0, r->w, r->h, 0, 0, r->w, r->h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
-        src = r->fbo_resolve;
+        src = resolve;
     }
     gl->BindFramebuffer(GL_FRAMEBUFFER, src);
     gl->ReadBuffer(GL_COLOR_ATTACHMENT0);
@@ -657,6 +692,15 @@ int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
         return -1;
     }
     size_t row = (size_t)r->w * 4;
-    for (int y = 0; y < r->h; y++) memcpy(rgba_out + (size_t)y * row, r->readback + (size_t)(r->h - 1 - y) * row, row);
+    for (int y = 0; y < r->h; y++) memcpy(out + (size_t)y * row, r->readback + (size_t)(r->h - 1 - y) * row, row);
     return 0;
+}
+
+int kf_render_frame(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera *cam, uint8_t *rgba_out, char *err,
+                    size_t errlen) {
+    if (!rgba_out) {
+        snprintf(err, errlen, "render: frame needs a context, a scene, a camera and an image");
+        return -1;
+    }
+    return kf_render_frame_ex(r, sc, cam, NULL, 0, rgba_out, NULL, err, errlen);
 }

@@ -83,7 +83,7 @@ static test_mesh make_sphere(const float c[3], float rad, int stacks, int slices
 }
 
 static kf_render_mesh as_render(const test_mesh *m, float r, float g, float b, float spec, float rough) {
-    kf_render_mesh rm = {m->pos, m->nrm, m->nv, m->tri, m->nt, {{r, g, b}, spec, rough}};
+    kf_render_mesh rm = {m->pos, m->nrm, m->nv, m->tri, m->nt, {{r, g, b}, spec, rough}, NULL, 0};
     return rm;
 }
 

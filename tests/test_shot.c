@@ -425,6 +425,40 @@ static void bad_structure(void) {
     kf_diag_free(&d);
 }
 
+/* the image keys: a format that is not one, a shutter over a frame, a
+ * number that is not one; from the file and from --set, each at its place */
+static void bad_render_keys(void) {
+    kf_diag d;
+    const char *f = fixture("bad_render.yaml");
+    kf_shot *s = load("bad_render.yaml", NULL, 0, NULL, NULL, &d);
+    KT_CHECK(s == NULL && d.errors == 2 && d.warnings == 0, "2 errors, got %d", d.errors);
+    EXPECT(&d, f, 7, 11, KF_DIAG_ERROR,
+           "render.format: unknown value 'ex' (did you mean 'exr'?); choose png, exr or both");
+    EXPECT(&d, f, 8, 16, KF_DIAG_ERROR, "render.motion_blur must be in [0, 1] frames, got 1.5");
+    kf_diag_free(&d);
+    const char *sets[] = {"render.motion_blur=-1", "render.format=tiff", "render.motion_blur=fast"};
+    for (int k = 0; k < 3; k++) {
+        s = load("minimal.yaml", &sets[k], 1, NULL, NULL, &d);
+        KT_CHECK(s == NULL && d.errors == 1, "--set %s is one error", sets[k]);
+        static const char *want[] = {"render.motion_blur must be in [0, 1] frames, got -1",
+                                     "render.format: expected png, exr or both, got 'tiff'",
+                                     "render.motion_blur: expected a number, got 'fast'"};
+        static const int col[] = {20, 15, 20};
+        EXPECT(&d, "--set", 1, col[k], KF_DIAG_ERROR, want[k]);
+        kf_diag_free(&d);
+    }
+    /* the defaults: PNG only, no blur; and the values taken */
+    s = load("minimal.yaml", NULL, 0, NULL, NULL, &d);
+    KT_CHECK(s && s->render_format == KF_FORMAT_PNG && s->render_motion_blur == 0, "defaults png, no blur");
+    kf_shot_free(s);
+    kf_diag_free(&d);
+    const char *good[] = {"render.format=both", "render.motion_blur=0.5"};
+    s = load("minimal.yaml", good, 2, NULL, NULL, &d);
+    KT_CHECK(s && s->render_format == KF_FORMAT_BOTH && s->render_motion_blur == 0.5, "both, shutter 0.5");
+    kf_shot_free(s);
+    kf_diag_free(&d);
+}
+
 static void syntax_error(void) {
     kf_diag d;
     kf_shot *s = load("syntax.yaml", NULL, 0, NULL, NULL, &d);
@@ -695,6 +729,7 @@ int main(int argc, char **argv) {
     KT_RUN(json_input, argc, argv);
     KT_RUN(bad_reports_everything, argc, argv);
     KT_RUN(bad_structure, argc, argv);
+    KT_RUN(bad_render_keys, argc, argv);
     KT_RUN(syntax_error, argc, argv);
     KT_RUN(caret, argc, argv);
     KT_RUN(overrides, argc, argv);

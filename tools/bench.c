@@ -179,8 +179,8 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
         kf_render_ctx *ctx = kf_render_create(1920, 1080, q->samples, err, sizeof err);
         if (ctx && q->shadow && kf_render_set_shadow_size(ctx, q->shadow, err, sizeof err)) rc = -1;
         uint8_t *rgba = malloc((size_t)1920 * 1080 * 4);
-        kf_render_mesh rm = {mesh.verts, mesh.normals, mesh.nverts,
-                             mesh.tris,  mesh.ntris,   {{0.8f, 0.3f, 0.3f}, 0.3f, 0.5f}};
+        kf_render_mesh rm = {
+            mesh.verts, mesh.normals, mesh.nverts, mesh.tris, mesh.ntris, {{0.8f, 0.3f, 0.3f}, 0.3f, 0.5f}, NULL, 0};
         kf_render_scene scene = kf_render_scene_default();
         scene.meshes = &rm;
         scene.nmeshes = 1;

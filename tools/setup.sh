@@ -10,6 +10,7 @@ packages=(build-essential cmake pkg-config file
           libopenvdb-dev libboost-iostreams-dev libtbb-dev libembree-dev libassimp-dev
           libosmesa6-dev libegl-dev libegl-mesa0 libfyaml-dev libpng-dev libmujoco-dev libqhull-dev
           libmicrohttpd-dev     # kerf view's web server
+          libopenexr-dev libimath-dev  # EXR frames with AOVs (OpenEXRCore, the C library)
           libopenmpi-dev openmpi-bin  # one simulation over several ranks (mpirun -np N kerf run)
           chromium chromium-driver  # the tests of kerf view drive a headless browser
           clang-format  # tools/format.sh

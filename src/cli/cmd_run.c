@@ -132,7 +132,7 @@ static void remove_stale_after(const kf_shot *shot, const char *out, uint64_t ha
         char err[4200];
         if (kf_frame_paths_make(shot, out, f, &fp) || access(fp.checkpoint, F_OK) != 0) continue;
         if (kf_checkpoint_peek(fp.checkpoint, &info, err, sizeof err) == 0 && info.inputs_hash == hash) continue;
-        const char *paths[] = {fp.checkpoint, fp.particles, fp.surface, fp.image, fp.points};
+        const char *paths[] = {fp.checkpoint, fp.particles, fp.surface, fp.image, fp.points, fp.exr};
         for (size_t k = 0; k < sizeof paths / sizeof *paths; k++) files += unlink(paths[k]) == 0;
         if (!lo) lo = f;
         hi = f;

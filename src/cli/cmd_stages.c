@@ -10,6 +10,7 @@
 #include "../io/checkpoint.h"
 #include "../io/vdb_bridge.h"
 #include "cli.h"
+#include "../pipeline/exr.h"
 #include "../pipeline/progress.h"
 #include "../pipeline/stages.h"
 #include "run_record.h"
@@ -61,6 +62,10 @@ static void render_settings(const kf_shot *shot, char *buf, size_t n) {
     for (int i = 0; i < shot->nrigids && len > 0 && (size_t)len < n; i++)
         len += snprintf(buf + len, n - (size_t)len, " r%.4g,%.4g,%.4g", shot->rigids[i].color[0],
                         shot->rigids[i].color[1], shot->rigids[i].color[2]);
+    /* the files and the shutter, written only when not the defaults so
+     * images made before these keys existed stay current */
+    if (len > 0 && (size_t)len < n && (shot->render_format != KF_FORMAT_PNG || shot->render_motion_blur > 0))
+        len += snprintf(buf + len, n - (size_t)len, " f%d b%.6g", shot->render_format, shot->render_motion_blur);
     if (len > 0 && (size_t)len < n - 1) buf[len] = '\n', buf[len + 1] = 0;
 }
 
@@ -100,6 +105,16 @@ static int png_complete(const char *path) {
     return ok;
 }
 
+/* the image files render.format asks for exist, are newer than the surface and whole */
+static int images_current(const kf_shot *shot, const kf_frame_paths *fp) {
+    if (shot->render_format != KF_FORMAT_EXR &&
+        (!kf_output_current(fp->image, fp->surface) || !png_complete(fp->image)))
+        return 0;
+    if (shot->render_format != KF_FORMAT_PNG && (!kf_output_current(fp->exr, fp->surface) || !kf_exr_complete(fp->exr)))
+        return 0;
+    return 1;
+}
+
 int kf_cli_frame_current(const kf_cli_opts *o, const kf_shot *shot, int f) {
     kf_frame_paths fp, first;
     kf_checkpoint_info info;
@@ -116,8 +131,7 @@ int kf_cli_frame_current(const kf_cli_opts *o, const kf_shot *shot, int f) {
     if (shot->output_images) {
         render_settings(shot, now, sizeof now);
         snprintf(stamp, sizeof stamp, "%s/images/.settings", first.dir);
-        if (settings_changed(stamp, now) || !kf_output_current(fp.image, fp.surface) || !png_complete(fp.image))
-            return 0;
+        if (settings_changed(stamp, now) || !images_current(shot, &fp)) return 0;
     }
     return 1;
 }
@@ -211,11 +225,16 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
                 fprintf(stderr, "kerf: frame %d has no surface (%s): run kerf surface first\n", f, fp.surface);
                 return KF_EXIT_FAIL;
             }
-            int current = kf_output_current(fp.image, fp.surface);
-            if (current && !png_complete(fp.image)) {
-                fprintf(stderr, "kerf: frame %d: %s is damaged (cut short); rendering it again\n", f, fp.image);
-                current = 0;
-            }
+            int current = images_current(shot, &fp);
+            /* a file newer than its surface yet not whole was cut short */
+            const char *cut = NULL;
+            if (shot->render_format != KF_FORMAT_EXR && kf_output_current(fp.image, fp.surface) &&
+                !png_complete(fp.image))
+                cut = fp.image;
+            else if (shot->render_format != KF_FORMAT_PNG && kf_output_current(fp.exr, fp.surface) &&
+                     !kf_exr_complete(fp.exr))
+                cut = fp.exr;
+            if (cut) fprintf(stderr, "kerf: frame %d: %s is damaged (cut short); rendering it again\n", f, cut);
             if (o->force || rerender || !current) {
                 if (render_frame(shot, sc, &fp, f, &ro, &t_s, &t_r, &made_s)) return KF_EXIT_FAIL;
                 made_r++;

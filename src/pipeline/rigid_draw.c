@@ -35,6 +35,9 @@ static int poses(const kf_shot *shot, const kf_scene *sc, const char *vdb, int f
         kf_rigid_pose p = kf_state_rigid(s, i);
         memcpy(st[i].R, p.R, sizeof p.R);
         memcpy(st[i].t, p.t, sizeof p.t);
+        memcpy(st[i].com, p.com, sizeof p.com);
+        memcpy(st[i].v, p.v, sizeof p.v);
+        memcpy(st[i].w, p.omega, sizeof p.omega);
     }
     kf_state_destroy(s);
     if (ok) return 0;
@@ -61,7 +64,8 @@ int kf_rigid_drawing_make(const kf_shot *shot, const kf_scene *sc, const char *v
     for (int i = 0; i < m->nrigid; i++) nt += (size_t)m->rigid[i].ntri;
     d->pos = malloc((3 * nt + 1) * 3 * sizeof *d->pos);
     d->tri = malloc((nt + 1) * 3 * sizeof *d->tri);
-    if (!d->pos || !d->tri) {
+    d->vel = malloc((3 * nt + 1) * 3 * sizeof *d->vel);
+    if (!d->pos || !d->tri || !d->vel) {
         kf_rigid_drawing_free(d);
         snprintf(err, errlen, "out of memory drawing %zu rigid triangles", nt);
         return -1;
@@ -77,6 +81,13 @@ int kf_rigid_drawing_make(const kf_shot *shot, const kf_scene *sc, const char *v
                 float *o = &d->pos[3 * d->nv];
                 for (int a = 0; a < 3; a++)
                     o[a] = (float)(R[3 * a] * x[0] + R[3 * a + 1] * x[1] + R[3 * a + 2] * x[2] + t[a]);
+                /* the corner's velocity: v + w x (x - com) */
+                const double *v = st[i].v, *w = st[i].w;
+                double r[3] = {o[0] - st[i].com[0], o[1] - st[i].com[1], o[2] - st[i].com[2]};
+                float *ov = &d->vel[3 * d->nv];
+                ov[0] = (float)(v[0] + w[1] * r[2] - w[2] * r[1]);
+                ov[1] = (float)(v[1] + w[2] * r[0] - w[0] * r[2]);
+                ov[2] = (float)(v[2] + w[0] * r[1] - w[1] * r[0]);
                 d->tri[3 * d->nt + (size_t)c] = (uint32_t)d->nv++;
             }
             d->nt++;
@@ -107,5 +118,6 @@ int kf_rigid_drawing_meshes(const kf_shot *shot, const kf_rigid_drawing *d, kf_r
 void kf_rigid_drawing_free(kf_rigid_drawing *d) {
     free(d->pos);
     free(d->tri);
+    free(d->vel);
     memset(d, 0, sizeof *d);
 }

@@ -18,6 +18,7 @@
 typedef struct kf_rigid_drawing {
     float *pos;    /* (nv x 3) world, every triangle its own corners (flat shading) */
     uint32_t *tri; /* (nt x 3) */
+    float *vel;    /* (nv x 3) each corner's velocity at the frame, m/s */
     size_t nv, nt;
     size_t first[KF_MAX_RIGIDS + 1]; /* body i owns triangles [first[i], first[i + 1]) */
     int n;

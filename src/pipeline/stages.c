@@ -17,6 +17,7 @@
 #include "../scene/mesh.h"
 #include "../scene/sample.h"
 #include "render.h"
+#include "exr_frame.h"
 #include "rigid_draw.h"
 
 int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_frame_paths *fp) {
@@ -28,6 +29,7 @@ int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_fram
     snprintf(fp->checkpoint, sizeof fp->checkpoint, "%s/checkpoints/%s.kfc", fp->dir, name);
     snprintf(fp->surface, sizeof fp->surface, "%s/surface/%s.vdb", fp->dir, name);
     snprintf(fp->image, sizeof fp->image, "%s/images/%s.png", fp->dir, name);
+    snprintf(fp->exr, sizeof fp->exr, "%s/images/%s.exr", fp->dir, name);
     snprintf(fp->points, sizeof fp->points, "%s/points/%s.vdb", fp->dir, name);
     return 0;
 }
@@ -488,83 +490,56 @@ static void fit_box(kf_camera *c, const float lo[3], const float hi[3], float as
         for (int a = 0; a < 3; a++) c->eye[a] = c->target[a] - d[a] * need;
 }
 
-int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
-                       const kf_render_opts *ro, char *err, size_t errlen) {
-    (void)sc;
-    kf_vdb_file_info info;
-    if (kf_vdb_info(vdb, &info, err, errlen)) return -1;
-    /* the group surfaces (surface_<name>) when the file has them, else `surface`
-     * (files of kerf 0.1 held `surface` and `surface.<material>` both) */
-    int use_groups = 0;
-    for (int g = 0; g < info.ngrids; g++)
-        use_groups |=
-            strncmp(info.grids[g].name, "surface_", 8) == 0 || strncmp(info.grids[g].name, "surface.", 8) == 0;
-    kf_vdb_trimesh meshes[KF_VDB_MAX_GRIDS];
-    kf_render_mesh rm[KF_VDB_MAX_GRIDS];
-    int nm = 0, rc = -1;
-    tri_soup soup = {0};
-    kf_rigid_drawing rigids = {0};
-    for (int g = 0; g < info.ngrids && nm < KF_VDB_MAX_GRIDS; g++) {
-        const char *name = info.grids[g].name;
-        int group = strncmp(name, "surface_", 8) == 0 || strncmp(name, "surface.", 8) == 0;
-        if (strcmp(info.grids[g].cls, "level set") != 0 || (use_groups ? !group : strcmp(name, "surface") != 0))
-            continue;
-        kf_vdb_grid *ls;
-        if (kf_vdb_read_levelset(vdb, name, &ls, NULL, err, errlen)) goto done;
-        int mesh_rc = kf_vdb_mesh(ls, 0, 0, &meshes[nm], err, errlen);
-        kf_vdb_free(ls);
-        if (mesh_rc) goto done;
-        memset(&rm[nm], 0, sizeof rm[nm]);
-        rm[nm].positions = meshes[nm].verts;
-        rm[nm].normals = meshes[nm].normals;
-        rm[nm].nverts = meshes[nm].nverts;
-        rm[nm].tris = meshes[nm].tris;
-        rm[nm].ntris = meshes[nm].ntris;
-        surface_look(shot, name, &rm[nm].mat);
-        nm++;
+/* the index of a level set's group in the shot (its object under
+ * surface.group: object, else its material), as surface_look finds it */
+static int surface_index(const kf_shot *shot, const char *grid) {
+    const char *name = strncmp(grid, "surface_", 8) == 0 || strncmp(grid, "surface.", 8) == 0 ? grid + 8 : NULL;
+    if (shot->surface_group) {
+        for (int k = 0; name && k < shot->nobjects; k++)
+            if (!strcmp(name, shot->objects[k].name)) return k;
+        return 0;
     }
-    /* the colliders at their pose for this frame, each in its colour: one
-     * vertex soup, one render mesh per collider over its triangle range */
-    double t = kf_shot_frame_time(shot, frame);
-    size_t first_tri[KF_VDB_MAX_GRIDS + 1];
-    int ncol = shot->ncolliders < KF_VDB_MAX_GRIDS - nm ? shot->ncolliders : KF_VDB_MAX_GRIDS - nm;
-    for (int i = 0; i < ncol; i++) {
-        first_tri[i] = soup.nt;
-        if (collider_mesh(&shot->colliders[i], t, &soup, err, errlen) < 0) goto done;
+    int mat = shot->nobjects > 0 ? shot->objects[0].material : 0;
+    for (int k = 0; name && k < shot->nmaterials; k++)
+        if (!strcmp(name, shot->materials[k].mat.name)) mat = k;
+    return mat;
+}
+
+/* Each vertex's motion over one frame (m): the velocity grid beside the
+ * level set (`vel` for `surface`, `<name>_vel` otherwise; the closest
+ * particle's velocity) times the frame's duration. The grid is sampled
+ * trilinearly one voxel inside the surface, along the normal: at the zero
+ * crossing itself some of the eight voxels around can lie outside the
+ * grid's active band and read zero, which slowed a uniformly moving ball's
+ * rim by up to 3 %. A level set without one does not move. */
+static int surface_motion(const char *vdb, const kf_vdb_file_info *info, const char *grid, const kf_vdb_trimesh *m,
+                          double voxel, double dt, float **out, char *err, size_t errlen) {
+    *out = NULL;
+    char vel[160];
+    if (!strcmp(grid, "surface")) snprintf(vel, sizeof vel, "vel");
+    else snprintf(vel, sizeof vel, "%s_vel", grid);
+    int found = 0;
+    for (int g = 0; g < info->ngrids; g++) found |= !strcmp(info->grids[g].name, vel);
+    if (!found || m->nverts == 0) return 0;
+    double *xyz = malloc(sizeof(double) * 3 * m->nverts), *v = malloc(sizeof(double) * 3 * m->nverts);
+    float *mot = malloc(sizeof(float) * 3 * m->nverts);
+    int rc = -1;
+    if (!xyz || !v || !mot) snprintf(err, errlen, "out of memory for the motion of %zu vertices", m->nverts);
+    else {
+        for (size_t i = 0; i < 3 * m->nverts; i++) xyz[i] = m->verts[i] - voxel * m->normals[i];
+        rc = kf_vdb_read_vec3_sample(vdb, vel, xyz, m->nverts, v, err, errlen);
+        for (size_t i = 0; rc == 0 && i < 3 * m->nverts; i++) mot[i] = (float)(v[i] * dt);
     }
-    first_tri[ncol] = soup.nt;
-    int nscene = nm;
-    for (int i = 0; i < ncol; i++) {
-        if (first_tri[i + 1] == first_tri[i]) continue; /* planes */
-        kf_render_mesh *r = &rm[nscene++];
-        memset(r, 0, sizeof *r);
-        r->positions = soup.pos;
-        r->nverts = soup.nv;
-        r->tris = soup.tri + 3 * first_tri[i];
-        r->ntris = first_tri[i + 1] - first_tri[i];
-        for (int a = 0; a < 3; a++) r->mat.diffuse[a] = (float)shot->colliders[i].color[a];
-        r->mat.specular = (float)shot->colliders[i].specular;
-        r->mat.roughness = (float)shot->colliders[i].roughness;
-    }
-    /* the rigid bodies at their pose of this frame (rigid_draw.c) */
-    if (kf_rigid_drawing_make(shot, sc, vdb, frame, &rigids, err, errlen)) goto done;
-    nscene += kf_rigid_drawing_meshes(shot, &rigids, rm + nscene, KF_VDB_MAX_GRIDS - nscene);
-    kf_render_scene scene = kf_render_scene_default();
-    scene.meshes = rm;
-    scene.nmeshes = nscene;
-    scene.ground = ro->ground;
-    /* the shot's key, fill and rim lights (camera space: they follow the camera) */
-    for (int a = 0; a < 3; a++) {
-        scene.key_dir[a] = (float)shot->lights[0].dir[a];
-        scene.key_color[a] = (float)(shot->lights[0].color[a] * shot->lights[0].intensity);
-        scene.fill_dir[a] = (float)shot->lights[1].dir[a];
-        scene.fill_color[a] = (float)(shot->lights[1].color[a] * shot->lights[1].intensity);
-        scene.rim_dir[a] = (float)shot->lights[2].dir[a];
-        scene.rim_color[a] = (float)(shot->lights[2].color[a] * shot->lights[2].intensity);
-    }
-    /* a steady camera on what the options frame */
+    free(xyz), free(v);
+    if (rc == 0) *out = mot;
+    else free(mot);
+    return rc;
+}
+
+/* The camera for `frame` (fractional frames allowed for keyed cameras): the
+ * keyed camera, the shot's eye, a turntable view or the automatic framing */
+static kf_camera shot_camera(const kf_shot *shot, const kf_render_opts *ro, double frame) {
     const float *lo = ro->lo, *hi = ro->hi;
-    if (shot->sim.walls) scene.ground_y = (float)shot->sim.domain_min[1];
     /* looking from the front right, above: view_dir points from the eye to the subject */
     float view[3] = {-0.55f, -0.45f, -1.0f}, fov = (float)shot->render_fov;
     kf_camera cam = ro->turntable_n > 0 ? kf_camera_turntable(lo, hi, ro->turntable_k, ro->turntable_n, 25.0f, fov)
@@ -589,6 +564,138 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
         }
         cam.up[0] = 0, cam.up[1] = 1, cam.up[2] = 0;
     }
+    return cam;
+}
+
+/* `path` with its extension replaced by ext (".exr") */
+static void with_extension(const char *path, const char *ext, char *out, size_t n) {
+    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
+    size_t len = dot && (!slash || dot > slash) ? (size_t)(dot - path) : strlen(path);
+    snprintf(out, n, "%.*s%s", (int)len, path, ext);
+}
+
+int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
+                       const kf_render_opts *ro, char *err, size_t errlen) {
+    (void)sc;
+    kf_vdb_file_info info;
+    if (kf_vdb_info(vdb, &info, err, errlen)) return -1;
+    const int want_png = shot->render_format != KF_FORMAT_EXR, want_exr = shot->render_format != KF_FORMAT_PNG;
+    /* motion is needed by the EXR's vectors and by motion blur */
+    const int want_motion = want_exr || shot->render_motion_blur > 0;
+    const double dt = 1.0 / shot->fps;
+    /* the group surfaces (surface_<name>) when the file has them, else `surface`
+     * (files of kerf 0.1 held `surface` and `surface.<material>` both) */
+    int use_groups = 0;
+    for (int g = 0; g < info.ngrids; g++)
+        use_groups |=
+            strncmp(info.grids[g].name, "surface_", 8) == 0 || strncmp(info.grids[g].name, "surface.", 8) == 0;
+    kf_vdb_trimesh meshes[KF_VDB_MAX_GRIDS];
+    kf_render_mesh rm[KF_VDB_MAX_GRIDS];
+    float *motion[KF_VDB_MAX_GRIDS + 2] = {0};
+    const char *mesh_name[KF_VDB_MAX_GRIDS];
+    int nm = 0, rc = -1;
+    tri_soup soup = {0}, soup_next = {0};
+    kf_rigid_drawing rigids = {0};
+    for (int g = 0; g < info.ngrids && nm < KF_VDB_MAX_GRIDS; g++) {
+        const char *name = info.grids[g].name;
+        int group = strncmp(name, "surface_", 8) == 0 || strncmp(name, "surface.", 8) == 0;
+        if (strcmp(info.grids[g].cls, "level set") != 0 || (use_groups ? !group : strcmp(name, "surface") != 0))
+            continue;
+        kf_vdb_grid *ls;
+        if (kf_vdb_read_levelset(vdb, name, &ls, NULL, err, errlen)) goto done;
+        int mesh_rc = kf_vdb_mesh(ls, 0, 0, &meshes[nm], err, errlen);
+        double voxel = kf_vdb_voxel_size(ls);
+        kf_vdb_free(ls);
+        if (mesh_rc) goto done;
+        memset(&rm[nm], 0, sizeof rm[nm]);
+        rm[nm].positions = meshes[nm].verts;
+        rm[nm].normals = meshes[nm].normals;
+        rm[nm].nverts = meshes[nm].nverts;
+        rm[nm].tris = meshes[nm].tris;
+        rm[nm].ntris = meshes[nm].ntris;
+        surface_look(shot, name, &rm[nm].mat);
+        /* ids: a surfaced group is 1 + its place in the shot's materials (or objects) */
+        int gi = surface_index(shot, name);
+        rm[nm].id = 1 + gi;
+        mesh_name[nm] = shot->surface_group ? (gi < shot->nobjects ? shot->objects[gi].name : "object")
+                                            : (gi < shot->nmaterials ? shot->materials[gi].mat.name : "material");
+        nm++;
+        if (want_motion && surface_motion(vdb, &info, name, &meshes[nm - 1], voxel, dt, &motion[nm - 1], err, errlen))
+            goto done;
+        rm[nm - 1].motion = motion[nm - 1];
+    }
+    /* the colliders at their pose for this frame, each in its colour: one
+     * vertex soup, one render mesh per collider over its triangle range */
+    double t = kf_shot_frame_time(shot, frame);
+    size_t first_tri[KF_VDB_MAX_GRIDS + 1];
+    int ncol = shot->ncolliders < KF_VDB_MAX_GRIDS - nm ? shot->ncolliders : KF_VDB_MAX_GRIDS - nm;
+    for (int i = 0; i < ncol; i++) {
+        first_tri[i] = soup.nt;
+        if (collider_mesh(&shot->colliders[i], t, &soup, err, errlen) < 0) goto done;
+        /* a frame later: the same vertices in the same order, moved */
+        if (want_motion && collider_mesh(&shot->colliders[i], t + dt, &soup_next, err, errlen) < 0) goto done;
+    }
+    first_tri[ncol] = soup.nt;
+    float *col_motion = NULL;
+    if (want_motion && soup.nv > 0 && soup_next.nv == soup.nv) {
+        if (!(col_motion = motion[KF_VDB_MAX_GRIDS] = malloc(sizeof(float) * 3 * soup.nv))) {
+            snprintf(err, errlen, "out of memory for the colliders' motion");
+            goto done;
+        }
+        for (size_t i = 0; i < 3 * soup.nv; i++) col_motion[i] = soup_next.pos[i] - soup.pos[i];
+    }
+    int nscene = nm;
+    for (int i = 0; i < ncol; i++) {
+        if (first_tri[i + 1] == first_tri[i]) continue; /* planes */
+        mesh_name[nscene] = shot->colliders[i].name;
+        kf_render_mesh *r = &rm[nscene++];
+        memset(r, 0, sizeof *r);
+        r->positions = soup.pos;
+        r->nverts = soup.nv;
+        r->tris = soup.tri + 3 * first_tri[i];
+        r->ntris = first_tri[i + 1] - first_tri[i];
+        r->motion = col_motion;
+        r->id = 101 + i;
+        for (int a = 0; a < 3; a++) r->mat.diffuse[a] = (float)shot->colliders[i].color[a];
+        r->mat.specular = (float)shot->colliders[i].specular;
+        r->mat.roughness = (float)shot->colliders[i].roughness;
+    }
+    /* the rigid bodies at their pose of this frame (rigid_draw.c) */
+    if (kf_rigid_drawing_make(shot, sc, vdb, frame, &rigids, err, errlen)) goto done;
+    int nrig = kf_rigid_drawing_meshes(shot, &rigids, rm + nscene, KF_VDB_MAX_GRIDS - nscene);
+    if (want_motion && rigids.nv > 0) {
+        float *rm_motion = motion[KF_VDB_MAX_GRIDS + 1] = malloc(sizeof(float) * 3 * rigids.nv);
+        if (!rm_motion) {
+            snprintf(err, errlen, "out of memory for the rigid bodies' motion");
+            goto done;
+        }
+        for (size_t i = 0; i < 3 * rigids.nv; i++) rm_motion[i] = (float)(rigids.vel[i] * dt);
+        for (int k = 0; k < nrig; k++) rm[nscene + k].motion = rm_motion;
+    }
+    /* rigid meshes come in body order, bodies without triangles skipped */
+    for (int i = 0, k = 0; i < rigids.n && k < nrig; i++) {
+        if (rigids.first[i + 1] == rigids.first[i]) continue;
+        rm[nscene + k].id = 201 + i;
+        mesh_name[nscene + k] = i < shot->nrigids ? shot->rigids[i].def.name : "rigid";
+        k++;
+    }
+    nscene += nrig;
+    kf_render_scene scene = kf_render_scene_default();
+    scene.meshes = rm;
+    scene.nmeshes = nscene;
+    scene.ground = ro->ground;
+    /* the shot's key, fill and rim lights (camera space: they follow the camera) */
+    for (int a = 0; a < 3; a++) {
+        scene.key_dir[a] = (float)shot->lights[0].dir[a];
+        scene.key_color[a] = (float)(shot->lights[0].color[a] * shot->lights[0].intensity);
+        scene.fill_dir[a] = (float)shot->lights[1].dir[a];
+        scene.fill_color[a] = (float)(shot->lights[1].color[a] * shot->lights[1].intensity);
+        scene.rim_dir[a] = (float)shot->lights[2].dir[a];
+        scene.rim_color[a] = (float)(shot->lights[2].color[a] * shot->lights[2].intensity);
+    }
+    if (shot->sim.walls) scene.ground_y = (float)shot->sim.domain_min[1];
+    /* a steady camera on what the options frame; a keyed one moves between frames */
+    kf_camera cam = shot_camera(shot, ro, frame), cam_next = shot_camera(shot, ro, frame + 1.0);
     kf_render_ctx *ctx = kf_render_create(ro->width, ro->height, ro->samples, err, errlen);
     if (!ctx) goto done;
     /* the preview's shadow map is at most ro->shadow (small images already have smaller ones) */
@@ -597,25 +704,44 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
         kf_render_destroy(ctx);
         goto done;
     }
-    uint8_t *rgba = malloc((size_t)ro->width * ro->height * 4);
-    if (!rgba) {
+    const size_t npx = (size_t)ro->width * ro->height;
+    uint8_t *rgba = want_png ? malloc(npx * 4) : NULL;
+    kf_pipeline_aovs pa;
+    if ((want_png && !rgba) || (want_exr && kf_pipeline_aovs_alloc(&pa, rm, mesh_name, nscene, npx) != 0)) {
         snprintf(err, errlen, "out of memory for a %dx%d image", ro->width, ro->height);
+        free(rgba);
         kf_render_destroy(ctx);
         goto done;
     }
-    if (kf_render_frame(ctx, &scene, &cam, rgba, err, errlen) == 0) {
-        char fr[32];
-        snprintf(fr, sizeof fr, "%d", frame);
-        const char *kv[] = {"shot", shot->name, "frame", fr, "Software", "kerf " KERF_VERSION};
+    char fr[32];
+    snprintf(fr, sizeof fr, "%d", frame);
+    const char *kv[] = {"shot", shot->name, "frame", fr, "Software", "kerf " KERF_VERSION};
+    if (shot->render_motion_blur <= 0 && !want_exr) {
+        /* the picture alone, as it always was */
+        if (kf_render_frame(ctx, &scene, &cam, rgba, err, errlen) == 0) {
+            if (kf_ensure_parent(png)) snprintf(err, errlen, "%s: cannot create directory: %s", png, strerror(errno));
+            else rc = kf_png_write(png, rgba, ro->width, ro->height, kv, 3, err, errlen);
+        }
+    } else if (kf_render_frame_ex(ctx, &scene, &cam, &cam_next, (float)shot->render_motion_blur, rgba,
+                                  want_exr ? &pa.aov : NULL, err, errlen) == 0) {
+        char exr[4200];
+        with_extension(png, ".exr", exr, sizeof exr);
         if (kf_ensure_parent(png)) snprintf(err, errlen, "%s: cannot create directory: %s", png, strerror(errno));
-        else rc = kf_png_write(png, rgba, ro->width, ro->height, kv, 3, err, errlen);
+        else if (!want_png || kf_png_write(png, rgba, ro->width, ro->height, kv, 3, err, errlen) == 0) {
+            const char *ekv[] = {"kerf.shot", shot->name, "kerf.frame", fr, "software", "kerf " KERF_VERSION};
+            rc = want_exr ? kf_pipeline_aovs_write(&pa, exr, ro->width, ro->height, ekv, 3, err, errlen) : 0;
+        }
     }
+    if (want_exr) kf_pipeline_aovs_free(&pa);
     free(rgba);
     kf_render_destroy(ctx);
 done:
     for (int i = 0; i < nm; i++) kf_vdb_mesh_free(&meshes[i]);
+    for (int i = 0; i < KF_VDB_MAX_GRIDS + 2; i++) free(motion[i]);
     free(soup.pos);
     free(soup.tri);
+    free(soup_next.pos);
+    free(soup_next.tri);
     kf_rigid_drawing_free(&rigids);
     return rc;
 }

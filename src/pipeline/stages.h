@@ -15,11 +15,12 @@
 
 typedef struct kf_frame_paths {
     char dir[2048];
-    char particles[4096], checkpoint[4096], surface[4096], image[4096], points[4096];
+    char particles[4096], checkpoint[4096], surface[4096], image[4096], points[4096], exr[4096];
 } kf_frame_paths;
 
 /* {dir}/particles/{name}.ply, checkpoints/{name}.kfc, surface/{name}.vdb,
- * images/{name}.png. out: a directory template replacing output.dir, or NULL. */
+ * images/{name}.png and images/{name}.exr (render.format says which are
+ * made). out: a directory template replacing output.dir, or NULL. */
 int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_frame_paths *fp);
 
 /* mkdir -p the directory holding path */
@@ -56,7 +57,9 @@ void kf_particle_bounds_add(const kf_scene *sc, float lo[3], float hi[3]);
  * the whole shot; lo > hi: none), clipped to the domain when walled. */
 kf_render_opts kf_render_opts_for(const kf_shot *shot, const float lo[3], const float hi[3]);
 
-/* .vdb → a mesh per group surface, each in its group's colour and shading → PNG at `png`. */
+/* .vdb → a mesh per group surface, each in its group's colour and shading →
+ * PNG at `png` and/or (render.format) the EXR with AOVs beside it (`png`
+ * with .exr for .png). */
 int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb, const char *png, int frame,
                        const kf_render_opts *ro, char *err, size_t errlen);
 

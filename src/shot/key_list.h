@@ -455,6 +455,22 @@ KF_KEY(RENDER_FOV, "render.fov", KT_NUM, TOP(s.render_fov), OO(1, 170), NULL, "3
        "Vertical field of view.")
 KF_KEY(RENDER_GROUND, "render.ground", KT_BOOL, TOP(s.render_ground), ANY, NULL, "true", NULL, NULL, 0,
        "Draw a ground plane that catches shadows (at the floor when there are walls).")
+KF_KEY(RENDER_FORMAT, "render.format", KT_ENUM, TOP(s.render_format), ANY, "png|exr|both", "png", NULL, NULL, 0,
+       "Image files in images/: png (8-bit, for viewing), exr (half-float OpenEXR for compositing) or both. The "
+       "EXR holds: R G B A, linear light (the PNG is these encoded with a 2.2 power), A = 1; Z, camera depth in m "
+       "along the view axis (positive, not 1/z: what Nuke's and Houdini's depth tools take), 65504 where nothing "
+       "is; N.x N.y N.z, world-space unit normals facing the camera; id, an integer per surfaced group (1 + its "
+       "place in materials, or in objects under surface.group: object), per collider (101 + its place) and per "
+       "rigid body (201 + its place), 0 on the ground and background, never blended; matte.<name>, each id's "
+       "anti-aliased coverage (0..1); forward.u forward.v, screen motion over the next frame in pixels, x right "
+       "and y up (Nuke's layer), from the particles' velocity grid in the .vdb, the colliders' and bodies' "
+       "motion and the camera's. Also the camera as worldToCamera and worldToNDC.")
+KF_KEY(RENDER_MOTION_BLUR, "render.motion_blur", KT_NUM, TOP(s.render_motion_blur), CC(0, 1), NULL, "0", "frames", NULL,
+       0,
+       "Shutter open for this fraction of a frame, centred on it (0.5 = a 180-degree shutter; 0 = no blur). The "
+       "picture is the average of renders spread over the shutter, surfaces moved by their velocity and the "
+       "camera along its keys, as many as keep the fastest point within a pixel between renders (at most 32, "
+       "each a full render); the EXR's other channels stay those of the frame itself.")
 KF_KEY(RENDER_CAMERA_KEYS, "render.camera_keys", KT_LIST, KS_KEY, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
        "Keyframed camera: eye, target and fov per key; held before the first key and after the last; frames "
        "increase. Replaces render.eye and render.target.")

@@ -44,6 +44,8 @@ extern "C" {
 /* the preview render preset (render.quality: preview): the key light's
  * shadow map, texels a side */
 #define KF_RENDER_PREVIEW_SHADOW 1024
+/* render.format: which image files a frame gets */
+enum { KF_FORMAT_PNG = 0, KF_FORMAT_EXR = 1, KF_FORMAT_BOTH = 2 };
 
 typedef enum kf_quality {
     KF_QUALITY_FINAL = 0, /* the shot as written */
@@ -225,6 +227,8 @@ typedef struct kf_shot {
         double dir[3], color[3], intensity;
     } lights[3];
     int render_ground;
+    int render_format;         /* 0 png, 1 exr, 2 both (KF_FORMAT_*) */
+    double render_motion_blur; /* shutter, fraction of a frame centred on it; 0: no blur */
 
     char **strings; /* (nstrings) owned by the shot: the text kf_loc points to */
     int nstrings;
