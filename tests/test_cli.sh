@@ -153,6 +153,19 @@ check "changed surface settings re-surface and re-render, without re-simulating"
 "$kerf" run tiny.yaml --out full --frames 1012 --set surface.group=object > sg.log 2>&1
 check "surface.group=object re-surfaces without re-simulating" \
     bash -c "grep -q 'nothing to simulate' sg.log && grep -q '1 surfaces, 1 images made' sg.log"
+# EXR beside the PNG: a new format re-renders (no re-simulation), is kept when current, a missing
+# EXR is made again alone (test_exr checks what the files hold)
+exr_sets="--set render.width=320 --set render.height=180 --set materials.goo.color=[0,1,0] --set surface.voxel=1"
+exr_sets="$exr_sets --set surface.radius=1.5 --set surface.group=object --set render.format=both"
+"$kerf" run tiny.yaml --out full $exr_sets --frames 1011-1012 > exr.log 2>&1
+check "render.format=both writes an EXR beside each PNG, without re-simulating" \
+    bash -c "grep -q 'nothing to simulate' exr.log && grep -q '2 images made' exr.log && test -s full/images/tiny.1012.exr && test -s full/images/tiny.1012.png"
+check "the EXR is OpenEXR" bash -c "head -c 4 full/images/tiny.1012.exr | od -An -tx1 | grep -q '76 2f 31 01'"
+"$kerf" run tiny.yaml --out full $exr_sets --frames 1011-1012 > exr.log 2>&1
+check "current EXRs are kept" grep -q "0 images made, 4 current outputs kept" exr.log
+rm full/images/tiny.1011.exr
+"$kerf" render tiny.yaml --out full $exr_sets --frames 1011-1012 > exr.log 2>&1
+check "a missing EXR is rendered again, alone" grep -q "1 images made, 1 current outputs kept" exr.log
 "$kerf" run tiny.yaml --out pts --quality preview --frames 1001-1002 --set output.points=true --set output.images=false > pts.log 2>&1
 check "output.points writes OpenVDB points per frame" test "$(ls pts/points/*.vdb 2>/dev/null | wc -l)" -eq 2
 check "output.images=false renders nothing" test ! -e pts/images
