@@ -667,6 +667,15 @@ static void test_write_cost(void) {
 
 /* a write into a missing directory says so, and leaves nothing behind */
 static void test_write_errors(void) {
+    /* a file cut short is not whole; the file it was cut from is */
+    KT_CHECK(kf_exr_complete("exr_test_out/channels.exr"), "a written file is whole");
+    FILE *in = fopen("exr_test_out/channels.exr", "rb"), *out = fopen("exr_test_out/cut.exr", "wb");
+    char buf[4096];
+    size_t got = in ? fread(buf, 1, sizeof buf, in) : 0;
+    if (out) fwrite(buf, 1, got > 0 ? got - 1 : 0, out), fclose(out);
+    if (in) fclose(in);
+    KT_CHECK(!kf_exr_complete("exr_test_out/cut.exr"), "the first 4 kB less a byte is not whole");
+    KT_CHECK(!kf_exr_complete("exr_test_out/no_such.exr"), "a missing file is not whole");
     float px[4] = {0};
     kf_exr_channel ch[1] = {{"R", px, 1}};
     char err[512];
