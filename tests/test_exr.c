@@ -552,6 +552,8 @@ static void test_pipeline(void) {
             "frames: {start: 1001, end: 1002, fps: 24}\n"
             "materials: {m: {preset: water}}\n"
             "objects: [{name: ball, shape: sphere, center: [0.5, 0.5, 0.5], radius: 0.2, material: m}]\n"
+            "colliders: [{name: slab, shape: box, size: [0.1, 0.1, 0.1], center: [0.1, 0.3, 0.5],\n"
+            "             velocity: [0.6, -0.3, 0]}]\n"
             "render: {width: %d, height: %d, eye: [0.5, 0.5, 2.5], target: [0.5, 0.5, 0.5], fov: %g,\n"
             "         format: both, ground: false}\n",
             W, H, (double)FOV);
@@ -612,6 +614,19 @@ static void test_pipeline(void) {
             worst = fmax(worst, fmax(fabs(u[i] - f * m[0] / Z[i]), fabs(vv[i] - f * m[1] / Z[i])));
             npx++;
         }
+        /* the collider: id 101 and its own motion, moved a frame's time by its velocity */
+        double cworst = 0;
+        int ncol = 0;
+        for (size_t i = 0; i < (size_t)W * H; i++) {
+            if (id[i] != 101.0f) continue;
+            cworst = fmax(cworst, fmax(fabs(u[i] - f * 0.6 / 24 / Z[i]), fabs(vv[i] + f * 0.3 / 24 / Z[i])));
+            ncol++;
+        }
+        printf("  pipeline: the moving collider, %d px, forward.u/v within %.2e px of f v / (fps Z)\n", ncol, cworst);
+        /* its front face alone is (0.1 m x f / 2 m)^2 = 68 px */
+        KT_CHECK(ncol >= 68, "collider seen (%d px)", ncol);
+        KT_CHECK(cworst <= 8e-3, "collider motion off by %.3g px", cworst);
+        KT_CHECK(kf_exr_channel_data(&img, "matte.slab") != NULL, "a matte named after the collider");
         printf("  pipeline: %d px of the ball, forward.u/v within %.2e px of f v / (fps Z) = (%.3f, %.3f) px at "
                "the centre\n",
                npx, worst, f * m[0] / 1.8, f * m[1] / 1.8);
