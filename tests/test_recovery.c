@@ -1,9 +1,12 @@
 /* test_recovery.c — the NaN-recovery path with a fault injected inside an
  * interval (kf_model_set_fault_substep, a private test hook): the step catches it, kf_advance
  * restarts the interval at half the CFL number, and the result is the run
- * made directly at that smaller step, to the bit. */
+ * made directly at that smaller step, to the bit; the interval's start is
+ * read back from its temporary file, or from memory when no file can be
+ * made, with the same bits. */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "mpm/model.h"
@@ -54,9 +57,26 @@ static void fault_is_retried_exactly(void) {
     int finite = 1;
     for (size_t i = 0; i < pa.n; i++) finite &= isfinite(pa.v[0][i]) && isfinite(pa.x[1][i]);
     KT_CHECK(finite, "no NaN survives the retry");
+    KT_CHECK(a->spill && a->snapshot_in_file, "the interval's start went to a temporary file");
     printf("  fault at substep %ld: %d retry, %ld substeps in 3 frames, state hashes %s\n", fault_substep, sta.retries,
            sta.substeps, kf_state_hash(a) == kf_state_hash(b) ? "equal" : "differ");
-    kf_state_destroy(probe), kf_state_destroy(a), kf_state_destroy(b);
+
+    /* C: no temporary file can be made: the memory copy serves, same bits */
+    const char *had = getenv("TMPDIR");
+    char keep[1024];
+    snprintf(keep, sizeof keep, "%s", had ? had : "");
+    setenv("TMPDIR", "/nonexistent-kerf-test-dir", 1);
+    kf_state *c = jello_drop(faulty, mat);
+    kf_step_stats stc;
+    memset(&stc, 0, sizeof stc);
+    for (int f = 0; f < 3; f++) KT_CHECK(kf_advance(faulty, c, frame, &stc, msg, sizeof msg) == 0, "%s", msg);
+    if (had) setenv("TMPDIR", keep, 1);
+    else unsetenv("TMPDIR");
+    KT_CHECK(c->spill_failed && !c->spill && !c->snapshot_in_file,
+             "without a temporary directory the copy is in memory");
+    KT_CHECK(stc.retries == 1, "the fault was retried once from memory (%d retries)", stc.retries);
+    KT_CHECK(kf_state_hash(c) == kf_state_hash(a), "the retry from memory equals the retry from the file, bit for bit");
+    kf_state_destroy(probe), kf_state_destroy(a), kf_state_destroy(b), kf_state_destroy(c);
     kf_model_destroy(plain), kf_model_destroy(faulty), kf_model_destroy(half);
 }
 

@@ -1,7 +1,8 @@
 /* bench.c — kerf's speed figures, printed, never asserted.
  *
- *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes]
+ *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory]
  *              [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--set k=v]
+ *              [--substeps N]
  *
  * cube:  the paper's Table 2 setup (grid 125³, a 100³-cell cube, 2x2x2
  *        particles per cell = 8M particles, E = 100, ν = 0.3, Δt = 1e-2, no
@@ -29,6 +30,9 @@
  *        OMP_WAIT_POLICY=passive unless it is set.
  * scenes: the paper's scenes at the paper's size, N frames each (only with
  *        --only scenes; see bench_scenes.c for the options).
+ * memory: peak resident bytes per particle of the 8M cube and bunny_split
+ *        at Δx 0.0033 over a few substeps, against kerf info's estimate
+ *        (only with --only memory; bench_memory.c; --scenes cube picks one).
  * --quick shrinks them (24³ and 16³ cubes, a 100k-particle block) for a smoke run. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -44,6 +48,7 @@
 #include "../src/shot/shot.h" /* the preview presets */
 #include <kerf/kerf.h>
 #include "../src/scene/builtin.h"
+#include "bench_memory.h"
 #include "bench_scenes.h"
 #include "median.h"
 
@@ -279,6 +284,7 @@ int main(int argc, char **argv) {
     int json = 0, runs = 5, quick = 0;
     const char *only = NULL;
     bench_scenes_opts so = {.frames = 2, .scale = 1};
+    int substeps = 3;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json")) json = 1;
         else if (!strcmp(argv[i], "--frames") && i + 1 < argc) so.frames = atoi(argv[++i]);
@@ -289,16 +295,22 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--scale") && i + 1 < argc) so.scale = atof(argv[++i]);
         else if (!strcmp(argv[i], "--threads") && i + 1 < argc) so.threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--quick")) quick = 1;
+        else if (!strcmp(argv[i], "--substeps") && i + 1 < argc) substeps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
         else {
-            fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes]\n"
+            fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory]\n"
                             "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] "
-                            "[--hash] [--set k=v]\n");
+                            "[--hash] [--set k=v] [--substeps N]\n");
             return 2;
         }
     }
     if (runs < 1) runs = 1;
+    if (only && !strcmp(only, "memory")) {
+        bench_memory_opts mo = {substeps > 0 ? substeps : 1, so.threads > 0 ? so.threads : 2,
+                                so.scale > 0 ? so.scale : 1, so.only};
+        return bench_memory(&mo);
+    }
     if (only && !strcmp(only, "scenes")) {
         if (so.frames < 1 || !(so.scale > 0)) {
             fprintf(stderr, "kerf_bench: --frames must be >= 1 and --scale > 0\n");

@@ -87,12 +87,11 @@ int kf_cmd_info(int argc, char **argv) {
     if (n && kf_grid_bin(&s->g, &s->p, (kf_real)(1 / shot->sim.dx), cubic, m->nthreads, &bad) == 0)
         blocks = (long)s->g.nblocks;
     double dt = n ? kf_stable_dt(m, s, shot->sim.cfl) : 0;
-    double mb = (kf_particle_bytes_running(m->nthreads, m->nrigid > 0) * (double)n +
-                 (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + program) /
-                (1 << 20);
+    double mb = kf_memory_estimate(m, n, blocks, program) / (1 << 20);
     printf("grid      %ld active blocks of 4^3 nodes at the start\n", blocks);
-    printf("memory    about %.0f MB (particles, their interval snapshot, grid, kerf itself %.0f MB)\n", mb,
-           program / (1 << 20));
+    printf("memory    about %.0f MB (particles, grid, kerf itself %.0f MB; a frame's start for retries is kept in "
+           "a temporary file, %.0f MB)\n",
+           mb, program / (1 << 20), kf_snapshot_bytes(n) / (1 << 20));
     if (shot->sim.dt_fixed > 0) /* a fixed step is the step, whatever the CFL rule says */
         printf("substeps  %.0f per frame (sim.dt_fixed %.3g s)\n", 1.0 / shot->fps / shot->sim.dt_fixed,
                shot->sim.dt_fixed);

@@ -125,7 +125,7 @@ int kf_dist_migrate(const kf_model *m, kf_state *s) {
                 if (!stay[i]) continue;
                 for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) t->plane[k][j] = p->plane[k][i];
                 t->mat[j] = p->mat[i], t->obj[j] = p->obj[i], t->colour[j] = p->colour[i], t->id[j] = p->id[i];
-                t->key[j] = UINT64_MAX, t->block[j] = 0;
+                t->block[j] = 0;
                 j++;
             }
             continue;

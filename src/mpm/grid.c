@@ -128,16 +128,14 @@ static int cmp_owner(const void *a, const void *b) {
     return ka < kb ? -1 : ka > kb;
 }
 
-static int ensure_particle_scratch(kf_grid *g, size_t n, int threads) {
-    if (n <= g->scratch_n && threads <= g->scratch_threads && g->dest) return 0;
-    size_t nt = (size_t)threads;
-    g->scratch_threads = threads;
+static int ensure_particle_scratch(kf_grid *g, size_t n) {
+    if (n <= g->scratch_n && g->dest) return 0;
     free(g->dest);
     free(g->moved);
     free(g->scratch);
     g->dest = malloc(n * sizeof *g->dest + 1);
     g->moved = malloc(n + 1);
-    g->scratch = malloc(n * 8 * nt + 8);
+    g->scratch = malloc(kf_particles_permute_bytes(n) + 8);
     g->scratch_n = n;
     return g->dest && g->moved && g->scratch ? 0 : -1;
 }
@@ -145,7 +143,7 @@ static int ensure_particle_scratch(kf_grid *g, size_t n, int threads) {
 int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle) {
     size_t n = p->n;
     if (threads < 1) threads = 1;
-    if (ensure_particle_scratch(g, n, threads)) return -1;
+    if (ensure_particle_scratch(g, n)) return -1;
 
     /* 0. nothing to do while every stencil still fits its owner's
      * neighbourhood: the test depends on positions alone, so on no thread count */
@@ -187,9 +185,10 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
             nbad++;
             continue;
         }
-        uint64_t key = kf_block_key(b[0], b[1], b[2]);
-        if (full || key != p->key[i]) {
-            p->key[i] = key;
+        /* the owner it had: its block's coordinate (the block set is the
+         * last bin's until step 2 adds to it) */
+        const int32_t *had = full ? NULL : &g->bcoord[3 * p->block[i]];
+        if (full || b[0] != had[0] || b[1] != had[1] || b[2] != had[2]) {
             moved[i] = 1;
             nmoved++;
         } else {
@@ -212,11 +211,11 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
     if (full && hash_reset(g, n / 64 + 64)) return -1;
     for (size_t i = 0; i < n; i++) {
         if (!moved[i]) continue;
-        uint64_t k = p->key[i];
-        int bx = (int)((k >> (2 * KF_KEY_BITS)) & ((1u << KF_KEY_BITS) - 1)) - KF_KEY_OFFSET;
-        int by = (int)((k >> KF_KEY_BITS) & ((1u << KF_KEY_BITS) - 1)) - KF_KEY_OFFSET;
-        int bz = (int)(k & ((1u << KF_KEY_BITS) - 1)) - KF_KEY_OFFSET;
-        int32_t id = block_get_or_insert(g, bx, by, bz);
+        /* the owner again from the position, as step 1 found it: no
+         * per-particle key is kept between the two steps */
+        int b[3];
+        for (int a = 0; a < 3; a++) b[a] = kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic) - shift);
+        int32_t id = block_get_or_insert(g, b[0], b[1], b[2]);
         if (id < 0) return -1;
         p->block[i] = id;
     }

@@ -62,11 +62,10 @@ typedef struct kf_grid {
     /* binning scratch */
     uint32_t *dest; /* (n) */
     uint8_t *moved; /* (n) */
-    void *scratch;  /* permutation scratch, n * 8 * threads bytes */
+    void *scratch;  /* permutation scratch, one plane (kf_particles_permute_bytes) */
     size_t scratch_n;
-    int scratch_threads; /* threads the scratch has room for */
-    int32_t *count;      /* (nblocks) */
-    int valid;           /* 0 until the first bin, and after particles are added */
+    int32_t *count; /* (nblocks) */
+    int valid;      /* 0 until the first bin, and after particles are added */
     /* what the last bin did, for the frame log */
     long rebins, permutes;
 } kf_grid;

@@ -6,6 +6,8 @@
 #ifndef KF_MODEL_H
 #define KF_MODEL_H
 
+#include <stdio.h>
+
 #include <kerf/kerf.h>
 #include "grid.h"
 #include "material.h"
@@ -34,10 +36,15 @@ struct kf_model {
 struct kf_state {
     kf_particles p;
     kf_grid g;
-    double time;           /* s */
-    long substep;          /* substeps taken since creation */
-    uint32_t next_id;      /* id of the next particle added */
-    kf_particles snapshot; /* particles at the start of the interval being advanced */
+    double time;      /* s */
+    long substep;     /* substeps taken since creation */
+    uint32_t next_id; /* id of the next particle added */
+    /* particles at the start of the interval being advanced (step.c): in an
+     * unlinked temporary file, or in memory when no file can be written */
+    FILE *spill;           /* NULL until the first interval */
+    int spill_failed;      /* no temporary file could be made: the memory copy serves */
+    int snapshot_in_file;  /* the current interval's start is in the file */
+    kf_particles snapshot; /* the memory copy (empty while the file serves) */
     int tau_valid;         /* particle stress planes match F (set by kf_stress) */
     int snapshot_tau_valid;
     /* rigid bodies (CPIC): motion state and the solver, created with the
@@ -60,6 +67,24 @@ struct kf_state {
     /* one simulation over MPI ranks (src/dist): this rank's part; NULL on one rank */
     struct kf_dist *dist;
 };
+
+/* kf_advance's interval start (snapshot.c): save the particles, rigid
+ * bodies and time; restore them for a retry. Both return 0 or -1 (out of
+ * memory, or the temporary file could not be read back). */
+int kf_snapshot_save(kf_state *s);
+int kf_snapshot_restore(kf_state *s, double time0, long substep0);
+/* the temporary file's size for n particles: the kf_real planes, mat, obj, colour, id */
+static inline double kf_snapshot_bytes(size_t n) {
+    return sizeof(size_t) + (double)n * (KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + 2 + 2 + 4 + 4);
+}
+
+/* kerf info's memory figure, bytes: n particles as they run (particles.h),
+ * the grid's blocks (grid.h), and what the process held before the scene
+ * (program). kerf_bench --only memory prints it beside the measured peak. */
+static inline double kf_memory_estimate(const kf_model *m, size_t n, long blocks, double program) {
+    return kf_particle_bytes_running(m->nrigid > 0) * (double)n +
+           (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + program;
+}
 
 /* The recovery path's test hook (kf_model.fault_substep): set after
  * kf_model_create, before the first step. */

@@ -3,7 +3,9 @@
  * Every field is its own array of n entries so the per-particle loops stream
  * memory and vectorise. Matrices are stored as 9 planes, row-major:
  * F[3*i+j][p] = (F_p)_ij. The arrays are permuted together when the grid
- * re-sorts particles by block; id[] keeps each particle's stable index. */
+ * re-sorts particles by block; id[] keeps each particle's stable index.
+ * Capacity beyond n is allocated but never written until particles are
+ * added there, so it costs address space, not resident memory. */
 #ifndef KF_PARTICLES_H
 #define KF_PARTICLES_H
 
@@ -34,21 +36,27 @@ typedef struct kf_particles {
     uint16_t *obj;    /* (n) shot object index (surfacing per object) */
     uint32_t *colour; /* (n) CPIC colour: bit 2r = side (1 = negative), bit 2r+1 = affinity to body r */
     uint32_t *id;     /* (n) stable particle index */
-    uint64_t *key;    /* (n) grid block key of the base node at the last sort */
-    int32_t *block;   /* (n) grid block owning the particle at the last sort */
+    int32_t *block;   /* (n) grid block owning the particle at the last sort (its coordinate is the grid's) */
 } kf_particles;
 
-/* Bytes one particle holds while a shot runs: the state's arrays and their
- * copy in kf_advance's interval snapshot, the binning's scratch (a
- * destination, a flag and an 8-byte permutation slot per thread: grid.c),
- * and with rigid bodies CPIC's distance, normal and flag (cpic.h). Grid
- * nodes come on top (kf_grid_bytes_per_block). */
-static inline double kf_particle_bytes_running(int threads, int rigid_bodies) {
+/* The permutation's scratch: one plane of the widest field. */
+static inline size_t kf_particles_permute_bytes(size_t n) { return n * (sizeof(kf_real) > 4 ? sizeof(kf_real) : 4); }
+
+/* Bytes one particle holds while a shot runs, field by field (float build;
+ * the double build doubles the kf_real planes):
+ *   state        x 12, v 12, C 36, F 9x4 = 36, mass 4, vol0 4, ps 8,
+ *                tau 24 (34 kf_real planes: 136), mat 2, obj 2, colour 4,
+ *                id 4, block 4                                      152
+ *   binning      dest 4, moved 1, one shared permutation plane 4       9
+ *   CPIC         with rigid bodies: distance 4, normal 12, flag 1     17
+ * kf_advance's interval start lives in a temporary file (snapshot.c), not
+ * here; grid nodes come on top (kf_grid_bytes_per_block). */
+static inline double kf_particle_bytes_running(int rigid_bodies) {
     kf_particles p;
     double state = KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.obj + sizeof *p.colour +
-                   sizeof *p.id + sizeof *p.key + sizeof *p.block;
-    double bin = sizeof(uint32_t) + 1 + 8.0 * (threads > 0 ? threads : 1);
-    return 2 * state + bin + (rigid_bodies ? 4 + 12 + 1 : 0);
+                   sizeof *p.id + sizeof *p.block;
+    double bin = sizeof(uint32_t) + 1 + (double)kf_particles_permute_bytes(1);
+    return state + bin + (rigid_bodies ? 4 + 12 + 1 : 0);
 }
 
 void kf_particles_free(kf_particles *p);
@@ -56,7 +64,7 @@ void kf_particles_free(kf_particles *p);
 int kf_particles_reserve(kf_particles *p, size_t cap);
 /* dst becomes an exact copy of src (capacity grows as needed). */
 int kf_particles_copy(kf_particles *dst, const kf_particles *src);
-/* Reorder: new[dest[p]] = old[p]. scratch holds n * 8 bytes. */
+/* Reorder: new[dest[p]] = old[p]. scratch holds kf_particles_permute_bytes(n). */
 void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, int threads);
 
 #endif

@@ -1,5 +1,6 @@
 /* state.c — particles in, diagnostics out: creation, seeding, energy, hash. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -42,6 +43,7 @@ void kf_state_destroy(kf_state *s) {
     free(s->mid_dv);
     kf_particles_free(&s->p);
     kf_particles_free(&s->snapshot);
+    if (s->spill) fclose(s->spill);
     kf_grid_free(&s->g);
     kf_dist_free(s->dist);
     free(s);
@@ -162,8 +164,10 @@ long kf_state_add_particles(kf_state *s, const kf_model *m, size_t n, const doub
         p->obj[i] = 0;
         p->colour[i] = 0;
         p->id[i] = s->next_id++;
-        p->key[i] = 0;
         p->block[i] = 0;
+        /* the stress planes until kf_stress fills them: the first frame's
+         * checkpoint holds them and must not depend on the heap */
+        for (int e = 0; e < 6; e++) p->tau[e][i] = 0;
     }
     p->n += n;
     s->g.valid = 0;
@@ -181,7 +185,10 @@ static double jitter(uint32_t *st) {
 
 typedef int (*inside_fn)(const double x[3], const void *ctx);
 
-/* seed ppc³ particles per grid cell over [lo, hi], keeping those inside */
+/* seed ppc³ particles per grid cell over [lo, hi], keeping those inside;
+ * they go into the state a chunk at a time (the same order and ids as all
+ * at once), so the candidates in doubles never sit beside the whole state */
+#define FILL_CHUNK 65536
 static long fill(kf_state *s, const kf_model *m, const double lo[3], const double hi[3], inside_fn inside,
                  const void *ctx, int material, const double v[3], int ppc, uint32_t seed) {
     double dx = m->sim.dx, h = dx / ppc;
@@ -190,9 +197,12 @@ static long fill(kf_state *s, const kf_model *m, const double lo[3], const doubl
         i0[a] = (long)floor(lo[a] / h);
         i1[a] = (long)ceil(hi[a] / h);
     }
-    size_t cap = 1024, n = 0;
-    double *x = malloc(cap * 3 * sizeof *x);
-    if (!x) return -1;
+    if (material < 0 || material >= m->nmat) return -1;
+    size_t n = 0;
+    long first = -1;
+    double *x = malloc(FILL_CHUNK * 3 * sizeof *x), *vel = v ? malloc(FILL_CHUNK * 3 * sizeof *vel) : NULL;
+    if (!x || (v && !vel)) return free(x), free(vel), -1;
+    for (size_t k = 0; v && k < FILL_CHUNK; k++) memcpy(&vel[3 * k], v, 3 * sizeof *v);
     uint32_t st = seed ? seed : 1;
     for (long i = i0[0]; i < i1[0]; i++)
         for (long j = i0[1]; j < i1[1]; j++)
@@ -204,24 +214,22 @@ static long fill(kf_state *s, const kf_model *m, const double lo[3], const doubl
                 if (q[0] < lo[0] || q[1] < lo[1] || q[2] < lo[2] || q[0] >= hi[0] || q[1] >= hi[1] || q[2] >= hi[2])
                     continue;
                 if (inside && !inside(q, ctx)) continue;
-                if (n == cap) {
-                    cap *= 2;
-                    double *nx = realloc(x, cap * 3 * sizeof *x);
-                    if (!nx) return free(x), -1;
-                    x = nx;
-                }
                 memcpy(&x[3 * n++], q, sizeof q);
+                if (n == FILL_CHUNK) {
+                    long f = kf_state_add_particles(s, m, n, x, vel, NULL, material, h * h * h);
+                    if (f < 0) return free(x), free(vel), -1;
+                    if (first < 0) first = f;
+                    n = 0;
+                }
             }
-    double *vel = NULL;
-    if (v) {
-        vel = malloc((n + 1) * 3 * sizeof *vel);
-        if (!vel) return free(x), -1;
-        for (size_t k = 0; k < n; k++) memcpy(&vel[3 * k], v, 3 * sizeof *v);
-    }
-    long first = kf_state_add_particles(s, m, n, x, vel, NULL, material, h * h * h);
+    /* the last chunk; with none at all, the state changes as adding none does */
+    long f = n ? kf_state_add_particles(s, m, n, x, vel, NULL, material, h * h * h) : (long)s->p.n;
     free(x);
     free(vel);
-    return first;
+    if (f < 0) return -1;
+    s->g.valid = 0;
+    s->tau_valid = 0;
+    return first < 0 ? f : first;
 }
 
 long kf_state_fill_box(kf_state *s, const kf_model *m, const double lo[3], const double hi[3], int material,

@@ -251,32 +251,6 @@ static double clamp_dt(const kf_model *m, double dt) {
 
 double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl) { return clamp_dt(m, cfl * unit_cfl_dt(m, s)); }
 
-static int save_snapshot(kf_state *s) {
-    s->snapshot_tau_valid = s->tau_valid;
-    memcpy(s->snapshot_rigid, s->rigid, sizeof s->rigid);
-    if (s->rsim) {
-        size_t n = kf_rigid_sim_state_size(s->rsim);
-        if (n > s->snapshot_rsim_size) {
-            void *b = realloc(s->snapshot_rsim, n);
-            if (!b) return -1;
-            s->snapshot_rsim = b;
-        }
-        s->snapshot_rsim_size = n;
-        kf_rigid_sim_save(s->rsim, s->snapshot_rsim);
-    }
-    return kf_particles_copy(&s->snapshot, &s->p);
-}
-
-static void restore_snapshot(kf_state *s, double time0, long substep0) {
-    memcpy(s->rigid, s->snapshot_rigid, sizeof s->rigid);
-    if (s->rsim) kf_rigid_sim_load(s->rsim, s->snapshot_rsim, s->snapshot_rsim_size);
-    kf_particles_copy(&s->p, &s->snapshot);
-    s->time = time0;
-    s->substep = substep0;
-    s->tau_valid = s->snapshot_tau_valid;
-    s->g.valid = 0;
-}
-
 int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *st, char *msg, size_t msglen) {
     if (msg && msglen) msg[0] = 0;
     /* the interval starts from a full sort, as its retry after trouble does
@@ -284,7 +258,7 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
      * reach, grid.h): a retried interval and one made directly at the
      * smaller step then sum in the same order, bit for bit */
     kf_grid_invalidate(&s->g);
-    if (save_snapshot(s)) {
+    if (kf_snapshot_save(s)) {
         if (msg) snprintf(msg, msglen, "out of memory saving the interval start");
         return 1;
     }
@@ -313,7 +287,10 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
         }
         if (ok) return 0;
         /* trouble: back to the interval start, half the step, try again */
-        restore_snapshot(s, time0, substep0);
+        if (kf_snapshot_restore(s, time0, substep0)) {
+            if (msg) snprintf(msg, msglen, "cannot read the interval start back to retry it");
+            return 1;
+        }
         if (st) st->retries++, st->warnings++;
         if (attempt == retries) break;
         cfl *= 0.5;

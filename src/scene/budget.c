@@ -85,20 +85,24 @@ static void substeps(const kf_shot *shot, kf_budget *b) {
 int kf_budget_estimate(const kf_shot *shot, kf_budget *b, char *err, size_t errlen) {
     memset(b, 0, sizeof *b);
     const double dx = shot->sim.dx;
-    double largest = 0;
+    double largest = 0; /* the largest object's seeding buffers, bytes */
     for (int i = 0; i < shot->nobjects; i++) {
-        double n = object_volume(&shot->objects[i]) * shot->ppc / (dx * dx * dx);
+        const kf_shot_object *o = &shot->objects[i];
+        double n = object_volume(o) * shot->ppc / (dx * dx * dx);
         b->particles += n;
-        if (n > largest) largest = n;
+        /* x in doubles, and v too when the object moves (sample.h) */
+        int moves = 0;
+        for (int a = 0; a < 3; a++) moves |= o->velocity[a] != 0 || o->angular_velocity[a] != 0;
+        double seed = n * (moves ? 6 : 3) * sizeof(double);
+        if (seed > largest) largest = seed;
     }
-    /* the particle planes twice (the state and its frame snapshot), the grid
-     * blocks they fill (twice the full ones: partial blocks at the surface),
-     * and the seeding buffers of the largest object (x, v in doubles) */
-    kf_particles p;
-    double per = KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.obj + sizeof *p.colour +
-                 sizeof *p.id + sizeof *p.key + sizeof *p.block;
+    /* the particles as they run (particles.h: the state, the binning's
+     * scratch, CPIC's), the grid blocks they fill (twice the full ones:
+     * partial blocks at the surface), and the seeding buffers of the largest
+     * object */
+    double per = kf_particle_bytes_running(shot->nrigids > 0);
     double blocks = 2 * b->particles / (KF_BLOCK_NODES * (double)shot->ppc);
-    b->bytes = 2 * per * b->particles + blocks * KF_BLOCK_NODES * 4 * sizeof(kf_v4) + 6 * sizeof(double) * largest;
+    b->bytes = per * b->particles + blocks * KF_BLOCK_NODES * 4 * sizeof(kf_v4) + largest;
     b->memory = machine_memory();
     substeps(shot, b);
     long cores = sysconf(_SC_NPROCESSORS_ONLN);

@@ -448,12 +448,17 @@ int kf_sample_shape(const kf_sample_def *def, kf_points *out, char *err, size_t 
         goto done;
     }
 
-    /* velocities: v0 + ω × (x − centroid) */
+    /* velocities: v0 + ω × (x − centroid); a shape at rest (all +0) gets
+     * none: every one would be +0, and the array was a sixth of a large
+     * scene's seeding peak */
     out->n = g.n;
     out->x = g.x ? g.x : malloc(3 * sizeof *out->x);
     g.x = NULL;
-    out->v = malloc((out->n ? out->n : 1) * 3 * sizeof *out->v);
-    if (!out->x || !out->v) {
+    const double *v0 = def->velocity, *w = def->angular_velocity;
+    int still = 1;
+    for (int a = 0; a < 3; a++) still &= !signbit(v0[a]) && v0[a] == 0 && !signbit(w[a]) && w[a] == 0;
+    out->v = still ? NULL : malloc((out->n ? out->n : 1) * 3 * sizeof *out->v);
+    if (!out->x || (!still && !out->v)) {
         kf_points_free(out);
         snprintf(err, errlen, "sample: out of memory");
         rc = -1;
@@ -463,8 +468,7 @@ int kf_sample_shape(const kf_sample_def *def, kf_points *out, char *err, size_t 
     for (size_t i = 0; i < out->n; i++)
         for (int a = 0; a < 3; a++) c[a] += out->x[3 * i + a];
     for (int a = 0; a < 3; a++) c[a] = out->n ? c[a] / (double)out->n : 0.5 * (lo[a] + hi[a]);
-    const double *v0 = def->velocity, *w = def->angular_velocity;
-    for (size_t i = 0; i < out->n; i++) {
+    for (size_t i = 0; i < out->n && !still; i++) {
         double r[3] = {out->x[3 * i] - c[0], out->x[3 * i + 1] - c[1], out->x[3 * i + 2] - c[2]};
         out->v[3 * i + 0] = v0[0] + w[1] * r[2] - w[2] * r[1];
         out->v[3 * i + 1] = v0[1] + w[2] * r[0] - w[0] * r[2];

@@ -55,7 +55,7 @@ typedef struct kf_sample_stats {
 typedef struct kf_points {
     size_t n;
     double *x;           /* (n x 3) positions, m */
-    double *v;           /* (n x 3) velocities, m/s */
+    double *v;           /* (n x 3) velocities, m/s; NULL for a shape at rest (velocity and angular_velocity +0) */
     double volume;       /* rest volume of each particle, Δx³ / ppc, m³ */
     double centroid[3];  /* mean of x, m: the pivot of angular_velocity */
     double lo[3], hi[3]; /* world bounding box of the placed shape, m */
