@@ -727,18 +727,23 @@ static void test_write_cost(void) {
         pa.aov.matte[i] = t < 0.5f, pa.aov.matte[(size_t)BW * BH + i] = t >= 0.5f;
     }
     char err[512];
-    double best = 1e30;
+    /* wall time, and the thread's CPU time (what a shared machine inflates least) */
+    double best = 1e30, best_cpu = 1e30;
     for (int k = 0; k < 3; k++) {
-        struct timespec a, b;
+        struct timespec a, b, ca, cb;
         clock_gettime(CLOCK_MONOTONIC, &a);
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ca);
         int rc = kf_pipeline_aovs_write(&pa, "exr_test_out/cost.exr", BW, BH, NULL, 0, err, sizeof err);
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &cb);
         clock_gettime(CLOCK_MONOTONIC, &b);
         KT_CHECK(rc == 0, "write: %s", err);
         best = fmin(best, (b.tv_sec - a.tv_sec) * 1e3 + (b.tv_nsec - a.tv_nsec) / 1e6);
+        best_cpu = fmin(best_cpu, (cb.tv_sec - ca.tv_sec) * 1e3 + (cb.tv_nsec - ca.tv_nsec) / 1e6);
     }
     struct stat st;
     stat("exr_test_out/cost.exr", &st);
-    printf("  cost: 1280x720, 13 half channels, zip: %.1f ms to write (best of 3), %.2f MB\n", best, st.st_size / 1e6);
+    printf("  cost: 1280x720, 13 half channels, zip: %.1f ms to write (best of 3; %.1f ms of CPU), %.2f MB\n", best,
+           best_cpu, st.st_size / 1e6);
     kf_pipeline_aovs_free(&pa);
 }
 
