@@ -96,6 +96,8 @@ typedef struct kf_vdb_surface_stats {
     size_t active_voxels;
     double seconds;                        /* wall time: rasterise + filter */
     double seconds_raster, seconds_filter; /* wall time of its two parts (filters run on the band count in the first) */
+    double cpu_average;                    /* process CPU seconds of the centre averaging (surface_params.average) */
+    size_t n_average_kept;                 /* particles deep enough to keep their place in it (not averaged) */
     double cpu_sort, cpu_splat, cpu_redistance, cpu_filter; /* process CPU seconds of each phase */
 } kf_vdb_surface_stats;
 

@@ -2,7 +2,7 @@
  * sheet two particles thick, surfaced with kerf's settings before centre
  * averaging and with the shot defaults now (read from shots/demo.yaml,
  * which sets no surface key), probed by tests/surface_look.h.
- *   kf_evid_surface_look OUT.png [repeats]
+ *   kf_evid_surface_look OUT.png [repeats]   (repeats 0: the shot defaults' rows alone)
  * prints a markdown table (3 seeds each) and the surfacing time of a larger
  * block (median of `repeats`, wall clock, before and after interleaved), and
  * writes OUT.png: the top face's height above its fitted plane, before
@@ -23,13 +23,15 @@ static double now(void) {
     return t.tv_sec + 1e-9 * t.tv_nsec;
 }
 
+static kf_vdb_surface_stats last_stats;
+
 static kf_vdb_grid *surface(const kf_points *pts, double h, look_settings s, double *sec) {
     kf_vdb_surface_params p;
     look_params(&p, h, s);
     kf_vdb_grid *g = NULL;
     char err[512];
     double t0 = now();
-    if (kf_vdb_levelset_from_particles(pts->n, pts->x, NULL, NULL, NULL, &p, &g, NULL, err, sizeof err)) {
+    if (kf_vdb_levelset_from_particles(pts->n, pts->x, NULL, NULL, NULL, &p, &g, &last_stats, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         exit(1);
     }
@@ -87,7 +89,7 @@ int main(int argc, char **argv) {
     printf("|---|---|---|---|---|---|---|\n");
     const int n = 128, W = 2 * n + 8;
     uint8_t *img = calloc((size_t)W * n * 4, 1);
-    for (int v = 0; v < 2; v++) {
+    for (int v = reps == 0 ? 1 : 0; v < 2; v++) {
         look_settings s = v ? after : look_before;
         for (uint32_t seed = 1; seed <= 3; seed++) {
             kf_points pts, sheet;
@@ -106,16 +108,32 @@ int main(int argc, char **argv) {
     char err[256];
     if (kf_png_write(argv[1], img, W, n, NULL, 0, err, sizeof err)) fprintf(stderr, "%s\n", err);
     free(img);
+    if (reps <= 0) return 0; /* the table alone */
     /* time: a 96 x 48 x 96 spacing block (442k particles), interleaved */
     const double blo[3] = {0, 0, 0}, bhi[3] = {96 * h, 48 * h, 96 * h};
     kf_points big;
     if (look_seed(blo, bhi, h, 1, &big)) return 1;
-    double t[2][32];
-    reps = reps < 1 ? 1 : reps > 32 ? 32 : reps;
+    /* wall, then process CPU seconds of each phase (averaging, sort, splat,
+     * re-distance, filter) and their sum */
+    enum { T_WALL, T_AVG, T_SORT, T_SPLAT, T_DIST, T_FILT, T_CPU, T_N };
+    static const char *const tname[T_N] = {"wall", "average", "sort", "splat", "re-distance", "filter", "CPU total"};
+    double t[2][T_N][32];
+    size_t kept = 0;
+    reps = reps > 32 ? 32 : reps;
     for (int r = 0; r < reps; r++)
-        for (int v = 0; v < 2; v++) kf_vdb_free(surface(&big, h, v ? after : look_before, &t[v][r]));
-    printf("\nsurfacing %zu particles: before %.0f ms, now %.0f ms (median of %d, wall)\n", big.n,
-           1e3 * kf_median(t[0], reps), 1e3 * kf_median(t[1], reps), reps);
+        for (int v = 0; v < 2; v++) {
+            kf_vdb_free(surface(&big, h, v ? after : look_before, &t[v][T_WALL][r]));
+            const kf_vdb_surface_stats *st = &last_stats;
+            double c[T_N] = {0, st->cpu_average, st->cpu_sort, st->cpu_splat, st->cpu_redistance, st->cpu_filter, 0};
+            for (int k = T_AVG; k < T_CPU; k++) t[v][k][r] = c[k], c[T_CPU] += c[k];
+            t[v][T_CPU][r] = c[T_CPU];
+            if (v) kept = st->n_average_kept;
+        }
+    printf("\nsurfacing %zu particles, seconds (median of %d; %zu kept their place in the averaging):\n\n", big.n, reps,
+           kept);
+    printf("| phase | before | now |\n|---|---|---|\n");
+    for (int k = 0; k < T_N; k++)
+        printf("| %s | %.3f | %.3f |\n", tname[k], kf_median(t[0][k], reps), kf_median(t[1][k], reps));
     kf_points_free(&big);
     return 0;
 }

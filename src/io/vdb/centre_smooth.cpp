@@ -1,7 +1,11 @@
 // centre_smooth.cpp — see centre_smooth.h.
 #include "centre_smooth.h"
 
+#include "buried_particles.h"
+#include "dense_band.h"
+
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,11 +22,67 @@ inline uint64_t cell_key(int64_t i, int64_t j, int64_t k) {
     return (uint64_t(i + o) & 0x1fffff) | (uint64_t(j + o) & 0x1fffff) << 21 | (uint64_t(k + o) & 0x1fffff) << 42;
 }
 
+// Particles deeper than `depth` below every face, by occupancy: cells of
+// edge c = 2 spacings each hold a particle of a jittered lattice (every
+// such cube contains a whole lattice cell), so an empty cell is a gap in
+// the material. A particle whose cell has every cell within Chebyshev
+// distance M occupied, M = ceil(depth / c) + 1, is at least depth from any
+// such gap and from any face (the cells just beyond a face are empty; the
+// +1 is the cell a face cuts). Flags in input order, 1 = deep.
+std::vector<uint8_t> deep_particles(size_t n, const double *xd, const float *xf, double h, double depth) {
+    const double c = 2 * h, inv = 1 / c;
+    const int M = int(std::ceil(depth * inv)) + 1;
+    std::vector<uint8_t> deep(n, 0);
+    if (M > 8 || n >= (size_t(1) << 32)) return deep;
+    const double lim = double(LEAF_BIAS) * LEAF_DIM - 64;
+    // positions in cell units, sorted into 8^3-cell bins (ties by index)
+    std::vector<std::pair<uint64_t, uint32_t>> order(n);
+    bool far = false;
+    for (size_t i = 0; i < n; i++) {
+        int64_t l[3];
+        for (int a = 0; a < 3; a++) {
+            const double u = (xd ? xd[3 * i + a] : double(xf[3 * i + a])) * inv;
+            if (!(std::fabs(u) < lim)) far = true;
+            l[a] = far ? 0 : int64_t(std::floor(u + 0.5)) >> LEAF_LOG2;
+        }
+        order[i] = {leaf_key(l[0], l[1], l[2]), uint32_t(i)};
+    }
+    if (far) return deep;
+    tbb::parallel_sort(order.begin(), order.end());
+    std::vector<float> x(n), y(n), z(n);
+    std::vector<uint64_t> bin_key;
+    std::vector<uint32_t> bin_at;
+    for (size_t k = 0; k < n; k++) {
+        const size_t i = order[k].second;
+        x[k] = float((xd ? xd[3 * i] : double(xf[3 * i])) * inv);
+        y[k] = float((xd ? xd[3 * i + 1] : double(xf[3 * i + 1])) * inv);
+        z[k] = float((xd ? xd[3 * i + 2] : double(xf[3 * i + 2])) * inv);
+        if (k == 0 || order[k].first != order[k - 1].first)
+            bin_key.push_back(order[k].first), bin_at.push_back(uint32_t(k));
+    }
+    bin_at.push_back(uint32_t(n));
+    const std::vector<uint8_t> flag = buried_particles(x.data(), y.data(), z.data(), bin_key, bin_at, M);
+    for (size_t k = 0; k < n; k++) deep[order[k].second] = flag[k];
+    return deep;
+}
+
 } // namespace
 
-std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, double lambda, double R) {
+std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, double lambda, double R, double h,
+                                  double keep_depth, size_t *n_skipped) {
     std::vector<float> out(3 * n);
     auto pos = [&](size_t i, int a) { return xd ? xd[3 * i + a] : double(xf[3 * i + a]); };
+    // deep particles keep their place: their spheres lie under the surface
+    // whatever the averaging does, and they are most of a large body
+    const std::vector<uint8_t> deep =
+        keep_depth > 0 && h > 0 ? deep_particles(n, xd, xf, h, keep_depth) : std::vector<uint8_t>(n, 0);
+    size_t skipped = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (!deep[i]) continue;
+        skipped++;
+        for (int a = 0; a < 3; a++) out[3 * i + a] = float(pos(i, a));
+    }
+    if (n_skipped) *n_skipped = skipped;
     // particles sorted into cells of edge R (ties by index: deterministic)
     const double invR = 1 / R, R2 = R * R;
     std::vector<uint64_t> key(n);
@@ -56,6 +116,9 @@ std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, d
     tbb::parallel_for(tbb::blocked_range<size_t>(0, ranges.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
         std::vector<float> bx, by, bz;
         for (size_t c = rg.begin(); c != rg.end(); c++) {
+            bool any = false; // a cell of deep particles only: nothing to do
+            for (size_t s1 = ranges[c].first; s1 < ranges[c].second && !any; s1++) any = !deep[order[s1]];
+            if (!any) continue;
             const size_t first = order[ranges[c].first];
             const int64_t ci[3] = {int64_t(std::floor(pos(first, 0) * invR)), int64_t(std::floor(pos(first, 1) * invR)),
                                    int64_t(std::floor(pos(first, 2) * invR))};
@@ -77,6 +140,7 @@ std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, d
             const float fR2 = float(R2), finvR = float(invR);
             for (size_t s1 = ranges[c].first; s1 < ranges[c].second; s1++) {
                 const size_t i = order[s1];
+                if (deep[i]) continue;
                 const float x = float(pos(i, 0) - o[0]), y = float(pos(i, 1) - o[1]), z = float(pos(i, 2) - o[2]);
                 float ws = 0, mx = 0, my = 0, mz = 0;
                 for (size_t k = 0; k < nb; k++) {

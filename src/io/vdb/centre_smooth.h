@@ -21,8 +21,14 @@ namespace kf_vdb {
 
 // Smoothed positions (n x 3 floats) of n particles given as doubles xd or
 // floats xf (exactly one non-null); lambda in [0, 1], R in world units.
-// Deterministic for any thread count (each output depends only on the input).
-std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, double lambda, double R);
+// Particles at least keep_depth below every face of the material (particle
+// spacing h; 0: none) keep their place, found by occupancy of cells of two
+// spacings (centre_smooth.cpp): their spheres lie under the surface either
+// way, and skipping them is most of the work in a large body. *n_skipped
+// (may be null) counts them. Deterministic for any thread count (each
+// output depends only on the input).
+std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, double lambda, double R, double h,
+                                  double keep_depth, size_t *n_skipped);
 
 // How far inward the smoothing moves the centres of a flat face of a
 // uniformly filled half-space with particle spacing h, averaged over the

@@ -22,6 +22,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdarg>
@@ -422,11 +423,19 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, 
         // surface back on the material is smaller by as much (a dilation
         // where the erosion was smaller than the shift)
         std::vector<float> averaged;
+        size_t n_kept = 0;
+        double cpu_average = 0;
         if (!(p.average >= 0 && p.average <= 1)) throw bridge_error(fmt("average %g must be in 0..1", p.average));
         if (p.average > 0) {
             const double spacing = p.spacing > 0 ? p.spacing : r / factor;
             const double R = p.average_radius > 0 ? p.average_radius : 2 * spacing;
-            averaged = kf_vdb::smooth_centres(n, xd, xf, p.average, R);
+            // particles deeper than their sphere plus the averaging's reach
+            // keep their place (no averaged neighbour's sphere comes near theirs)
+            double rmax = r;
+            for (size_t i = 0; radii && i < n; i++) rmax = std::max(rmax, double(radii[i]));
+            const double ca = cpu_seconds();
+            averaged = kf_vdb::smooth_centres(n, xd, xf, p.average, R, spacing, rmax + R, &n_kept);
+            cpu_average = cpu_seconds() - ca;
             ss.xd = nullptr;
             ss.xf = averaged.data();
             const double shift = kf_vdb::shift_depth(p.average, R, spacing);
@@ -468,6 +477,8 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, 
             stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             stats->seconds_raster = std::chrono::duration<double>(t1 - t0).count();
             stats->seconds_filter = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+            stats->cpu_average = cpu_average;
+            stats->n_average_kept = n_kept;
             stats->cpu_sort = rt.sort_s;
             stats->cpu_splat = rt.splat_s;
             stats->cpu_redistance = rt.redistance_s;
