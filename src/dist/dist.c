@@ -79,7 +79,6 @@ void kf_dist_unpack(kf_particles *p, size_t j, const char *src) {
     memcpy(&p->colour[j], src + 4, 4);
     memcpy(&p->mat[j], src + 8, 2);
     memcpy(&p->obj[j], src + 10, 2);
-    p->block[j] = 0;
 }
 
 /* ---- the cut ---- */
@@ -140,7 +139,6 @@ int kf_dist_attach(const kf_model *m, kf_state *s) {
     memmove(p->obj, p->obj + lo, n * sizeof *p->obj);
     memmove(p->colour, p->colour + lo, n * sizeof *p->colour);
     memmove(p->id, p->id + lo, n * sizeof *p->id);
-    memmove(p->block, p->block + lo, n * sizeof *p->block);
     p->n = n;
     g->valid = 0;
     s->dist = d;

@@ -30,22 +30,24 @@ static int needs_sort(const kf_grid *g, const kf_particles *p, kf_real inv_dx, i
     if (!g->valid) return 1;
     const int limit = KF_KEY_OFFSET - 2, lmax = kf_owner_lmax(cubic);
     long out = 0;
-    const size_t n = p->n;
-#pragma omp parallel for reduction(+ : out) schedule(static) num_threads(threads)
-    for (size_t i = 0; i < n; i++) {
-        const int32_t *bc = &g->bcoord[3 * p->block[i]];
-        for (int a = 0; a < 3; a++) {
-            kf_real xg = p->x[a][i] * inv_dx;
-            if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) {
-                out++;
-                break;
+    const size_t nowner = g->nowner;
+    /* owner r (block id r) holds particles pstart[r]..pstart[r+1] (grid.c) */
+#pragma omp parallel for reduction(+ : out) schedule(dynamic, 64) num_threads(threads)
+    for (size_t r = 0; r < nowner; r++) {
+        const int32_t *bc = &g->bcoord[3 * r];
+        for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++)
+            for (int a = 0; a < 3; a++) {
+                kf_real xg = p->x[a][i] * inv_dx;
+                if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) {
+                    out++;
+                    break;
+                }
+                int l = kf_base_node(p->x[a][i], inv_dx, cubic) - KF_BLOCK * bc[a];
+                if (l < 0 || l > lmax) {
+                    out++;
+                    break;
+                }
             }
-            int l = kf_base_node(p->x[a][i], inv_dx, cubic) - KF_BLOCK * bc[a];
-            if (l < 0 || l > lmax) {
-                out++;
-                break;
-            }
-        }
     }
     return out > 0;
 }
@@ -125,7 +127,6 @@ int kf_dist_migrate(const kf_model *m, kf_state *s) {
                 if (!stay[i]) continue;
                 for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) t->plane[k][j] = p->plane[k][i];
                 t->mat[j] = p->mat[i], t->obj[j] = p->obj[i], t->colour[j] = p->colour[i], t->id[j] = p->id[i];
-                t->block[j] = 0;
                 j++;
             }
             continue;

@@ -15,7 +15,6 @@ void kf_grid_free(kf_grid *g) {
     free(g->nb);
     free(g->pstart);
     free(g->dest);
-    free(g->moved);
     free(g->scratch);
     free(g->count);
     memset(g, 0, sizeof *g);
@@ -117,6 +116,10 @@ static int32_t block_get_or_insert(kf_grid *g, int bx, int by, int bz) {
 
 /* ---- binning ------------------------------------------------------------------ */
 
+/* step 1's flags in dest[] (block ids and slots stay below 2^31) */
+#define DEST_MOVED (UINT32_MAX - 1)
+#define DEST_BAD UINT32_MAX
+
 typedef struct owner_rec {
     uint64_t key;
     int32_t old_id;
@@ -131,13 +134,11 @@ static int cmp_owner(const void *a, const void *b) {
 static int ensure_particle_scratch(kf_grid *g, size_t n) {
     if (n <= g->scratch_n && g->dest) return 0;
     free(g->dest);
-    free(g->moved);
     free(g->scratch);
     g->dest = malloc(n * sizeof *g->dest + 1);
-    g->moved = malloc(n + 1);
     g->scratch = malloc(kf_particles_permute_bytes(n) + 8);
     g->scratch_n = n;
-    return g->dest && g->moved && g->scratch ? 0 : -1;
+    return g->dest && g->scratch ? 0 : -1;
 }
 
 int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle) {
@@ -149,27 +150,37 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
      * neighbourhood: the test depends on positions alone, so on no thread count */
     long nmoved = 0, nbad = 0, nout = 0;
     const int limit = KF_KEY_OFFSET - 2, shift = kf_owner_shift(cubic), lmax = kf_owner_lmax(cubic);
-    uint8_t *moved = g->moved;
+    uint32_t *dest = g->dest;
     int full = !g->valid;
+    /* while the grid is valid, owner r (block id r) holds particles
+     * pstart[r]..pstart[r+1]: no per-particle owner is stored */
+    const size_t nown = full ? 0 : g->nowner, *pstart = g->pstart;
+    const int32_t *bcoord = g->bcoord;
     if (!full) {
-        const int32_t *bcoord = g->bcoord, *blk = p->block;
-#pragma omp parallel for reduction(+ : nout, nbad) schedule(static) num_threads(threads)
-        for (size_t i = 0; i < n; i++) {
-            const int32_t *bc = &bcoord[3 * blk[i]];
-            int out = 0, ok = 1;
-            for (int a = 0; a < 3; a++) {
-                kf_real xg = p->x[a][i] * inv_dx;
-                if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) ok = 0;
-                int l = ok ? kf_base_node(p->x[a][i], inv_dx, cubic) - KF_BLOCK * bc[a] : 0;
-                out |= l < 0 || l > lmax;
+#pragma omp parallel for reduction(+ : nout, nbad) schedule(dynamic, 64) num_threads(threads)
+        for (size_t r = 0; r < nown; r++) {
+            const int32_t *bc = &bcoord[3 * r];
+            for (size_t i = pstart[r]; i < pstart[r + 1]; i++) {
+                int out = 0, ok = 1;
+                for (int a = 0; a < 3; a++) {
+                    kf_real xg = p->x[a][i] * inv_dx;
+                    if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) ok = 0;
+                    int l = ok ? kf_base_node(p->x[a][i], inv_dx, cubic) - KF_BLOCK * bc[a] : 0;
+                    out |= l < 0 || l > lmax;
+                }
+                nbad += !ok;
+                nout += out;
             }
-            nbad += !ok;
-            nout += out;
         }
         if (!nbad && !nout) return 0;
+            /* each particle's owner until now, for step 1 */
+#pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
+        for (size_t r = 0; r < nown; r++)
+            for (size_t i = pstart[r]; i < pstart[r + 1]; i++) dest[i] = (uint32_t)r;
     }
 
-    /* 1. each particle's owner block; flag those whose owner changed */
+    /* 1. each particle's owner block; flag those whose owner changed (dest
+     * holds the flags, then the block ids, then the sorted slots) */
 #pragma omp parallel for reduction(+ : nmoved, nbad) schedule(static) num_threads(threads)
     for (size_t i = 0; i < n; i++) {
         int b[3];
@@ -181,23 +192,20 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
             b[a] = ok ? kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic) - shift) : 0;
         }
         if (!ok) {
-            moved[i] = 2;
+            dest[i] = DEST_BAD;
             nbad++;
             continue;
         }
-        /* the owner it had: its block's coordinate (the block set is the
-         * last bin's until step 2 adds to it) */
-        const int32_t *had = full ? NULL : &g->bcoord[3 * p->block[i]];
+        /* the owner it had: its block's coordinate */
+        const int32_t *had = full ? NULL : &bcoord[3 * dest[i]];
         if (full || b[0] != had[0] || b[1] != had[1] || b[2] != had[2]) {
-            moved[i] = 1;
+            dest[i] = DEST_MOVED;
             nmoved++;
-        } else {
-            moved[i] = 0;
         }
     }
     if (nbad) {
         for (size_t i = 0; i < n; i++)
-            if (moved[i] == 2) {
+            if (dest[i] == DEST_BAD) {
                 *bad_particle = i;
                 break;
             }
@@ -210,14 +218,14 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
     /* 2. blocks for the particles that moved (the others keep theirs) */
     if (full && hash_reset(g, n / 64 + 64)) return -1;
     for (size_t i = 0; i < n; i++) {
-        if (!moved[i]) continue;
+        if (dest[i] != DEST_MOVED) continue;
         /* the owner again from the position, as step 1 found it: no
          * per-particle key is kept between the two steps */
         int b[3];
         for (int a = 0; a < 3; a++) b[a] = kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic) - shift);
         int32_t id = block_get_or_insert(g, b[0], b[1], b[2]);
         if (id < 0) return -1;
-        p->block[i] = id;
+        dest[i] = (uint32_t)id;
     }
 
     /* 3. particles per block; blocks with particles become owners, sorted by key
@@ -235,7 +243,7 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
         int t = omp_get_thread_num(), T = omp_get_num_threads();
         size_t lo = n * (size_t)t / (size_t)T, hi = n * (size_t)(t + 1) / (size_t)T;
         int32_t *h = hist + (size_t)t * (nb_old + 1);
-        for (size_t i = lo; i < hi; i++) h[p->block[i]]++;
+        for (size_t i = lo; i < hi; i++) h[dest[i]]++;
 #pragma omp barrier
 #pragma omp for schedule(static)
         for (size_t b = 0; b < nb_old; b++) {
@@ -313,10 +321,8 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
             }
             size_t *slot = first_slot + (size_t)t * (nb_old + 1);
             for (size_t i = lo; i < hi; i++) {
-                int32_t b = p->block[i];
-                size_t d = slot[b]++;
-                p->block[i] = remap[b];
-                g->dest[i] = (uint32_t)d;
+                size_t d = slot[dest[i]]++;
+                dest[i] = (uint32_t)d;
                 identity &= d == i;
             }
         }

@@ -61,7 +61,6 @@ typedef struct kf_grid {
     size_t owner_cap;
     /* binning scratch */
     uint32_t *dest; /* (n) */
-    uint8_t *moved; /* (n) */
     void *scratch;  /* permutation scratch, one plane (kf_particles_permute_bytes) */
     size_t scratch_n;
     int32_t *count; /* (nblocks) */

@@ -14,7 +14,6 @@ void kf_particles_free(kf_particles *p) {
     free(p->obj);
     free(p->colour);
     free(p->id);
-    free(p->block);
     memset(p, 0, sizeof *p);
 }
 
@@ -37,8 +36,7 @@ int kf_particles_reserve(kf_particles *p, size_t cap) {
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
         if (grow((void **)&p->plane[k], sizeof(kf_real), c)) return -1;
     if (grow((void **)&p->mat, sizeof *p->mat, c) || grow((void **)&p->id, sizeof *p->id, c) ||
-        grow((void **)&p->obj, sizeof *p->obj, c) || grow((void **)&p->colour, sizeof *p->colour, c) ||
-        grow((void **)&p->block, sizeof *p->block, c))
+        grow((void **)&p->obj, sizeof *p->obj, c) || grow((void **)&p->colour, sizeof *p->colour, c))
         return -1;
     p->cap = c;
     return 0;
@@ -52,7 +50,6 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
     memcpy(dst->id, src->id, n * sizeof *src->id);
     memcpy(dst->obj, src->obj, n * sizeof *src->obj);
     memcpy(dst->colour, src->colour, n * sizeof *src->colour);
-    memcpy(dst->block, src->block, n * sizeof *src->block);
     dst->n = n;
     return 0;
 }
@@ -76,6 +73,5 @@ void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, 
         PERMUTE_PLANE(uint32_t, p->id);
         PERMUTE_PLANE(uint16_t, p->obj);
         PERMUTE_PLANE(uint32_t, p->colour);
-        PERMUTE_PLANE(int32_t, p->block);
     }
 }

@@ -4,6 +4,8 @@
  * memory and vectorise. Matrices are stored as 9 planes, row-major:
  * F[3*i+j][p] = (F_p)_ij. The arrays are permuted together when the grid
  * re-sorts particles by block; id[] keeps each particle's stable index.
+ * Which block owns a particle is the grid's (its owners' particle ranges),
+ * not stored per particle.
  * Capacity beyond n is allocated but never written until particles are
  * added there, so it costs address space, not resident memory. */
 #ifndef KF_PARTICLES_H
@@ -36,7 +38,6 @@ typedef struct kf_particles {
     uint16_t *obj;    /* (n) shot object index (surfacing per object) */
     uint32_t *colour; /* (n) CPIC colour: bit 2r = side (1 = negative), bit 2r+1 = affinity to body r */
     uint32_t *id;     /* (n) stable particle index */
-    int32_t *block;   /* (n) grid block owning the particle at the last sort (its coordinate is the grid's) */
 } kf_particles;
 
 /* The permutation's scratch: one plane of the widest field. */
@@ -46,16 +47,16 @@ static inline size_t kf_particles_permute_bytes(size_t n) { return n * (sizeof(k
  * the double build doubles the kf_real planes):
  *   state        x 12, v 12, C 36, F 9x4 = 36, mass 4, vol0 4, ps 8,
  *                tau 24 (34 kf_real planes: 136), mat 2, obj 2, colour 4,
- *                id 4, block 4                                      152
- *   binning      dest 4, moved 1, one shared permutation plane 4       9
+ *                id 4                                               148
+ *   binning      dest 4, one shared permutation plane 4                8
  *   CPIC         with rigid bodies: distance 4, normal 12, flag 1     17
  * kf_advance's interval start lives in a temporary file (snapshot.c), not
  * here; grid nodes come on top (kf_grid_bytes_per_block). */
 static inline double kf_particle_bytes_running(int rigid_bodies) {
     kf_particles p;
-    double state = KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.obj + sizeof *p.colour +
-                   sizeof *p.id + sizeof *p.block;
-    double bin = sizeof(uint32_t) + 1 + (double)kf_particles_permute_bytes(1);
+    double state =
+        KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.obj + sizeof *p.colour + sizeof *p.id;
+    double bin = sizeof(uint32_t) + (double)kf_particles_permute_bytes(1);
     return state + bin + (rigid_bodies ? 4 + 12 + 1 : 0);
 }
 

@@ -7,9 +7,8 @@
  * interval pays one sequential write and a retry one read. The arrays are
  * written raw, so a restored state is the saved one bit for bit. When no
  * file can be made or written (no writable temporary directory, a full
- * disk), the memory copy serves instead. The grid's binning fields (block)
- * are not kept: a restored interval re-sorts every particle, as the first
- * try did (kf_advance invalidates the grid). Rigid bodies' states are small
+ * disk), the memory copy serves instead. A restored interval re-sorts every
+ * particle, as the first try did (kf_advance invalidates the grid). Rigid bodies' states are small
  * and stay in memory. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -56,8 +55,6 @@ static int spill_read(FILE *f, kf_particles *p) {
     int ok = fseek(f, 0, SEEK_SET) == 0 && fread(&n, sizeof n, 1, f) == 1 && kf_particles_reserve(p, n ? n : 1) == 0 &&
              (!n || spill_fields(f, p, n, 0));
     if (!ok) return -1;
-    /* the owner blocks are found again by the full re-sort that follows */
-    memset(p->block, 0, n * sizeof *p->block);
     p->n = n;
     return 0;
 }

@@ -164,7 +164,6 @@ long kf_state_add_particles(kf_state *s, const kf_model *m, size_t n, const doub
         p->obj[i] = 0;
         p->colour[i] = 0;
         p->id[i] = s->next_id++;
-        p->block[i] = 0;
         /* the stress planes until kf_stress fills them: the first frame's
          * checkpoint holds them and must not depend on the heap */
         for (int e = 0; e < 6; e++) p->tau[e][i] = 0;
