@@ -16,11 +16,13 @@
  *        (sorting and grid allocation exercised), CFL-adaptive frames:
  *        particle-steps per second, ms per stage, peak memory.
  * frame: one frame of the falling block's ~1M particles surfaced (level
- *        set: sort, splat, re-distance, filters; mesh; .vdb write) and
- *        rendered (OSMesa, 1920x1080) at final quality (the shot's defaults:
- *        voxel 0.75 spacings, 3 mean-curvature passes, 4x MSAA) and at
- *        preview quality (surface.quality and render.quality preview: voxel
- *        1.5 spacings, one pass, no MSAA, a 1024-texel shadow map), seconds
+ *        set: centre averaging, sort, splat, re-distance, filters; mesh; .vdb
+ *        write) and rendered (OSMesa, 1920x1080) at final quality (the shot's
+ *        defaults: centres averaged over 3 spacings, spheres of 2 spacings on
+ *        voxels of 0.75, one mean-curvature pass, 4x MSAA) and at preview
+ *        quality (surface.quality and render.quality preview: voxel 1.5
+ *        spacings, spheres of 2.4, the same averaging, one pass, no MSAA, a
+ *        1024-texel shadow map), seconds
  *        per stage (wall and process CPU), beside the cost of simulating that
  *        frame at preview quality (2x dx, 1/8 the particles). KERF_BENCH_PNG=dir
  *        writes both pictures there. Process CPU seconds are the honest figure
@@ -103,22 +105,24 @@ static int bench_cube(int cells, kf_force force, int threads, int runs, cube_res
 
 /* the frame benchmark's stages, each timed in wall and process CPU seconds
  * (CPU time stays honest when other work shares the machine) */
-enum { FS_SORT, FS_SPLAT, FS_REDISTANCE, FS_FILTER, FS_MESH, FS_WRITE, FS_RENDER, FS_COUNT };
-static const char *const frame_stage_name[FS_COUNT] = {"sort", "splat",     "redistance",  "filter",
-                                                       "mesh", "write_vdb", "render_1080p"};
+enum { FS_AVERAGE, FS_SORT, FS_SPLAT, FS_REDISTANCE, FS_FILTER, FS_MESH, FS_WRITE, FS_RENDER, FS_COUNT };
+static const char *const frame_stage_name[FS_COUNT] = {"average", "sort", "splat",     "redistance",
+                                                       "filter",  "mesh", "write_vdb", "render_1080p"};
 
 /* the settings a frame is surfaced and rendered with: the shot's defaults
  * (src/shot/keys.c) and its `quality: preview` presets (src/shot/shot.c) */
 typedef struct frame_quality {
     const char *name;
-    double voxel, radius; /* particle spacings */
-    int iterations;       /* mean-curvature passes */
-    int samples, shadow;  /* MSAA samples; shadow map texels (0: automatic) */
+    double voxel, radius;           /* particle spacings */
+    int iterations;                 /* mean-curvature passes */
+    double average, average_radius; /* centre averaging: weight, neighbourhood in spacings */
+    int samples, shadow;            /* MSAA samples; shadow map texels (0: automatic) */
 } frame_quality;
 enum { FQ_FINAL, FQ_PREVIEW, FQ_COUNT };
 static const frame_quality frame_qualities[FQ_COUNT] = {
-    {"final", 0.75, 1.2, 3, 4, 0},
-    {"preview", KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, KF_VDB_PREVIEW_ITERATIONS, 1, KF_RENDER_PREVIEW_SHADOW},
+    {"final", 0.75, 2, 1, 1, 3, 4, 0},
+    {"preview", KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, KF_VDB_PREVIEW_ITERATIONS, 1, 3, 1,
+     KF_RENDER_PREVIEW_SHADOW},
 };
 
 typedef struct frame_post_result {
@@ -152,6 +156,8 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
     sp.radius = q->radius * spacing;
     sp.smooth = KF_VDB_OP_MEAN_CURVATURE;
     sp.smooth_iterations = q->iterations;
+    sp.average = q->average;
+    sp.average_radius = q->average_radius * spacing;
     sp.erode = (q->radius - 0.5) * spacing;
     sp.clamp_small = 1;
     kf_vdb_grid *g = NULL;
@@ -160,10 +166,11 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
     int rc = kf_vdb_levelset_from_particles(n, NULL, x, NULL, NULL, &sp, &g, &st, err, sizeof err);
     /* the bridge times its phases in process CPU seconds; wall: the phases
      * share the level set's wall time in proportion to their CPU time */
+    out->cpu[FS_AVERAGE] = st.cpu_average;
     out->cpu[FS_SORT] = st.cpu_sort, out->cpu[FS_SPLAT] = st.cpu_splat;
     out->cpu[FS_REDISTANCE] = st.cpu_redistance, out->cpu[FS_FILTER] = st.cpu_filter;
-    double cls = st.cpu_sort + st.cpu_splat + st.cpu_redistance + st.cpu_filter;
-    for (int k = FS_SORT; k <= FS_FILTER; k++) out->wall[k] = cls > 0 ? st.seconds * out->cpu[k] / cls : 0;
+    double cls = st.cpu_average + st.cpu_sort + st.cpu_splat + st.cpu_redistance + st.cpu_filter;
+    for (int k = FS_AVERAGE; k <= FS_FILTER; k++) out->wall[k] = cls > 0 ? st.seconds * out->cpu[k] / cls : 0;
     out->active_voxels = st.active_voxels;
     double t0 = kf_now_ms(), c0 = cpu_s();
     if (!rc) rc = kf_vdb_mesh(g, 0, 0, &mesh, err, sizeof err);
