@@ -468,7 +468,9 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         double elapsed = (kf_now_ms() - start) / 1e3;
         /* thin boundaries: who is on the wrong side of a body at the frame's end */
         double deep_left = 0;
-        long left = kf_model_rigid_count(sc.model) > 0 ? kf_state_thin_audit(sc.model, sc.state, &deep_left) : 0;
+        long left = kf_model_rigid_count(sc.model) > 0
+                        ? kf_state_thin_audit(sc.model, whole ? whole : sc.state, &deep_left)
+                        : 0;
         if (root())
             kf_record_frame(rp.dir, frame, kf_state_count(whole ? whole : sc.state), &st, frame_ms, left, deep_left);
         if (root()) kf_record_progress(rp.dir, shot, "sim", frame, done, todo, elapsed / done * (todo - done));

@@ -27,6 +27,7 @@
 #include <string.h>
 
 #include "cpic.h"
+#include "../dist/dist.h"
 
 int kf_cpic_band(const kf_state *s, size_t owner) {
     return s->cpic && owner < s->cpic->cap_owner && s->cpic->slot[owner] >= 0;
@@ -336,6 +337,8 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
             if (x0 < glo[a]) glo[a] = x0;
             if (x0 + KF_BLOCK * dx > ghi[a]) ghi[a] = x0 + KF_BLOCK * dx;
         }
+    /* across ranks: the one-rank grid's extent, so seeds fall in the same bins */
+    if (s->dist) kf_dist_extent(s, glo, ghi);
     uint32_t tri_base = 1; /* triangle ids for the splat's visit marks, unique across bodies */
     for (int r = 0; r < m->nrigid; r++) {
         if (splat_body(m, s, r, tri_base, glo, ghi)) return -1;

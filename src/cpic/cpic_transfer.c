@@ -15,6 +15,7 @@
 #include "../mpm/transfer_chunk.h"
 #include "../mpm/collider.h"
 #include "cpic.h"
+#include "../dist/dist.h"
 
 #define NB KF_CPIC_NB
 #define AFF KF_CPIC_AFFINITY
@@ -446,6 +447,15 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
 
 void kf_cpic_finish(const kf_model *m, kf_state *s, double dt) {
     kf_cpic *c = s->cpic;
+    if (s->dist) {
+        /* across ranks: every rank's band owners, summed in the one-rank order */
+        kf_dist_rigid_sum(s, m->nrigid, c->nslot, &c->imp[0][0][0], KF_MAX_RIGIDS * 6, c->guard_caught, c->guard_depth,
+                          &c->impulse[0][0], &c->caught, &c->caught_depth);
+        for (int r = 0; r < m->nrigid; r++)
+            for (int e = 0; e < 6; e++) c->impulse_total[r][e] += c->impulse[r][e];
+        kf_rigid_sim_step(s->rsim, m->rigid, m->nrigid, s->rigid, s->time, dt, (const double(*)[6])c->impulse);
+        return;
+    }
     memset(c->impulse, 0, sizeof c->impulse);
     /* in owner order: the sum does not depend on the thread count */
     for (size_t k = 0; k < c->nslot; k++)

@@ -6,6 +6,7 @@
 
 #include "../core/timer.h"
 #include "internal.h"
+#include "../rigid/rigid.h"
 
 static int g_size = 1, g_rank = 0, g_started = 0;
 
@@ -39,7 +40,6 @@ void kf_dist_abort(int code) {
 double kf_dist_clock(void) { return kf_now_ms(); }
 
 const char *kf_dist_unsupported_def(const kf_sim_def *sim, int nrigid) {
-    if (nrigid) return "rigid bodies (rigids:, CPIC thin boundaries and two-way coupling)";
     if (sim->integrator == KF_INTEGRATOR_IMPLICIT) return "the implicit integrator (sim.integrator: implicit)";
     if (sim->contact) return "contact between objects (sim.contact)";
     return NULL;
@@ -155,6 +155,7 @@ void kf_dist_free(struct kf_dist *d) {
     free(d->send);
     free(d->pack);
     free(d->unpack);
+    free(d->colour_save);
     free(d->pbuf[0]);
     free(d->pbuf[1]);
     kf_particles_free(&d->tmp);
@@ -229,6 +230,16 @@ int kf_dist_gather(const kf_state *s, kf_state *whole) {
             whole->next_id = s->next_id;
             whole->tau_valid = s->tau_valid;
             whole->g.valid = 0;
+            whole->drive_cells = s->drive_cells;
+            /* the rigid bodies and their solver: every rank's copy is the same */
+            memcpy(whole->rigid, s->rigid, sizeof s->rigid);
+            if (s->rsim && whole->rsim) {
+                size_t nb = kf_rigid_sim_state_size(s->rsim);
+                void *buf = malloc(nb + 1);
+                if (buf) kf_rigid_sim_save(s->rsim, buf);
+                if (!buf || kf_rigid_sim_load(whole->rsim, buf, nb)) rc = -1;
+                free(buf);
+            }
         }
     }
     d->stats.comm_ms += kf_dist_clock() - t0;

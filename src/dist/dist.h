@@ -20,6 +20,14 @@
  * node the rank's G2P reads is then the one-rank sum, bit for bit. Both
  * sharers hold the sum, so G2P needs no second exchange.
  *
+ * Rigid bodies (CPIC). A node's colour and distance depend on the node and
+ * the bodies' triangles alone, visited in an order fixed by the grid's
+ * extent: with the ranks' common extent each rank colours its blocks as one
+ * rank does. The material's impulses on the bodies are kept per owner
+ * block; every rank receives every rank's and sums them in owner order, so
+ * each holds the one-rank impulse and steps its own copy of the rigid
+ * solver to the same state.
+ *
  * Everything else that couples particles is a global reduction of an exact
  * operation (max, min, or), so the substep, the retries and the trouble
  * report agree on every rank. Nothing here runs on one rank: a state
@@ -99,6 +107,19 @@ void kf_dist_stress(const kf_model *m, kf_state *s, int project);
 /* Trouble agreed: returns 1 on every rank if any rank found trouble, and t
  * becomes the report of the lowest particle id among them. */
 int kf_dist_agree(const kf_state *s, int found, kf_trouble *t);
+/* CPIC across ranks (cdf.c, cpic_transfer.c). The grid's extent over every
+ * rank, lo the minimum and hi the maximum per axis: the union of the ranks'
+ * blocks is the one-rank grid, so the splat bins its seeds as one rank does
+ * and a node's triangles visit it in the one-rank order. */
+void kf_dist_extent(const kf_state *s, double lo[3], double hi[3]);
+/* The rigid bodies' impulses and the crossing guard's counts of every
+ * rank's narrow-band owners, summed in the one-rank owner order (the ranks'
+ * owners end to end are the one-rank owners): every rank gets the one-rank
+ * totals bit for bit and so steps its copy of the rigid solver alike.
+ * imp: nslot rows of `stride` doubles, body r's six at 6r; sum: body r's
+ * six at 6r (KF_MAX_RIGIDS rows), zeroed here. Collective. */
+void kf_dist_rigid_sum(const kf_state *s, int nrigid, size_t nslot, const double *imp, size_t stride,
+                       const long *caught, const double *depth, double *sum, long *caught_sum, double *depth_max);
 /* the global max of v, and the element-wise min of n values */
 double kf_dist_max(const kf_state *s, double v);
 void kf_dist_min_reals(const kf_state *s, kf_real *v, int n);

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "internal.h"
+#include "../cpic/cpic.h"
 
 /* the colour of an owner block: the parity of its coordinate (grid.h) */
 static inline int colour_of(const int32_t *c) { return (c[0] & 1) << 2 | (c[1] & 1) << 1 | (c[2] & 1); }
@@ -65,9 +66,20 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
     memcpy(at, sdispl, (size_t)d->size * sizeof *at);
     for (size_t k = 0; k < npair; k++) slot[k] = (size_t)at[pair[2 * k + 1]]++;
     free(at);
-    /* the caches, as the owner's P2G makes them */
+    /* The caches, as the owner's P2G makes them. Near a rigid body an
+     * owner's P2G also writes its particles' colours and the bodies'
+     * impulses (cpic.h), which the grid's own P2G writes again right after:
+     * the colours are put back as they were and the impulses zeroed, so P2G
+     * starts from what the one-rank P2G starts from. Each owner's cache is
+     * made once (an owner's pairs are adjacent), then copied for its other
+     * destinations. */
+    kf_cpic *cp = m->nrigid ? s->cpic : NULL;
+    if (cp && kf_dist_reserve((void **)&d->colour_save, &d->colour_cap, s->p.n * sizeof(uint32_t) + 4))
+        return free(pair), free(slot), -1;
+    if (cp) memcpy(d->colour_save, s->p.colour, s->p.n * sizeof(uint32_t));
 #pragma omp parallel for schedule(dynamic, 4) num_threads(m->nthreads)
     for (size_t k = 0; k < npair; k++) {
+        if (k > 0 && pair[2 * k] == pair[2 * (k - 1)]) continue; /* the owner's first pair makes it */
         kf_ftz();
         kf_v4 *r = d->send + slot[k] * rec;
         /* header: the block coordinate and the touched base offsets (4 bits each) */
@@ -78,6 +90,13 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
         for (int e = 0; e < 6; e++) head[3] |= (lohi[e] & 15) << (4 * e);
         r[0] = (kf_v4){0, 0, 0, 0};
         memcpy(&r[0], head, sizeof head);
+    }
+    for (size_t k = 1; k < npair; k++)
+        if (pair[2 * k] == pair[2 * (k - 1)])
+            memcpy(d->send + slot[k] * rec, d->send + slot[k - 1] * rec, rec * sizeof(kf_v4));
+    if (cp) {
+        memcpy(s->p.colour, d->colour_save, s->p.n * sizeof(uint32_t));
+        if (cp->nslot) memset(cp->imp, 0, cp->nslot * sizeof cp->imp[0]);
     }
     free(slot);
     free(pair);

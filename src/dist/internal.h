@@ -25,8 +25,10 @@ struct kf_dist {
     size_t pack_cap, unpack_cap;
     char *pbuf[2]; /* particle records out and in */
     size_t pbuf_cap[2];
-    kf_particles tmp; /* the particle array being rebuilt by migration */
-    int *counts;      /* (4 * size) MPI counts and displacements */
+    kf_particles tmp;      /* the particle array being rebuilt by migration */
+    uint32_t *colour_save; /* CPIC colours kept while the halo's caches are made (halo.c) */
+    size_t colour_cap;
+    int *counts; /* (4 * size) MPI counts and displacements */
     kf_dist_stats stats;
 };
 
