@@ -156,6 +156,7 @@ void kf_dist_free(struct kf_dist *d) {
     free(d->pack);
     free(d->unpack);
     free(d->colour_save);
+    free(d->owner_keys);
     free(d->pbuf[0]);
     free(d->pbuf[1]);
     kf_particles_free(&d->tmp);

@@ -14,10 +14,11 @@
  * Halo sums. One rank sums a grid node in colour order of its source owner
  * blocks; two owners of a colour never share a node (grid.h). Each rank
  * sends the P2G cache (the part its stencils touched) of every owner block
- * lying within R blocks of another rank's range (R = 1, or 2 with domain
- * walls, whose ghost nodes read two cells inward) to that rank, which adds
- * it in the owner's colour turn: every
- * node the rank's G2P reads is then the one-rank sum, bit for bit. Both
+ * lying within R blocks of another rank's owner block (R = 1, or 2 with
+ * domain walls, whose ghost nodes read two cells inward) to that rank, and
+ * to no other (every rank's owner keys are gathered after each re-sort),
+ * which adds it in the owner's colour turn: every node the rank's G2P
+ * reads is then the one-rank sum, bit for bit. Both
  * sharers hold the sum, so G2P needs no second exchange.
  *
  * Rigid bodies (CPIC). A node's colour and distance depend on the node and

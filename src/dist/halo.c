@@ -10,10 +10,61 @@
 /* the colour of an owner block: the parity of its coordinate (grid.h) */
 static inline int colour_of(const int32_t *c) { return (c[0] & 1) << 2 | (c[1] & 1) << 1 | (c[2] & 1); }
 
+/* How far, in blocks along each axis, owner block c's cache reaches other
+ * owners' nodes: its 2x2x2 neighbourhood meets theirs within one block.
+ * Near a domain wall two: a node within a cell of a wall plane takes its
+ * velocity from a node up to two cells inward along that axis
+ * (wall_ghost.c), so an owner two blocks away reads c's nodes when the
+ * plane lies between 3 cells below c's first node and 10 above it. */
+static void reach(const kf_model *m, const int32_t c[3], int R[3]) {
+    for (int a = 0; a < 3; a++) {
+        R[a] = 1;
+        if (!m->sim.walls) continue;
+        const double lo = (KF_BLOCK * c[a] - 3) * m->sim.dx, hi = (KF_BLOCK * c[a] + 10) * m->sim.dx;
+        for (int side = 0; side < 2; side++) {
+            double plane = side ? m->sim.domain_max[a] : m->sim.domain_min[a];
+            if (plane >= lo && plane <= hi) R[a] = 2;
+        }
+    }
+}
+
+/* every rank's owner keys into d->owner_keys (collective) */
+static int gather_owners(struct kf_dist *d, const kf_grid *g) {
+    int n = (int)g->nowner, *cnt = d->counts, *displ = d->counts + d->size;
+    uint64_t *mine = malloc(((size_t)n + 1) * sizeof *mine);
+    if (!mine) return -1;
+    for (int r = 0; r < n; r++) {
+        const int32_t *c = &g->bcoord[3 * r];
+        mine[r] = kf_block_key(c[0], c[1], c[2]);
+    }
+    double t0 = kf_dist_clock();
+    MPI_Allgather(&n, 1, MPI_INT, cnt, 1, MPI_INT, d->comm);
+    size_t all = 0;
+    for (int r = 0; r < d->size; r++) displ[r] = (int)all, all += (size_t)cnt[r];
+    if (kf_dist_reserve((void **)&d->owner_keys, &d->owner_keys_cap, (all + 1) * sizeof *d->owner_keys))
+        MPI_Abort(d->comm, 1);
+    MPI_Allgatherv(mine, n, MPI_UINT64_T, d->owner_keys, cnt, displ, MPI_UINT64_T, d->comm);
+    d->stats.comm_ms += kf_dist_clock() - t0;
+    free(mine);
+    d->nowner_keys = all;
+    d->owners_stale = 0;
+    return 0;
+}
+
+/* whether some rank has an owner block with this key (binary search) */
+static int is_owner(const struct kf_dist *d, uint64_t key) {
+    size_t lo = 0, hi = d->nowner_keys;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (d->owner_keys[mid] < key) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < d->nowner_keys && d->owner_keys[lo] == key;
+}
+
 int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
     struct kf_dist *d = s->dist;
     kf_grid *g = &s->g;
-    const int R = m->sim.walls ? 2 : 1; /* wall ghost nodes read two cells inward (wall_ghost.c) */
     const int CD = kf_p2g_cache_edge(m);
     const size_t rec = 1 + (size_t)CD * CD * CD; /* kf_v4s per record: header + cache */
     int *scount = d->counts, *sdispl = d->counts + d->size, *rcount = d->counts + 2 * d->size,
@@ -22,10 +73,13 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
     /* stress first, as kf_p2g (collective, and it uses the count arrays) */
     if (!s->tau_valid) kf_stress(m, s, 0);
 
-    /* which owner blocks other ranks need, and which ranks: any block within
-     * R of it in another rank's range (the owners there sum into the nodes
-     * this one writes, and read them). A box whose corner keys lie in this
-     * rank's range lies in it whole: keys are x-major. */
+    /* every rank's owners, once per re-sort */
+    if (d->owners_stale && gather_owners(d, g)) return -1;
+
+    /* which owner blocks other ranks need, and which ranks: those with an
+     * owner block within R of it (its neighbourhood's nodes and theirs
+     * overlap, or a wall ghost node reads across). A box whose corner keys
+     * lie in this rank's range lies in it whole: keys are x-major. */
     size_t npair = 0, pair_cap = 0;
     int32_t *pair = NULL; /* (owner, rank) */
     int *mark = malloc((size_t)d->size * sizeof *mark);
@@ -33,13 +87,17 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
     for (int r = 0; r < d->size; r++) mark[r] = -1;
     for (size_t o = 0; o < g->nowner; o++) {
         const int32_t *c = &g->bcoord[3 * o];
-        uint64_t k0 = kf_block_key(c[0] - R, c[1] - R, c[2] - R), k1 = kf_block_key(c[0] + R, c[1] + R, c[2] + R);
+        int R[3];
+        reach(m, c, R);
+        uint64_t k0 = kf_block_key(c[0] - R[0], c[1] - R[1], c[2] - R[2]),
+                 k1 = kf_block_key(c[0] + R[0], c[1] + R[1], c[2] + R[2]);
         if (k0 >= lo && k1 < hi) continue;
-        for (int dx = -R; dx <= R; dx++)
-            for (int dy = -R; dy <= R; dy++)
-                for (int dz = -R; dz <= R; dz++) {
-                    int q = kf_dist_rank_of(d, kf_block_key(c[0] + dx, c[1] + dy, c[2] + dz));
-                    if (q == d->rank || mark[q] == (int)o) continue;
+        for (int dx = -R[0]; dx <= R[0]; dx++)
+            for (int dy = -R[1]; dy <= R[1]; dy++)
+                for (int dz = -R[2]; dz <= R[2]; dz++) {
+                    uint64_t key = kf_block_key(c[0] + dx, c[1] + dy, c[2] + dz);
+                    int q = kf_dist_rank_of(d, key);
+                    if (q == d->rank || mark[q] == (int)o || !is_owner(d, key)) continue;
                     mark[q] = (int)o;
                     if (npair == pair_cap) {
                         pair_cap = pair_cap ? 2 * pair_cap : 256;

@@ -27,6 +27,12 @@ struct kf_dist {
     size_t pbuf_cap[2];
     kf_particles tmp;      /* the particle array being rebuilt by migration */
     uint32_t *colour_save; /* CPIC colours kept while the halo's caches are made (halo.c) */
+    /* every rank's owner block keys, ascending (the ranks' owners end to
+     * end), gathered after each re-sort: a cache travels only to a rank
+     * with an owner within reach (halo.c) */
+    uint64_t *owner_keys;
+    size_t nowner_keys, owner_keys_cap;
+    int owners_stale;
     size_t colour_cap;
     int *counts; /* (4 * size) MPI counts and displacements */
     kf_dist_stats stats;

@@ -66,6 +66,7 @@ int kf_dist_migrate(const kf_model *m, kf_state *s) {
     d->stats.comm_ms += kf_dist_clock() - tq;
     if (!any_sort) return 0;
     s->g.valid = 0;
+    d->owners_stale = 1; /* every rank's owners change: the halo gathers them again */
     int *scount = d->counts, *sdispl = d->counts + d->size, *rcount = d->counts + 2 * d->size,
         *rdispl = d->counts + 3 * d->size;
     /* where each particle goes (the key array holds it until packed) */
