@@ -1,6 +1,8 @@
 /* rigid_log.c — rigid bodies in kerf info and the frame log (see rigid_log.h). */
 #include "rigid_log.h"
 
+#include <math.h>
+
 static const char *const motion_name[] = {"static", "kinematic", "dynamic"};
 
 void kf_rigid_log_info(FILE *f, const kf_shot *shot, const kf_model *m) {
@@ -27,9 +29,14 @@ void kf_rigid_log_info(FILE *f, const kf_shot *shot, const kf_model *m) {
 void kf_rigid_log_frame(FILE *f, const kf_shot *shot, const kf_state *s) {
     for (int i = 0; i < shot->nrigids; i++) {
         kf_rigid_pose p = kf_state_rigid(s, i);
-        fprintf(f, "  rigid %s: at [%.3f, %.3f, %.3f] m, v [%.3f, %.3f, %.3f] m/s, w [%.2f, %.2f, %.2f] rad/s\n",
+        /* how it has turned since the first frame, as the shot's rotate
+         * writes a turn (degrees about x, then y, then z: R = Rz Ry Rx) */
+        const double deg = 57.29577951308232, ry = asin(fmax(-1, fmin(1, -p.R[6])));
+        fprintf(f,
+                "  rigid %s: at [%.3f, %.3f, %.3f] m, v [%.3f, %.3f, %.3f] m/s, w [%.2f, %.2f, %.2f] rad/s, turned "
+                "[%.1f, %.1f, %.1f] deg\n",
                 shot->rigids[i].def.name, p.com[0], p.com[1], p.com[2], p.v[0], p.v[1], p.v[2], p.omega[0], p.omega[1],
-                p.omega[2]);
+                p.omega[2], atan2(p.R[7], p.R[8]) * deg, ry * deg, atan2(p.R[3], p.R[0]) * deg);
     }
     /* each motor's torque: now, and the frame's peak against its limit */
     for (int i = 0; i < shot->njoints; i++) {
