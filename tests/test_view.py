@@ -289,7 +289,7 @@ def token_tests(work, port):
     # joints and rigid bodies: a robot's hinges, a leg's rotation as written (loaded, it is baked into the mesh)
     q, qport = start_view(os.path.join(os.path.dirname(TESTS), 'shots/robot_sand.yaml'), work)
     keys = {k['path']: k for k in json.loads(request(qport, 'GET', '/api/keys')[1])['keys']}
-    for path, value in [('joints.hip_fl.kp', '1'), ('joints.hip_fl.axis', '[0, 0, -1]'), ('joints.hip_fl.motor', 'position'),
+    for path, value in [('joints.hip_fl.kp', '0.5'), ('joints.hip_fl.axis', '[0, 0, -1]'), ('joints.hip_fl.motor', 'position'),
                         ('rigids.leg_fr.rotate', '[0, 0, 180]'), ('rigids.leg_fr.pivot', '[0, 0, 0]')]:
         k = keys.get(path, {})
         check('%s is editable with its value as written (%s)' % (path, value), k.get('value') == value and k.get('editable'), k)
