@@ -91,7 +91,7 @@ if run_case budget; then
         "$kerf" $cmd fine.yaml > refused.out 2> refused.err; rc=$?
         check "fine.yaml ($cmd): exit 2 (got $rc)" test $rc -eq 2
         check "fine.yaml ($cmd): the estimate at sim.dx" grep -qxE \
-            "fine.yaml:3:11: error: sim.dx 0.002 m gives about 729M particles needing about 136.5 GB, more than this machine's [0-9.]+ GB \(a larger dx, or --quality preview: 8x fewer; --force to try anyway\)" refused.err
+            "fine.yaml:3:11: error: sim.dx 0.002 m gives about 729M particles needing about 130.4 GB, more than this machine's [0-9.]+ GB \(a larger dx, or --quality preview: 8x fewer; --force to try anyway\)" refused.err
     done
     # --force goes past the guard: a fixed step of 1 ms is fine, 1e-12 s is forced
     "$kerf" info fixed.yaml --force > forced.txt 2>&1; rc=$?

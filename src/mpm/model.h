@@ -78,11 +78,21 @@ static inline double kf_snapshot_bytes(size_t n) {
     return sizeof(size_t) + (double)n * (KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + 2 + 2 + 4 + 4);
 }
 
+/* the particle arrays (KF_ZERO_*) this model never writes: colour without
+ * rigid bodies (only CPIC writes it), ps when every material is fixed
+ * corotated (the only model with no plastic state and no water J) */
+static inline unsigned kf_model_zero_arrays(const kf_model *m) {
+    unsigned z = m->nrigid ? 0 : KF_ZERO_COLOUR;
+    for (int k = 0; k < m->nmat; k++)
+        if (m->mat[k].model != KF_MAT_COROTATED) return z;
+    return z | KF_ZERO_PS;
+}
+
 /* kerf info's memory figure, bytes: n particles as they run (particles.h),
  * the grid's blocks (grid.h), and what the process held before the scene
  * (program). kerf_bench --only memory prints it beside the measured peak. */
 static inline double kf_memory_estimate(const kf_model *m, size_t n, long blocks, double program) {
-    return kf_particle_bytes_running(m->nrigid > 0) * (double)n +
+    return kf_particle_bytes_running(m->nrigid > 0, !(kf_model_zero_arrays(m) & KF_ZERO_PS)) * (double)n +
            (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + program;
 }
 

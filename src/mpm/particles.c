@@ -1,9 +1,13 @@
 /* particles.c — allocation, copy and permutation of the particle SoA. */
+#define _DEFAULT_SOURCE /* madvise */
 #include "particles.h"
 
 #include <omp.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 /* the union in kf_particles must cover every named plane exactly */
 _Static_assert(sizeof(((kf_particles *)0)->plane) == 34 * sizeof(kf_real *), "plane count");
@@ -29,27 +33,97 @@ static int grow(void **ptr, size_t elem, size_t cap) {
     return 0;
 }
 
+/* Set bytes to zero leaving no page resident but the two partial ones at
+ * the ends: the whole pages are handed back (MADV_DONTNEED: private
+ * anonymous memory reads as zeros afterwards, and stays unbacked until
+ * written). A fresh calloc is not enough: below glibc's mmap threshold
+ * (which rises to 32 MB as large blocks are freed) calloc writes its zeros.
+ * Where madvise fails the bytes are written. */
+static void zero_untouched(void *a, size_t bytes) {
+    long page = sysconf(_SC_PAGESIZE);
+    uintptr_t lo = (uintptr_t)a, hi = lo + bytes, ps = page > 0 ? (uintptr_t)page : 4096;
+    uintptr_t plo = (lo + ps - 1) / ps * ps, phi = hi / ps * ps;
+    if (plo >= phi || madvise((void *)plo, phi - plo, MADV_DONTNEED) != 0) {
+        memset(a, 0, bytes);
+        return;
+    }
+    memset(a, 0, plo - lo);
+    memset((void *)phi, 0, hi - phi);
+}
+
+/* a zero array grows without copying: all of it is zeros again */
+static int grow_zero(void **ptr, size_t elem, size_t cap) {
+    void *q = realloc(*ptr, elem * (cap ? cap : 1));
+    if (!q) return -1;
+    zero_untouched(q, elem * (cap ? cap : 1));
+    *ptr = q;
+    return 0;
+}
+
+_Static_assert(offsetof(kf_particles, ps) == offsetof(kf_particles, plane) + KF_PLANE_PS * sizeof(kf_real *),
+               "ps plane");
+#define plane_zero kf_particles_plane_zero
+
 int kf_particles_reserve(kf_particles *p, size_t cap) {
     if (cap <= p->cap) return 0;
     size_t c = p->cap ? p->cap : 1024;
     while (c < cap) c *= 2;
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
-        if (grow((void **)&p->plane[k], sizeof(kf_real), c)) return -1;
+        if ((plane_zero(p, k) ? grow_zero : grow)((void **)&p->plane[k], sizeof(kf_real), c)) return -1;
     if (grow((void **)&p->mat, sizeof *p->mat, c) || grow((void **)&p->id, sizeof *p->id, c) ||
-        grow((void **)&p->obj, sizeof *p->obj, c) || grow((void **)&p->colour, sizeof *p->colour, c))
+        grow((void **)&p->obj, sizeof *p->obj, c) ||
+        ((p->zero & KF_ZERO_COLOUR) ? grow_zero : grow)((void **)&p->colour, sizeof *p->colour, c))
         return -1;
     p->cap = c;
     return 0;
 }
 
+/* all +0 bit for bit in the first `bytes` */
+static int all_zero(const void *a, size_t bytes) {
+    const unsigned char *b = a;
+    for (size_t i = 0; i < bytes; i++)
+        if (b[i]) return 0;
+    return 1;
+}
+
+int kf_particles_zero(kf_particles *p, unsigned which) {
+    size_t n = p->n;
+    if ((which & KF_ZERO_PS) && !(p->zero & KF_ZERO_PS) && p->cap && all_zero(p->ps[0], n * sizeof(kf_real)) &&
+        all_zero(p->ps[1], n * sizeof(kf_real))) {
+        if (grow_zero((void **)&p->ps[0], sizeof(kf_real), p->cap) ||
+            grow_zero((void **)&p->ps[1], sizeof(kf_real), p->cap))
+            return -1;
+        p->zero |= KF_ZERO_PS;
+    }
+    if ((which & KF_ZERO_COLOUR) && !(p->zero & KF_ZERO_COLOUR) && p->cap &&
+        all_zero(p->colour, n * sizeof *p->colour)) {
+        if (grow_zero((void **)&p->colour, sizeof *p->colour, p->cap)) return -1;
+        p->zero |= KF_ZERO_COLOUR;
+    }
+    /* an empty set: the arrays come zeroed when reserved */
+    if (!p->cap) p->zero |= which;
+    return 0;
+}
+
 int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
+    /* the source's zero arrays are fresh zeroed ones in the copy */
+    unsigned z = src->zero;
+    if ((z & KF_ZERO_PS) && !(dst->zero & KF_ZERO_PS) && dst->cap &&
+        (grow_zero((void **)&dst->ps[0], sizeof(kf_real), dst->cap) ||
+         grow_zero((void **)&dst->ps[1], sizeof(kf_real), dst->cap)))
+        return -1;
+    if ((z & KF_ZERO_COLOUR) && !(dst->zero & KF_ZERO_COLOUR) && dst->cap &&
+        grow_zero((void **)&dst->colour, sizeof *dst->colour, dst->cap))
+        return -1;
+    dst->zero = z;
     if (kf_particles_reserve(dst, src->n)) return -1;
     size_t n = src->n;
-    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) memcpy(dst->plane[k], src->plane[k], n * sizeof(kf_real));
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
+        if (!plane_zero(src, k)) memcpy(dst->plane[k], src->plane[k], n * sizeof(kf_real));
     memcpy(dst->mat, src->mat, n * sizeof *src->mat);
     memcpy(dst->id, src->id, n * sizeof *src->id);
     memcpy(dst->obj, src->obj, n * sizeof *src->obj);
-    memcpy(dst->colour, src->colour, n * sizeof *src->colour);
+    if (!(z & KF_ZERO_COLOUR)) memcpy(dst->colour, src->colour, n * sizeof *src->colour);
     dst->n = n;
     return 0;
 }
@@ -68,10 +142,12 @@ void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, 
     size_t n = p->n;
 #pragma omp parallel num_threads(threads)
     {
-        for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) PERMUTE_PLANE(kf_real, p->plane[k]);
+        /* zero arrays stay as they are: every slot holds +0 */
+        for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
+            if (!plane_zero(p, k)) PERMUTE_PLANE(kf_real, p->plane[k]);
         PERMUTE_PLANE(uint16_t, p->mat);
         PERMUTE_PLANE(uint32_t, p->id);
         PERMUTE_PLANE(uint16_t, p->obj);
-        PERMUTE_PLANE(uint32_t, p->colour);
+        if (!(p->zero & KF_ZERO_COLOUR)) PERMUTE_PLANE(uint32_t, p->colour);
     }
 }

@@ -38,7 +38,26 @@ typedef struct kf_particles {
     uint16_t *obj;    /* (n) shot object index (surfacing per object) */
     uint32_t *colour; /* (n) CPIC colour: bit 2r = side (1 = negative), bit 2r+1 = affinity to body r */
     uint32_t *id;     /* (n) stable particle index */
+    unsigned zero;    /* KF_ZERO_* arrays that hold only +0 and are not written */
 } kf_particles;
+
+/* Arrays a model never writes (ps without a plastic or water material,
+ * colour without rigid bodies) are kept as zeroed allocations nobody
+ * touches, so their pages are never resident: permute, copy and adding
+ * particles skip them. Whoever may write one clears its bit first. */
+#define KF_ZERO_PS 1u     /* ps[0], ps[1] */
+#define KF_ZERO_COLOUR 2u /* colour */
+#define KF_PLANE_PS 26    /* ps[0], ps[1] are planes 26 and 27 (x3 v3 C9 F9 mass vol0 ps2 tau6) */
+
+/* whether real plane k is a zero array now */
+static inline int kf_particles_plane_zero(const kf_particles *p, int k) {
+    return (p->zero & KF_ZERO_PS) && (k == KF_PLANE_PS || k == KF_PLANE_PS + 1);
+}
+
+/* Mark those of the `which` arrays that hold only +0 (bit for bit) in
+ * [0, n) as zero, each given a fresh zeroed allocation; the others stay as
+ * they are. Returns -1 out of memory. */
+int kf_particles_zero(kf_particles *p, unsigned which);
 
 /* The permutation's scratch: one plane of the widest field. */
 static inline size_t kf_particles_permute_bytes(size_t n) { return n * (sizeof(kf_real) > 4 ? sizeof(kf_real) : 4); }
@@ -48,14 +67,17 @@ static inline size_t kf_particles_permute_bytes(size_t n) { return n * (sizeof(k
  *   state        x 12, v 12, C 36, F 9x4 = 36, mass 4, vol0 4, ps 8,
  *                tau 24 (34 kf_real planes: 136), mat 2, obj 2, colour 4,
  *                id 4                                               148
+ *                less ps 8 without plastic or water materials, less
+ *                colour 4 without rigid bodies (KF_ZERO_*)
  *   binning      dest 4, one shared permutation plane 4                8
  *   CPIC         with rigid bodies: distance 4, normal 12, flag 1     17
  * kf_advance's interval start lives in a temporary file (snapshot.c), not
  * here; grid nodes come on top (kf_grid_bytes_per_block). */
-static inline double kf_particle_bytes_running(int rigid_bodies) {
+static inline double kf_particle_bytes_running(int rigid_bodies, int plastic_state) {
     kf_particles p;
-    double state =
-        KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.obj + sizeof *p.colour + sizeof *p.id;
+    double state = KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.obj + sizeof *p.id;
+    if (!plastic_state) state -= 2 * sizeof(kf_real);
+    if (rigid_bodies) state += sizeof *p.colour;
     double bin = sizeof(uint32_t) + (double)kf_particles_permute_bytes(1);
     return state + bin + (rigid_bodies ? 4 + 12 + 1 : 0);
 }

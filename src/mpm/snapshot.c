@@ -36,12 +36,23 @@ static int io(FILE *f, void *ptr, size_t size, size_t n, int write) {
     return (write ? fwrite(ptr, size, n, f) : fread(ptr, size, n, f)) == n;
 }
 
+/* n items of an array the restore keeps as it is (a KF_ZERO_* array still
+ * holds only zeros: reading them into it would make its pages resident) */
+static int skip(FILE *f, size_t size, size_t n, int write, void *ptr) {
+    return write ? io(f, ptr, size, n, 1) : fseek(f, (long)(size * n), SEEK_CUR) == 0;
+}
+
 /* every field a restore needs, in one order for writing and reading */
 static int spill_fields(FILE *f, kf_particles *p, size_t n, int write) {
     int ok = 1;
-    for (int k = 0; ok && k < KF_PARTICLE_REAL_PLANES; k++) ok = io(f, p->plane[k], sizeof(kf_real), n, write);
-    return ok && io(f, p->mat, sizeof *p->mat, n, write) && io(f, p->obj, sizeof *p->obj, n, write) &&
-           io(f, p->colour, sizeof *p->colour, n, write) && io(f, p->id, sizeof *p->id, n, write);
+    for (int k = 0; ok && k < KF_PARTICLE_REAL_PLANES; k++) {
+        ok = kf_particles_plane_zero(p, k) ? skip(f, sizeof(kf_real), n, write, p->plane[k])
+                                           : io(f, p->plane[k], sizeof(kf_real), n, write);
+    }
+    ok = ok && io(f, p->mat, sizeof *p->mat, n, write) && io(f, p->obj, sizeof *p->obj, n, write);
+    ok = ok && ((p->zero & KF_ZERO_COLOUR) ? skip(f, sizeof *p->colour, n, write, p->colour)
+                                           : io(f, p->colour, sizeof *p->colour, n, write));
+    return ok && io(f, p->id, sizeof *p->id, n, write);
 }
 
 static int spill_write(FILE *f, kf_particles *p) {

@@ -29,6 +29,8 @@ kf_state *kf_state_create(const kf_model *m) {
         kf_state_destroy(s);
         return NULL;
     }
+    /* the arrays this model never writes start (and stay) untouched zeros */
+    if (s) s->p.zero = kf_model_zero_arrays(m);
     return s;
 }
 
@@ -107,8 +109,11 @@ size_t kf_state_count(const kf_state *s) { return s->p.n; }
 double kf_state_time(const kf_state *s) { return s->time; }
 
 kf_particles_view kf_state_particles(kf_state *s) {
-    /* the caller may write F or ps: the cached stress must be recomputed */
+    /* the caller may write F or ps: the cached stress must be recomputed,
+     * and no array is known to hold only zeros any more (kf_advance finds
+     * the ones that still do) */
     s->tau_valid = 0;
+    s->p.zero = 0;
     return kf_state_particles_read(s);
 }
 
@@ -158,11 +163,11 @@ long kf_state_add_particles(kf_state *s, const kf_model *m, size_t n, const doub
         } else if (mat->model == KF_MAT_SNOW) {
             ps0 = 1;
         }
-        p->ps[0][i] = ps0;
-        p->ps[1][i] = 0;
+        if (ps0 != 0) p->zero &= ~KF_ZERO_PS; /* water's J, snow's Jp: not zero any more */
+        if (!(p->zero & KF_ZERO_PS)) p->ps[0][i] = ps0, p->ps[1][i] = 0;
         p->mat[i] = (uint16_t)material;
         p->obj[i] = 0;
-        p->colour[i] = 0;
+        if (!(p->zero & KF_ZERO_COLOUR)) p->colour[i] = 0;
         p->id[i] = s->next_id++;
         /* the stress planes until kf_stress fills them: the first frame's
          * checkpoint holds them and must not depend on the heap */

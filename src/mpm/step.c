@@ -35,6 +35,9 @@ static double rigid_max_speed(const kf_model *m, const kf_state *s);
 
 int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_trouble *trouble) {
     kf_trouble none;
+    /* arrays the model writes are not zero arrays (a material or body added
+     * after the state was made) */
+    s->p.zero &= kf_model_zero_arrays(m);
     /* the fastest rigid surface over the substep (start and end), cells: the
      * material it drives moves as fast, and its elastic rebound twice as fast */
     double body_cells = m->nrigid ? rigid_max_speed(m, s) * dt / m->sim.dx : 0;
@@ -258,6 +261,10 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
      * reach, grid.h): a retried interval and one made directly at the
      * smaller step then sum in the same order, bit for bit */
     kf_grid_invalidate(&s->g);
+    /* arrays the model never writes that hold only zeros (after a
+     * checkpoint load or a caller's view) go back to untouched pages; out of
+     * memory here only leaves them as they are */
+    kf_particles_zero(&s->p, kf_model_zero_arrays(m) & ~s->p.zero);
     if (kf_snapshot_save(s)) {
         if (msg) snprintf(msg, msglen, "out of memory saving the interval start");
         return 1;
