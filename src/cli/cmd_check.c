@@ -89,7 +89,8 @@ int kf_cmd_info(int argc, char **argv) {
     double dt = n ? kf_stable_dt(m, s, shot->sim.cfl) : 0;
     double mb = kf_memory_estimate(m, n, blocks, program) / (1 << 20);
     printf("grid      %ld active blocks of 4^3 nodes at the start\n", blocks);
-    printf("memory    about %.0f MB (particles, grid, kerf itself %.0f MB; a frame's start for retries is kept in "
+    printf("memory    about %.0f MB (particles, grid, rigid seeds, kerf itself %.0f MB; a frame's start for retries is "
+           "kept in "
            "a temporary file, %.0f MB)\n",
            mb, program / (1 << 20), kf_snapshot_bytes(n) / (1 << 20));
     if (shot->sim.dt_fixed > 0) /* a fixed step is the step, whatever the CFL rule says */

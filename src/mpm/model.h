@@ -88,12 +88,20 @@ static inline unsigned kf_model_zero_arrays(const kf_model *m) {
     return z | KF_ZERO_PS;
 }
 
-/* kerf info's memory figure, bytes: n particles as they run (particles.h),
+/* kerf info's memory figure, bytes: n particles as they run (particles.h), rigid bodies' seeds,
  * the grid's blocks (grid.h), and what the process held before the scene
  * (program). kerf_bench --only memory prints it beside the measured peak. */
 static inline double kf_memory_estimate(const kf_model *m, size_t n, long blocks, double program) {
+    /* rigid bodies' surface seeds: position 12 + triangle 4 each (rigid.h),
+     * and CPIC's splat scratch for the largest body's: world position 24,
+     * bin 4, order 4 (cpic.h) */
+    double seeds = 0, most = 0;
+    for (int r = 0; r < m->nrigid; r++) {
+        seeds += (double)m->rigid[r].nseed;
+        if ((double)m->rigid[r].nseed > most) most = (double)m->rigid[r].nseed;
+    }
     return kf_particle_bytes_running(m->nrigid > 0, !(kf_model_zero_arrays(m) & KF_ZERO_PS)) * (double)n +
-           (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + program;
+           (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + seeds * 16 + most * 32 + program;
 }
 
 /* The recovery path's test hook (kf_model.fault_substep): set after
