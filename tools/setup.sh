@@ -12,6 +12,7 @@ packages=(build-essential cmake pkg-config file
           libmicrohttpd-dev     # kerf view's web server
           libopenexr-dev libimath-dev  # EXR frames with AOVs (OpenEXRCore, the C library)
           libopenmpi-dev openmpi-bin  # one simulation over several ranks (mpirun -np N kerf run)
+          libmpich-dev mpich  # MPICH beside it, for a second tree (cmake -DMPI_C_COMPILER=mpicc.mpich); Open MPI stays the default
           chromium chromium-driver  # the tests of kerf view drive a headless browser
           clang-format  # tools/format.sh
           gnuplot-nox   # gnuplot: the figures of tools/evidence/run.sh
