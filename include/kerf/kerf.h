@@ -213,7 +213,12 @@ typedef struct kf_rigid_pose {
 
 typedef enum kf_kernel { KF_KERNEL_QUADRATIC = 0, KF_KERNEL_CUBIC } kf_kernel;
 typedef enum kf_force { KF_FORCE_MLS = 0, KF_FORCE_CLASSIC } kf_force;
-typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC } kf_transfer;
+/* APIC keeps each particle's affine velocity; PIC drops it; FLIP keeps
+ * APIC's affine part and also the rest of the particle's velocity, which
+ * APIC drops at every transfer: the particle's velocity is the grid's new
+ * velocity plus flip_ratio times what the grid's old velocity missed of it
+ * (mpm/transfer.c). */
+typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC, KF_TRANSFER_FLIP } kf_transfer;
 /* How the grid velocities advance: explicit symplectic Euler, or
  * backward Euler solved by Newton-Krylov on the incremental potential. */
 typedef enum kf_integrator { KF_INTEGRATOR_EXPLICIT = 0, KF_INTEGRATOR_IMPLICIT } kf_integrator;
@@ -259,6 +264,9 @@ typedef struct kf_sim_def {
     int krylov_max;     /* CG iterations per Newton step (0 = default) */
     kf_precond precond; /* CG preconditioner */
     kf_implicit_scheme implicit_scheme;
+    /* transfer == KF_TRANSFER_FLIP: the share of the particle's non-affine
+     * velocity kept at each substep, in [0, 1] (1 = pure FLIP) */
+    double flip_ratio;
 } kf_sim_def;
 
 kf_sim_def kf_default_sim_def(void);

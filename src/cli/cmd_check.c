@@ -53,10 +53,12 @@ int kf_cmd_info(int argc, char **argv) {
     printf("shot      %s v%03d (%s)\n", shot->name, shot->version, shot->path);
     printf("frames    %d-%d of %d-%d at %g fps, quality %s\n", shot->first, shot->last, shot->frame_start,
            shot->frame_end, shot->fps, shot->quality == KF_QUALITY_PREVIEW ? "preview" : "final");
+    char transfer[32];
+    if (shot->sim.transfer == KF_TRANSFER_FLIP) snprintf(transfer, sizeof transfer, "FLIP %g", shot->sim.flip_ratio);
+    else snprintf(transfer, sizeof transfer, "%s", shot->sim.transfer == KF_TRANSFER_PIC ? "PIC" : "APIC");
     printf("grid      dx %.5g m, %s kernel, %s force, %s, cfl %g, %s\n", shot->sim.dx,
            shot->sim.kernel == KF_KERNEL_CUBIC ? "cubic" : "quadratic",
-           shot->sim.force == KF_FORCE_CLASSIC ? "classic" : "MLS",
-           shot->sim.transfer == KF_TRANSFER_PIC ? "PIC" : "APIC", shot->sim.cfl,
+           shot->sim.force == KF_FORCE_CLASSIC ? "classic" : "MLS", transfer, shot->sim.cfl,
            shot->sim.walls ? "walls on" : "no walls");
     /* (a shot carries every solver setting: the keys' defaults fill what it leaves out) */
     const kf_sim_def *sd = &shot->sim;

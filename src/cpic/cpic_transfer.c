@@ -249,7 +249,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     double *imp = &c->imp[c->slot[owner]][0][0];
     const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx;
-    const int apic = m->sim.transfer == KF_TRANSFER_APIC;
+    const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
     uint8_t thin_body[KF_MAX_RIGIDS];
     for (int r = 0; r < m->nrigid; r++) thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
     for (int j = 0; j < ck->n; j++) {
@@ -315,7 +315,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     double *imp = &c->imp[c->slot[owner]][0][0];
     const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx, dt = c->dt;
-    const int apic = m->sim.transfer == KF_TRANSFER_APIC;
+    const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
         const uint32_t cp = p->colour[i];

@@ -48,6 +48,11 @@ typedef struct kf_grid {
     int32_t *bcoord; /* (nblocks x 3) block coordinate */
     kf_v4 *node;     /* (nblocks x 64) momentum+mass, then velocity+mass */
     size_t node_cap; /* blocks the node array has room for */
+    /* the FLIP transfer only: per node the momentum and mass without the
+     * stress impulse, then the velocity before the substep's forces
+     * (transfer.c); NULL otherwise */
+    kf_v4 *node_old;
+    size_t node_old_cap;
     /* hash: block key -> block index */
     size_t hcap;    /* power of two */
     uint64_t *hkey; /* UINT64_MAX = empty */

@@ -17,6 +17,7 @@ kf_sim_def kf_default_sim_def(void) {
     d.kernel = KF_KERNEL_QUADRATIC;
     d.force = KF_FORCE_MLS;
     d.transfer = KF_TRANSFER_APIC;
+    d.flip_ratio = 0.95;
     d.walls = 0;
     for (int a = 0; a < 3; a++) d.domain_min[a] = 0, d.domain_max[a] = 1;
     d.wall_boundary = KF_BOUNDARY_SEPARATE;
@@ -52,6 +53,14 @@ kf_model *kf_model_create(const kf_sim_def *def, char *err, size_t errlen) {
         bad = "integrator must be explicit or implicit";
     if (!bad && !(def->implicit_scheme == KF_SCHEME_BACKWARD_EULER || def->implicit_scheme == KF_SCHEME_MIDPOINT))
         bad = "implicit_scheme must be backward_euler or midpoint";
+    if (!bad &&
+        !(def->transfer == KF_TRANSFER_APIC || def->transfer == KF_TRANSFER_PIC || def->transfer == KF_TRANSFER_FLIP))
+        bad = "transfer must be apic, pic or flip";
+    if (!bad && def->transfer == KF_TRANSFER_FLIP && !(def->flip_ratio >= 0 && def->flip_ratio <= 1))
+        bad = "flip_ratio must be in [0, 1]";
+    /* the implicit solve makes its own grid velocities and keeps no old ones */
+    if (!bad && def->transfer == KF_TRANSFER_FLIP && def->integrator == KF_INTEGRATOR_IMPLICIT)
+        bad = "the flip transfer needs the explicit integrator (sim.integrator: explicit)";
     if (!bad && !(def->newton_tol >= 0 && def->krylov_tol >= 0 && def->newton_max >= 0 && def->krylov_max >= 0))
         bad = "newton_tol, krylov_tol, newton_max and krylov_max must be >= 0 (0 = default)";
     if (bad) {

@@ -258,7 +258,7 @@ long kf_state_fill_sphere(kf_state *s, const kf_model *m, const double c[3], dou
 kf_energy kf_state_energy(const kf_model *m, const kf_state *s) {
     const kf_particles *p = &s->p;
     const double d = kf_model_dfactor(m);
-    const int apic = m->sim.transfer == KF_TRANSFER_APIC;
+    const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
     double ke = 0, el = 0, gp = 0, mom[3] = {0}, L[3] = {0}, mass = 0;
     for (size_t i = 0; i < p->n; i++) {
         double mp = p->mass[i], x[3], v[3];

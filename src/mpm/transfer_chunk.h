@@ -24,6 +24,7 @@ typedef struct chunk {
     kf_real dw[3][4][KF_CHUNK]; /* their derivatives (grid units) */
     kf_real d[3][4][KF_CHUNK];  /* node minus particle, m */
     kf_real q[9][KF_CHUNK];     /* P2G: MLS Q, or APIC m C for classic */
+    kf_real qm[9][KF_CHUNK];    /* P2G, FLIP: m C alone (the momentum without the stress) */
     kf_real t[9][KF_CHUNK];     /* P2G classic: -Δt V⁰ τ / Δx */
     kf_real mv[4][KF_CHUNK];    /* P2G: m v, m */
     kf_real v[3][KF_CHUNK];     /* G2P: Σ w v_i */
@@ -133,6 +134,43 @@ KF_INLINE void scatter_one(int KW, int CLASSIC, const chunk *ck, int j, kf_v4 *c
             }
         }
     }
+}
+
+/* FLIP: one particle's momentum and mass alone, m v + m C d (no stress
+ * impulse), into a second node cache: divided by the mass, the grid's
+ * velocity before the substep's forces */
+KF_INLINE void scatter_momentum(int KW, const chunk *ck, int j, kf_v4 *cache) {
+    const int CD = CD_MAX;
+    const kf_v4 base = {ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
+    const kf_v4 q0 = {ck->qm[0][j], ck->qm[3][j], ck->qm[6][j], 0};
+    const kf_v4 q1 = {ck->qm[1][j], ck->qm[4][j], ck->qm[7][j], 0};
+    const kf_v4 q2 = {ck->qm[2][j], ck->qm[5][j], ck->qm[8][j], 0};
+    kf_v4 *origin = &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
+    for (int a = 0; a < KW; a++) {
+        const kf_v4 ha = base + ck->d[0][a][j] * q0;
+        for (int b = 0; b < KW; b++) {
+            const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
+            const kf_v4 hab = ha + ck->d[1][b][j] * q1;
+            kf_v4 *row = origin + (a * CD + b) * CD;
+            for (int c = 0; c < KW; c++) row[c] += (wab * ck->w[2][c][j]) * (hab + ck->d[2][c][j] * q2);
+        }
+    }
+}
+
+/* FLIP: one particle's interpolated velocity Σ w v_i from a node cache */
+KF_INLINE kf_v4 gather_velocity(int KW, const chunk *ck, int j, const kf_v4 *cache) {
+    const int CD = CD_MAX;
+    const kf_v4 *origin = &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
+    kf_v4 v = {0};
+    for (int a = 0; a < KW; a++)
+        for (int b = 0; b < KW; b++) {
+            const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
+            const kf_v4 *row = origin + (a * CD + b) * CD;
+            kf_v4 ra = {0};
+            for (int c = 0; c < KW; c++) ra += ck->w[2][c][j] * row[c];
+            v += wab * ra;
+        }
+    return v;
 }
 
 /* one particle's G2P gather from the owner's node cache into the chunk's v, B (and G) */

@@ -532,6 +532,13 @@ void kf_resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
         kf_report_inst(L, T, KK_OUTPUT_NAME, KF_DIAG_ERROR, msg);
     }
     check_output_paths(L, T, s);
+    /* the implicit solve makes its own grid velocities and keeps no old ones */
+    if (s->sim.transfer == KF_TRANSFER_FLIP && s->sim.integrator == KF_INTEGRATOR_IMPLICIT) {
+        snprintf(msg, sizeof msg,
+                 "sim.transfer: flip needs sim.integrator: explicit (the implicit solve keeps no old grid velocity "
+                 "to take the particles' increment from); use apic with the implicit integrator");
+        kf_report_inst(L, T, T->at[KK_SIM_TRANSFER] ? KK_SIM_TRANSFER : KK_SIM_INTEGRATOR, KF_DIAG_ERROR, msg);
+    }
     s->dx_at = loc_of(L, s, kf_node_for(T, KK_SIM_DX));
     s->cfl_at = loc_of(L, s, kf_node_for(T, KK_SIM_CFL));
     s->dt_fixed_at = loc_of(L, s, kf_node_for(T, KK_SIM_DT_FIXED));

@@ -26,9 +26,11 @@
 typedef struct ev_variant {
     kf_kernel kernel;
     kf_force force;
-    int ppc;     /* particles per cell per axis: 2 (8 per cell) or 3 (27) */
-    double cfl;  /* C in Δt = C Δx / (c_p + v_max) */
-    int threads; /* 1 for the timed sweeps */
+    int ppc;              /* particles per cell per axis: 2 (8 per cell) or 3 (27) */
+    double cfl;           /* C in Δt = C Δx / (c_p + v_max) */
+    int threads;          /* 1 for the timed sweeps */
+    kf_transfer transfer; /* left out: APIC */
+    double flip_ratio;    /* KF_TRANSFER_FLIP: the share kept per substep */
 } ev_variant;
 
 /* One run: the error against the exact answer and its cost. */
@@ -48,8 +50,11 @@ static inline double ev_cpu_s(void) {
 }
 
 static inline const char *ev_variant_name(const ev_variant *v, char *buf, size_t len) {
-    snprintf(buf, len, "%s-%s-%d", v->kernel == KF_KERNEL_CUBIC ? "cubic" : "quad",
-             v->force == KF_FORCE_CLASSIC ? "classic" : "mls", v->ppc * v->ppc * v->ppc);
+    snprintf(buf, len, "%s-%s-%d%s", v->kernel == KF_KERNEL_CUBIC ? "cubic" : "quad",
+             v->force == KF_FORCE_CLASSIC ? "classic" : "mls", v->ppc * v->ppc * v->ppc,
+             v->transfer == KF_TRANSFER_FLIP  ? "-flip"
+             : v->transfer == KF_TRANSFER_PIC ? "-pic"
+                                              : "");
     return buf;
 }
 
@@ -77,7 +82,8 @@ static inline kf_model *ev_model(const ev_variant *v, double dx, double dt, cons
     sd.gravity[0] = sd.gravity[1] = sd.gravity[2] = 0;
     sd.kernel = v->kernel;
     sd.force = v->force;
-    sd.transfer = KF_TRANSFER_APIC;
+    sd.transfer = v->transfer;
+    sd.flip_ratio = v->flip_ratio;
     sd.walls = 0;
     sd.dt_fixed = dt;
     sd.threads = v->threads;

@@ -1,7 +1,8 @@
 # evidence.cmake — the accuracy/cost sweeps, stability stress tests,
 # and the paper's Table 2 and Fig. 17, as programs that tools/evidence/run.sh
-# runs (never from ctest; tests/test_evidence_*.c keep one small instance each).
-foreach(prog accuracy stability energy table2)
+# runs (never from ctest; tests/test_evidence_*.c keep one small instance each);
+# flip: the flip transfer against APIC (energy kept, cost, work–precision).
+foreach(prog accuracy stability energy table2 flip)
   add_executable(kf_evid_${prog} ${CMAKE_CURRENT_LIST_DIR}/${prog}.c)
   target_link_libraries(kf_evid_${prog} PRIVATE kerf_core)
 endforeach()

@@ -1,0 +1,284 @@
+/* flip.c — the flip transfer (sim.transfer: flip) against APIC: the energy
+ * a ringing jelly cube keeps, the cost per substep, and the work–precision
+ * points of the accuracy problems.
+ *
+ *   kf_evid_flip --out DIR [--quick] [--repeat N] [--no-sweep]
+ *
+ * cube:  V7's stretched cube (tests/test_energy.c): side 1, F₀ = 1.1 I,
+ *        fixed corotated E = 1e3, ν = 0.3, ρ = 1, no gravity, 16 cells
+ *        across (8 with --quick), 8 particles per cell, fixed step at CFL
+ *        0.4 (the default) and 0.1, t ∈ [0, 0.48] (10 periods of
+ *        T = 0.0479). Energy = kinetic + elastic (kf_state_energy) / E₀.
+ * cost:  the cube's first 150 substeps at CFL 0.4, APIC and flip
+ *        alternating, N times each (--repeat, default 5): median process
+ *        CPU seconds per substep inside kf_step, 1 thread.
+ * sweep: the Δx sweeps of V4 (bar), V5 (manufactured solution) and V6
+ *        (breathing sphere) of accuracy.c at CFL 0.3, quad-mls-8, APIC and
+ *        flip: error against CPU time (the work–precision plot).
+ * Writes DIR/flip_energy.dat (t, then E/E₀ per run at CFL 0.4),
+ * DIR/flip_energy_cfl01.dat (the same at CFL 0.1), DIR/flip_wp_<problem>.dat
+ * (cpu error per variant, blank-line separated) and DIR/flip.md. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../../tests/problems/problems.h"
+#include "../median.h"
+
+#define CUBE_T 0.0479 /* the fundamental's period at 16 cells (tests/test_energy.c) */
+#define BAR_T 0.0715  /* the bar's first bending period, measured (tests/test_flip.c) */
+
+typedef struct variant {
+    const char *name;
+    kf_transfer transfer;
+    double ratio;
+} variant;
+
+static const variant VARIANTS[] = {{"APIC", KF_TRANSFER_APIC, 0},
+                                   {"flip 0.95", KF_TRANSFER_FLIP, 0.95},
+                                   {"flip 0.99", KF_TRANSFER_FLIP, 0.99},
+                                   {"flip 1", KF_TRANSFER_FLIP, 1.0},
+                                   {"PIC", KF_TRANSFER_PIC, 0}};
+#define NVAR ((int)(sizeof VARIANTS / sizeof *VARIANTS))
+
+typedef struct series {
+    long n;
+    double *t, *e;
+    double cpu_s;
+    int ok;
+} series;
+
+/* the cube, run for `steps` substeps (all of tend when steps < 0) */
+static series cube(const variant *var, double cfl, int quick, long steps) {
+    series out = {0};
+    const double rho = 1, E = 1e3, nu = 0.3, cp = ev_cp(rho, E, nu);
+    const double dx = quick ? 1.0 / 8 : 1.0 / 16, dt = cfl * dx / cp, tend = 10 * CUBE_T;
+    ev_variant v = {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, cfl, 1, var->transfer, var->ratio};
+    kf_material mat = ev_corotated(rho, E, nu);
+    int id;
+    kf_model *m = ev_model(&v, dx, dt, &mat, &id);
+    if (!m) exit(1);
+    kf_state *s = kf_state_create(m);
+    const int N = (int)lround(1 / dx);
+    const double h = dx / 2;
+    const size_t n = (size_t)8 * N * N * N;
+    double *x = malloc(3 * n * sizeof *x), *F = malloc(9 * n * sizeof *F);
+    size_t k = 0;
+    for (int i = -N; i < N; i++)
+        for (int j = -N; j < N; j++)
+            for (int l = -N; l < N; l++, k++) {
+                double q[3] = {(i + 0.5) * h, (j + 0.5) * h, (l + 0.5) * h};
+                for (int a = 0; a < 3; a++) x[3 * k + a] = 1.1 * q[a];
+                for (int e = 0; e < 9; e++) F[9 * k + e] = e % 4 == 0 ? 1.1 : 0;
+            }
+    kf_state_add_particles(s, m, n, x, NULL, F, id, h * h * h);
+    free(x), free(F);
+    if (steps < 0) steps = (long)(tend / dt + 0.5);
+    out.t = malloc((steps + 1) * sizeof *out.t), out.e = malloc((steps + 1) * sizeof *out.e);
+    kf_energy e0 = kf_state_energy(m, s);
+    const double E0 = e0.kinetic + e0.elastic;
+    out.ok = 1;
+    for (long st = 0; st <= steps; st++) {
+        if (st > 0) {
+            double c = ev_cpu_s();
+            int bad = kf_step(m, s, dt, NULL, NULL);
+            out.cpu_s += ev_cpu_s() - c;
+            if (bad) {
+                out.ok = 0;
+                break;
+            }
+        }
+        kf_energy e = kf_state_energy(m, s);
+        out.t[st] = kf_state_time(s), out.e[st] = (e.kinetic + e.elastic) / E0;
+        out.n = st + 1;
+    }
+    kf_state_destroy(s);
+    kf_model_destroy(m);
+    return out;
+}
+
+/* the ringing bar: the jello preset (E = 1e6, ν = 0.3, ρ = 1000), 0.4 m x
+ * 8 cm x 12 cm at the default Δx = 2 cm (4 cells thick), free, no
+ * gravity, set ringing in bending by v_y = 1 m/s (2u² − 2/3), u = −1..1
+ * along it (no net momentum; the implicit evidence's bending bar), at CFL
+ * cfl for `tend` seconds */
+static series bar(const variant *var, double cfl, double tend) {
+    series out = {0};
+    kf_sim_def sd = kf_default_sim_def();
+    sd.dx = 0.02;
+    sd.gravity[1] = 0;
+    sd.walls = 0;
+    sd.threads = 1;
+    sd.transfer = var->transfer;
+    sd.flip_ratio = var->ratio;
+    char err[256];
+    kf_model *m = kf_model_create(&sd, err, sizeof err);
+    kf_material mat;
+    kf_material_preset("jello", &mat);
+    mat.E = 1e6, mat.nu = 0.3, mat.density = 1000;
+    int id = kf_model_add_material(m, &mat, err, sizeof err);
+    kf_state *s = kf_state_create(m);
+    const double lo[3] = {0.3, 0.56, 0.44}, hi[3] = {0.7, 0.64, 0.56};
+    kf_state_fill_box(s, m, lo, hi, id, NULL, 2, 0);
+    kf_particles_view pv = kf_state_particles(s);
+    for (size_t i = 0; i < pv.n; i++) {
+        const double u = (pv.x[0][i] - 0.5) / 0.2;
+        pv.v[1][i] = (kf_real)(2 * u * u - 2.0 / 3.0);
+    }
+    const double dt = cfl * sd.dx / ev_cp(1000, 1e6, 0.3);
+    const long steps = (long)(tend / dt + 0.5);
+    out.t = malloc((steps + 1) * sizeof *out.t), out.e = malloc((steps + 1) * sizeof *out.e);
+    kf_energy e0 = kf_state_energy(m, s);
+    const double E0 = e0.kinetic + e0.elastic;
+    out.ok = 1;
+    for (long st = 0; st <= steps; st++) {
+        if (st > 0) {
+            double c = ev_cpu_s();
+            int bad = kf_step(m, s, dt, NULL, NULL);
+            out.cpu_s += ev_cpu_s() - c;
+            if (bad) {
+                out.ok = 0;
+                break;
+            }
+        }
+        kf_energy e = kf_state_energy(m, s);
+        out.t[st] = kf_state_time(s), out.e[st] = (e.kinetic + e.elastic) / E0;
+        out.n = st + 1;
+    }
+    kf_state_destroy(s);
+    kf_model_destroy(m);
+    return out;
+}
+
+/* energy at CFL cfl for every variant: the .dat file and the table rows */
+static void energy(FILE *md, const char *dir, const char *file, int is_bar, double cfl, int quick) {
+    series r[NVAR];
+    for (int v = 0; v < NVAR; v++) {
+        r[v] = is_bar ? bar(&VARIANTS[v], cfl, 10 * BAR_T) : cube(&VARIANTS[v], cfl, quick, -1);
+        fprintf(stderr, "  %s cfl %.2f %-9s %ld steps: E(10T)/E0 %.4f, %.2f s CPU%s\n", is_bar ? "bar" : "cube", cfl,
+                VARIANTS[v].name, r[v].n - 1, r[v].e[r[v].n - 1], r[v].cpu_s, r[v].ok ? "" : " FAILED");
+    }
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", dir, file);
+    FILE *f = fopen(path, "w");
+    if (!f) exit(1);
+    fprintf(f, "\"t\"");
+    for (int v = 0; v < NVAR; v++) fprintf(f, " \"%s\"", VARIANTS[v].name);
+    fprintf(f, "\n");
+    long n = r[0].n;
+    for (int v = 1; v < NVAR; v++) n = r[v].n < n ? r[v].n : n;
+    for (long i = 0; i < n; i++) {
+        fprintf(f, "%.6f", r[0].t[i]);
+        for (int v = 0; v < NVAR; v++) fprintf(f, " %.6f", r[v].e[i]);
+        fprintf(f, "\n");
+    }
+    fclose(f);
+    for (int v = 0; v < NVAR; v++) {
+        /* at each whole period: the energy is sampled where the cube is
+         * back near its stretched start */
+        const long per = (long)((double)(r[v].n - 1) / 10 + 0.5);
+        fprintf(md, "| %s | %.1f | %s | %ld | %s%.4f | %.4f | %.4f |\n", is_bar ? "bar" : "cube", cfl, VARIANTS[v].name,
+                r[v].n - 1, r[v].ok ? "" : "FAILED ", r[v].e[r[v].n - 1], r[v].e[per < r[v].n ? per : r[v].n - 1],
+                r[v].e[5 * per < r[v].n ? 5 * per : r[v].n - 1]);
+        free(r[v].t), free(r[v].e);
+    }
+}
+
+int main(int argc, char **argv) {
+    const char *dir = ".";
+    int quick = 0, repeat = 5, sweep = 1, only_bar = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--out") && i + 1 < argc) dir = argv[++i];
+        else if (!strcmp(argv[i], "--quick")) quick = 1;
+        else if (!strcmp(argv[i], "--no-sweep")) sweep = 0;
+        else if (!strcmp(argv[i], "--bar")) only_bar = 1;
+        else if (!strcmp(argv[i], "--repeat") && i + 1 < argc) repeat = atoi(argv[++i]);
+        else {
+            fprintf(stderr, "usage: kf_evid_flip --out DIR [--quick] [--repeat N] [--no-sweep]\n");
+            return 2;
+        }
+    }
+    if (repeat < 1 || repeat > 99) repeat = 5;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/flip.md", dir);
+    FILE *md = fopen(path, "w");
+    if (!md) return 1;
+
+    /* energy over 10 periods */
+    fprintf(md,
+            "Total energy (kinetic + elastic) / E0 after 1, 5 and 10 periods of the fundamental: the ringing "
+            "bar (jello, 4 cells thick at the default dx = 2 cm, T = %.4f s) and V7's ringing cube (%d cells "
+            "across, T = %.4f s); 8 particles per cell, fixed step:\n\n",
+            BAR_T, quick ? 8 : 16, CUBE_T);
+    fprintf(md, "| body | CFL | transfer | steps | E(10T)/E0 | E(T)/E0 | E(5T)/E0 |\n|---|---|---|---|---|---|---|\n");
+    energy(md, dir, "flip_bar.dat", 1, 0.4, quick);
+    energy(md, dir, "flip_bar_cfl01.dat", 1, 0.1, quick);
+    if (only_bar) return 0;
+    energy(md, dir, "flip_energy.dat", 0, 0.4, quick);
+    energy(md, dir, "flip_energy_cfl01.dat", 0, 0.1, quick);
+
+    /* cost per substep, A/B alternating */
+    double cost[2][99];
+    const variant *ab[2] = {&VARIANTS[0], &VARIANTS[1]};
+    const long steps = 150;
+    for (int k = 0; k < repeat; k++)
+        for (int v = 0; v < 2; v++) {
+            series r = cube(ab[v], 0.4, quick, steps);
+            cost[v][k] = r.cpu_s / (double)(r.n - 1);
+            free(r.t), free(r.e);
+        }
+    double med[2] = {kf_median(cost[0], repeat), kf_median(cost[1], repeat)};
+    fprintf(md,
+            "\nCost per substep (the cube at CFL 0.4, %ld substeps, %d runs each alternating, 1 thread, median "
+            "process CPU time inside kf_step):\n\n| transfer | ms per substep | min | max |\n|---|---|---|---|\n",
+            steps, repeat);
+    for (int v = 0; v < 2; v++) {
+        double lo = cost[v][0], hi = cost[v][0];
+        for (int k = 1; k < repeat; k++) lo = cost[v][k] < lo ? cost[v][k] : lo, hi = cost[v][k] > hi ? cost[v][k] : hi;
+        fprintf(md, "| %s | %.3f | %.3f | %.3f |\n", ab[v]->name, 1e3 * med[v], 1e3 * lo, 1e3 * hi);
+    }
+    fprintf(md, "\nflip / APIC: %.3f\n", med[1] / med[0]);
+    fprintf(stderr, "  cost per substep: APIC %.3f ms, flip %.3f ms (x%.3f)\n", 1e3 * med[0], 1e3 * med[1],
+            med[1] / med[0]);
+
+    /* the work–precision points */
+    if (sweep) {
+        typedef ev_run (*fn)(double, const ev_variant *);
+        const struct {
+            const char *name;
+            fn run;
+            double res[4];
+        } probs[3] = {{"bar", ev_bar, {12.5, 25, 50, 100}},
+                      {"mms", ev_mms, {8, 12, 16, 24}},
+                      {"sphere", ev_sphere, {6, 8, 12, 16}}};
+        fprintf(md, "\nWork–precision (accuracy.c's Δx sweeps, quad-mls-8, CFL 0.3, 1 thread, CPU s inside "
+                    "kf_step, median of 3 where under 1 s):\n\n| problem | res | transfer | CPU s | error |\n"
+                    "|---|---|---|---|---|\n");
+        for (int p = 0; p < 3; p++) {
+            snprintf(path, sizeof path, "%s/flip_wp_%s.dat", dir, probs[p].name);
+            FILE *f = fopen(path, "w");
+            if (!f) return 1;
+            for (int v = 0; v < 2; v++) {
+                ev_variant ev = {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0.3, 1, ab[v]->transfer, ab[v]->ratio};
+                fprintf(f, "\"%s\"\n", ab[v]->name);
+                for (int k = 0; k < (quick ? 2 : 4); k++) {
+                    ev_run r = probs[p].run(probs[p].res[k], &ev);
+                    if (r.ok && r.cpu_s < 1.0) {
+                        double c[3] = {r.cpu_s, 0, 0};
+                        for (int q = 1; q < 3; q++) c[q] = probs[p].run(probs[p].res[k], &ev).cpu_s;
+                        r.cpu_s = kf_median(c, 3);
+                    }
+                    fprintf(f, "%.6g %.6g\n", r.cpu_s, r.error);
+                    fprintf(md, "| %s | %g | %s | %.3f | %s%.4g |\n", probs[p].name, probs[p].res[k], ab[v]->name,
+                            r.cpu_s, r.ok ? "" : "FAILED ", r.error);
+                    fprintf(stderr, "  %s res %g %s: %.3f s, error %.4g\n", probs[p].name, probs[p].res[k], ab[v]->name,
+                            r.cpu_s, r.error);
+                }
+                fprintf(f, "\n\n");
+            }
+            fclose(f);
+        }
+    }
+    fclose(md);
+    return 0;
+}
