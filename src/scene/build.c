@@ -263,8 +263,7 @@ uint64_t kf_shot_sim_hash(const kf_shot *shot) {
                     shot->frame_start,
                     sizeof(kf_real)};
     hash_vals(&h, sim, (int)(sizeof sim / sizeof *sim));
-    /* the flip transfer's ratio only where it acts: other shots hash as before */
-    if (s->transfer == KF_TRANSFER_FLIP) hash_vals(&h, &s->flip_ratio, 1);
+    hash_vals(&h, &s->flip_ratio, 1);
     for (int i = 0; i < shot->nmaterials; i++) {
         const kf_material *m = &shot->materials[i].mat;
         double v[] = {
