@@ -22,7 +22,7 @@
  * FLIP (sim.transfer: flip). APIC keeps the affine part of each particle's
  * velocity and drops the rest at every transfer, so fine motion decays
  * with the number of substeps, not with time: a jelly bar 4 cells thick
- * ringing for 10 periods keeps 31% of its energy at CFL 0.4 and 6% at 0.1.
+ * ringing for 10 periods keeps 31% of its energy at CFL 0.4 and 4% at 0.1.
  * Flip keeps APIC's C (from the new grid velocity) and sets
  *     v_p ← Σ w v_i + r (v_p − Σ w v_i⁰),
  * v_i⁰ the grid's velocity before the substep's forces: a second scatter of

@@ -58,7 +58,7 @@ KF_KEY(SIM_TRANSFER, "sim.transfer", KT_ENUM, TOP(s.sim.transfer), ANY, "apic|pi
        "finer than the kernel, so a wobbling body comes to rest sooner at a smaller CFL number. flip keeps APIC's "
        "rotation and adds back sim.flip_ratio of what the grid missed of each particle's velocity. Measured on a "
        "jelly bar 4 cells thick ringing for 10 periods: flip keeps 60% of its energy at CFL 0.4 and 54% at 0.1, "
-       "APIC 31% and 6% (tools/evidence/flip_results.md); flip costs one more scatter and gather per substep. "
+       "APIC 31% and 4% (tools/evidence/flip_results.md); flip costs one more scatter and gather per substep. "
        "Explicit integration on one rank only.")
 KF_KEY(SIM_FLIP_RATIO, "sim.flip_ratio", KT_NUM, TOP(s.sim.flip_ratio), CC(0, 1), NULL, "0.95", NULL, "transfer=flip",
        KF_SOFT,

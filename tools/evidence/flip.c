@@ -2,7 +2,10 @@
  * a ringing jelly cube keeps, the cost per substep, and the work–precision
  * points of the accuracy problems.
  *
- *   kf_evid_flip --out DIR [--quick] [--repeat N] [--no-sweep]
+ *   kf_evid_flip --out DIR [--quick] [--repeat N] [--no-sweep] [--no-energy] [--bar]
+ *
+ * --no-energy skips the energy runs (cost and sweep only), --bar runs the
+ * bar's energy alone.
  *
  * cube:  V7's stretched cube (tests/test_energy.c): side 1, F₀ = 1.1 I,
  *        fixed corotated E = 1e3, ν = 0.3, ρ = 1, no gravity, 16 cells
@@ -186,12 +189,13 @@ static void energy(FILE *md, const char *dir, const char *file, int is_bar, doub
 
 int main(int argc, char **argv) {
     const char *dir = ".";
-    int quick = 0, repeat = 5, sweep = 1, only_bar = 0;
+    int quick = 0, repeat = 5, sweep = 1, only_bar = 0, no_energy = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--out") && i + 1 < argc) dir = argv[++i];
         else if (!strcmp(argv[i], "--quick")) quick = 1;
         else if (!strcmp(argv[i], "--no-sweep")) sweep = 0;
         else if (!strcmp(argv[i], "--bar")) only_bar = 1;
+        else if (!strcmp(argv[i], "--no-energy")) no_energy = 1;
         else if (!strcmp(argv[i], "--repeat") && i + 1 < argc) repeat = atoi(argv[++i]);
         else {
             fprintf(stderr, "usage: kf_evid_flip --out DIR [--quick] [--repeat N] [--no-sweep]\n");
@@ -205,17 +209,21 @@ int main(int argc, char **argv) {
     if (!md) return 1;
 
     /* energy over 10 periods */
-    fprintf(md,
-            "Total energy (kinetic + elastic) / E0 after 1, 5 and 10 periods of the fundamental: the ringing "
-            "bar (jello, 4 cells thick at the default dx = 2 cm, T = %.4f s) and V7's ringing cube (%d cells "
-            "across, T = %.4f s); 8 particles per cell, fixed step:\n\n",
-            BAR_T, quick ? 8 : 16, CUBE_T);
-    fprintf(md, "| body | CFL | transfer | steps | E(10T)/E0 | E(T)/E0 | E(5T)/E0 |\n|---|---|---|---|---|---|---|\n");
-    energy(md, dir, "flip_bar.dat", 1, 0.4, quick);
-    energy(md, dir, "flip_bar_cfl01.dat", 1, 0.1, quick);
-    if (only_bar) return 0;
-    energy(md, dir, "flip_energy.dat", 0, 0.4, quick);
-    energy(md, dir, "flip_energy_cfl01.dat", 0, 0.1, quick);
+    if (!no_energy)
+        fprintf(md,
+                "Total energy (kinetic + elastic) / E0 after 1, 5 and 10 periods of the fundamental: the ringing "
+                "bar (jello, 4 cells thick at the default dx = 2 cm, T = %.4f s) and V7's ringing cube (%d cells "
+                "across, T = %.4f s); 8 particles per cell, fixed step:\n\n",
+                BAR_T, quick ? 8 : 16, CUBE_T);
+    if (!no_energy) {
+        fprintf(md,
+                "| body | CFL | transfer | steps | E(10T)/E0 | E(T)/E0 | E(5T)/E0 |\n|---|---|---|---|---|---|---|\n");
+        energy(md, dir, "flip_bar.dat", 1, 0.4, quick);
+        energy(md, dir, "flip_bar_cfl01.dat", 1, 0.1, quick);
+        if (only_bar) return 0;
+        energy(md, dir, "flip_energy.dat", 0, 0.4, quick);
+        energy(md, dir, "flip_energy_cfl01.dat", 0, 0.1, quick);
+    }
 
     /* cost per substep, A/B alternating */
     double cost[2][99];
