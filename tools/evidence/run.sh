@@ -43,13 +43,14 @@ step() { echo "== $1 ($((SECONDS - t0)) s so far)" >&2; }
 t0=$SECONDS
 if [ "$report_only" = 0 ]; then
   cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
-  cmake --build "$build" -j "$ncpu" --target kf_evid_accuracy kf_evid_stability kf_evid_energy kf_evid_table2 >&2
+  cmake --build "$build" -j "$ncpu" --target kf_evid_accuracy kf_evid_stability kf_evid_energy kf_evid_table2 kf_evid_flip >&2
   date -u +"%Y-%m-%d %H:%M UTC" > "$res/started"
   printf '%s\n' "tools/evidence/run.sh $*" > "$res/command"
   t0=$SECONDS
   step "accuracy sweeps";  "$build/kf_evid_accuracy"  --out "$res" $quick 2> "$res/accuracy.log"
   step "stability";        "$build/kf_evid_stability" --out "$res" $quick 2> "$res/stability.log"
   step "energy (Fig. 17)"; "$build/kf_evid_energy"    --out "$res" $quick 2> "$res/energy.log"
+  step "flip transfer";    "$build/kf_evid_flip"    --out "$res" $quick 2> "$res/flip.log"
   step "Table 2";          OMP_NUM_THREADS=2 "$build/kf_evid_table2" --out "$res" $quick 2> "$res/table2.log"
   echo "$((SECONDS - t0))" > "$res/elapsed"
   cut -d' ' -f1-3 /proc/loadavg > "$res/loadavg"
@@ -60,6 +61,7 @@ if [ "$report_only" = 0 ]; then
        --quiet 2>/dev/null || echo ' with uncommitted changes in the tree')" > "$res/source"
 fi
 step "plots";            gnuplot -e "dir='$res'" "$ev/plots.gp"
+[ -f "$res/flip_wp_bar.dat" ] && gnuplot -e "dir='$res'" "$ev/flip.gp"
 started=$(cat "$res/started"); elapsed=$(cat "$res/elapsed")
 
 # the report: generated tables between hand-written conclusions
