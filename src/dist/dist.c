@@ -210,22 +210,36 @@ int kf_dist_gather(const kf_state *s, kf_state *whole) {
     MPI_Datatype rec;
     MPI_Type_contiguous((int)rb, MPI_BYTE, &rec);
     MPI_Type_commit(&rec);
-    int n = (int)s->p.n, *cnt = d->counts, *displ = d->counts + d->size;
+    int n = (int)s->p.n, *cnt = d->counts;
     MPI_Gather(&n, 1, MPI_INT, cnt, 1, MPI_INT, 0, d->comm);
-    size_t total = 0;
-    if (d->rank == 0)
-        for (int r = 0; r < d->size; r++) displ[r] = (int)total, total += (size_t)cnt[r];
-    int ok = kf_dist_reserve((void **)&d->pbuf[0], &d->pbuf_cap[0], (size_t)n * rb + 1) == 0 &&
-             (d->rank != 0 || kf_dist_reserve((void **)&d->pbuf[1], &d->pbuf_cap[1], total * rb + 1) == 0);
-    if (!ok) MPI_Abort(d->comm, 1);
+    if (kf_dist_reserve((void **)&d->pbuf[0], &d->pbuf_cap[0], (size_t)n * rb + 1)) MPI_Abort(d->comm, 1);
     for (size_t i = 0; i < (size_t)n; i++) kf_dist_pack(&s->p, i, d->pbuf[0] + i * rb);
-    MPI_Gatherv(d->pbuf[0], n, rec, d->pbuf[1], cnt, displ, rec, 0, d->comm);
-    MPI_Type_free(&rec);
     int rc = 0;
-    if (d->rank == 0) {
+    size_t total = 0, most = 0;
+    if (d->rank != 0) MPI_Send(d->pbuf[0], n, rec, 0, 1, d->comm);
+    else {
+        for (int r = 0; r < d->size; r++) {
+            total += (size_t)cnt[r];
+            if ((size_t)cnt[r] > most) most = (size_t)cnt[r];
+        }
+        if (kf_dist_reserve((void **)&d->pbuf[1], &d->pbuf_cap[1], most * rb + 1)) MPI_Abort(d->comm, 1);
         if (kf_particles_reserve(&whole->p, total + 1)) rc = -1;
-        else {
-            for (size_t i = 0; i < total; i++) kf_dist_unpack(&whole->p, i, d->pbuf[1] + i * rb);
+        /* each rank's part in turn, in rank order (the one-rank order): rank 0
+         * holds one part's records at a time besides the whole state */
+        size_t at = 0;
+        for (int r = 0; r < d->size; r++) {
+            const char *src = d->pbuf[0];
+            if (r > 0) {
+                MPI_Recv(d->pbuf[1], cnt[r], rec, r, 1, d->comm, MPI_STATUS_IGNORE);
+                src = d->pbuf[1];
+            }
+            for (size_t i = 0; rc == 0 && i < (size_t)cnt[r]; i++) kf_dist_unpack(&whole->p, at + i, src + i * rb);
+            at += (size_t)cnt[r];
+        }
+    }
+    MPI_Type_free(&rec);
+    if (d->rank == 0) {
+        if (rc == 0) {
             whole->p.n = total;
             whole->time = s->time;
             whole->substep = s->substep;
