@@ -118,6 +118,7 @@ int kf_dist_migrate(const kf_model *m, kf_state *s) {
     d->stats.comm_ms += kf_dist_clock() - t0;
     MPI_Type_free(&rec);
 
+    if (nsend == 0 && nrecv == 0) return free(stay), free(dest), 0; /* nothing changes here */
     /* the new array: ranks before this one, this rank's own, ranks after */
     size_t keep = n - nsend, total = keep + nrecv, j = 0;
     kf_particles *t = &d->tmp;
@@ -136,7 +137,6 @@ int kf_dist_migrate(const kf_model *m, kf_state *s) {
             kf_dist_unpack(t, j, d->pbuf[1] + ((size_t)rdispl[r] + (size_t)q) * rb);
     }
     t->n = total;
-    if (nsend == 0 && nrecv == 0) return free(stay), free(dest), 0; /* nothing changed here */
     kf_particles swap = *p;
     *p = *t;
     *t = swap;
