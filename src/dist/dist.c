@@ -101,6 +101,25 @@ static void cut(struct kf_dist *d, const uint64_t *key, const int64_t *count, si
     for (; r < d->size; r++) d->split[r] = UINT64_MAX;
 }
 
+/* This rank's part's arrays cut to its size: the pages of the whole scene
+ * it was built from go back (a large block shrinks in place). A shrink
+ * that fails leaves that array larger, which is harmless. */
+static void *cut_to(void *a, size_t bytes) {
+    void *q = realloc(a, bytes);
+    return q ? q : a;
+}
+
+static void shrink(kf_particles *p) {
+    size_t c = p->n ? p->n : 1;
+    if (c >= p->cap) return;
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) p->plane[k] = cut_to(p->plane[k], c * sizeof(kf_real));
+    p->mat = cut_to(p->mat, c * sizeof *p->mat);
+    p->obj = cut_to(p->obj, c * sizeof *p->obj);
+    p->colour = cut_to(p->colour, c * sizeof *p->colour);
+    p->id = cut_to(p->id, c * sizeof *p->id);
+    p->cap = c;
+}
+
 int kf_dist_attach(const kf_model *m, kf_state *s) {
     struct kf_dist *d = calloc(1, sizeof *d);
     if (!d) return -1;
@@ -141,6 +160,7 @@ int kf_dist_attach(const kf_model *m, kf_state *s) {
     memmove(p->colour, p->colour + lo, n * sizeof *p->colour);
     memmove(p->id, p->id + lo, n * sizeof *p->id);
     p->n = n;
+    shrink(p);
     g->valid = 0;
     s->dist = d;
     return 0;
