@@ -44,6 +44,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->seed_x);
     free(c->seed_bin);
     free(c->seed_order);
+    free(c->seed_boxes);
     free(c->bin_start);
     free(c->slot);
     free(c->imp);
@@ -52,7 +53,17 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->pd);
     free(c->pn);
     free(c->near);
-    for (int r = 0; r < KF_MAX_RIGIDS; r++) free(c->tri[r]), free(c->tri_stamp[r]);
+    for (int r = 0; r < KF_MAX_RIGIDS; r++) free(c->tri[r]), free(c->tri_stamp[r]), free(c->run_sphere[r]);
+    free(c->bmap);
+    free(c->st.coord);
+    free(c->st.d);
+    free(c->st.c);
+    free(c->st.stamp);
+    free(c->st.best_stamp);
+    free(c->st.mark);
+    free(c->st.best);
+    free(c->st.hkey);
+    free(c->st.hval);
     free(c);
 }
 
@@ -107,7 +118,8 @@ static int world_triangles_reserve(kf_cpic *c, const kf_rigid_body *b, int r) {
 /* body r's triangle k in world space, with what the projection needs:
  * made when a seed near material first asks for it in a substep (a long
  * blade mostly lies away from the material) */
-static const kf_cpic_tri *world_triangle(kf_cpic *c, const kf_rigid_body *b, const kf_rigid_state *st, int r, int k) {
+__attribute__((noinline)) static const kf_cpic_tri *world_triangle(kf_cpic *c, const kf_rigid_body *b,
+                                                                   const kf_rigid_state *st, int r, int k) {
     kf_cpic_tri *t = &c->tri[r][k];
     if (c->tri_stamp[r][k] == c->epoch) return t;
     c->tri_stamp[r][k] = c->epoch;
@@ -144,18 +156,30 @@ static const kf_cpic_tri *world_triangle(kf_cpic *c, const kf_rigid_body *b, con
     return t;
 }
 
+/* Where a splat writes: the grid's CDF (kf_cpic's arrays, blocks numbered
+ * as the grid's), or the static bodies' store (its own block numbers). */
+typedef struct cdf_layer {
+    float *d, *best;
+    uint32_t *c, *stamp, *best_stamp, *mark;
+    uint32_t epoch;
+} cdf_layer;
+
+static cdf_layer grid_layer(kf_cpic *c) {
+    return (cdf_layer){c->node_d, c->best, c->node_c, c->stamp, c->best_stamp, c->mark, c->epoch};
+}
+
 /* a block's CDF cleared, and its per-body best reset, on first touch */
-static inline void touch_block(kf_cpic *c, int32_t b, int r) {
-    if (c->stamp[b] != c->epoch) {
-        c->stamp[b] = c->epoch;
-        for (int k = 0; k < 64; k++) c->node_d[64 * (size_t)b + k] = FLT_MAX;
-        memset(&c->node_c[64 * (size_t)b], 0, 64 * sizeof(uint32_t));
-        memset(&c->mark[64 * (size_t)b], 0, 64 * sizeof(uint32_t));
+static inline void touch_block(const cdf_layer *L, int32_t b, int r) {
+    if (L->stamp[b] != L->epoch) {
+        L->stamp[b] = L->epoch;
+        for (int k = 0; k < 64; k++) L->d[64 * (size_t)b + k] = FLT_MAX;
+        memset(&L->c[64 * (size_t)b], 0, 64 * sizeof(uint32_t));
+        memset(&L->mark[64 * (size_t)b], 0, 64 * sizeof(uint32_t));
     }
-    uint32_t bs = c->epoch * 16u + (uint32_t)r;
-    if (c->best_stamp[b] != bs) {
-        c->best_stamp[b] = bs;
-        for (int k = 0; k < 64; k++) c->best[64 * (size_t)b + k] = FLT_MAX;
+    uint32_t bs = L->epoch * 16u + (uint32_t)r;
+    if (L->best_stamp[b] != bs) {
+        L->best_stamp[b] = bs;
+        for (int k = 0; k < 64; k++) L->best[64 * (size_t)b + k] = FLT_MAX;
     }
 }
 
@@ -166,8 +190,60 @@ typedef struct seed_box {
     int32_t blk[3][3][3]; /* -1: no such block */
 } seed_box;
 
+/* the grid's block at a block coordinate, or -1 */
+static inline int32_t find_block(const kf_cpic *c, const kf_grid *g, int bx, int by, int bz) {
+    if (!c->bmap_on) return kf_grid_find(g, bx, by, bz);
+    unsigned x = (unsigned)(bx - c->bmap_lo[0]), y = (unsigned)(by - c->bmap_lo[1]), z = (unsigned)(bz - c->bmap_lo[2]);
+    if (x >= (unsigned)c->bmap_dim[0] || y >= (unsigned)c->bmap_dim[1] || z >= (unsigned)c->bmap_dim[2]) return -1;
+    return c->bmap[((size_t)x * (size_t)c->bmap_dim[1] + y) * (size_t)c->bmap_dim[2] + z];
+}
+
+/* the dense map of this substep's blocks, where their box of blocks holds
+ * at most 64 entries per block (and a floor): else lookups hash */
+static int bmap_fill(kf_cpic *c, const kf_grid *g) {
+    c->bmap_on = 0;
+    if (!g->nblocks) return 0;
+    int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
+    for (size_t b = 0; b < g->nblocks; b++)
+        for (int a = 0; a < 3; a++) {
+            int32_t v = g->bcoord[3 * b + a];
+            lo[a] = v < lo[a] ? v : lo[a];
+            hi[a] = v > hi[a] ? v : hi[a];
+        }
+    size_t vol = 1;
+    for (int a = 0; a < 3; a++) vol *= (size_t)(hi[a] - lo[a] + 1);
+    if (vol > 64 * g->nblocks + 65536) return 0;
+    if (vol > c->cap_bmap) {
+        size_t cap = vol + vol / 2;
+        if (grow((void **)&c->bmap, sizeof(int32_t), cap)) return -1;
+        memset(c->bmap, 0xff, cap * sizeof(int32_t));
+        c->cap_bmap = cap;
+    }
+    for (int a = 0; a < 3; a++) c->bmap_lo[a] = lo[a], c->bmap_dim[a] = hi[a] - lo[a] + 1;
+    c->bmap_on = 1;
+    for (size_t b = 0; b < g->nblocks; b++) {
+        const int32_t *bc = &g->bcoord[3 * b];
+        c->bmap[((size_t)(bc[0] - lo[0]) * (size_t)c->bmap_dim[1] + (size_t)(bc[1] - lo[1])) * (size_t)c->bmap_dim[2] +
+                (size_t)(bc[2] - lo[2])] = (int32_t)b;
+    }
+    return 0;
+}
+
+/* the map back to all -1 (its entries are exactly the grid's blocks) */
+static void bmap_clear(kf_cpic *c, const kf_grid *g) {
+    if (!c->bmap_on) return;
+    for (size_t b = 0; b < g->nblocks; b++) {
+        const int32_t *bc = &g->bcoord[3 * b];
+        c->bmap[((size_t)(bc[0] - c->bmap_lo[0]) * (size_t)c->bmap_dim[1] + (size_t)(bc[1] - c->bmap_lo[1])) *
+                    (size_t)c->bmap_dim[2] +
+                (size_t)(bc[2] - c->bmap_lo[2])] = -1;
+    }
+    c->bmap_on = 0;
+}
+
 /* fills sb; returns whether any block exists there (else no material is near) */
-static int seed_box_of(const kf_grid *g, const double x[3], double inv_dx, double reach, seed_box *sb) {
+static int seed_box_of(const kf_cpic *c, const kf_grid *g, const double x[3], double inv_dx, double reach,
+                       seed_box *sb) {
     int nbk[3];
     for (int a = 0; a < 3; a++) {
         sb->lo[a] = (int)ceil(x[a] * inv_dx - reach);
@@ -181,29 +257,72 @@ static int seed_box_of(const kf_grid *g, const double x[3], double inv_dx, doubl
             for (int w = 0; w < 3; w++) {
                 int32_t bi = -1;
                 if (p < nbk[0] && q < nbk[1] && w < nbk[2])
-                    bi = kf_grid_find(g, sb->b0[0] + p, sb->b0[1] + q, sb->b0[2] + w);
+                    bi = find_block(c, g, sb->b0[0] + p, sb->b0[1] + q, sb->b0[2] + w);
                 sb->blk[p][q][w] = bi;
                 any |= bi >= 0;
             }
     return any;
 }
 
-/* the nodes of one seed's box, projected onto its triangle t of body r.
- * What a node gets from a triangle depends on the node and the triangle
- * only, not on the seed, and a second visit changes nothing (strict minima,
- * or-ed bits): a node whose last visitor was this very triangle (tid, from
- * 1, unique across bodies) is skipped, bit for bit. */
-static void splat_box(kf_cpic *c, const kf_cpic_tri *t, uint32_t tid, const seed_box *sb, int r, double inv_dx,
-                      double dx) {
-    if (t->g11 == 0 && t->g22 == 0) return;
-    const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
-    for (int i = sb->lo[0]; i <= sb->hi[0]; i++)
-        for (int j = sb->lo[1]; j <= sb->hi[1]; j++)
-            for (int k = sb->lo[2]; k <= sb->hi[2]; k++) {
-                int32_t blk =
-                    sb->blk[kf_block_of(i) - sb->b0[0]][kf_block_of(j) - sb->b0[1]][kf_block_of(k) - sb->b0[2]];
-                if (blk < 0) continue;
-                touch_block(c, blk, r);
+/* body r's runs of seeds and their bounding spheres, body frame (made once) */
+static int run_spheres(kf_cpic *c, const kf_rigid_body *b, int r) {
+    if (c->run_sphere[r] && c->run_seed[r] == b->seed && c->run_nseed[r] == b->nseed) return 0;
+    size_t nrun = (b->nseed + KF_CPIC_RUN - 1) / KF_CPIC_RUN;
+    if (grow((void **)&c->run_sphere[r], sizeof c->run_sphere[r][0], nrun)) return -1;
+    for (size_t k = 0; k < nrun; k++) {
+        size_t e0 = k * KF_CPIC_RUN, e1 = e0 + KF_CPIC_RUN < b->nseed ? e0 + KF_CPIC_RUN : b->nseed;
+        double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300}, mid[3], rad2 = 0;
+        for (size_t e = e0; e < e1; e++)
+            for (int a = 0; a < 3; a++) {
+                double v = b->seed[3 * e + a];
+                lo[a] = v < lo[a] ? v : lo[a];
+                hi[a] = v > hi[a] ? v : hi[a];
+            }
+        for (int a = 0; a < 3; a++) mid[a] = 0.5 * (lo[a] + hi[a]);
+        for (size_t e = e0; e < e1; e++) {
+            double d2 = 0;
+            for (int a = 0; a < 3; a++) d2 += (b->seed[3 * e + a] - mid[a]) * (b->seed[3 * e + a] - mid[a]);
+            rad2 = d2 > rad2 ? d2 : rad2;
+        }
+        for (int a = 0; a < 3; a++) c->run_sphere[r][k][a] = mid[a];
+        /* a little more: the seeds' world positions round differently */
+        c->run_sphere[r][k][3] = sqrt(rad2) * (1 + 1e-6) + 1e-9;
+    }
+    c->run_seed[r] = b->seed;
+    c->run_nseed[r] = b->nseed;
+    return 0;
+}
+
+/* Can no seed of this run (sphere centre xc, radius rad, world) have a
+ * block in its box? Outside the grid's box with a margin (slo, shi), or no
+ * block in the blocks its seeds' boxes can span. Conservative: a run it
+ * passes over would have had every seed drop out one by one. */
+static int run_far(const kf_cpic *c, const kf_grid *g, const double xc[3], double rad, const double slo[3],
+                   const double shi[3], double inv_dx, double reach) {
+    for (int a = 0; a < 3; a++)
+        if (xc[a] + rad < slo[a] || xc[a] - rad > shi[a]) return 1;
+    if (!c->bmap_on) return 0;
+    int b0[3], b1[3];
+    size_t n = 1;
+    for (int a = 0; a < 3; a++) {
+        b0[a] = kf_block_of((int)floor((xc[a] - rad) * inv_dx - reach) - 1);
+        b1[a] = kf_block_of((int)ceil((xc[a] + rad) * inv_dx + reach) + 1);
+        n *= (size_t)(b1[a] - b0[a] + 1);
+    }
+    if (n > 64) return 0;
+    for (int p = b0[0]; p <= b1[0]; p++)
+        for (int q = b0[1]; q <= b1[1]; q++)
+            for (int w = b0[2]; w <= b1[2]; w++)
+                if (find_block(c, g, p, q, w) >= 0) return 0;
+    return 1;
+}
+
+/* the nodes lo..hi of one block blk, projected onto triangle t (splat_box) */
+static inline void splat_nodes(const cdf_layer *c, const kf_cpic_tri *t, uint32_t tid, int32_t blk, const int lo[3],
+                               const int hi[3], uint32_t abit, uint32_t tbit, int r, double inv_dx, double dx) {
+    for (int i = lo[0]; i <= hi[0]; i++)
+        for (int j = lo[1]; j <= hi[1]; j++)
+            for (int k = lo[2]; k <= hi[2]; k++) {
                 size_t node = 64 * (size_t)blk + (size_t)((i & 3) << 4 | (j & 3) << 2 | (k & 3));
                 if (c->mark[node] == tid) continue;
                 c->mark[node] = tid;
@@ -216,18 +335,58 @@ static void splat_box(kf_cpic *c, const kf_cpic_tri *t, uint32_t tid, const seed
                 if (al < -eps || be < -eps || al + be > 1 + eps) continue;
                 double u = q[0] * t->n[0] + q[1] * t->n[1] + q[2] * t->n[2];
                 float au = (float)(fabs(u) * inv_dx);
-                uint32_t w = c->node_c[node] | abit;
+                uint32_t w = c->c[node] | abit;
                 if (au < c->best[node]) {
                     /* the body's closest primitive decides the side */
                     c->best[node] = au;
                     w = u < 0 ? (w | tbit) : (w & ~tbit);
                 }
-                if (au < c->node_d[node]) {
-                    c->node_d[node] = au;
+                /* the closest body, ties to the smaller index (as when the
+                 * bodies are splatted in index order with strict minima,
+                 * whatever order they come in) */
+                uint32_t rs = w >> KF_CPIC_RSTAR_SHIFT;
+                if (au < c->d[node] || (au == c->d[node] && rs > (uint32_t)(r + 1))) {
+                    c->d[node] = au;
                     w = (w & KF_CPIC_BITS_MASK) | (uint32_t)(r + 1) << KF_CPIC_RSTAR_SHIFT;
                 }
-                c->node_c[node] = w;
+                c->c[node] = w;
             }
+}
+
+/* the nodes of one seed's box, projected onto its triangle t of body r.
+ * What a node gets from a triangle depends on the node and the triangle
+ * only, not on the seed, and a second visit changes nothing (strict minima,
+ * or-ed bits): a node whose last visitor was this very triangle (tid, from
+ * 1, unique across bodies) is skipped, bit for bit. */
+__attribute__((noinline)) static void splat_box(const cdf_layer *c, const kf_cpic_tri *t, uint32_t tid,
+                                                const seed_box *sb, int r, double inv_dx, double dx) {
+    if (t->g11 == 0 && t->g22 == 0) return;
+    const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
+    /* block by block: each block of the box once, then its part of the box */
+    int nbk[3];
+    for (int a = 0; a < 3; a++) nbk[a] = kf_block_of(sb->hi[a]) - sb->b0[a] + 1;
+    for (int bp = 0; bp < nbk[0]; bp++)
+        for (int bq = 0; bq < nbk[1]; bq++)
+            for (int bw = 0; bw < nbk[2]; bw++) {
+                int32_t blk = sb->blk[bp][bq][bw];
+                if (blk < 0) continue;
+                touch_block(c, blk, r);
+                const int b3[3] = {bp, bq, bw};
+                int lo[3], hi[3];
+                for (int a = 0; a < 3; a++) {
+                    int first = KF_BLOCK * (sb->b0[a] + b3[a]);
+                    lo[a] = sb->lo[a] > first ? sb->lo[a] : first;
+                    hi[a] = sb->hi[a] < first + KF_BLOCK - 1 ? sb->hi[a] : first + KF_BLOCK - 1;
+                }
+                splat_nodes(c, t, tid, blk, lo, hi, abit, tbit, r, inv_dx, dx);
+            }
+}
+
+/* a seed's world position: one function for the grid's splat and the
+ * static store, so both round alike */
+__attribute__((noinline)) static void seed_world(const kf_rigid_state *st, const float *o, double x[3]) {
+    for (int a = 0; a < 3; a++)
+        x[a] = st->R[3 * a] * o[0] + st->R[3 * a + 1] * o[1] + st->R[3 * a + 2] * o[2] + st->t[a];
 }
 
 /* Body r's seeds, in parallel without races and for any thread count alike:
@@ -250,7 +409,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
     if (ns > c->cap_seed) {
         size_t cap = ns + ns / 4 + 64;
         if (grow((void **)&c->seed_x, 3 * sizeof(double), cap) || grow((void **)&c->seed_bin, sizeof(int32_t), cap) ||
-            grow((void **)&c->seed_order, sizeof(int32_t), cap))
+            grow((void **)&c->seed_order, sizeof(int32_t), cap) || grow(&c->seed_boxes, sizeof(seed_box), cap))
             return -1;
         c->cap_seed = cap;
     }
@@ -269,21 +428,33 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
     int32_t *sbin = c->seed_bin;
     /* small bodies stay on one thread: waking a sleeping team costs more
      * than their seeds (the bins' order, hence the result, is the same) */
+    if (run_spheres(c, b, r)) return -1;
+    const size_t nrun = (ns + KF_CPIC_RUN - 1) / KF_CPIC_RUN;
 #pragma omp parallel for schedule(static) num_threads(m->nthreads) if (ns >= 8192)
-    for (size_t e = 0; e < ns; e++) {
-        sbin[e] = -1;
-        if (b->tri_edge && b->tri_edge[b->seed_tri[e]]) continue; /* a blade's narrow side: its sheet's edge */
-        const float *o = &b->seed[3 * e];
-        double *x = &sx[3 * e];
-        int out = 0;
-        for (int a = 0; a < 3; a++) {
-            x[a] = st->R[3 * a] * o[0] + st->R[3 * a + 1] * o[1] + st->R[3 * a + 2] * o[2] + st->t[a];
-            out |= x[a] < slo[a] || x[a] > shi[a];
+    for (size_t k = 0; k < nrun; k++) {
+        const size_t e0 = k * KF_CPIC_RUN, e1 = e0 + KF_CPIC_RUN < ns ? e0 + KF_CPIC_RUN : ns;
+        /* a run far from every block: its seeds all drop out */
+        const double *sp = c->run_sphere[r][k];
+        double xc[3];
+        for (int a = 0; a < 3; a++)
+            xc[a] = st->R[3 * a] * sp[0] + st->R[3 * a + 1] * sp[1] + st->R[3 * a + 2] * sp[2] + st->t[a];
+        if (run_far(c, g, xc, sp[3], slo, shi, inv_dx, reach)) {
+            for (size_t e = e0; e < e1; e++) sbin[e] = -1;
+            continue;
         }
-        seed_box sb;
-        if (out || !seed_box_of(g, x, inv_dx, reach, &sb)) continue;
-        int bin = sb.b0[0] - bin0;
-        sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1; /* outside: no block there either */
+        for (size_t e = e0; e < e1; e++) {
+            sbin[e] = -1;
+            if (b->tri_edge && b->tri_edge[b->seed_tri[e]]) continue; /* a blade's narrow side: its sheet's edge */
+            const float *o = &b->seed[3 * e];
+            double *x = &sx[3 * e];
+            int out = 0;
+            seed_world(st, o, x);
+            for (int a = 0; a < 3; a++) out |= x[a] < slo[a] || x[a] > shi[a];
+            seed_box *sbp = &((seed_box *)c->seed_boxes)[e];
+            if (out || !seed_box_of(c, g, x, inv_dx, reach, sbp)) continue;
+            int bin = sbp->b0[0] - bin0;
+            sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1; /* outside: no block there either */
+        }
     }
     /* 2. the triangles the remaining seeds lie on, in world space; the
      * seeds grouped by bin (a stable counting sort) */
@@ -292,7 +463,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
     for (size_t e = 0; e < ns; e++)
         if (sbin[e] >= 0) {
             bs[sbin[e] + 1]++;
-            world_triangle(c, b, st, r, b->seed_tri[e]);
+            if (c->tri_stamp[r][b->seed_tri[e]] != c->epoch) world_triangle(c, b, st, r, b->seed_tri[e]);
         }
     for (size_t k = 0; k < nbins; k++) bs[k + 1] += bs[k];
     {
@@ -302,21 +473,252 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
         for (size_t k = nbins; k > 0; k--) bs[k] = bs[k - 1];
         bs[0] = 0;
     }
-    /* 3. three rounds of bins, in one team */
+    /* 3. three rounds of bins, in one team; a round is the bins whose
+     * x-block is the same mod 3 (counted from x-block 0, not from the grid's
+     * edge: so a node sees its seeds in an order fixed by where it is, the
+     * order the static bodies' store is made in) */
     const int32_t *order = c->seed_order;
+    const cdf_layer L = grid_layer(c);
 #pragma omp parallel num_threads(m->nthreads) if (bs[nbins] >= 1024)
     for (int round = 0; round < 3; round++) {
+        const int first = ((round - bin0) % 3 + 3) % 3;
 #pragma omp for schedule(dynamic, 1)
-        for (size_t k = (size_t)round; k < nbins; k += 3)
+        for (size_t k = (size_t)first; k < nbins; k += 3)
             for (int32_t q = bs[k]; q < bs[k + 1]; q++) {
                 size_t e = (size_t)order[q];
-                seed_box sb;
-                seed_box_of(g, &sx[3 * e], inv_dx, reach, &sb);
                 int tri = b->seed_tri[e];
-                splat_box(c, &c->tri[r][tri], tid0 + (uint32_t)tri, &sb, r, inv_dx, dx);
+                splat_box(&L, &c->tri[r][tri], tid0 + (uint32_t)tri, &((const seed_box *)c->seed_boxes)[e], r, inv_dx,
+                          dx);
             }
     }
     return 0;
+}
+
+/* ---- the static bodies' store --------------------------------------------
+ * A static body's CDF at a node depends on the node and the body alone: it
+ * is the same every substep. So it is splatted once, for every block within
+ * reach of its seeds in the domain (and three blocks around it), into a
+ * store of its own, and each substep only copies the blocks the grid has.
+ * What a substep with moving bodies adds on top (their own bits, and the
+ * closest body by distance, ties to the smaller index) does not depend on
+ * the order the bodies come in, and each body's seeds reach a node in the
+ * same order either way (rounds by x-block mod 3, then x-block, then seed),
+ * so the copy gives the grid bit for bit what splatting it would. */
+
+typedef struct kf_cpic_static cstatic;
+
+static int is_static(const kf_model *m, int r) {
+    return m->rigid[r].def.motion == KF_RIGID_STATIC && m->rigid[r].nseed > 0;
+}
+
+static int32_t st_find(const cstatic *S, int bx, int by, int bz) {
+    if (!S->hcap) return -1;
+    uint64_t key = kf_block_key(bx, by, bz), h = key;
+    h ^= h >> 33;
+    h *= 0xff51afd7ed558ccdULL;
+    h ^= h >> 33;
+    for (size_t q = (size_t)h & (S->hcap - 1);; q = (q + 1) & (S->hcap - 1)) {
+        if (S->hkey[q] == UINT64_MAX) return -1;
+        if (S->hkey[q] == key) return S->hval[q];
+    }
+}
+
+static int st_insert_key(cstatic *S, uint64_t key, int32_t v) {
+    uint64_t h = key;
+    h ^= h >> 33;
+    h *= 0xff51afd7ed558ccdULL;
+    h ^= h >> 33;
+    size_t q = (size_t)h & (S->hcap - 1);
+    while (S->hkey[q] != UINT64_MAX) q = (q + 1) & (S->hcap - 1);
+    S->hkey[q] = key;
+    S->hval[q] = v;
+    return 0;
+}
+
+/* the store's block at (bx, by, bz), made if missing; -1: out of memory */
+static int32_t st_ensure(cstatic *S, int bx, int by, int bz) {
+    int32_t f = st_find(S, bx, by, bz);
+    if (f >= 0) return f;
+    if (2 * (S->n + 1) > S->hcap) {
+        size_t cap = S->hcap ? 2 * S->hcap : 1024;
+        uint64_t *ok = S->hkey;
+        int32_t *ov = S->hval;
+        size_t ocap = S->hcap;
+        S->hkey = malloc(cap * sizeof *S->hkey);
+        S->hval = malloc(cap * sizeof *S->hval);
+        if (!S->hkey || !S->hval) {
+            free(ok), free(ov);
+            return -1;
+        }
+        memset(S->hkey, 0xff, cap * sizeof *S->hkey);
+        S->hcap = cap;
+        for (size_t q = 0; q < ocap; q++)
+            if (ok[q] != UINT64_MAX) st_insert_key(S, ok[q], ov[q]);
+        free(ok), free(ov);
+    }
+    if (S->n + 1 > S->cap) {
+        size_t cap = S->cap ? 2 * S->cap : 256;
+        if (grow((void **)&S->coord, 3 * sizeof(int32_t), cap) || grow((void **)&S->d, 64 * sizeof(float), cap) ||
+            grow((void **)&S->best, 64 * sizeof(float), cap) || grow((void **)&S->c, 64 * sizeof(uint32_t), cap) ||
+            grow((void **)&S->mark, 64 * sizeof(uint32_t), cap) || grow((void **)&S->stamp, sizeof(uint32_t), cap) ||
+            grow((void **)&S->best_stamp, sizeof(uint32_t), cap))
+            return -1;
+        S->cap = cap;
+    }
+    int32_t b = (int32_t)S->n++;
+    S->coord[3 * b] = bx, S->coord[3 * b + 1] = by, S->coord[3 * b + 2] = bz;
+    S->stamp[b] = S->best_stamp[b] = 0;
+    st_insert_key(S, kf_block_key(bx, by, bz), b);
+    return b;
+}
+
+/* does the store hold what the static bodies look like now? */
+static int st_current(const kf_model *m, const kf_state *s) {
+    const cstatic *S = &s->cpic->st;
+    if (!S->built) return 0;
+    for (int r = 0; r < m->nrigid; r++) {
+        if (!is_static(m, r)) {
+            if (S->sig_seed[r]) return 0;
+            continue;
+        }
+        const kf_rigid_state *st = &s->rigid[r];
+        if (S->sig_seed[r] != m->rigid[r].seed || S->sig[r][12] != m->sim.dx) return 0;
+        for (int k = 0; k < 9; k++)
+            if (S->sig[r][k] != st->R[k]) return 0;
+        for (int k = 0; k < 3; k++)
+            if (S->sig[r][9 + k] != st->t[k]) return 0;
+    }
+    for (int r = m->nrigid; r < KF_MAX_RIGIDS; r++)
+        if (S->sig_seed[r]) return 0;
+    return 1;
+}
+
+typedef struct st_seed {
+    int32_t round, bx, e;
+} st_seed;
+
+static int st_seed_cmp(const void *a, const void *b) {
+    const st_seed *p = a, *q = b;
+    if (p->round != q->round) return p->round < q->round ? -1 : 1;
+    if (p->bx != q->bx) return p->bx < q->bx ? -1 : 1;
+    return (p->e > q->e) - (p->e < q->e);
+}
+
+/* splat every static body into the store (see above); 0 or -1 */
+static int st_build(const kf_model *m, kf_state *s) {
+    kf_cpic *c = s->cpic;
+    cstatic *S = &c->st;
+    const double dx = m->sim.dx, inv_dx = 1 / dx;
+    S->built = S->used = 0;
+    S->n = 0;
+    if (S->hcap) memset(S->hkey, 0xff, S->hcap * sizeof *S->hkey);
+    for (int a = 0; a < 3; a++) {
+        S->lo[a] = kf_block_of((int)floor(m->sim.domain_min[a] * inv_dx)) - 3;
+        S->hi[a] = kf_block_of((int)ceil(m->sim.domain_max[a] * inv_dx)) + 3;
+    }
+    memset(S->sig_seed, 0, sizeof S->sig_seed);
+    uint32_t tri_base = 1;
+    for (int r = 0; r < m->nrigid; tri_base += (uint32_t)m->rigid[r].ntri, r++) {
+        if (!is_static(m, r)) continue;
+        const kf_rigid_body *b = &m->rigid[r];
+        const kf_rigid_state *st = &s->rigid[r];
+        const double reach = b->def.thin ? 1.5 : 2.5;
+        if (world_triangles_reserve(c, b, r)) return -1;
+        st_seed *ord = malloc(sizeof *ord * (b->nseed ? b->nseed : 1));
+        double *sx = malloc(3 * sizeof(double) * (b->nseed ? b->nseed : 1));
+        if (!ord || !sx) {
+            free(ord), free(sx);
+            return -1;
+        }
+        /* the seeds whose box meets the region, in the grid splat's order,
+         * their blocks made */
+        size_t n = 0;
+        for (size_t e = 0; e < b->nseed; e++) {
+            if (b->tri_edge && b->tri_edge[b->seed_tri[e]]) continue;
+            const float *o = &b->seed[3 * e];
+            double *x = &sx[3 * e];
+            int lo[3], hi[3], in = 1;
+            seed_world(st, o, x);
+            for (int a = 0; a < 3; a++) {
+                lo[a] = kf_block_of((int)ceil(x[a] * inv_dx - reach));
+                hi[a] = kf_block_of((int)floor(x[a] * inv_dx + reach));
+                if (lo[a] < S->lo[a]) lo[a] = S->lo[a];
+                if (hi[a] > S->hi[a]) hi[a] = S->hi[a];
+                in &= lo[a] <= hi[a];
+            }
+            if (!in) continue;
+            for (int p = lo[0]; p <= hi[0]; p++)
+                for (int q = lo[1]; q <= hi[1]; q++)
+                    for (int w = lo[2]; w <= hi[2]; w++)
+                        if (st_ensure(S, p, q, w) < 0) {
+                            free(ord), free(sx);
+                            return -1;
+                        }
+            int bx = kf_block_of((int)ceil(x[0] * inv_dx - reach));
+            ord[n++] = (st_seed){((bx % 3) + 3) % 3, bx, (int32_t)e};
+            world_triangle(c, b, st, r, b->seed_tri[e]);
+        }
+        qsort(ord, n, sizeof *ord, st_seed_cmp);
+        const cdf_layer L = {S->d, S->best, S->c, S->stamp, S->best_stamp, S->mark, 1};
+        for (size_t k = 0; k < n; k++) {
+            const double *x = &sx[3 * (size_t)ord[k].e];
+            seed_box sb;
+            for (int a = 0; a < 3; a++) {
+                sb.lo[a] = (int)ceil(x[a] * inv_dx - reach);
+                sb.hi[a] = (int)floor(x[a] * inv_dx + reach);
+                sb.b0[a] = kf_block_of(sb.lo[a]);
+            }
+            int nbk[3];
+            for (int a = 0; a < 3; a++) nbk[a] = kf_block_of(sb.hi[a]) - sb.b0[a] + 1;
+            for (int p = 0; p < 3; p++)
+                for (int q = 0; q < 3; q++)
+                    for (int w = 0; w < 3; w++)
+                        sb.blk[p][q][w] = p < nbk[0] && q < nbk[1] && w < nbk[2]
+                                              ? st_find(S, sb.b0[0] + p, sb.b0[1] + q, sb.b0[2] + w)
+                                              : -1;
+            int tri = b->seed_tri[ord[k].e];
+            splat_box(&L, &c->tri[r][tri], tri_base + (uint32_t)tri, &sb, r, inv_dx, dx);
+        }
+        free(ord), free(sx);
+        for (int k = 0; k < 9; k++) S->sig[r][k] = st->R[k];
+        for (int k = 0; k < 3; k++) S->sig[r][9 + k] = st->t[k];
+        S->sig[r][12] = dx;
+        S->sig_seed[r] = b->seed;
+    }
+    S->built = 1;
+    S->used = S->n > 0;
+    return 0;
+}
+
+/* The static bodies' CDF of every grid block the store holds, into the
+ * grid's CDF (this substep's epoch). Returns 1 if done, 0 if the static
+ * bodies must be splatted as the others (a block outside the store's
+ * region), -1 out of memory. */
+static int st_apply(const kf_model *m, kf_state *s) {
+    int any = 0;
+    for (int r = 0; r < m->nrigid; r++) any |= is_static(m, r);
+    if (!any) return 0;
+    kf_cpic *c = s->cpic;
+    if (!st_current(m, s) && st_build(m, s)) return -1;
+    const cstatic *S = &c->st;
+    const kf_grid *g = &s->g;
+    for (size_t b = 0; b < g->nblocks; b++)
+        for (int a = 0; a < 3; a++)
+            if (g->bcoord[3 * b + a] < S->lo[a] || g->bcoord[3 * b + a] > S->hi[a]) return 0;
+    if (!S->used) return 1;
+    const uint32_t epoch = c->epoch;
+    const size_t nb = g->nblocks;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) if (nb >= 4096)
+    for (size_t b = 0; b < nb; b++) {
+        const int32_t *bc = &g->bcoord[3 * b];
+        int32_t k = st_find(S, bc[0], bc[1], bc[2]);
+        if (k < 0) continue;
+        c->stamp[b] = epoch;
+        memcpy(&c->node_d[64 * b], &S->d[64 * (size_t)k], 64 * sizeof(float));
+        memcpy(&c->node_c[64 * b], &S->c[64 * (size_t)k], 64 * sizeof(uint32_t));
+        memset(&c->mark[64 * b], 0, 64 * sizeof(uint32_t));
+    }
+    return 1;
 }
 
 int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
@@ -337,13 +739,22 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
             if (x0 < glo[a]) glo[a] = x0;
             if (x0 + KF_BLOCK * dx > ghi[a]) ghi[a] = x0 + KF_BLOCK * dx;
         }
-    /* across ranks: the one-rank grid's extent, so seeds fall in the same bins */
+    /* across ranks: the one-rank grid's extent (each rank colours its own
+     * blocks' nodes as one rank does either way: a seed's order at a node
+     * is fixed by where the node is) */
     if (s->dist) kf_dist_extent(s, glo, ghi);
+    /* the static bodies from their store, then every other body */
+    int from_store = st_apply(m, s);
+    if (from_store < 0 || bmap_fill(c, g)) return -1;
     uint32_t tri_base = 1; /* triangle ids for the splat's visit marks, unique across bodies */
     for (int r = 0; r < m->nrigid; r++) {
-        if (splat_body(m, s, r, tri_base, glo, ghi)) return -1;
+        if (!(from_store && is_static(m, r)) && splat_body(m, s, r, tri_base, glo, ghi)) {
+            bmap_clear(c, g);
+            return -1;
+        }
         tri_base += (uint32_t)m->rigid[r].ntri;
     }
+    bmap_clear(c, g);
     /* the narrow band: owners whose 2x2x2 neighbourhood holds a coloured block */
     c->nslot = 0;
     c->band_particles = 0;

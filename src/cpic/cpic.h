@@ -42,6 +42,7 @@
 #define KF_CPIC_RSTAR_SHIFT 28
 #define KF_CPIC_BITS_MASK ((1u << KF_CPIC_RSTAR_SHIFT) - 1)
 #define KF_CPIC_AFFINITY 0xAAAAAAAu /* the A bits of the 14 bodies */
+#define KF_CPIC_RUN 64              /* seeds per bounding sphere (cdf.c) */
 
 /* A body's primitives in world space for this substep (plane data per triangle). */
 typedef struct kf_cpic_tri {
@@ -68,7 +69,21 @@ typedef struct kf_cpic {
     double *seed_x;      /* (3 x seeds) world position */
     int32_t *seed_bin;   /* x-block bin of its node box, -1: touches no block */
     int32_t *seed_order; /* seeds grouped by bin, in seed order within one */
+    void *seed_boxes;    /* per seed near material: its node box and blocks (cdf.c) */
     int32_t *bin_start;  /* (bins + 1) */
+    /* this substep's blocks by coordinate, dense over the grid's box of
+     * blocks (-1: none; all -1 between splats), where that box is small
+     * enough: the splat's block lookups without hashing */
+    int32_t *bmap;
+    size_t cap_bmap;
+    int bmap_on;
+    int32_t bmap_lo[3], bmap_dim[3];
+    /* per body, its seeds in runs of KF_CPIC_RUN with a bounding sphere in
+     * the body's frame (x, y, z, radius): a run far from every block is
+     * passed over without placing its seeds */
+    double (*run_sphere[KF_MAX_RIGIDS])[4];
+    const float *run_seed[KF_MAX_RIGIDS]; /* the seeds they were made for */
+    size_t run_nseed[KF_MAX_RIGIDS];
     /* owner blocks in the narrow band and their impulse accumulators */
     size_t cap_owner;
     int32_t *slot; /* per owner: index into imp, or -1 outside the band */
@@ -91,6 +106,25 @@ typedef struct kf_cpic {
     double impulse_total[KF_MAX_RIGIDS][6];
     /* the substep's pinned constants */
     double dt, gdt[3];
+    /* The static bodies' CDF (cdf.c), splatted once for every block within
+     * reach of their seeds inside the domain (with a margin): per block
+     * coordinate (a small open-addressed hash), 64 distances and colours.
+     * Valid while every static body's pose, seeds and the grid spacing are
+     * those it was made with (sig). */
+    struct kf_cpic_static {
+        int built, used;               /* built: valid for sig; used: holds at least one block */
+        double sig[KF_MAX_RIGIDS][13]; /* per static body: R, t, dx */
+        const float *sig_seed[KF_MAX_RIGIDS];
+        int32_t lo[3], hi[3]; /* the block region it covers */
+        size_t n, cap;        /* blocks */
+        int32_t *coord;       /* (n x 3) */
+        float *d;
+        uint32_t *c, *stamp, *best_stamp, *mark;
+        float *best;
+        uint64_t *hkey; /* block key, UINT64_MAX: empty */
+        int32_t *hval;
+        size_t hcap;
+    } st;
     /* the crossing guard (guard.c): every body's pose at the substep's end,
      * and per owner slot the crossings caught and the deepest (m) */
     kf_rigid_state end[KF_MAX_RIGIDS];

@@ -26,6 +26,9 @@ void kf_contact_free(kf_contact *c) {
     free(c->pc_nrep);
     free(c->pc_keep);
     free(c->pc_used);
+    free(c->pc_cls);
+    free(c->pc_rep);
+    free(c->pc_cnt);
     free(c);
 }
 

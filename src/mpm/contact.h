@@ -75,8 +75,8 @@ typedef struct kf_contact {
     /* the last substep, for the frame log and tests */
     long owners, two_field_nodes, touching_nodes;
     /* pieces (contact_pieces.c): scratch, and how many substeps split a field */
-    uint32_t *pc_node, *pc_parent, *pc_list, *pc_start, *pc_nrep, *pc_keep, *pc_used;
-    size_t pc_node_cap, pc_parent_cap, pc_list_cap, pc_start_cap, pc_nrep_cap;
+    uint32_t *pc_node, *pc_parent, *pc_list, *pc_start, *pc_nrep, *pc_keep, *pc_used, *pc_cls, *pc_rep, *pc_cnt;
+    size_t pc_node_cap, pc_parent_cap, pc_list_cap, pc_start_cap, pc_nrep_cap, pc_cls_cap, pc_rep_cap, pc_cnt_cap;
     long pieces_made;
 } kf_contact;
 

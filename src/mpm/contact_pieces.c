@@ -42,14 +42,6 @@ static uint32_t find(uint32_t *parent, uint32_t i) {
     return i;
 }
 
-/* the smaller index becomes the root: the same forest for any order of links */
-static void unite(uint32_t *parent, uint32_t a, uint32_t b) {
-    a = find(parent, a), b = find(parent, b);
-    if (a == b) return;
-    if (a < b) parent[b] = a;
-    else parent[a] = b;
-}
-
 static int reserve(void **p, size_t *cap, size_t n, size_t size) {
     if (n <= *cap) return 0;
     size_t c = n + n / 4 + 64;
@@ -69,15 +61,20 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
     if (reserve((void **)&c->pc_node, &c->pc_node_cap, n, sizeof(uint32_t)) ||
         reserve((void **)&c->pc_parent, &c->pc_parent_cap, n, sizeof(uint32_t)) ||
         reserve((void **)&c->pc_list, &c->pc_list_cap, n, sizeof(uint32_t)) ||
+        reserve((void **)&c->pc_cls, &c->pc_cls_cap, n, sizeof(uint32_t)) ||
+        reserve((void **)&c->pc_rep, &c->pc_rep_cap, n, sizeof(uint32_t)) ||
+        reserve((void **)&c->pc_cnt, &c->pc_cnt_cap, n, sizeof(uint32_t)) ||
         reserve((void **)&c->pc_start, &c->pc_start_cap, nodes + 1, sizeof(uint32_t)) ||
         reserve((void **)&c->pc_nrep, &c->pc_nrep_cap, nodes, sizeof(uint32_t)))
         return -1;
     uint32_t *node_of = c->pc_node, *parent = c->pc_parent, *list = c->pc_list, *start = c->pc_start;
+    uint32_t *cls = c->pc_cls, *rep = c->pc_rep, *cnt = c->pc_cnt;
     const kf_real inv_dx = kf_model_inv_dx(m);
 
     /* each particle's nearest node, inside its owner's neighbourhood */
-    memset(start, 0, sizeof(uint32_t) * (nodes + 1));
-    for (size_t k = 0; k < g->nowner; k++) {
+    const size_t nowner = g->nowner;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) if (n >= 65536)
+    for (size_t k = 0; k < nowner; k++) {
         const int32_t *bc = &g->bcoord[3 * k]; /* an owner is the block of the same index */
         for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
             int l[3];
@@ -86,22 +83,23 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
                 l[a] = l[a] < 0 ? 0 : l[a] > 7 ? 7 : l[a];
             }
             int blk = g->nb[k][(l[0] >> 2) << 2 | (l[1] >> 2) << 1 | (l[2] >> 2)];
-            uint32_t q = (uint32_t)blk * KF_BLOCK_NODES + (uint32_t)((l[0] & 3) << 4 | (l[1] & 3) << 2 | (l[2] & 3));
-            node_of[i] = q;
-            start[q + 1]++;
+            node_of[i] = (uint32_t)blk * KF_BLOCK_NODES + (uint32_t)((l[0] & 3) << 4 | (l[1] & 3) << 2 | (l[2] & 3));
         }
     }
+    memset(start, 0, sizeof(uint32_t) * (nodes + 1));
+    for (size_t i = 0; i < n; i++) start[node_of[i] + 1]++;
     for (size_t q = 0; q < nodes; q++) start[q + 1] += start[q];
     for (size_t i = 0; i < n; i++) list[start[node_of[i]]++] = (uint32_t)i;
     for (size_t q = nodes; q > 0; q--) start[q] = start[q - 1];
     start[0] = 0;
-    for (size_t i = 0; i < n; i++) parent[i] = (uint32_t)i;
 
-    /* at each node, particles of one field and one CPIC colour are one class
-     * (compatible with each other): linked at once, and only the first of
-     * each class, moved to the front of the node's list, is compared below */
+    /* At each node, particles of one field and one CPIC colour are one
+     * class (compatible with each other, so connected at once). The rest
+     * works on classes, not particles: a class's first particle (its
+     * smallest index: the node's list is in index order) is its
+     * representative, moved to the front of the node's list. */
     const uint32_t cmask = KF_CPIC_BITS_MASK;
-    uint32_t *nrep = c->pc_nrep;
+    uint32_t *nrep = c->pc_nrep, ncls = 0;
     for (size_t q = 0; q < nodes; q++) {
         uint32_t s0 = start[q], k = s0;
         for (uint32_t u = s0; u < start[q + 1]; u++) {
@@ -112,20 +110,27 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
                 if (kf_contact_field(p, j) == fi && (p->colour[j] & cmask) == ci) break;
             }
             if (w < k) {
-                unite(parent, i, list[w]);
+                uint32_t cl = cls[list[w]];
+                cls[i] = cl;
+                cnt[cl]++;
             } else {
                 list[u] = list[k], list[k++] = i;
+                cls[i] = ncls;
+                rep[ncls] = i;
+                cnt[ncls] = 1;
+                parent[ncls] = ncls;
+                ncls++;
             }
         }
         nrep[q] = k - s0;
     }
 
     /* links between classes: same field, no thin body between, same node or
-     * the next along an axis */
+     * the next along an axis. The root of a part is the class of its
+     * smallest particle index, whatever order the links come in. */
     for (size_t b = 0; b < g->nblocks; b++) {
         const int32_t *bc = &g->bcoord[3 * b];
-        int32_t next[3];
-        for (int a = 0; a < 3; a++) next[a] = kf_grid_find(g, bc[0] + (a == 0), bc[1] + (a == 1), bc[2] + (a == 2));
+        int32_t next[3] = {-2, -2, -2}; /* looked up when first needed */
         for (int l = 0; l < KF_BLOCK_NODES; l++) {
             size_t q = b * KF_BLOCK_NODES + (size_t)l;
             if (!nrep[q]) continue;
@@ -137,6 +142,7 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
                 t[a]++;
                 int32_t blk = (int32_t)b;
                 if (t[a] == KF_BLOCK) {
+                    if (next[a] == -2) next[a] = kf_grid_find(g, bc[0] + (a == 0), bc[1] + (a == 1), bc[2] + (a == 2));
                     if (next[a] < 0) continue;
                     blk = next[a];
                     t[a] = 0;
@@ -150,17 +156,29 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
                     size_t r = other[e];
                     for (uint32_t w = e ? start[r] : u + 1; w < start[r] + nrep[r]; w++) {
                         uint32_t j = list[w];
-                        if (kf_contact_field(p, j) == fi && compatible(p->colour[i], p->colour[j])) unite(parent, i, j);
+                        if (kf_contact_field(p, j) == fi && compatible(p->colour[i], p->colour[j])) {
+                            uint32_t a = find(parent, cls[i]), bb = find(parent, cls[j]);
+                            if (a == bb) continue;
+                            if (rep[a] < rep[bb]) parent[bb] = a;
+                            else parent[a] = bb;
+                        }
                     }
                 }
             }
         }
     }
 
-    /* the size of each part; the largest part of each field keeps its number */
-    uint32_t *size = list; /* reused: the node lists are done */
-    memset(size, 0, sizeof(uint32_t) * n);
-    for (size_t i = 0; i < n; i++) size[find(parent, (uint32_t)i)]++;
+    /* the size of each part; its roots in the order of their smallest
+     * particle index; the largest part of each field keeps its number */
+    uint32_t *size = list;                /* reused: the node lists are done */
+    uint32_t nroot = 0, *roots = node_of; /* reused likewise */
+    for (uint32_t k = 0; k < ncls; k++) size[k] = 0;
+    for (uint32_t k = 0; k < ncls; k++) size[find(parent, k)] += cnt[k];
+    /* classes were numbered node by node: the roots in particle index order */
+    for (size_t i = 0; i < n; i++) {
+        uint32_t k = cls[i];
+        if (parent[k] == k && rep[k] == (uint32_t)i) roots[nroot++] = k;
+    }
     uint32_t *keep = c->pc_keep, *used = c->pc_used;
     if (!keep) {
         keep = c->pc_keep = malloc(sizeof(uint32_t) * 65536);
@@ -168,35 +186,35 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
         if (!keep || !used) return -1;
     }
     memset(used, 0, sizeof(uint32_t) * 4096);
-    for (size_t i = 0; i < n; i++) {
-        uint16_t f = kf_contact_field(p, i);
+    for (uint32_t k = 0; k < ncls; k++) {
+        uint16_t f = kf_contact_field(p, rep[k]);
         keep[f] = UINT32_MAX;
         used[f & KF_OBJECT_MASK] |= 1u << (f >> PIECE_SHIFT);
     }
-    for (size_t i = 0; i < n; i++) {
-        if (parent[i] != i) continue;
-        uint16_t f = kf_contact_field(p, i);
-        if (keep[f] == UINT32_MAX || size[i] > size[keep[f]]) keep[f] = (uint32_t)i;
+    for (uint32_t a = 0; a < nroot; a++) {
+        uint32_t k = roots[a];
+        uint16_t f = kf_contact_field(p, rep[k]);
+        if (keep[f] == UINT32_MAX || size[k] > size[keep[f]]) keep[f] = k;
     }
     /* every other part of a few cells or more: the next free piece number of
      * its object (roots in index order, so the numbering does not depend on
      * threads); a stray particle or two cut off stays with its field */
-    uint32_t *piece = node_of; /* per root: its new piece + 1, 0 = keeps its own (the node numbers are done) */
+    uint32_t *piece = cnt; /* per root class: its new piece + 1, 0 = keeps its own (the counts are done) */
     int split = 0;
-    for (size_t i = 0; i < n; i++) {
-        if (parent[i] != i) continue;
+    for (uint32_t a = 0; a < nroot; a++) {
+        uint32_t k = roots[a], i = rep[k];
         uint16_t f = kf_contact_field(p, i);
-        piece[i] = 0;
-        if (keep[f] == (uint32_t)i || size[i] < KF_PIECE_MIN || !kf_contact_cuts(&m->mat[p->mat[i]])) continue;
+        piece[k] = 0;
+        if (keep[f] == k || size[k] < KF_PIECE_MIN || !kf_contact_cuts(&m->mat[p->mat[i]])) continue;
         uint32_t obj = f & KF_OBJECT_MASK, free_mask = ~used[obj] & 0xFFFFu;
-        uint32_t k = free_mask ? (uint32_t)__builtin_ctz(free_mask) : 15;
-        used[obj] |= 1u << k;
-        piece[i] = k + 1;
+        uint32_t pk = free_mask ? (uint32_t)__builtin_ctz(free_mask) : 15;
+        used[obj] |= 1u << pk;
+        piece[k] = pk + 1;
         split = 1;
     }
     if (!split) return 0;
     for (size_t i = 0; i < n; i++) {
-        uint32_t k = piece[find(parent, (uint32_t)i)];
+        uint32_t k = piece[find(parent, cls[i])];
         if (k) p->obj[i] = (uint16_t)((p->obj[i] & KF_OBJECT_MASK) | (k - 1) << PIECE_SHIFT);
     }
     c->pieces_made++;
