@@ -238,6 +238,17 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     }
 }
 
+/* every node of a particle's stencil compatible with it: what it sees of the
+ * grid is the ordinary MLS-MPM (most of the band: material near a surface
+ * but not across it) */
+static inline int all_compatible(const uint32_t *col, int o, uint32_t cp) {
+    int ok = 1;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            for (int k = 0; k < 3; k++) ok &= compatible(col[o + (a * NB + b) * NB + k], cp);
+    return ok;
+}
+
 void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck, size_t i0,
                        void *cache_v, int classic) {
     kf_cpic *c = s->cpic;
@@ -256,8 +267,9 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         size_t i = i0 + (size_t)j;
         particle_cdf(c, p, i, ck, j, col, dist, dx, thin_body);
         const uint32_t cp = p->colour[i];
-        /* no affinity to any body: every node is compatible, the ordinary scatter */
-        if (!(cp & AFF)) {
+        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+        /* no affinity to any body, or no node across a surface: the ordinary scatter */
+        if (!(cp & AFF) || all_compatible(col, o, cp)) {
             if (classic) scatter_one(3, 1, ck, j, cache);
             else scatter_one(3, 0, ck, j, cache);
             continue;
@@ -265,7 +277,6 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
         const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
         const double mass = ck->mv[3][j];
-        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
                 for (int k = 0; k < 3; k++) {
@@ -319,7 +330,8 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
         const uint32_t cp = p->colour[i];
-        if (!(cp & AFF)) {
+        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+        if (!(cp & AFF) || all_compatible(col, o, cp)) {
             if (classic) gather_one(3, 1, ck, j, cache);
             else gather_one(3, 0, ck, j, cache);
             continue;
@@ -327,7 +339,6 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
         const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
         const double mass = p->mass[i];
-        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
         double v[3] = {0}, B[9] = {0}, G[9] = {0};
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
