@@ -45,6 +45,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->seed_bin);
     free(c->seed_order);
     free(c->seed_boxes);
+    free(c->aff);
     free(c->bin_start);
     free(c->slot);
     free(c->imp);
@@ -53,7 +54,8 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->pd);
     free(c->pn);
     free(c->near);
-    for (int r = 0; r < KF_MAX_RIGIDS; r++) free(c->tri[r]), free(c->tri_stamp[r]), free(c->run_sphere[r]);
+    for (int r = 0; r < KF_MAX_RIGIDS; r++)
+        free(c->tri[r]), free(c->tri_stamp[r]), free(c->run_sphere[r]), free(c->sub_sphere[r]);
     free(c->bmap);
     free(c->st.coord);
     free(c->st.d);
@@ -264,13 +266,12 @@ static int seed_box_of(const kf_cpic *c, const kf_grid *g, const double x[3], do
     return any;
 }
 
-/* body r's runs of seeds and their bounding spheres, body frame (made once) */
-static int run_spheres(kf_cpic *c, const kf_rigid_body *b, int r) {
-    if (c->run_sphere[r] && c->run_seed[r] == b->seed && c->run_nseed[r] == b->nseed) return 0;
-    size_t nrun = (b->nseed + KF_CPIC_RUN - 1) / KF_CPIC_RUN;
-    if (grow((void **)&c->run_sphere[r], sizeof c->run_sphere[r][0], nrun)) return -1;
+/* the bounding spheres of a body's seeds in runs of `len` (body frame) */
+static int spheres_of(const kf_rigid_body *b, size_t len, double (**out)[4]) {
+    size_t nrun = (b->nseed + len - 1) / len;
+    if (grow((void **)out, sizeof(**out), nrun)) return -1;
     for (size_t k = 0; k < nrun; k++) {
-        size_t e0 = k * KF_CPIC_RUN, e1 = e0 + KF_CPIC_RUN < b->nseed ? e0 + KF_CPIC_RUN : b->nseed;
+        size_t e0 = k * len, e1 = e0 + len < b->nseed ? e0 + len : b->nseed;
         double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300}, mid[3], rad2 = 0;
         for (size_t e = e0; e < e1; e++)
             for (int a = 0; a < 3; a++) {
@@ -284,13 +285,26 @@ static int run_spheres(kf_cpic *c, const kf_rigid_body *b, int r) {
             for (int a = 0; a < 3; a++) d2 += (b->seed[3 * e + a] - mid[a]) * (b->seed[3 * e + a] - mid[a]);
             rad2 = d2 > rad2 ? d2 : rad2;
         }
-        for (int a = 0; a < 3; a++) c->run_sphere[r][k][a] = mid[a];
+        for (int a = 0; a < 3; a++) (*out)[k][a] = mid[a];
         /* a little more: the seeds' world positions round differently */
-        c->run_sphere[r][k][3] = sqrt(rad2) * (1 + 1e-6) + 1e-9;
+        (*out)[k][3] = sqrt(rad2) * (1 + 1e-6) + 1e-9;
     }
+    return 0;
+}
+
+/* body r's runs of seeds and their bounding spheres (made once per mesh) */
+static int run_spheres(kf_cpic *c, const kf_rigid_body *b, int r) {
+    if (c->run_sphere[r] && c->run_seed[r] == b->seed && c->run_nseed[r] == b->nseed) return 0;
+    if (spheres_of(b, KF_CPIC_RUN, &c->run_sphere[r]) || spheres_of(b, KF_CPIC_RUN / 8, &c->sub_sphere[r])) return -1;
     c->run_seed[r] = b->seed;
     c->run_nseed[r] = b->nseed;
     return 0;
+}
+
+/* a run's sphere centre in the world */
+static inline void sphere_world(const kf_rigid_state *st, const double *sp, double xc[3]) {
+    for (int a = 0; a < 3; a++)
+        xc[a] = st->R[3 * a] * sp[0] + st->R[3 * a + 1] * sp[1] + st->R[3 * a + 2] * sp[2] + st->t[a];
 }
 
 /* Can no seed of this run (sphere centre xc, radius rad, world) have a
@@ -436,24 +450,30 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
         /* a run far from every block: its seeds all drop out */
         const double *sp = c->run_sphere[r][k];
         double xc[3];
-        for (int a = 0; a < 3; a++)
-            xc[a] = st->R[3 * a] * sp[0] + st->R[3 * a + 1] * sp[1] + st->R[3 * a + 2] * sp[2] + st->t[a];
-        if (run_far(c, g, xc, sp[3], slo, shi, inv_dx, reach)) {
-            for (size_t e = e0; e < e1; e++) sbin[e] = -1;
-            continue;
-        }
+        sphere_world(st, sp, xc);
+        for (size_t e = e0; e < e1; e++) sbin[e] = -1;
+        if (run_far(c, g, xc, sp[3], slo, shi, inv_dx, reach)) continue;
         for (size_t e = e0; e < e1; e++) {
-            sbin[e] = -1;
+            /* the same, eight times finer */
+            if ((e - e0) % (KF_CPIC_RUN / 8) == 0) {
+                const double *ss = c->sub_sphere[r][e / (KF_CPIC_RUN / 8)];
+                sphere_world(st, ss, xc);
+                if (run_far(c, g, xc, ss[3], slo, shi, inv_dx, reach)) {
+                    e += KF_CPIC_RUN / 8 - 1;
+                    continue;
+                }
+            }
             if (b->tri_edge && b->tri_edge[b->seed_tri[e]]) continue; /* a blade's narrow side: its sheet's edge */
             const float *o = &b->seed[3 * e];
             double *x = &sx[3 * e];
             int out = 0;
             seed_world(st, o, x);
             for (int a = 0; a < 3; a++) out |= x[a] < slo[a] || x[a] > shi[a];
-            seed_box *sbp = &((seed_box *)c->seed_boxes)[e];
-            if (out || !seed_box_of(c, g, x, inv_dx, reach, sbp)) continue;
-            int bin = sbp->b0[0] - bin0;
-            sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1; /* outside: no block there either */
+            seed_box sb;
+            if (out || !seed_box_of(c, g, x, inv_dx, reach, &sb)) continue;
+            int bin = sb.b0[0] - bin0;
+            sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1;  /* outside: no block there either */
+            if (sbin[e] >= 0) ((seed_box *)c->seed_boxes)[e] = sb; /* for step 3 */
         }
     }
     /* 2. the triangles the remaining seeds lie on, in world space; the
@@ -755,12 +775,26 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
         tri_base += (uint32_t)m->rigid[r].ntri;
     }
     bmap_clear(c, g);
-    /* the narrow band: owners whose 2x2x2 neighbourhood holds a coloured block */
+    /* the narrow band: owners whose 2x2x2 neighbourhood holds a node with
+     * affinity to a body. Elsewhere no particle can gain a colour, and the
+     * band's transfers would do what the ordinary ones do (the colour lapses
+     * below as it would there). aff[b]: some node of block b has affinity. */
+    if (g->nblocks > c->cap_aff) {
+        size_t cap = g->nblocks + g->nblocks / 2 + 16;
+        if (grow((void **)&c->aff, 1, cap)) return -1;
+        c->cap_aff = cap;
+    }
+    for (size_t b = 0; b < g->nblocks; b++) {
+        uint32_t any = 0;
+        if (c->stamp[b] == c->epoch)
+            for (int k = 0; k < 64; k++) any |= c->node_c[64 * b + (size_t)k];
+        c->aff[b] = (any & KF_CPIC_AFFINITY) != 0;
+    }
     c->nslot = 0;
     c->band_particles = 0;
     for (size_t k = 0; k < g->nowner; k++) {
         int in = 0;
-        for (int q = 0; q < 8 && !in; q++) in = c->stamp[g->nb[k][q]] == c->epoch;
+        for (int q = 0; q < 8 && !in; q++) in = c->aff[g->nb[k][q]];
         c->slot[k] = in ? (int32_t)c->nslot++ : -1;
         if (in) c->band_particles += (long)(g->pstart[k + 1] - g->pstart[k]);
     }

@@ -78,12 +78,16 @@ typedef struct kf_cpic {
     size_t cap_bmap;
     int bmap_on;
     int32_t bmap_lo[3], bmap_dim[3];
-    /* per body, its seeds in runs of KF_CPIC_RUN with a bounding sphere in
-     * the body's frame (x, y, z, radius): a run far from every block is
-     * passed over without placing its seeds */
+    /* per body, its seeds in runs of KF_CPIC_RUN, and those in runs of
+     * KF_CPIC_RUN / 8, each with a bounding sphere in the body's frame (x,
+     * y, z, radius): a run far from every block is passed over without
+     * placing its seeds */
     double (*run_sphere[KF_MAX_RIGIDS])[4];
+    double (*sub_sphere[KF_MAX_RIGIDS])[4];
     const float *run_seed[KF_MAX_RIGIDS]; /* the seeds they were made for */
     size_t run_nseed[KF_MAX_RIGIDS];
+    uint8_t *aff; /* per block: some node has affinity this substep */
+    size_t cap_aff;
     /* owner blocks in the narrow band and their impulse accumulators */
     size_t cap_owner;
     int32_t *slot; /* per owner: index into imp, or -1 outside the band */
