@@ -334,6 +334,9 @@ static int run_far(const kf_cpic *c, const kf_grid *g, const double xc[3], doubl
 /* the nodes lo..hi of one block blk, projected onto triangle t (splat_box) */
 static inline void splat_nodes(const cdf_layer *c, const kf_cpic_tri *t, uint32_t tid, int32_t blk, const int lo[3],
                                const int hi[3], uint32_t abit, uint32_t tbit, int r, double inv_dx, double dx) {
+    /* the triangle in locals: the stores below cannot change them, so they
+     * stay in registers (the same values, the same arithmetic) */
+    const kf_cpic_tri T = *t;
     for (int i = lo[0]; i <= hi[0]; i++)
         for (int j = lo[1]; j <= hi[1]; j++)
             for (int k = lo[2]; k <= hi[2]; k++) {
@@ -341,13 +344,13 @@ static inline void splat_nodes(const cdf_layer *c, const kf_cpic_tri *t, uint32_
                 if (c->mark[node] == tid) continue;
                 c->mark[node] = tid;
                 /* x_i − v0 = α e1 + β e2 + u n */
-                double q[3] = {i * dx - t->v0[0], j * dx - t->v0[1], k * dx - t->v0[2]};
-                double d1 = q[0] * t->e1[0] + q[1] * t->e1[1] + q[2] * t->e1[2];
-                double d2 = q[0] * t->e2[0] + q[1] * t->e2[1] + q[2] * t->e2[2];
-                double al = t->g11 * d1 + t->g12 * d2, be = t->g12 * d1 + t->g22 * d2;
+                double q[3] = {i * dx - T.v0[0], j * dx - T.v0[1], k * dx - T.v0[2]};
+                double d1 = q[0] * T.e1[0] + q[1] * T.e1[1] + q[2] * T.e1[2];
+                double d2 = q[0] * T.e2[0] + q[1] * T.e2[1] + q[2] * T.e2[2];
+                double al = T.g11 * d1 + T.g12 * d2, be = T.g12 * d1 + T.g22 * d2;
                 const double eps = 1e-6; /* shared edges must not fall between two triangles */
                 if (al < -eps || be < -eps || al + be > 1 + eps) continue;
-                double u = q[0] * t->n[0] + q[1] * t->n[1] + q[2] * t->n[2];
+                double u = q[0] * T.n[0] + q[1] * T.n[1] + q[2] * T.n[2];
                 float au = (float)(fabs(u) * inv_dx);
                 uint32_t w = c->c[node] | abit;
                 if (au < c->best[node]) {
