@@ -633,7 +633,10 @@ static int st_build(const kf_model *m, kf_state *s) {
     cstatic *S = &c->st;
     const double dx = m->sim.dx, inv_dx = 1 / dx;
     S->built = S->used = 0;
-    S->n = 0;
+    /* from nothing: the splat's scratch (best, mark) was freed after the last build */
+    free(S->coord), free(S->d), free(S->c), free(S->stamp), free(S->best_stamp), free(S->mark), free(S->best);
+    S->coord = NULL, S->d = S->best = NULL, S->c = S->stamp = S->best_stamp = S->mark = NULL;
+    S->n = S->cap = 0;
     if (S->hcap) memset(S->hkey, 0xff, S->hcap * sizeof *S->hkey);
     for (int a = 0; a < 3; a++) {
         S->lo[a] = kf_block_of((int)floor(m->sim.domain_min[a] * inv_dx)) - 3;
@@ -708,6 +711,9 @@ static int st_build(const kf_model *m, kf_state *s) {
         S->sig[r][12] = dx;
         S->sig_seed[r] = b->seed;
     }
+    /* what the substeps copy is the distances and colours: the rest was the splat's */
+    free(S->best_stamp), free(S->mark), free(S->best);
+    S->best_stamp = S->mark = NULL, S->best = NULL;
     S->built = 1;
     S->used = S->n > 0;
     return 0;
