@@ -44,7 +44,6 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->seed_x);
     free(c->seed_bin);
     free(c->seed_order);
-    free(c->seed_boxes);
     free(c->aff);
     free(c->bin_start);
     free(c->slot);
@@ -426,7 +425,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
     if (ns > c->cap_seed) {
         size_t cap = ns + ns / 4 + 64;
         if (grow((void **)&c->seed_x, 3 * sizeof(double), cap) || grow((void **)&c->seed_bin, sizeof(int32_t), cap) ||
-            grow((void **)&c->seed_order, sizeof(int32_t), cap) || grow(&c->seed_boxes, sizeof(seed_box), cap))
+            grow((void **)&c->seed_order, sizeof(int32_t), cap))
             return -1;
         c->cap_seed = cap;
     }
@@ -475,8 +474,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
             seed_box sb;
             if (out || !seed_box_of(c, g, x, inv_dx, reach, &sb)) continue;
             int bin = sb.b0[0] - bin0;
-            sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1;  /* outside: no block there either */
-            if (sbin[e] >= 0) ((seed_box *)c->seed_boxes)[e] = sb; /* for step 3 */
+            sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1; /* outside: no block there either */
         }
     }
     /* 2. the triangles the remaining seeds lie on, in world space; the
@@ -510,8 +508,9 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
             for (int32_t q = bs[k]; q < bs[k + 1]; q++) {
                 size_t e = (size_t)order[q];
                 int tri = b->seed_tri[e];
-                splat_box(&L, &c->tri[r][tri], tid0 + (uint32_t)tri, &((const seed_box *)c->seed_boxes)[e], r, inv_dx,
-                          dx);
+                seed_box sb;
+                seed_box_of(c, g, &sx[3 * e], inv_dx, reach, &sb);
+                splat_box(&L, &c->tri[r][tri], tid0 + (uint32_t)tri, &sb, r, inv_dx, dx);
             }
     }
     return 0;
