@@ -171,13 +171,20 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     return depth;
 }
 
-/* A particle whose tag for thin body r disagrees with the nodes around it
- * (the fit put it behind the surface) takes the side of the exact closest
- * triangle, as a node takes the side of its closest primitive (cdf.c). With
- * the guard nothing is behind a thin body for real, so the disagreement is a
- * stale tag: one bit per body cannot name the side of every plate of a fold
- * (crossing plates, a paddle wheel), and a particle that slid from one plate
- * to the other kept the first one's side. */
+/* A particle near thin body r that did not cross it takes the side of the
+ * exact closest triangle, as a node takes the side of its closest primitive
+ * (cdf.c). With the guard nothing is behind a thin body for real (its path
+ * was just checked against every triangle), so a tag that disagrees is
+ * stale: one bit per body cannot name the side of every plate of a fold
+ * (crossing plates, a paddle wheel, a stirrer's blades), and a particle in
+ * the corner where two plates meet, or one that slid from one plate to the
+ * other, kept the first one's side; a particle that arrives fast takes its
+ * tag by the nodes' vote (Eq. 21), which near a fold or an edge can name
+ * the other side. The fit's distance does not see these: in the corner it
+ * is the distance to the nearer plate, positive on the tag's side of either,
+ * and a particle with too few nodes for a fit, or closer to another body,
+ * has none for r. So every particle the guard followed is re-synced unless
+ * the fit puts it beyond the audit's reach. */
 static void retag(const kf_model *m, kf_state *s, int r, size_t i) {
     const kf_rigid_body *b = &m->rigid[r];
     if (!b->bvh || !b->def.thin) return;
@@ -213,7 +220,7 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
             if (depth > 0) {
                 c->guard_caught[slot]++;
                 if (depth > c->guard_depth[slot]) c->guard_depth[slot] = depth;
-            } else if (c->near[i0 + (size_t)j] == r + 1 && c->pd[i0 + (size_t)j] < 0) {
+            } else if (c->near[i0 + (size_t)j] != r + 1 || c->pd[i0 + (size_t)j] < 1.5 * m->sim.dx) {
                 retag(m, s, r, i0 + (size_t)j);
             }
         }

@@ -276,12 +276,18 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
     /* a fixed step is the shot's choice: only an opted-in retry may change it */
     const int retries = fixed > 0 && !m->sim.retry_fixed ? 0 : m->sim.max_retries;
     int attempt = 0;
+    /* the CFL number a fixed step reached before the trouble: a fixed step
+     * the material's state outgrew (a body faster than the material's waves
+     * shocks it: compressed water's Tait wave speed grows as J^((1-γ)/2)) is
+     * unstable in any explicit scheme, and the message says so */
+    double reached = 0;
     for (; attempt <= retries; attempt++) {
         double t = 0;
         int ok = 1;
         while (duration - t > 1e-9 * duration) {
             double unit = unit_cfl_dt(m, s), left = duration - t;
             double dt = fixed > 0 ? fixed : clamp_dt(m, cfl * unit);
+            if (fixed > 0 && dt / unit > reached) reached = dt / unit;
             /* land exactly on the interval end without a sliver of a step */
             if (dt >= left) dt = left;
             else if (dt > 0.5 * left) dt = 0.5 * left;
@@ -309,9 +315,12 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
         if (m->sim.dt_fixed > 0 && !m->sim.retry_fixed)
             snprintf(msg, msglen,
                      "numerical trouble: %s (value %g) at substep %ld, particle %u, material %d '%s', at the fixed "
-                     "step sim.dt_fixed = %g s (not retried: a fixed step is never changed; sim.retry_fixed: true "
-                     "lets a retry halve it)",
-                     tr.what, tr.value, tr.substep, tr.particle, tr.material, name, m->sim.dt_fixed);
+                     "step sim.dt_fixed = %g s, which had reached CFL number %.2g (the fastest wave in the "
+                     "material's current state plus the fastest particle; explicit steps need it below 1, the "
+                     "CFL rule keeps it at sim.cfl = %g) (not retried: a fixed step is never changed; "
+                     "sim.retry_fixed: true lets a retry halve it)",
+                     tr.what, tr.value, tr.substep, tr.particle, tr.material, name, m->sim.dt_fixed, reached,
+                     m->sim.cfl);
         else if (m->sim.dt_fixed > 0)
             snprintf(msg, msglen,
                      "numerical trouble: %s (value %g) at substep %ld, particle %u, material %d '%s'; still failing "

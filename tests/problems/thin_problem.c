@@ -186,7 +186,7 @@ int thin_run(const thin_case *c, thin_result *r) {
                 break;
             }
             r->substeps = st.substeps;
-        } else if (kf_step(m, s, dt, &st, &tr)) {
+        } else if ((r->cfl_max = fmax(r->cfl_max, dt / kf_stable_dt(m, s, 1.0))), kf_step(m, s, dt, &st, &tr)) {
             r->failed = 1;
             snprintf(r->trouble, sizeof r->trouble, "%s (value %g) at substep %ld", tr.what, tr.value, k);
             break;

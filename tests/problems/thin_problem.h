@@ -46,6 +46,8 @@ typedef struct thin_result {
     double ms;             /* wall time of the run */
     double jitter;         /* rest check: RMS speed of particles touching the sheet at the end, m/s */
     long caught;           /* kerf's own count of crossings it caught and undid (kf_step_stats) */
+    double cfl_max;        /* fixed step: the largest CFL number it reached (dt over the step at CFL 1 for
+                              the material's current wave speed and fastest particle) */
 } thin_result;
 
 /* Run one case; returns 0 (result filled) or -1 (setup failed). */
