@@ -220,9 +220,11 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
             if (depth > 0) {
                 c->guard_caught[slot]++;
                 if (depth > c->guard_depth[slot]) c->guard_depth[slot] = depth;
-            } else if (c->near[i0 + (size_t)j] != r + 1 || c->pd[i0 + (size_t)j] < 1.5 * m->sim.dx) {
-                retag(m, s, r, i0 + (size_t)j);
             }
+            /* one put back took the side of the triangle it hit; in a fold's
+             * corner the closest triangle may be the other plate's */
+            if (depth > 0 || c->near[i0 + (size_t)j] != r + 1 || c->pd[i0 + (size_t)j] < 1.5 * m->sim.dx)
+                retag(m, s, r, i0 + (size_t)j);
         }
     }
 }
