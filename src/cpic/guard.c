@@ -234,7 +234,12 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
  * with the exact triangle closest to it (within 1.5 cells; where that point
  * lies on an edge or a corner, the particle is beside the surface, not
  * behind it). Its colour records a side; the triangle's plane says which
- * side it is on. The frame log reports the count after every frame. */
+ * side it is on. The frame log reports the count after every frame. Thin
+ * bodies only, as the guard: material touching a solid overlaps its surface
+ * slightly by design (the colored distance field reaches 2.5 cells inside,
+ * and the penalty around solids is off by default), which is contact, not a
+ * crossing; measured in sand_stir, sand poured over the bowl's rim sat up to
+ * a third of a cell inside it. */
 long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_cells) {
     const kf_particles *p = &s->p;
     const double dx = m->sim.dx;
@@ -242,7 +247,7 @@ long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_c
     double deepest = 0;
     for (int r = 0; r < m->nrigid; r++) {
         const kf_rigid_body *b = &m->rigid[r];
-        if (!b->bvh) continue;
+        if (!b->bvh || !b->def.thin) continue;
         const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
         const size_t n = p->n;
 #pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(+ : across) reduction(max : deepest)
