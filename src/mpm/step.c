@@ -276,10 +276,12 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
     /* a fixed step is the shot's choice: only an opted-in retry may change it */
     const int retries = fixed > 0 && !m->sim.retry_fixed ? 0 : m->sim.max_retries;
     int attempt = 0;
-    /* the CFL number a fixed step reached before the trouble: a fixed step
-     * the material's state outgrew (a body faster than the material's waves
-     * shocks it: compressed water's Tait wave speed grows as J^((1-γ)/2)) is
-     * unstable in any explicit scheme, and the message says so */
+    /* the CFL number a fixed step reached before the trouble, for the
+     * message: a body faster than the material's waves shocks it, and the
+     * shocked state's wave speed (compressed water's Tait speed grows as
+     * J^((1-γ)/2)) can outgrow what the fixed step resolves, which no
+     * explicit scheme survives; the step is the shot's, so the message says
+     * how far it was outgrown rather than changing it */
     double reached = 0;
     for (; attempt <= retries; attempt++) {
         double t = 0;
@@ -316,8 +318,8 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
             snprintf(msg, msglen,
                      "numerical trouble: %s (value %g) at substep %ld, particle %u, material %d '%s', at the fixed "
                      "step sim.dt_fixed = %g s, which had reached CFL number %.2g (the fastest wave in the "
-                     "material's current state plus the fastest particle; explicit steps need it below 1, the "
-                     "CFL rule keeps it at sim.cfl = %g) (not retried: a fixed step is never changed; "
+                     "material's current state plus the fastest particle, times the step over dx; the CFL rule "
+                     "keeps it at sim.cfl = %g) (not retried: a fixed step is never changed; "
                      "sim.retry_fixed: true lets a retry halve it)",
                      tr.what, tr.value, tr.substep, tr.particle, tr.material, name, m->sim.dt_fixed, reached,
                      m->sim.cfl);
