@@ -10,7 +10,9 @@
 #include "problems/problems.h"
 #include "kt.h"
 
-static ev_variant var(kf_kernel k, kf_force f, int ppc, double cfl) { return (ev_variant){k, f, ppc, cfl, 2}; }
+static ev_variant var(kf_kernel k, kf_force f, int ppc, double cfl) {
+    return (ev_variant){.kernel = k, .force = f, .ppc = ppc, .cfl = cfl, .threads = 2};
+}
 
 /* Δx and kernel / particles-per-cell sweeps: the V4 bound (0.5% at
  * L/Δx = 50) already holds at the coarser L/Δx = 25 for the variants the

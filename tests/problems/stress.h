@@ -33,7 +33,7 @@ static inline kf_state *ev_block_state(kf_kernel kernel, kf_force force, const c
                                        kf_model **mout) {
     kf_material mat;
     if (kf_material_preset(preset, &mat)) return NULL;
-    ev_variant v = {kernel, force, 2, 0, threads};
+    ev_variant v = {kernel, force, 2, 0, threads, KF_TRANSFER_APIC, 0};
     const double dx = 0.02;
     int id;
     kf_model *m = ev_model(&v, dx, 0, &mat, &id);

@@ -101,7 +101,12 @@ static int read_csv(const char *dir, const char *const names[3]) {
             if (!strcmp(prob, names[p])) w->problem = p;
         if (w->problem < 0) continue;
         w->v = (ev_variant){strcmp(kernel, "cubic") ? KF_KERNEL_QUADRATIC : KF_KERNEL_CUBIC,
-                            strcmp(force, "classic") ? KF_FORCE_MLS : KF_FORCE_CLASSIC, ppc == 27 ? 3 : 2, cfl, 1};
+                            strcmp(force, "classic") ? KF_FORCE_MLS : KF_FORCE_CLASSIC,
+                            ppc == 27 ? 3 : 2,
+                            cfl,
+                            1,
+                            KF_TRANSFER_APIC,
+                            0};
         w->res = res;
         w->r = (ev_run){err, val, cpu, np, steps, ok};
         nrows++;
@@ -168,15 +173,18 @@ int main(int argc, char **argv) {
     /* the variants of the Δx sweep: kernel x force at 8 particles per cell,
      * and 27 per cell for the MLS force of each kernel */
     const ev_variant variants[] = {
-        {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0.3, 1}, {KF_KERNEL_QUADRATIC, KF_FORCE_CLASSIC, 2, 0.3, 1},
-        {KF_KERNEL_CUBIC, KF_FORCE_MLS, 2, 0.3, 1},     {KF_KERNEL_CUBIC, KF_FORCE_CLASSIC, 2, 0.3, 1},
-        {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 3, 0.3, 1}, {KF_KERNEL_CUBIC, KF_FORCE_MLS, 3, 0.3, 1},
+        {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0.3, 1, KF_TRANSFER_APIC, 0},
+        {KF_KERNEL_QUADRATIC, KF_FORCE_CLASSIC, 2, 0.3, 1, KF_TRANSFER_APIC, 0},
+        {KF_KERNEL_CUBIC, KF_FORCE_MLS, 2, 0.3, 1, KF_TRANSFER_APIC, 0},
+        {KF_KERNEL_CUBIC, KF_FORCE_CLASSIC, 2, 0.3, 1, KF_TRANSFER_APIC, 0},
+        {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 3, 0.3, 1, KF_TRANSFER_APIC, 0},
+        {KF_KERNEL_CUBIC, KF_FORCE_MLS, 3, 0.3, 1, KF_TRANSFER_APIC, 0},
     };
     const int nvar = quick ? 2 : (int)(sizeof variants / sizeof *variants);
     const double cfls[] = {0.05, 0.1, 0.2, 0.3, 0.4, 0.6, 0.8};
     const int ncfl = quick ? 2 : 7;
-    const ev_variant cfl_variants[] = {{KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0, 1},
-                                       {KF_KERNEL_CUBIC, KF_FORCE_MLS, 2, 0, 1}};
+    const ev_variant cfl_variants[] = {{KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0, 1, KF_TRANSFER_APIC, 0},
+                                       {KF_KERNEL_CUBIC, KF_FORCE_MLS, 2, 0, 1, KF_TRANSFER_APIC, 0}};
 
     const char *const pnames[3] = {probs[0].name, probs[1].name, probs[2].name};
     if (tables_only && read_csv(dir, pnames)) {

@@ -31,7 +31,7 @@ static series run(int balls, kf_force force, int quick) {
     const double rho = 1, E = 1e3, nu = 0.3, cp = ev_cp(rho, E, nu);
     const double dx = balls ? 0.02 : (quick ? 1.0 / 8 : 1.0 / 16), v0 = balls ? 2.0 : 0;
     const double dt = 0.3 * dx / (cp + v0), tend = balls ? 0.15 : 0.3;
-    ev_variant v = {KF_KERNEL_QUADRATIC, force, 2, 0.3, 1};
+    ev_variant v = {KF_KERNEL_QUADRATIC, force, 2, 0.3, 1, KF_TRANSFER_APIC, 0};
     kf_material mat = ev_corotated(rho, E, nu);
     int id;
     kf_model *m = ev_model(&v, dx, dt, &mat, &id);
