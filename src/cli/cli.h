@@ -32,6 +32,8 @@ typedef struct kf_cli_opts {
     int sim_only;
     void (*frame_ready)(void *ctx, int frame);
     void *frame_ctx;
+    /* set by `kerf run` over several MPI ranks: seed only this rank's part */
+    int rank_part;
 } kf_cli_opts;
 
 /* Parse argv (after the command word). Returns 0, or 2 with a message. */

@@ -24,9 +24,10 @@
 #include "../pipeline/stages.h"
 #include "run_record.h"
 
-/* Over several MPI ranks every rank walks this same path: each builds the
- * scene, rank 0 alone speaks, holds the directory and writes files, from
- * the whole state gathered to it (dist.h). */
+/* Over several MPI ranks every rank walks this same path: each seeds only
+ * its own part of the scene (or splits a checkpoint it resumes from), rank
+ * 0 alone speaks, holds the directory and writes files, from the whole
+ * state gathered to it when a frame has files to write (dist.h). */
 static int ranks(void) { return kf_dist_size(); }
 static int root(void) { return kf_dist_rank() == 0; }
 
@@ -150,13 +151,15 @@ static void remove_stale_after(const kf_shot *shot, const char *out, uint64_t ha
 static int write_frame_here(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash);
 
 /* write this frame's outputs; returns 0 or prints and returns 1. Over
- * several ranks: the whole state gathered into `whole`, written by rank 0. */
+ * several ranks: the whole state gathered into `whole` (only when the frame
+ * has a file to write), written by rank 0. */
 static kf_state *whole;
-static int split_up; /* the state is split over the ranks (before: every rank holds it whole) */
 static int write_frame(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash) {
     if (ranks() == 1) return write_frame_here(shot, out, sc, frame, hash);
-    if (!split_up) return kf_dist_bcast_int(root() ? write_frame_here(shot, out, sc, frame, hash) : 0);
-    int rc = kf_dist_gather(sc->state, whole);
+    int files = shot->output_checkpoints || (frame >= shot->first && (shot->output_points || shot->output_particles));
+    if (!files) return 0;
+    /* the first frame of a run from the start: the state as seeded, in id order */
+    int rc = kf_dist_gather(sc->state, whole, frame == shot->frame_start);
     if (root() && rc == 0) {
         kf_scene w = *sc;
         w.state = whole;
@@ -221,7 +224,9 @@ int kf_cli_run(const kf_cli_opts *o) {
     kf_build_stats bs;
     /* the other ranks' words would repeat rank 0's */
     if (!root() && !freopen("/dev/null", "w", stderr)) return KF_EXIT_FAIL;
-    int rc = kf_cli_load(o, &shot, &sc, &bs);
+    kf_cli_opts lo = *o;
+    lo.rank_part = ranks() > 1;
+    int rc = kf_cli_load(&lo, &shot, &sc, &bs);
     if (!shot) return rc;
     const char *missing = ranks() > 1 ? kf_dist_unsupported(sc.model) : NULL;
     if (missing) {
@@ -404,6 +409,11 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     if (resume_from) {
         if (find_resume(shot, o.out, &sc, hash, resume_from, &frame) == 0) {
             if (!o.quiet) fprintf(stderr, "kerf: resuming after frame %d\n", frame);
+            /* over several ranks: every rank read the whole state; each keeps its part */
+            if (ranks() > 1 && kf_dist_attach(sc.model, sc.state)) {
+                fprintf(stderr, "kerf: out of memory splitting the state over %d ranks\n", ranks());
+                kf_dist_abort(KF_EXIT_FAIL);
+            }
         } else {
             if (!o.quiet) fprintf(stderr, "kerf: nothing to resume; starting at frame %d\n", shot->frame_start);
             frame = shot->frame_start;
@@ -418,26 +428,24 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     kf_frame_paths rp;
     kf_frame_paths_make(shot, o.out, shot->first, &rp);
     int tty = isatty(fileno(stderr));
+    /* over several ranks, whole particle counts are sums over the ranks */
+    long count = kf_dist_sum_long(sc.state, (long)kf_state_count(sc.state));
     if (!o.quiet)
-        fprintf(stderr, "kerf %s: %s v%03d, %zu particles, dx %.4g m, frames %d-%d at %g fps -> %s/\n", KERF_VERSION,
-                shot->name, shot->version, kf_state_count(sc.state), shot->sim.dx, shot->first, shot->last, shot->fps,
-                rp.dir);
+        fprintf(stderr, "kerf %s: %s v%03d, %ld particles, dx %.4g m, frames %d-%d at %g fps -> %s/\n", KERF_VERSION,
+                shot->name, shot->version, count, shot->sim.dx, shot->first, shot->last, shot->fps, rp.dir);
 
     /* the records watchers read (kerf view): a run from the first frame starts them afresh */
     if (root()) kf_record_begin(rp.dir, frame == shot->frame_start);
     if (root()) kf_record_progress(rp.dir, shot, "sim", frame, 0, shot->last - frame, -1);
 
+    /* over several ranks: rank 0 gathers the whole state into this for writing */
+    if (ranks() > 1 && root() && !(whole = kf_state_create(sc.model))) {
+        fprintf(stderr, "kerf: out of memory splitting the state over %d ranks\n", ranks());
+        kf_dist_abort(KF_EXIT_FAIL);
+    }
     /* the initial state is the first frame's output */
     if (frame == shot->frame_start && write_frame(shot, o.out, &sc, frame, hash)) rc = KF_EXIT_FAIL;
     else if (frame == shot->frame_start && o.frame_ready && frame >= shot->first) o.frame_ready(o.frame_ctx, frame);
-    /* over several ranks: each keeps its part from here on; rank 0 gathers the whole for writing */
-    if (ranks() > 1) {
-        whole = root() ? kf_state_create(sc.model) : NULL;
-        int bad = (root() && !whole) || kf_dist_attach(sc.model, sc.state);
-        if (bad) fprintf(stderr, "kerf: out of memory splitting the state over %d ranks\n", ranks());
-        if (bad) kf_dist_abort(KF_EXIT_FAIL);
-        split_up = 1;
-    }
 
     double start = kf_now_ms();
     int todo = shot->last - frame, done = 0;
@@ -468,11 +476,14 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
         double elapsed = (kf_now_ms() - start) / 1e3;
         /* thin boundaries: who is on the wrong side of a body at the frame's end */
         double deep_left = 0;
-        long left = kf_model_rigid_count(sc.model) > 0
-                        ? kf_state_thin_audit(sc.model, whole ? whole : sc.state, &deep_left)
-                        : 0;
-        if (root())
-            kf_record_frame(rp.dir, frame, kf_state_count(whole ? whole : sc.state), &st, frame_ms, left, deep_left);
+        long left = kf_model_rigid_count(sc.model) > 0 ? kf_state_thin_audit(sc.model, sc.state, &deep_left) : 0;
+        if (ranks() > 1) {
+            /* each rank audited its own particles: a count and a maximum, exact in any order */
+            left = kf_dist_sum_long(sc.state, left);
+            deep_left = kf_dist_max(sc.state, deep_left);
+        }
+        count = kf_dist_sum_long(sc.state, (long)kf_state_count(sc.state));
+        if (root()) kf_record_frame(rp.dir, frame, (size_t)count, &st, frame_ms, left, deep_left);
         if (root()) kf_record_progress(rp.dir, shot, "sim", frame, done, todo, elapsed / done * (todo - done));
         if (o.quiet) continue;
         char eta[32];
@@ -490,10 +501,9 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                     "frame %d: %zu particles, %ld blocks, %ld substeps, max cfl %.2f, %.0f ms (sort %.0f p2g %.0f "
                     "grid %.0f g2p %.0f stress %.0f cdf %.0f rigid %.0f), %.1f M p-steps/s, %d retries, %ld warnings, "
                     "ETA %s\n",
-                    frame, kf_state_count(whole ? whole : sc.state), st.active_blocks, st.substeps, st.max_cfl,
-                    frame_ms, st.ms[KF_STAGE_SORT], st.ms[KF_STAGE_P2G], st.ms[KF_STAGE_GRID], st.ms[KF_STAGE_G2P],
-                    st.ms[KF_STAGE_STRESS], st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID], mps, st.retries, st.warnings,
-                    eta);
+                    frame, (size_t)count, st.active_blocks, st.substeps, st.max_cfl, frame_ms, st.ms[KF_STAGE_SORT],
+                    st.ms[KF_STAGE_P2G], st.ms[KF_STAGE_GRID], st.ms[KF_STAGE_G2P], st.ms[KF_STAGE_STRESS],
+                    st.ms[KF_STAGE_CDF], st.ms[KF_STAGE_RIGID], mps, st.retries, st.warnings, eta);
             if (ranks() > 1)
                 fprintf(stderr,
                         "frame %d: %d ranks: %zu-%zu particles per rank, halo %.0f bytes (%.0f per substep), %.0f "
@@ -542,6 +552,5 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     if (rc == KF_EXIT_OK && !o.sim_only && root()) rc = kf_cli_post(&o, shot, &sc, 1, 1);
     if (root()) kf_record_progress(rp.dir, shot, rc == KF_EXIT_OK ? "done" : "failed", frame, done, todo, 0);
     if (whole) sc.state = scp->state, kf_state_destroy(whole), whole = NULL;
-    split_up = 0;
     return kf_dist_bcast_int(rc);
 }

@@ -114,7 +114,7 @@ int kf_cli_load(const kf_cli_opts *o, kf_shot **shot, kf_scene *sc, kf_build_sta
     if (!*shot) rc = KF_EXIT_USAGE;
     else if (kf_budget_estimate(*shot, &b, err, sizeof err) == 0 && !o->force && kf_budget_check(*shot, &b, &diag))
         rc = KF_EXIT_USAGE;
-    else if (kf_scene_from_shot(*shot, o->threads, sc, stats, &diag)) rc = KF_EXIT_USAGE;
+    else if (kf_scene_from_shot_part(*shot, o->threads, o->rank_part, sc, stats, &diag)) rc = KF_EXIT_USAGE;
     kf_diag_print(stderr, &diag);
     if (rc != KF_EXIT_OK) {
         fprintf(stderr, "kerf: %s: %d error%s, nothing simulated or written\n", o->shot, diag.errors,

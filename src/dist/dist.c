@@ -86,7 +86,7 @@ void kf_dist_unpack(kf_particles *p, size_t j, const char *src) {
 
 /* split[] from owner blocks in key order with their particle counts: rank r
  * starts at the first block before which r/size of the particles lie */
-static void cut(struct kf_dist *d, const uint64_t *key, const int64_t *count, size_t nb) {
+void kf_dist_cut(struct kf_dist *d, const uint64_t *key, const int64_t *count, size_t nb) {
     int64_t total = 0;
     for (size_t b = 0; b < nb; b++) total += count[b];
     d->split[0] = 0;
@@ -109,7 +109,7 @@ static void *cut_to(void *a, size_t bytes) {
     return q ? q : a;
 }
 
-static void shrink(kf_particles *p) {
+void kf_dist_shrink(kf_particles *p) {
     size_t c = p->n ? p->n : 1;
     if (c >= p->cap) return;
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) p->plane[k] = cut_to(p->plane[k], c * sizeof(kf_real));
@@ -120,15 +120,24 @@ static void shrink(kf_particles *p) {
     p->cap = c;
 }
 
-int kf_dist_attach(const kf_model *m, kf_state *s) {
+struct kf_dist *kf_dist_new(void) {
     struct kf_dist *d = calloc(1, sizeof *d);
-    if (!d) return -1;
+    if (!d) return NULL;
     d->comm = MPI_COMM_WORLD;
     d->rank = g_rank;
     d->size = g_size;
     d->split = calloc((size_t)d->size + 1, sizeof *d->split);
     d->counts = calloc(4 * (size_t)d->size, sizeof *d->counts);
-    if (!d->split || !d->counts) return kf_dist_free(d), -1;
+    if (!d->split || !d->counts) return kf_dist_free(d), NULL;
+    return d;
+}
+
+int kf_dist_attach(const kf_model *m, kf_state *s) {
+    /* a part seeded for this rank that a checkpoint read replaced: split anew */
+    kf_dist_free(s->dist);
+    s->dist = NULL;
+    struct kf_dist *d = kf_dist_new();
+    if (!d) return -1;
     /* every rank holds the same whole state: the same bin, the same cut */
     size_t bad = 0;
     kf_grid *g = &s->g;
@@ -142,7 +151,7 @@ int kf_dist_attach(const kf_model *m, kf_state *s) {
         key[r] = kf_block_key(c[0], c[1], c[2]);
         count[r] = (int64_t)(g->pstart[r + 1] - g->pstart[r]);
     }
-    cut(d, key, count, g->nowner);
+    kf_dist_cut(d, key, count, g->nowner);
     /* keep this rank's range: particles are in key order, so one slice */
     size_t lo = 0, hi = 0;
     for (size_t r = 0; r < g->nowner; r++) {
@@ -160,7 +169,7 @@ int kf_dist_attach(const kf_model *m, kf_state *s) {
     memmove(p->colour, p->colour + lo, n * sizeof *p->colour);
     memmove(p->id, p->id + lo, n * sizeof *p->id);
     p->n = n;
-    shrink(p);
+    kf_dist_shrink(p);
     g->valid = 0;
     s->dist = d;
     return 0;
@@ -214,7 +223,7 @@ void kf_dist_rebalance(kf_state *s, double threshold) {
         for (int r = 0; r < d->size; r++) nbs[r] *= 2, displ[r] *= 2;
         MPI_Allgatherv(mine, 2 * nb, MPI_UINT64_T, every, nbs, displ, MPI_UINT64_T, d->comm);
         for (size_t b = 0; b < all; b++) key[b] = every[2 * b], count[b] = (int64_t)every[2 * b + 1];
-        cut(d, key, count, all);
+        kf_dist_cut(d, key, count, all);
         d->stats.rebalances++;
     }
     free(mine), free(every), free(key), free(count);
@@ -223,7 +232,7 @@ void kf_dist_rebalance(kf_state *s, double threshold) {
 
 /* ---- gathering the whole state on rank 0 ---- */
 
-int kf_dist_gather(const kf_state *s, kf_state *whole) {
+int kf_dist_gather(const kf_state *s, kf_state *whole, int by_id) {
     struct kf_dist *d = s->dist;
     double t0 = kf_dist_clock();
     const size_t rb = kf_dist_record_bytes();
@@ -253,7 +262,19 @@ int kf_dist_gather(const kf_state *s, kf_state *whole) {
                 MPI_Recv(d->pbuf[1], cnt[r], rec, r, 1, d->comm, MPI_STATUS_IGNORE);
                 src = d->pbuf[1];
             }
-            for (size_t i = 0; rc == 0 && i < (size_t)cnt[r]; i++) kf_dist_unpack(&whole->p, at + i, src + i * rb);
+            for (size_t i = 0; rc == 0 && i < (size_t)cnt[r]; i++) {
+                size_t j = at + i;
+                if (by_id) {
+                    uint32_t id;
+                    memcpy(&id, src + i * rb + KF_PARTICLE_REAL_PLANES * sizeof(kf_real), sizeof id);
+                    if ((size_t)id >= total) {
+                        rc = -1;
+                        break;
+                    }
+                    j = id;
+                }
+                kf_dist_unpack(&whole->p, j, src + i * rb);
+            }
             at += (size_t)cnt[r];
         }
     }

@@ -72,14 +72,32 @@ void kf_dist_abort(int code);
 const char *kf_dist_unsupported(const kf_model *m);
 const char *kf_dist_unsupported_def(const kf_sim_def *sim, int nrigid);
 
-/* Split a state every rank holds whole (built, or read from a checkpoint)
- * into this rank's part; s->dist is set. Returns 0 or -1 (out of memory). */
+/* Split a state every rank holds whole (read from a checkpoint) into this
+ * rank's part; s->dist is set (a former one freed). Returns 0 or -1 (out
+ * of memory). */
 int kf_dist_attach(const kf_model *m, kf_state *s);
 void kf_dist_free(struct kf_dist *d);
 
+/* Seeding only this rank's part (the scene build). Every rank samples every
+ * object twice alike: _count over every sampled particle, _cut, then _keep
+ * marks the particles of this rank's range (returns how many); the build
+ * adds those, in sampling order, and gives each the id a whole build would.
+ * _adopt makes the state this rank's part (s->dist set, the whole build's
+ * next id) and frees sd. _count and _cut return 0 or -1 (out of memory). */
+typedef struct kf_dist_seed kf_dist_seed;
+kf_dist_seed *kf_dist_seed_new(const kf_model *m);
+int kf_dist_seed_count(kf_dist_seed *sd, const double *x3, size_t n);
+int kf_dist_seed_cut(kf_dist_seed *sd);
+size_t kf_dist_seed_keep(const kf_dist_seed *sd, const double *x3, size_t n, uint8_t *keep);
+void kf_dist_seed_adopt(kf_dist_seed *sd, kf_state *s);
+void kf_dist_seed_free(kf_dist_seed *sd);
+
 /* Rank 0 receives every rank's particles, in the one-rank order, into
- * whole (scalars copied from s); the others send. Collective. */
-int kf_dist_gather(const kf_state *s, kf_state *whole);
+ * whole (scalars copied from s); the others send. Collective. by_id: a
+ * state not stepped yet, whose one-rank order is the seeding order, the
+ * order of the ids (0 to n - 1); else a stepped state, whose ranks' parts
+ * end to end are the one-rank order. */
+int kf_dist_gather(const kf_state *s, kf_state *whole, int by_id);
 
 /* Re-cut the ranges when the busiest rank holds more than `threshold` times
  * the mean; particles move at the next substep. Collective. */

@@ -49,6 +49,29 @@ static inline int kf_dist_rank_of(const struct kf_dist *d, uint64_t k) {
     return lo;
 }
 
+/* the owner block key a sort gives a particle at x (its base node
+ * recentred in a block); UINT64_MAX when binning will refuse it (NaN, out
+ * of range) */
+static inline uint64_t kf_dist_key_at(kf_real x0, kf_real x1, kf_real x2, kf_real inv_dx, int cubic) {
+    const kf_real x[3] = {x0, x1, x2};
+    const int limit = KF_KEY_OFFSET - 2, shift = kf_owner_shift(cubic);
+    int b[3];
+    for (int a = 0; a < 3; a++) {
+        kf_real xg = x[a] * inv_dx;
+        if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) return UINT64_MAX;
+        b[a] = kf_block_of(kf_base_node(x[a], inv_dx, cubic) - shift);
+    }
+    return kf_block_key(b[0], b[1], b[2]);
+}
+
+/* a decomposition whose ranges are not cut yet, or NULL */
+struct kf_dist *kf_dist_new(void);
+/* split[] cut from owner block keys, ascending, and their particle counts:
+ * rank r starts at the first block before which r/size of them lie */
+void kf_dist_cut(struct kf_dist *d, const uint64_t *key, const int64_t *count, size_t nb);
+/* a particle array's capacity cut to its count */
+void kf_dist_shrink(kf_particles *p);
+
 /* bytes of one particle's record, and its packing */
 size_t kf_dist_record_bytes(void);
 void kf_dist_pack(const kf_particles *p, size_t i, char *dst);

@@ -10,18 +10,10 @@
 
 #include "internal.h"
 
-/* the key a sort gives particle i (its base node recentred in a block);
- * UINT64_MAX when binning will refuse it (NaN, out of range): it stays
- * here and binning reports it */
+/* the key a sort gives particle i; UINT64_MAX: it stays here and binning
+ * reports it */
 static uint64_t new_key(const kf_particles *p, size_t i, kf_real inv_dx, int cubic) {
-    int b[3];
-    const int limit = KF_KEY_OFFSET - 2, shift = kf_owner_shift(cubic);
-    for (int a = 0; a < 3; a++) {
-        kf_real xg = p->x[a][i] * inv_dx;
-        if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) return UINT64_MAX;
-        b[a] = kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic) - shift);
-    }
-    return kf_block_key(b[0], b[1], b[2]);
+    return kf_dist_key_at(p->x[0][i], p->x[1][i], p->x[2][i], inv_dx, cubic);
 }
 
 /* whether binning would sort now: the grid is not valid, or a particle's

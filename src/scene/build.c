@@ -2,10 +2,12 @@
 #include "build.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "../core/fnv.h"
 #include "../core/timer.h"
+#include "../dist/dist.h"
 #include "build_rigid.h"
 #include "mesh_isect.h"
 #include "mesh_sdf.h"
@@ -80,7 +82,65 @@ static int check_in_domain(const kf_shot_object *o, const kf_sim_def *sd, const 
     return 0;
 }
 
+/* object i sampled whole (build.h's lattice, so the same on every call) */
+static int sample_object(const kf_shot *shot, int i, const kf_sim_def *sd, kf_points *pts, char *err, size_t n) {
+    const kf_shot_object *o = &shot->objects[i];
+    kf_sample_def d = kf_default_sample_def();
+    d.kind = o->shape;
+    memcpy(d.size, o->size, sizeof d.size);
+    d.radius = o->radius;
+    d.height = o->height;
+    d.mesh_path = o->shape == KF_SOURCE_MESH ? o->mesh_path : NULL;
+    d.place = o->place;
+    d.dx = sd->dx;
+    d.ppc = shot->ppc;
+    d.seed = shot->jitter ? shot->seed + (uint32_t)i : 0;
+    memcpy(d.velocity, o->velocity, sizeof d.velocity);
+    memcpy(d.angular_velocity, o->angular_velocity, sizeof d.angular_velocity);
+    d.threads = sd->threads;
+    return kf_sample_shape(&d, pts, err, n);
+}
+
+/* Object i's particles added to the state: all of them, or with seed only
+ * this rank's, moved to the front of pts in order, their ids those of a
+ * whole build (base + index in pts). Returns 0 or -1 (out of memory). */
+static int add_object(kf_scene *sc, kf_dist_seed *seed, const kf_shot_object *o, int i, kf_points *pts, uint32_t base) {
+    size_t n = pts->n;
+    uint32_t *index = NULL;
+    if (seed) {
+        uint8_t *keep = malloc(n + 1);
+        if (!keep) return -1;
+        size_t kept = kf_dist_seed_keep(seed, pts->x, n, keep);
+        index = malloc((kept + 1) * sizeof *index);
+        if (!index) return free(keep), -1;
+        size_t j = 0;
+        for (size_t k = 0; k < n; k++) {
+            if (!keep[k]) continue;
+            for (int a = 0; a < 3; a++) {
+                pts->x[3 * j + a] = pts->x[3 * k + a];
+                if (pts->v) pts->v[3 * j + a] = pts->v[3 * k + a];
+            }
+            index[j++] = base + (uint32_t)k;
+        }
+        free(keep);
+        n = kept;
+    }
+    long first = kf_state_add_particles(sc->state, sc->model, n, pts->x, pts->v, NULL, o->material, pts->volume);
+    if (first < 0) return free(index), -1;
+    /* remember the object each particle came from (surface.group: object) */
+    kf_particles_view view = kf_state_particles(sc->state);
+    for (size_t k = 0; k < n; k++) view.obj[(size_t)first + k] = (uint16_t)i;
+    for (size_t k = 0; k < n && index; k++) view.id[(size_t)first + k] = index[k];
+    free(index);
+    return 0;
+}
+
 int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_stats *stats, kf_diag *diag) {
+    return kf_scene_from_shot_part(shot, threads, 0, sc, stats, diag);
+}
+
+int kf_scene_from_shot_part(const kf_shot *shot, int threads, int part, kf_scene *sc, kf_build_stats *stats,
+                            kf_diag *diag) {
     char err[1024];
     double t0 = kf_now_ms();
     memset(sc, 0, sizeof *sc);
@@ -135,53 +195,57 @@ int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_
     }
     if (bad || !sc->state) goto fail;
 
-    /* seed every object; keep going after a bad one so all are reported */
-    for (int i = 0; i < shot->nobjects; i++) {
-        const kf_shot_object *o = &shot->objects[i];
-        kf_sample_def d = kf_default_sample_def();
-        d.kind = o->shape;
-        memcpy(d.size, o->size, sizeof d.size);
-        d.radius = o->radius;
-        d.height = o->height;
-        d.mesh_path = o->shape == KF_SOURCE_MESH ? o->mesh_path : NULL;
-        d.place = o->place;
-        d.dx = sd.dx;
-        d.ppc = shot->ppc;
-        d.seed = shot->jitter ? shot->seed + (uint32_t)i : 0;
-        memcpy(d.velocity, o->velocity, sizeof d.velocity);
-        memcpy(d.angular_velocity, o->angular_velocity, sizeof d.angular_velocity);
-        d.threads = sd.threads;
-        kf_points pts;
-        if (kf_sample_shape(&d, &pts, err, sizeof err)) {
-            kf_shot_report(diag, o->shape == KF_SOURCE_MESH ? &o->mesh_at : &o->at, KF_DIAG_ERROR, "object '%s': %s",
-                           o->name, err);
+    /* over MPI ranks only this rank's part is kept (src/dist/seed.c): a
+     * first pass counts every object's particles per block to cut the
+     * ranges, the second keeps the rank's own */
+    kf_dist_seed *seed = NULL;
+    if (part && !(seed = kf_dist_seed_new(sc->model))) {
+        kf_shot_report(diag, NULL, KF_DIAG_ERROR, "out of memory splitting the scene over MPI ranks");
+        goto fail;
+    }
+    for (int pass = seed ? 0 : 1; pass < 2 && !bad; pass++) {
+        if (pass == 1 && seed && kf_dist_seed_cut(seed)) {
+            kf_shot_report(diag, NULL, KF_DIAG_ERROR, "out of memory splitting the scene over MPI ranks");
             bad = 1;
-            continue;
+            break;
         }
-        if (check_in_domain(o, &sd, &pts, diag)) {
-            bad = 1;
-            kf_points_free(&pts);
-            continue;
-        }
-        if (pts.n == 0)
-            kf_shot_report(diag, &o->at, KF_DIAG_WARNING,
-                           "object '%s' holds no particles at dx %g (thinner than the lattice)", o->name, sd.dx);
-        else {
-            long first =
-                kf_state_add_particles(sc->state, sc->model, pts.n, pts.x, pts.v, NULL, o->material, pts.volume);
-            if (first < 0) {
+        /* the first pass reports; the second samples the same again */
+        const int report = pass == 0 || !seed;
+        uint32_t base = 0; /* the id a whole build gives the object's first particle */
+        /* seed every object; keep going after a bad one so all are reported */
+        for (int i = 0; i < shot->nobjects; i++) {
+            const kf_shot_object *o = &shot->objects[i];
+            kf_points pts;
+            if (sample_object(shot, i, &sd, &pts, err, sizeof err)) {
+                kf_shot_report(diag, o->shape == KF_SOURCE_MESH ? &o->mesh_at : &o->at, KF_DIAG_ERROR,
+                               "object '%s': %s", o->name, err);
+                bad = 1;
+                continue;
+            }
+            if (report && check_in_domain(o, &sd, &pts, diag)) {
+                bad = 1;
+                kf_points_free(&pts);
+                continue;
+            }
+            if (report && stats && i < 256) stats->particles_per_object[i] = pts.n;
+            if (pts.n == 0 && report)
+                kf_shot_report(diag, &o->at, KF_DIAG_WARNING,
+                               "object '%s' holds no particles at dx %g (thinner than the lattice)", o->name, sd.dx);
+            else if (pass == 0 && kf_dist_seed_count(seed, pts.x, pts.n)) {
                 kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name,
                                pts.n);
                 bad = 1;
-            } else {
-                /* remember the object each particle came from (surface.group: object) */
-                kf_particles_view view = kf_state_particles(sc->state);
-                for (size_t k = 0; k < pts.n; k++) view.obj[(size_t)first + k] = (uint16_t)i;
+            } else if (pass == 1 && add_object(sc, seed, o, i, &pts, base)) {
+                kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name,
+                               pts.n);
+                bad = 1;
             }
+            base += (uint32_t)pts.n;
+            kf_points_free(&pts);
         }
-        if (stats && i < 256) stats->particles_per_object[i] = pts.n;
-        kf_points_free(&pts);
     }
+    if (seed && !bad) kf_dist_seed_adopt(seed, sc->state);
+    else kf_dist_seed_free(seed);
     if (bad) goto fail;
     if (stats) stats->seconds = (kf_now_ms() - t0) / 1e3;
     return 0;

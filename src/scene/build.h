@@ -20,6 +20,11 @@ typedef struct kf_build_stats {
 /* Returns 0 with sc filled (sc->name points into shot), or -1 with every
  * problem in diag. threads: 0 = the shot's setting. */
 int kf_scene_from_shot(const kf_shot *shot, int threads, kf_scene *sc, kf_build_stats *stats, kf_diag *diag);
+/* The same, and with part != 0 under several MPI ranks: the state holds
+ * only this rank's particles (every rank samples the whole scene, one
+ * object at a time, and keeps its own: src/dist/dist.h). */
+int kf_scene_from_shot_part(const kf_shot *shot, int threads, int part, kf_scene *sc, kf_build_stats *stats,
+                            kf_diag *diag);
 
 /* A hash of every input that changes the simulation: the shot's sim-relevant
  * values, the bytes of its mesh files and the kerf version (not outputs, not
