@@ -189,7 +189,6 @@ void kf_dist_free(struct kf_dist *d) {
     free(d->owner_keys);
     free(d->pbuf[0]);
     free(d->pbuf[1]);
-    kf_particles_free(&d->tmp);
     free(d);
 }
 
@@ -232,6 +231,26 @@ void kf_dist_rebalance(kf_state *s, double threshold) {
 
 /* ---- gathering the whole state on rank 0 ---- */
 
+/* records in one message of the gather: every rank's buffers stay this
+ * small whatever the part's size */
+enum { GATHER_CHUNK = 1 << 15 };
+
+/* n records from src into whole: at `at` onwards, or each at its id */
+static int place(kf_state *whole, const char *src, size_t n, size_t at, int by_id, size_t total) {
+    const size_t rb = kf_dist_record_bytes();
+    for (size_t i = 0; i < n; i++) {
+        size_t j = at + i;
+        if (by_id) {
+            uint32_t id;
+            memcpy(&id, src + i * rb + KF_PARTICLE_REAL_PLANES * sizeof(kf_real), sizeof id);
+            if ((size_t)id >= total) return -1;
+            j = id;
+        }
+        kf_dist_unpack(&whole->p, j, src + i * rb);
+    }
+    return 0;
+}
+
 int kf_dist_gather(const kf_state *s, kf_state *whole, int by_id) {
     struct kf_dist *d = s->dist;
     double t0 = kf_dist_clock();
@@ -241,39 +260,29 @@ int kf_dist_gather(const kf_state *s, kf_state *whole, int by_id) {
     MPI_Type_commit(&rec);
     int n = (int)s->p.n, *cnt = d->counts;
     MPI_Gather(&n, 1, MPI_INT, cnt, 1, MPI_INT, 0, d->comm);
-    if (kf_dist_reserve((void **)&d->pbuf[0], &d->pbuf_cap[0], (size_t)n * rb + 1)) MPI_Abort(d->comm, 1);
-    for (size_t i = 0; i < (size_t)n; i++) kf_dist_pack(&s->p, i, d->pbuf[0] + i * rb);
+    if (kf_dist_reserve((void **)&d->pbuf[0], &d->pbuf_cap[0], GATHER_CHUNK * rb)) MPI_Abort(d->comm, 1);
     int rc = 0;
-    size_t total = 0, most = 0;
-    if (d->rank != 0) MPI_Send(d->pbuf[0], n, rec, 0, 1, d->comm);
-    else {
-        for (int r = 0; r < d->size; r++) {
-            total += (size_t)cnt[r];
-            if ((size_t)cnt[r] > most) most = (size_t)cnt[r];
+    size_t total = 0;
+    if (d->rank != 0) {
+        /* this rank's part in chunks, in order (messages from one rank arrive in order) */
+        for (size_t at = 0; at < (size_t)n; at += GATHER_CHUNK) {
+            size_t m = (size_t)n - at < GATHER_CHUNK ? (size_t)n - at : GATHER_CHUNK;
+            for (size_t i = 0; i < m; i++) kf_dist_pack(&s->p, at + i, d->pbuf[0] + i * rb);
+            MPI_Send(d->pbuf[0], (int)m, rec, 0, 1, d->comm);
         }
-        if (kf_dist_reserve((void **)&d->pbuf[1], &d->pbuf_cap[1], most * rb + 1)) MPI_Abort(d->comm, 1);
+    } else {
+        for (int r = 0; r < d->size; r++) total += (size_t)cnt[r];
         if (kf_particles_reserve(&whole->p, total + 1)) rc = -1;
-        /* each rank's part in turn, in rank order (the one-rank order): rank 0
-         * holds one part's records at a time besides the whole state */
+        /* each rank's part in turn, in rank order (the one-rank order), a
+         * chunk at a time; after a failure the rest is received and dropped */
         size_t at = 0;
         for (int r = 0; r < d->size; r++) {
-            const char *src = d->pbuf[0];
-            if (r > 0) {
-                MPI_Recv(d->pbuf[1], cnt[r], rec, r, 1, d->comm, MPI_STATUS_IGNORE);
-                src = d->pbuf[1];
-            }
-            for (size_t i = 0; rc == 0 && i < (size_t)cnt[r]; i++) {
-                size_t j = at + i;
-                if (by_id) {
-                    uint32_t id;
-                    memcpy(&id, src + i * rb + KF_PARTICLE_REAL_PLANES * sizeof(kf_real), sizeof id);
-                    if ((size_t)id >= total) {
-                        rc = -1;
-                        break;
-                    }
-                    j = id;
-                }
-                kf_dist_unpack(&whole->p, j, src + i * rb);
+            for (size_t off = 0; off < (size_t)cnt[r]; off += GATHER_CHUNK) {
+                size_t m = (size_t)cnt[r] - off < GATHER_CHUNK ? (size_t)cnt[r] - off : GATHER_CHUNK;
+                if (r == 0)
+                    for (size_t i = 0; i < m; i++) kf_dist_pack(&s->p, off + i, d->pbuf[0] + i * rb);
+                else MPI_Recv(d->pbuf[0], (int)m, rec, r, 1, d->comm, MPI_STATUS_IGNORE);
+                if (rc == 0) rc = place(whole, d->pbuf[0], m, at + off, by_id, total);
             }
             at += (size_t)cnt[r];
         }

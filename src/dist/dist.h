@@ -79,16 +79,16 @@ int kf_dist_attach(const kf_model *m, kf_state *s);
 void kf_dist_free(struct kf_dist *d);
 
 /* Seeding only this rank's part (the scene build). Every rank samples every
- * object twice alike: _count over every sampled particle, _cut, then _keep
- * marks the particles of this rank's range (returns how many); the build
- * adds those, in sampling order, and gives each the id a whole build would.
- * _adopt makes the state this rank's part (s->dist set, the whole build's
- * next id) and frees sd. _count and _cut return 0 or -1 (out of memory). */
+ * object twice alike: _count over every sampled point (x3: n points), _cut,
+ * then _owns says which points are this rank's; the build adds those, in
+ * sampling order, and gives each the id a whole build would. _adopt makes
+ * the state this rank's part (s->dist set, the whole build's next id) and
+ * frees sd. _count and _cut return 0 or -1 (out of memory). */
 typedef struct kf_dist_seed kf_dist_seed;
 kf_dist_seed *kf_dist_seed_new(const kf_model *m);
 int kf_dist_seed_count(kf_dist_seed *sd, const double *x3, size_t n);
 int kf_dist_seed_cut(kf_dist_seed *sd);
-size_t kf_dist_seed_keep(const kf_dist_seed *sd, const double *x3, size_t n, uint8_t *keep);
+int kf_dist_seed_owns(const kf_dist_seed *sd, const double x[3]);
 void kf_dist_seed_adopt(kf_dist_seed *sd, kf_state *s);
 void kf_dist_seed_free(kf_dist_seed *sd);
 

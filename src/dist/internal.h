@@ -25,7 +25,6 @@ struct kf_dist {
     size_t pack_cap, unpack_cap;
     char *pbuf[2]; /* particle records out and in */
     size_t pbuf_cap[2];
-    kf_particles tmp;      /* the particle array being rebuilt by migration */
     uint32_t *colour_save; /* CPIC colours kept while the halo's caches are made (halo.c) */
     /* every rank's owner block keys, ascending (the ranks' owners end to
      * end), gathered after each re-sort: a cache travels only to a rank

@@ -111,27 +111,38 @@ int kf_dist_migrate(const kf_model *m, kf_state *s) {
     MPI_Type_free(&rec);
 
     if (nsend == 0 && nrecv == 0) return free(stay), free(dest), 0; /* nothing changes here */
-    /* the new array: ranks before this one, this rank's own, ranks after */
-    size_t keep = n - nsend, total = keep + nrecv, j = 0;
-    kf_particles *t = &d->tmp;
-    if (kf_particles_reserve(t, total + 1)) return free(stay), free(dest), -1;
-    for (int r = 0; r < d->size; r++) {
-        if (r == d->rank) {
-            for (size_t i = 0; i < n; i++) {
-                if (!stay[i]) continue;
-                for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) t->plane[k][j] = p->plane[k][i];
-                t->mat[j] = p->mat[i], t->obj[j] = p->obj[i], t->colour[j] = p->colour[i], t->id[j] = p->id[i];
-                j++;
-            }
-            continue;
+    /* The new array, in place (no second copy of the part): this rank's own
+     * particles close up in order, move up past what the ranks before this
+     * one send, and the arrivals fill in before and after them. */
+    const size_t keep = n - nsend, total = keep + nrecv, low = (size_t)rdispl[d->rank];
+    if (nsend) {
+        for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) {
+            kf_real *a = p->plane[k];
+            size_t j = 0;
+            for (size_t i = 0; i < n; i++)
+                if (stay[i]) a[j++] = a[i];
         }
-        for (int q = 0; q < rcount[r]; q++, j++)
-            kf_dist_unpack(t, j, d->pbuf[1] + ((size_t)rdispl[r] + (size_t)q) * rb);
+        uint16_t *mat = p->mat, *obj = p->obj;
+        uint32_t *colour = p->colour, *id = p->id;
+        size_t j = 0;
+        for (size_t i = 0; i < n; i++)
+            if (stay[i]) mat[j] = mat[i], obj[j] = obj[i], colour[j] = colour[i], id[j] = id[i], j++;
     }
-    t->n = total;
-    kf_particles swap = *p;
-    *p = *t;
-    *t = swap;
+    if (kf_particles_reserve(p, total + 1)) return free(stay), free(dest), -1;
+    if (low) {
+        for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
+            memmove(p->plane[k] + low, p->plane[k], keep * sizeof(kf_real));
+        memmove(p->mat + low, p->mat, keep * sizeof *p->mat);
+        memmove(p->obj + low, p->obj, keep * sizeof *p->obj);
+        memmove(p->colour + low, p->colour, keep * sizeof *p->colour);
+        memmove(p->id + low, p->id, keep * sizeof *p->id);
+    }
+    for (int r = 0; r < d->size; r++) {
+        size_t at = (size_t)rdispl[r] + (r > d->rank ? keep : 0);
+        for (int q = 0; q < rcount[r]; q++)
+            kf_dist_unpack(p, at + (size_t)q, d->pbuf[1] + ((size_t)rdispl[r] + (size_t)q) * rb);
+    }
+    p->n = total;
     s->g.valid = 0;
     d->stats.migrated += (double)nsend;
     free(stay);

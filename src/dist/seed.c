@@ -102,14 +102,8 @@ int kf_dist_seed_cut(kf_dist_seed *sd) {
     return 0;
 }
 
-size_t kf_dist_seed_keep(const kf_dist_seed *sd, const double *x3, size_t n, uint8_t *keep) {
-    const struct kf_dist *d = sd->d;
-    size_t kept = 0;
-    for (size_t i = 0; i < n; i++) {
-        keep[i] = kf_dist_rank_of(d, key_of(sd, x3 + 3 * i)) == d->rank;
-        kept += keep[i];
-    }
-    return kept;
+int kf_dist_seed_owns(const kf_dist_seed *sd, const double x[3]) {
+    return kf_dist_rank_of(sd->d, key_of(sd, x)) == sd->d->rank;
 }
 
 void kf_dist_seed_adopt(kf_dist_seed *sd, kf_state *s) {

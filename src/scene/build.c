@@ -51,11 +51,25 @@ static int object_mesh_check(const char *path, int threads, char *err, size_t n)
     return rc;
 }
 
+/* the seeded particles outside the domain */
+static size_t count_outside(const kf_sim_def *sd, const kf_points *pts) {
+    const double *lo = sd->domain_min, *hi = sd->domain_max;
+    size_t out = 0;
+    for (size_t k = 0; k < pts->n; k++) {
+        const double *x = &pts->x[3 * k];
+        int in = 1;
+        for (int a = 0; a < 3; a++) in &= x[a] >= lo[a] && x[a] <= hi[a];
+        out += !in;
+    }
+    return out;
+}
+
 /* An object wholly outside the domain (its placed bounding box misses the
  * box) is a mistake: an error at its entry. One partly outside is allowed
  * (material may start against a wall's far side), with a warning counting
- * its particles out there. Returns -1 on the error. */
-static int check_in_domain(const kf_shot_object *o, const kf_sim_def *sd, const kf_points *pts, kf_diag *diag) {
+ * its `out` particles out there. Returns -1 on the error. */
+static int check_in_domain(const kf_shot_object *o, const kf_sim_def *sd, const kf_points *pts, size_t out,
+                           kf_diag *diag) {
     const double *lo = sd->domain_min, *hi = sd->domain_max;
     int misses = 0;
     for (int a = 0; a < 3; a++) misses |= pts->hi[a] < lo[a] || pts->lo[a] > hi[a];
@@ -67,23 +81,52 @@ static int check_in_domain(const kf_shot_object *o, const kf_sim_def *sd, const 
                        pts->hi[0], pts->hi[1], pts->hi[2]);
         return -1;
     }
-    size_t out = 0;
-    for (size_t k = 0; k < pts->n; k++) {
-        const double *x = &pts->x[3 * k];
-        int in = 1;
-        for (int a = 0; a < 3; a++) in &= x[a] >= lo[a] && x[a] <= hi[a];
-        out += !in;
-    }
     if (out)
         kf_shot_report(diag, &o->at, KF_DIAG_WARNING,
                        "object '%s': %zu of its %zu particles start outside the domain "
                        "[%g, %g, %g]-[%g, %g, %g]",
-                       o->name, out, pts->n, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+                       o->name, out, pts->whole, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     return 0;
 }
 
-/* object i sampled whole (build.h's lattice, so the same on every call) */
-static int sample_object(const kf_shot *shot, int i, const kf_sim_def *sd, kf_points *pts, char *err, size_t n) {
+/* Over MPI ranks, what the sampler keeps of an object: in the first pass
+ * nothing (every point counted per block, and those outside the domain),
+ * in the second this rank's points, with their index in the whole object. */
+typedef struct part_sink {
+    kf_dist_seed *seed;
+    int pass;
+    const kf_sim_def *sd;
+    size_t seen, outside;
+    uint32_t *index;
+    size_t n, cap;
+    int failed; /* out of memory */
+} part_sink;
+
+static int part_keep(void *ctx, const double x[3]) {
+    part_sink *ps = ctx;
+    size_t i = ps->seen++;
+    if (ps->pass == 0) {
+        int in = 1;
+        for (int a = 0; a < 3; a++) in &= x[a] >= ps->sd->domain_min[a] && x[a] <= ps->sd->domain_max[a];
+        ps->outside += !in;
+        if (kf_dist_seed_count(ps->seed, x, 1)) ps->failed = 1;
+        return 0;
+    }
+    if (!kf_dist_seed_owns(ps->seed, x)) return 0;
+    if (ps->n == ps->cap) {
+        size_t c = ps->cap ? 2 * ps->cap : 4096;
+        uint32_t *q = realloc(ps->index, c * sizeof *q);
+        if (!q) return ps->failed = 1, 0;
+        ps->index = q, ps->cap = c;
+    }
+    ps->index[ps->n++] = (uint32_t)i;
+    return 1;
+}
+
+/* object i sampled (build.h's lattice, so the same on every call); with
+ * ps, through it */
+static int sample_object(const kf_shot *shot, int i, const kf_sim_def *sd, part_sink *ps, kf_points *pts, char *err,
+                         size_t n) {
     const kf_shot_object *o = &shot->objects[i];
     kf_sample_def d = kf_default_sample_def();
     d.kind = o->shape;
@@ -98,40 +141,27 @@ static int sample_object(const kf_shot *shot, int i, const kf_sim_def *sd, kf_po
     memcpy(d.velocity, o->velocity, sizeof d.velocity);
     memcpy(d.angular_velocity, o->angular_velocity, sizeof d.angular_velocity);
     d.threads = sd->threads;
-    return kf_sample_shape(&d, pts, err, n);
+    if (ps) d.keep = part_keep, d.keep_ctx = ps;
+    int rc = kf_sample_shape(&d, pts, err, n);
+    if (rc == 0 && ps && ps->failed) {
+        kf_points_free(pts);
+        snprintf(err, n, "out of memory splitting it over MPI ranks");
+        return -1;
+    }
+    return rc;
 }
 
-/* Object i's particles added to the state: all of them, or with seed only
- * this rank's, moved to the front of pts in order, their ids those of a
- * whole build (base + index in pts). Returns 0 or -1 (out of memory). */
-static int add_object(kf_scene *sc, kf_dist_seed *seed, const kf_shot_object *o, int i, kf_points *pts, uint32_t base) {
-    size_t n = pts->n;
-    uint32_t *index = NULL;
-    if (seed) {
-        uint8_t *keep = malloc(n + 1);
-        if (!keep) return -1;
-        size_t kept = kf_dist_seed_keep(seed, pts->x, n, keep);
-        index = malloc((kept + 1) * sizeof *index);
-        if (!index) return free(keep), -1;
-        size_t j = 0;
-        for (size_t k = 0; k < n; k++) {
-            if (!keep[k]) continue;
-            for (int a = 0; a < 3; a++) {
-                pts->x[3 * j + a] = pts->x[3 * k + a];
-                if (pts->v) pts->v[3 * j + a] = pts->v[3 * k + a];
-            }
-            index[j++] = base + (uint32_t)k;
-        }
-        free(keep);
-        n = kept;
-    }
-    long first = kf_state_add_particles(sc->state, sc->model, n, pts->x, pts->v, NULL, o->material, pts->volume);
-    if (first < 0) return free(index), -1;
+/* Object i's particles added to the state; with index (this rank's part),
+ * each with the id a whole build gives it: base + its index in the object.
+ * Returns 0 or -1 (out of memory). */
+static int add_object(kf_scene *sc, const kf_shot_object *o, int i, const kf_points *pts, const uint32_t *index,
+                      uint32_t base) {
+    long first = kf_state_add_particles(sc->state, sc->model, pts->n, pts->x, pts->v, NULL, o->material, pts->volume);
+    if (first < 0) return -1;
     /* remember the object each particle came from (surface.group: object) */
     kf_particles_view view = kf_state_particles(sc->state);
-    for (size_t k = 0; k < n; k++) view.obj[(size_t)first + k] = (uint16_t)i;
-    for (size_t k = 0; k < n && index; k++) view.id[(size_t)first + k] = index[k];
-    free(index);
+    for (size_t k = 0; k < pts->n; k++) view.obj[(size_t)first + k] = (uint16_t)i;
+    for (size_t k = 0; k < pts->n && index; k++) view.id[(size_t)first + k] = base + index[k];
     return 0;
 }
 
@@ -216,31 +246,30 @@ int kf_scene_from_shot_part(const kf_shot *shot, int threads, int part, kf_scene
         for (int i = 0; i < shot->nobjects; i++) {
             const kf_shot_object *o = &shot->objects[i];
             kf_points pts;
-            if (sample_object(shot, i, &sd, &pts, err, sizeof err)) {
+            part_sink ps = {seed, pass, &sd, 0, 0, NULL, 0, 0, 0};
+            if (sample_object(shot, i, &sd, seed ? &ps : NULL, &pts, err, sizeof err)) {
                 kf_shot_report(diag, o->shape == KF_SOURCE_MESH ? &o->mesh_at : &o->at, KF_DIAG_ERROR,
                                "object '%s': %s", o->name, err);
                 bad = 1;
+                free(ps.index);
                 continue;
             }
-            if (report && check_in_domain(o, &sd, &pts, diag)) {
+            if (report && check_in_domain(o, &sd, &pts, seed ? ps.outside : count_outside(&sd, &pts), diag)) {
                 bad = 1;
                 kf_points_free(&pts);
                 continue;
             }
-            if (report && stats && i < 256) stats->particles_per_object[i] = pts.n;
-            if (pts.n == 0 && report)
+            if (report && stats && i < 256) stats->particles_per_object[i] = pts.whole;
+            if (pts.whole == 0 && report)
                 kf_shot_report(diag, &o->at, KF_DIAG_WARNING,
                                "object '%s' holds no particles at dx %g (thinner than the lattice)", o->name, sd.dx);
-            else if (pass == 0 && kf_dist_seed_count(seed, pts.x, pts.n)) {
-                kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name,
-                               pts.n);
-                bad = 1;
-            } else if (pass == 1 && add_object(sc, seed, o, i, &pts, base)) {
+            else if (pass == 1 && add_object(sc, o, i, &pts, ps.index, base)) {
                 kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name,
                                pts.n);
                 bad = 1;
             }
-            base += (uint32_t)pts.n;
+            base += (uint32_t)pts.whole;
+            free(ps.index);
             kf_points_free(&pts);
         }
     }

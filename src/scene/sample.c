@@ -283,7 +283,16 @@ static int push(growing *g, const double q[3]) {
     return 0;
 }
 
-static int seed_lattice(const lattice *L, const shape_ctx *S, const uint8_t *mark, int threads, growing *out,
+/* where the points inside go: kept (all, or those def.keep says), and
+ * summed for the centroid, all of them in output order */
+typedef struct sink {
+    int (*keep)(void *ctx, const double x[3]);
+    void *ctx;
+    double sum[3];
+    size_t whole;
+} sink;
+
+static int seed_lattice(const lattice *L, const shape_ctx *S, const uint8_t *mark, int threads, growing *out, sink *to,
                         kf_sample_stats *st) {
     const size_t layer = (size_t)(L->nb[1] * L->nb[2]);
     /* several x-layers of blocks per parallel region (about 2 MB of flags),
@@ -350,7 +359,9 @@ static int seed_lattice(const lattice *L, const shape_ctx *S, const uint8_t *mar
                 int lx = l / (BLOCK * BLOCK), ly = (l / BLOCK) % BLOCK, lz = l % BLOCK;
                 double q[3];
                 lattice_point(L, L->i0[0] + bx * BLOCK + lx, L->i0[1] + by * BLOCK + ly, L->i0[2] + bz * BLOCK + lz, q);
-                if (push(out, q)) return free(flags), -1;
+                for (int a = 0; a < 3; a++) to->sum[a] += q[a];
+                to->whole++;
+                if ((!to->keep || to->keep(to->ctx, q)) && push(out, q)) return free(flags), -1;
             }
         }
     }
@@ -442,7 +453,8 @@ int kf_sample_shape(const kf_sample_def *def, kf_points *out, char *err, size_t 
         rc = -1;
         goto done;
     }
-    if (seed_lattice(&L, &S, mark, def->threads, &g, &out->stats)) {
+    sink to = {def->keep, def->keep_ctx, {0, 0, 0}, 0};
+    if (seed_lattice(&L, &S, mark, def->threads, &g, &to, &out->stats)) {
         snprintf(err, errlen, "sample: out of memory (%zu particles so far)", g.n);
         rc = -1;
         goto done;
@@ -464,10 +476,10 @@ int kf_sample_shape(const kf_sample_def *def, kf_points *out, char *err, size_t 
         rc = -1;
         goto done;
     }
-    double c[3] = {0, 0, 0};
-    for (size_t i = 0; i < out->n; i++)
-        for (int a = 0; a < 3; a++) c[a] += out->x[3 * i + a];
-    for (int a = 0; a < 3; a++) c[a] = out->n ? c[a] / (double)out->n : 0.5 * (lo[a] + hi[a]);
+    /* the centroid of every point, summed in output order as they came */
+    double c[3];
+    out->whole = to.whole;
+    for (int a = 0; a < 3; a++) c[a] = to.whole ? to.sum[a] / (double)to.whole : 0.5 * (lo[a] + hi[a]);
     for (size_t i = 0; i < out->n && !still; i++) {
         double r[3] = {out->x[3 * i] - c[0], out->x[3 * i + 1] - c[1], out->x[3 * i + 2] - c[2]};
         out->v[3 * i + 0] = v0[0] + w[1] * r[2] - w[2] * r[1];

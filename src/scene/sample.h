@@ -40,6 +40,11 @@ typedef struct kf_sample_def {
     double velocity[3];         /* v0, m/s */
     double angular_velocity[3]; /* ω, rad/s: v = v0 + ω × (x − centroid of the seeded particles) */
     int threads;                /* 0 = OpenMP default */
+    /* Keep only the points this says (NULL: all): called once per point of
+     * the shape, in the output order, from one thread. The centroid and the
+     * velocities are those of the whole shape; n counts the kept points. */
+    int (*keep)(void *ctx, const double x[3]);
+    void *keep_ctx;
 } kf_sample_def;
 
 /* Zero everything, ppc = 8, scale = 1. */
@@ -54,6 +59,7 @@ typedef struct kf_sample_stats {
 
 typedef struct kf_points {
     size_t n;
+    size_t whole;        /* the shape's points: n, and with def.keep those it left out too */
     double *x;           /* (n x 3) positions, m */
     double *v;           /* (n x 3) velocities, m/s; NULL for a shape at rest (velocity and angular_velocity +0) */
     double volume;       /* rest volume of each particle, Δx³ / ppc, m³ */
