@@ -10,28 +10,13 @@
 # rigid body and crossing lines in the frame log; runs cut short on one
 # rank count resume on another and end the same.
 #   usage: test_mpi_shot.sh <kerf binary> <tests dir> blade|slide|dam
-# The launcher: $KERF_MPIRUN (the build's MPI, set by ctest), else mpirun.
-# Exit 77 (skipped) when it is missing.
+# The launcher and the helpers: tests/mpi/common.sh (exit 77 without one).
 set -u
 kerf=$1
 tests=$2
 shot=$3
-mpirun=${KERF_MPIRUN:-mpirun}
-command -v "$mpirun" > /dev/null || { echo "$mpirun not found: skipped"; exit 77; }
-work=$(mktemp -d /tmp/kerf_mpi_shot.XXXXXX)
-trap 'rm -rf "$work"' EXIT
-fails=0
-check() { # check <description> <command...>
-    local what=$1; shift
-    if "$@"; then echo "ok    $what"; else echo "FAIL  $what"; fails=$((fails + 1)); fi
-}
-# as root, Open MPI needs to be told; more ranks than cores needs --oversubscribe
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
-export OMP_NUM_THREADS=1 OMP_WAIT_POLICY=PASSIVE
-# (MPICH's launcher runs any number of ranks as any user, and has no such flag)
-over=()
-"$mpirun" --version 2>&1 | grep -qE "Open MPI|OpenRTE" && over=(--oversubscribe)
-mpi() { local n=$1; shift; "$mpirun" -np "$n" "${over[@]}" "$kerf" "$@"; }
+work_prefix=kerf_mpi_shot
+. "$tests/mpi/common.sh"
 # the shots name their meshes relative to tests/mpi/
 mkdir -p "$work/tests/mpi"
 cp "$tests/mpi/$shot.yaml" "$work/tests/mpi/"

@@ -1,14 +1,27 @@
 /* dist.c — MPI start, the ranks' key ranges (cut by particle count),
  * splitting a whole state, gathering it back, and the global reductions the
  * step agrees through. See dist.h for the scheme. */
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "../core/timer.h"
 #include "internal.h"
 #include "../rigid/rigid.h"
 
 static int g_size = 1, g_rank = 0, g_started = 0;
+
+/* The launcher ends the other ranks (SIGTERM) when one dies: rank 0 says
+ * why before it goes, then ends by the same signal. */
+static void stopped(int sig) {
+    static const char msg[] = "kerf: stopped: another MPI rank of this run ended; `kerf run --resume` continues "
+                              "after the last checkpoint written\n";
+    ssize_t w = write(2, msg, sizeof msg - 1);
+    (void)w;
+    signal(sig, SIG_DFL);
+    raise(sig);
+}
 
 int kf_dist_init(int *argc, char ***argv) {
     /* only under a launcher: a plain `kerf` never touches MPI */
@@ -17,6 +30,7 @@ int kf_dist_init(int *argc, char ***argv) {
     g_started = 1;
     MPI_Comm_size(MPI_COMM_WORLD, &g_size);
     MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+    if (g_size > 1 && g_rank == 0) signal(SIGTERM, stopped);
     return g_size;
 }
 

@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# test_mpi_kill.sh — one rank of a run over 3 MPI ranks killed (kill -9)
+# while the run writes frames: the whole job stops within seconds with a
+# message (no rank is left waiting in a collective), and `--resume` on 2
+# ranks continues from the last checkpoint written, ending bit for bit on
+# the plain one-rank run's last checkpoint.
+#   usage: test_mpi_kill.sh <kerf binary> <tests dir>
+# The launcher and the helpers: tests/mpi/common.sh (exit 77 without one).
+set -u
+kerf=$1
+tests=$2
+work_prefix=kerf_mpi_kill
+. "$tests/mpi/common.sh"
+cp "$tests/mpi/drop.yaml" "$work/"
+cd "$work"
+last=1016
+frames=(--set frames.end=$last)
+
+# the pids of the kerf processes under a launcher's pid (Open MPI starts them
+# as its children, MPICH under a proxy), from ps: no name matching elsewhere
+ranks_of() {
+    ps -e -o pid=,ppid=,comm= | awk -v top="$1" '
+        { parent[$1] = $2; name[$1] = $3 }
+        END { for (p in name) if (name[p] == "kerf") { q = p; while (q in parent && q != top && q > 1) q = parent[q]; if (q == top) print p } }' | sort -n
+}
+
+"$kerf" run drop.yaml --out ref "${frames[@]}" --quiet
+check "plain run exits 0" test $? -eq 0
+
+# --- kill one rank once frame 1003 is written ------------------------------------
+mpi 3 run drop.yaml --out k "${frames[@]}" > k.log 2>&1 &
+launcher=$!
+for _ in $(seq 600); do [ -e k/checkpoints/drop.1003.kfc ] && break; sleep 0.1; done
+pids=($(ranks_of $launcher))
+check "3 ranks running when frame 1003 is written (pids: ${pids[*]})" test ${#pids[@]} -eq 3
+if [ ${#pids[@]} -ne 3 ]; then
+    kill -9 $launcher 2> /dev/null
+    cat k.log
+    exit 1
+fi
+start=$(date +%s%N)
+kill -9 "${pids[1]}"
+# the launcher must end by itself; after 30 s it is killed and the check fails
+( sleep 30; kill -9 $launcher 2> /dev/null ) &
+watchdog=$!
+wait $launcher
+rc=$?
+took=$((($(date +%s%N) - start) / 1000000))
+kill $watchdog 2> /dev/null
+wait $watchdog 2> /dev/null
+echo "the launcher ended $took ms after the kill, exit $rc"
+check "the job stops within 10 s of a rank's kill (took $took ms), exit not 0 (got $rc)" \
+    test $took -lt 10000 -a $rc -ne 0
+check "no rank is left running" test -z "$(ranks_of $launcher)"
+check "the log says the run stopped and how to go on" \
+    grep -q "kerf: stopped: another MPI rank of this run ended; \`kerf run --resume\` continues" k.log
+check "the frames before the kill are written, the last one not" \
+    test -e k/checkpoints/drop.1003.kfc -a ! -e k/checkpoints/drop.$last.kfc
+
+# --- resume on 2 ranks ------------------------------------------------------------
+mpi 2 run drop.yaml --out k "${frames[@]}" --resume > r.log 2>&1
+check "resumed on 2 ranks: exit 0" test $? -eq 0
+check "resumed after the last checkpoint written before the kill" grep -qE "resuming after frame 10(0[3-9]|1[0-5])" r.log
+check "resumed run ends bit for bit on the one-rank run's last checkpoint" \
+    cmp -s ref/checkpoints/drop.$last.kfc k/checkpoints/drop.$last.kfc
+check "every particle file equals the one-rank run's" \
+    bash -c 'for f in ref/particles/*.ply; do cmp -s $f k/${f#ref/} || exit 1; done'
+
+echo "$fails failure(s)"
+test $fails -eq 0
