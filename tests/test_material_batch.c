@@ -2,7 +2,7 @@
  * against the per-particle reference kf_mat_update, for every model the
  * Hencky-strain models the batch path vectorises: von Mises and Drucker–Prager sand
  * (elastic, yielding and tension-tip states; with and without hardening,
- * volume correction and cohesion).
+ * volume correction and cohesion), and snow (clamped σ, Jp, hardening).
  *
  * In the float build the Hencky models run a float SVD (Jacobi on FᵀF)
  * with polynomial log/exp for particles whose σ all lie in the batch's
@@ -20,9 +20,11 @@
  * the size of the strain: an absolute error in H of a few u is inherent
  * (F itself is rounded to float), so small stresses are not compared
  * relative to themselves. Particles outside the window, and elastic
- * particles' F (no volume correction), must be bit-identical. The double
- * build runs the scalar path for these models, so there everything is
- * bit-identical. */
+ * particles' F (no volume correction), must be bit-identical. Snow's
+ * stress is compared in units of its hardened moduli, e^{ξ(1 − Jp)}
+ * (2μ + 3λ) at the reference's Jp (measured: F 16 u, τ 11 u, Jp 8 u). The
+ * double build runs the same batch path with library log/exp and the same
+ * bounds in its own u (measured maxima: F 39 u, τ 15 u, ps 29 u). */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,6 +58,9 @@ static void make_F(kf_real F[9], const double s[3]) {
 
 enum { IN_WINDOW, OUTSIDE };
 
+/* particles for snow: ps[0] is Jp */
+static int snow_jp;
+
 /* one particle: a strain scale picked to cover elastic, yielding and
  * tension-tip states, or (kind OUTSIDE) σ clearly outside [0.67, 1.5],
  * inverted, or NaN */
@@ -81,6 +86,11 @@ static int make_particle(kf_real F[9], kf_real ps[2], int with_vc, int with_q) {
         if (urand() < 0.05) s[1] = s[2] = s[0];
     }
     make_F(F, s);
+    if (snow_jp) {
+        /* snow: Jp near 1, hardening factors e^{ξ(1 − Jp)} of 0.74 to 1.35 */
+        ps[0] = (kf_real)(1 + 0.03 * srand1()), ps[1] = 0;
+        return kind;
+    }
     ps[0] = with_vc && urand() < 0.6 ? (kf_real)(0.02 * srand1()) : 0;
     ps[1] = with_q ? (kf_real)(urand() < 0.3 ? 0 : 3 * urand()) : 0;
     return kind;
@@ -121,10 +131,12 @@ static stats compare(const kf_mat *m, int project, int with_vc, int with_q, cons
         kf_mat_update_batch(m, len, Fp, pp, project, (size_t)(OFF + lo), t);
         lo += len;
     }
-    const double M = 2 * (double)m->mu + 3 * fabs((double)m->lambda);
+    const double M0 = 2 * (double)m->mu + 3 * fabs((double)m->lambda);
     static const int t6[6] = {0, 4, 8, 1, 2, 5};
     for (int p = 0; p < N; p++) {
         const kf_real *F = ref_F[p], *ps = ref_ps[p];
+        /* snow: the moduli hardened by e^{ξ(1 − Jp)} at the reference's Jp */
+        const double M = M0 * (snow_jp ? exp((double)m->xi * (1 - (double)ps[0])) : 1);
         if (kind[p] == OUTSIDE) {
             st.n_out++;
             int same = 1;
@@ -239,7 +251,23 @@ static void test_elastic_keeps_F(void) {
     }
 }
 
+/* snow: σ about the clamp window [1 − θc, 1 + θs] (in it, clamped on either
+ * side), and the stress alone; θc widened in a second case so that some
+ * particles sit inside the window */
+static void wide_snow(kf_material *o) { o->theta_c = 0.05, o->theta_s = 0.02; }
+static void test_snow(void) {
+    snow_jp = 1;
+    for (int i = 0; i < 2; i++) {
+        kf_mat m;
+        mat_from_preset(&m, "snow", i ? wide_snow : NULL);
+        compare(&m, 1, 0, 0, i ? "snow (wide window), project" : "snow, project");
+        compare(&m, 0, 0, 0, i ? "snow (wide window), stress only" : "snow, stress only");
+    }
+    snow_jp = 0;
+}
+
 int main(int argc, char **argv) {
+    KT_RUN(test_snow, argc, argv);
     KT_RUN(test_von_mises, argc, argv);
     KT_RUN(test_sand, argc, argv);
     KT_RUN(test_elastic_keeps_F, argc, argv);

@@ -1,8 +1,8 @@
 /* bench.c — kerf's speed figures, printed, never asserted.
  *
- *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory]
- *              [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--set k=v]
- *              [--substeps N]
+ *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress]
+ *              [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--dump DIR] [--set k=v]
+ *              [--substeps N] [--cells N] [--force mls|classic]
  *
  * cube:  the paper's Table 2 setup (grid 125³, a 100³-cell cube, 2x2x2
  *        particles per cell = 8M particles, E = 100, ν = 0.3, Δt = 1e-2, no
@@ -35,6 +35,9 @@
  * memory: peak resident bytes per particle of the 8M cube and bunny_split
  *        at Δx 0.0033 over a few substeps, against kerf info's estimate
  *        (only with --only memory; bench_memory.c; --scenes cube picks one).
+ * stress: ns per particle of the stress pass per solid model, batch path
+ *        and scalar path, one thread (only with --only stress; bench_stress.c).
+ * --cells, --force and --threads pick one cube size, force or thread count.
  * --quick shrinks them (24³ and 16³ cubes, a 100k-particle block) for a smoke run. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -52,6 +55,7 @@
 #include "../src/scene/builtin.h"
 #include "bench_memory.h"
 #include "bench_scenes.h"
+#include "bench_stress.h"
 #include "median.h"
 
 static double peak_rss_mb(void) {
@@ -292,23 +296,30 @@ int main(int argc, char **argv) {
     const char *only = NULL;
     bench_scenes_opts so = {.frames = 2, .scale = 1};
     int substeps = 3;
+    /* the cube: only this size, force (0 MLS, 1 classic) or thread count, when given */
+    int only_cells = 0, only_force = -1;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json")) json = 1;
         else if (!strcmp(argv[i], "--frames") && i + 1 < argc) so.frames = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--scenes") && i + 1 < argc) so.only = argv[++i];
         else if (!strcmp(argv[i], "--paper-dx")) so.paper_dx = 1;
         else if (!strcmp(argv[i], "--hash")) so.hash = 1;
+        else if (!strcmp(argv[i], "--dump") && i + 1 < argc) so.dump = argv[++i];
         else if (!strcmp(argv[i], "--set") && i + 1 < argc && so.nset < 8) so.set[so.nset++] = argv[++i];
         else if (!strcmp(argv[i], "--scale") && i + 1 < argc) so.scale = atof(argv[++i]);
         else if (!strcmp(argv[i], "--threads") && i + 1 < argc) so.threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--quick")) quick = 1;
         else if (!strcmp(argv[i], "--substeps") && i + 1 < argc) substeps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--cells") && i + 1 < argc) only_cells = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--force") && i + 1 < argc) only_force = !strcmp(argv[++i], "classic");
         else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
         else {
-            fprintf(stderr, "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory]\n"
-                            "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] "
-                            "[--hash] [--set k=v] [--substeps N]\n");
+            fprintf(stderr,
+                    "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress]\n"
+                    "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] "
+                    "[--hash] [--dump DIR] [--set k=v] [--substeps N]\n"
+                    "                  [--cells N] [--force mls|classic]\n");
             return 2;
         }
     }
@@ -318,6 +329,7 @@ int main(int argc, char **argv) {
                                 so.scale > 0 ? so.scale : 1, so.only};
         return bench_memory(&mo);
     }
+    if (only && !strcmp(only, "stress")) return bench_stress(runs);
     if (only && !strcmp(only, "scenes")) {
         if (so.frames < 1 || !(so.scale > 0)) {
             fprintf(stderr, "kerf_bench: --frames must be >= 1 and --scale > 0\n");
@@ -347,6 +359,9 @@ int main(int argc, char **argv) {
         for (int s = 0; s < 2; s++)
             for (int f = 0; f < 2; f++)
                 for (int t = 1; t <= 2; t++) {
+                    if ((only_cells && sizes[s] != only_cells) || (only_force >= 0 && f != only_force) ||
+                        (so.threads > 0 && t != so.threads))
+                        continue;
                     if (bench_cube(sizes[s], (kf_force)f, t, runs, &cubes[nc])) return 1;
                     if (!json)
                         fprintf(stderr,

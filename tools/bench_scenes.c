@@ -1,6 +1,7 @@
 /* bench_scenes.c — the paper's scenes as kerf ships them, at the paper's
  * size: `kerf_bench --only scenes [--frames N] [--scenes a,b] [--paper-dx]
- * [--scale S] [--threads T] [--hash] [--set k=v]`. --set passes an override
+ * [--scale S] [--threads T] [--hash] [--dump DIR] [--set k=v]`. --dump writes each
+ * scene's particles (x, v, F in id order, float32) to DIR/<scene>.f32. --set passes an override
  * to every scene's shot (`--set 'rigids=[]'`: the scene without its bodies,
  * the baseline of CPIC's overhead).
  *
@@ -23,6 +24,7 @@
 
 #include <math.h>
 #include <omp.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -70,6 +72,27 @@ typedef struct scene_result {
     unsigned long long hash; /* kf_state_hash after the frames */
     int threads, frames;
 } scene_result;
+
+/* x, v and F of every particle as float32, in id order (ids are 0..n-1),
+ * after a count: two builds' files compare particle by particle */
+static void dump_particles(const char *dir, const char *name, kf_state *s) {
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s.f32", dir, name);
+    FILE *f = fopen(path, "wb");
+    if (!f) return;
+    kf_particles_view p = kf_state_particles_read(s);
+    float *rec = calloc(p.n ? p.n : 1, 15 * sizeof *rec);
+    for (size_t i = 0; rec && i < p.n; i++) {
+        float *r = rec + 15 * (size_t)(p.id[i] < p.n ? p.id[i] : 0);
+        for (int a = 0; a < 3; a++) r[a] = (float)p.x[a][i], r[3 + a] = (float)p.v[a][i];
+        for (int k = 0; k < 9; k++) r[6 + k] = (float)p.F[k][i];
+    }
+    uint64_t n = p.n;
+    fwrite(&n, sizeof n, 1, f);
+    if (rec) fwrite(rec, sizeof *rec, 15 * p.n, f);
+    free(rec);
+    fclose(f);
+}
 
 /* in the child: load the shot at Δx, run `frames` frames, fill r */
 static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_scenes_opts *o, scene_result *r) {
@@ -135,6 +158,7 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
         for (int k = 0; k < KF_STAGE_COUNT; k++) r->ms_per_frame[k] = st.ms[k] / f;
     }
     r->hash = kf_state_hash(sc.state);
+    if (o->dump) dump_particles(o->dump, ps->shot, sc.state);
     kf_scene_free(&sc);
     kf_shot_free(shot);
     kf_diag_free(&diag);

@@ -12,6 +12,9 @@ typedef struct bench_scenes_opts {
     const char *set[8];   /* extra shot overrides, "a.b=value", as kerf's --set */
     int nset;
     int hash; /* print each scene's state hash (bit-for-bit checks across builds and threads) */
+    /* write each scene's particles after the frames to <dump>/<scene>.f32 (NULL: none): x, v and F of
+     * every particle as float32 in id order, to measure how far two builds' results differ */
+    const char *dump;
 } bench_scenes_opts;
 
 /* Print the table; returns 0, or 1 if a scene failed (its row says why). */

@@ -8,9 +8,9 @@
  * A particle whose iteration has not converged after the fixed number of
  * sweeps, or whose F is near-singular or inverted, is recomputed by the
  * robust scalar path (kf_mat_update: sign-fixed SVD). The Hencky models
- * (von Mises, Drucker–Prager sand) run a float SVD, return map and stress in
- * lock step the same way (hencky_batch, float build only). Snow and the
- * double build take the scalar path for every particle. */
+ * (von Mises, Drucker–Prager sand) and snow run an SVD, return map and
+ * stress in lock step the same way (hencky_batch, snow_batch), in either
+ * precision. */
 #include "material.h"
 
 #include <math.h>
@@ -118,11 +118,11 @@ static void corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_rea
         if (!ok[j]) scalar_one(m, Fp, ps, 0, first + (size_t)j, tau, j);
 }
 
-#ifndef KF_DOUBLE
-/* ---- Hencky models (von Mises, Drucker–Prager sand), float only ---------------
+/* ---- the lock-step SVD: Hencky models (von Mises, Drucker–Prager sand), snow ---
  *
- * StVK on Hencky strain needs the full SVD F = U Σ Vᵀ. For a run of up to
- * BATCH particles it is computed in lock step, in float:
+ * StVK on Hencky strain and snow's clamped singular values need the full
+ * SVD F = U Σ Vᵀ. For a run of up to BATCH particles it is computed in lock
+ * step, in kf_real:
  *   A = FᵀF, cyclic Jacobi with branch-free rotations (fixed sweeps, early
  *   exit once every lane is diagonal), σ² sorted descending with the columns
  *   of V (each swap negates one column: det V = +1), B = F V, U by
@@ -135,16 +135,28 @@ static void corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_rea
  * F = U Σ Vᵀ). Every other lane — inverted, strongly stretched or
  * compressed, NaN, or a return map leaving |H| > HB_HMAX — is recomputed
  * by the scalar path (kf_mat_update, double SVD), from its untouched
- * inputs: nothing is written for such a lane before that. */
+ * inputs: nothing is written for such a lane before that. In the double
+ * build the thresholds scale with ε, the Jacobi sweeps run one more time
+ * and log/exp are the library's (the polynomials below are float-accurate). */
 #define HB_LO KF_R(0.67)
 #define HB_HI KF_R(1.5)
 #define HB_HMAX KF_R(0.75)
+#ifdef KF_DOUBLE
+#define HB_RES2 1e-26 /* (1e-13)²: a few hundred ε */
+#define HB_OFF2 1e-30 /* off-diagonal² / diagonal² where a lane is diagonal */
+#define HB_SWEEPS 6
+#else
 #define HB_RES2 KF_R(1e-12) /* (1e-6)²: a few ε, where round-off lands */
+#define HB_OFF2 KF_R(1e-16)
 #define HB_SWEEPS 5
+#endif
 
 /* log x = 2 atanh(t), t = (x − 1)/(x + 1); |t| ≤ 0.2 on [0.67, 1.5], so the
  * series to t¹¹ leaves a relative truncation of 0.04⁶/13 ≈ 3e-10 */
 static inline kf_real hb_log(kf_real x) {
+#ifdef KF_DOUBLE
+    return log(x);
+#endif
     kf_real t = (x - 1) / (x + 1), t2 = t * t;
     kf_real p = KF_R(1.0 / 11);
     p = p * t2 + KF_R(1.0 / 9);
@@ -157,6 +169,9 @@ static inline kf_real hb_log(kf_real x) {
 
 /* exp x by Taylor to x¹¹ for |x| ≤ 0.75: truncation 0.75¹²/12! ≈ 7e-11 */
 static inline kf_real hb_exp(kf_real x) {
+#ifdef KF_DOUBLE
+    return exp(x);
+#endif
     kf_real p = KF_R(1.0 / 39916800);
     p = p * x + KF_R(1.0 / 3628800);
     p = p * x + KF_R(1.0 / 362880);
@@ -210,13 +225,14 @@ static inline kf_real hb_exp(kf_real x) {
         }                                                                                                              \
     }
 
-static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
-                         kf_real *const tau[6]) {
-    kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], S2[3][BATCH], E[3][BATCH];
+/* F = U diag(SG) Vᵀ for n lanes (SG[2] signed, det U = det V = +1); ok: the
+ * lane's σ all lie in [lo, hi] (within [HB_LO, HB_HI]) and the
+ * reconstruction is within HB_RES2 */
+static inline __attribute__((always_inline)) void hb_svd(int n, kf_real (*F)[BATCH], kf_real (*U)[BATCH],
+                                                         kf_real (*V)[BATCH], kf_real (*SG)[BATCH], int *ok, kf_real lo,
+                                                         kf_real hi) {
+    kf_real S2[3][BATCH];
     kf_real a00[BATCH], a11[BATCH], a22[BATCH], a01[BATCH], a02[BATCH], a12[BATCH];
-    int ok[BATCH];
-    for (int k = 0; k < 9; k++)
-        for (int j = 0; j < n; j++) F[k][j] = Fp[k][first + (size_t)j];
 
     /* A = FᵀF, V = I */
     for (int j = 0; j < n; j++) {
@@ -237,7 +253,7 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
         for (int j = 0; j < n; j++) {
             kf_real dg = a00[j] * a00[j] + a11[j] * a11[j] + a22[j] * a22[j];
             kf_real o = a01[j] * a01[j] + a02[j] * a02[j] + a12[j] * a12[j];
-            off[j] = o <= KF_R(1e-16) * dg ? 0 : 1;
+            off[j] = o <= HB_OFF2 * dg ? 0 : 1;
         }
         int done = 1;
         for (int j = 0; j < n; j++) done &= off[j] == 0;
@@ -251,7 +267,7 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
     HB_SORT(1, 2)
     HB_SORT(0, 1)
 
-    /* B = F V; U by Gram–Schmidt; σ; validity; log σ */
+    /* B = F V; U by Gram–Schmidt; σ; validity */
     for (int j = 0; j < n; j++) {
         kf_real b[3][3]; /* b[c][i]: column c */
         for (int c = 0; c < 3; c++)
@@ -271,12 +287,22 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
         kf_real r12 = u1[0] * b[2][0] + u1[1] * b[2][1] + u1[2] * b[2][2];
         for (int i = 0; i < 3; i++) U[3 * i][j] = u0[i], U[3 * i + 1][j] = u1[i], U[3 * i + 2][j] = u2[i];
         /* NaN fails every comparison, so a broken F is never accepted */
-        ok[j] = (s0 >= HB_LO) & (s0 <= HB_HI) & (s1 >= HB_LO) & (s1 <= HB_HI) & (s2 >= HB_LO) & (s2 <= HB_HI) &
+        ok[j] = (s0 >= lo) & (s0 <= hi) & (s1 >= lo) & (s1 <= hi) & (s2 >= lo) & (s2 <= hi) &
                 (r01 * r01 + r02 * r02 + r12 * r12 <= HB_RES2);
-        /* keep the polynomials in range on rejected lanes */
-        s0 = ok[j] ? s0 : 1, s1 = ok[j] ? s1 : 1, s2 = ok[j] ? s2 : 1;
-        E[0][j] = hb_log(s0), E[1][j] = hb_log(s1), E[2][j] = hb_log(s2);
+        /* rejected lanes read 1: the polynomials and clamps stay in range */
+        SG[0][j] = ok[j] ? s0 : 1, SG[1][j] = ok[j] ? s1 : 1, SG[2][j] = ok[j] ? s2 : 1;
     }
+}
+
+static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
+                         kf_real *const tau[6]) {
+    kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], E[3][BATCH];
+    int ok[BATCH];
+    for (int k = 0; k < 9; k++)
+        for (int j = 0; j < n; j++) F[k][j] = Fp[k][first + (size_t)j];
+    /* log σ */
+    hb_svd(n, F, U, V, E, ok, HB_LO, HB_HI);
+    for (int j = 0; j < n; j++) E[0][j] = hb_log(E[0][j]), E[1][j] = hb_log(E[1][j]), E[2][j] = hb_log(E[2][j]);
 
     /* the return map in principal space: E ← H; chg = F must change */
     int chg[BATCH];
@@ -374,7 +400,75 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
     for (int j = 0; j < n; j++)
         if (!ok[j]) scalar_one(m, Fp, ps, project, first + (size_t)j, tau, j);
 }
-#endif
+
+/* Snow (Stomakhin et al. 2013), as kf_mat_update: σ clamped to
+ * [1 − θc, 1 + θs] with the discarded volume moved into Jp (ps[0]), then the
+ * corotated stress with moduli hardened by e^{ξ(1 − Jp)}:
+ * τ = U diag(2μ(σ − 1)σ + λ(J − 1)J) Uᵀ. J − 1 is summed from the σ − 1
+ * (exact in floating point near 1), not formed as a difference near 1.
+ * The window is narrower than the Hencky models': the corotated stress
+ * grows with σ², so the eigen route's σ error of a few ε σ_max²/σ_min
+ * costs more stress far from 1, and snow that has been clamped to
+ * [1 − θc, 1 + θs] leaves [SNOW_LO, SNOW_HI] only under a deformation of
+ * more than 10% in one substep. A lane outside the window goes to the
+ * scalar path, from its untouched inputs; a lane whose σ need no clamp
+ * keeps F bit for bit. */
+#define SNOW_LO KF_R(0.9)
+#define SNOW_HI KF_R(1.1)
+static void snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
+                       kf_real *const tau[6]) {
+    kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], S[3][BATCH], D[3][BATCH], JP[BATCH], H[BATCH];
+    int ok[BATCH], chg[BATCH];
+    for (int k = 0; k < 9; k++)
+        for (int j = 0; j < n; j++) F[k][j] = Fp[k][first + (size_t)j];
+    hb_svd(n, F, U, V, S, ok, SNOW_LO, SNOW_HI);
+    const kf_real lo = 1 - m->theta_c, hi = 1 + m->theta_s;
+    for (int j = 0; j < n; j++) {
+        kf_real jp = ps[0][first + (size_t)j], ratio = 1;
+        int c = 0;
+        for (int i = 0; i < 3; i++) {
+            kf_real si = S[i][j], di = project ? (si < lo ? lo : si > hi ? hi : si) : si;
+            c |= di != si;
+            ratio *= si / di; /* σ > 0 in the window */
+            D[i][j] = di;
+        }
+        chg[j] = c;
+        JP[j] = c ? jp * ratio : jp;
+    }
+    /* the hardening's exponent is unbounded: the library's exp, per lane */
+    for (int j = 0; j < n; j++) H[j] = (kf_real)exp((double)m->xi * (1.0 - (double)JP[j]));
+    const kf_real mu2 = 2 * m->mu, la = m->lambda;
+    kf_real T[6][BATCH], G[9][BATCH];
+    for (int j = 0; j < n; j++) {
+        kf_real d0 = D[0][j], d1 = D[1][j], d2 = D[2][j];
+        kf_real e0 = d0 - 1, e1 = d1 - 1, e2 = d2 - 1;
+        kf_real jm1 = e0 + e1 + e2 + (e0 * e1 + e0 * e2 + e1 * e2) + e0 * e1 * e2, J = 1 + jm1;
+        kf_real h = H[j], vol = h * la * jm1 * J;
+        kf_real t0 = h * mu2 * e0 * d0 + vol, t1 = h * mu2 * e1 * d1 + vol, t2 = h * mu2 * e2 * d2 + vol;
+        for (int i = 0; i < 3; i++)
+            for (int k = 0; k < 3; k++) {
+                kf_real g = U[3 * i][j] * d0 * V[3 * k][j] + U[3 * i + 1][j] * d1 * V[3 * k + 1][j] +
+                            U[3 * i + 2][j] * d2 * V[3 * k + 2][j];
+                G[3 * i + k][j] = chg[j] ? g : F[3 * i + k][j];
+            }
+#define SB_T(a, b)                                                                                                     \
+    (U[3 * a][j] * t0 * U[3 * b][j] + U[3 * a + 1][j] * t1 * U[3 * b + 1][j] + U[3 * a + 2][j] * t2 * U[3 * b + 2][j])
+        T[0][j] = SB_T(0, 0), T[1][j] = SB_T(1, 1), T[2][j] = SB_T(2, 2);
+        T[3][j] = SB_T(0, 1), T[4][j] = SB_T(0, 2), T[5][j] = SB_T(1, 2);
+#undef SB_T
+    }
+    for (int k = 0; k < 6; k++)
+        for (int j = 0; j < n; j++) tau[k][j] = T[k][j];
+    if (project) {
+        for (int k = 0; k < 9; k++)
+            for (int j = 0; j < n; j++)
+                if (ok[j] & chg[j]) Fp[k][first + (size_t)j] = G[k][j];
+        for (int j = 0; j < n; j++)
+            if (ok[j]) ps[0][first + (size_t)j] = JP[j];
+    }
+    for (int j = 0; j < n; j++)
+        if (!ok[j]) scalar_one(m, Fp, ps, project, first + (size_t)j, tau, j);
+}
 
 void kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
                          kf_real *const tau6[6]) {
@@ -387,16 +481,15 @@ void kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *c
         }
         return;
     }
-#ifndef KF_DOUBLE
-    if (m->model == KF_MAT_VON_MISES || m->model == KF_MAT_SAND) {
+    if (m->model == KF_MAT_VON_MISES || m->model == KF_MAT_SAND || m->model == KF_MAT_SNOW) {
         for (int j0 = 0; j0 < n; j0 += BATCH) {
             int c = n - j0 < BATCH ? n - j0 : BATCH;
             kf_real *out[6];
             for (int k = 0; k < 6; k++) out[k] = tau6[k] + j0;
-            hencky_batch(m, c, F, ps, project && m->plastic, first + (size_t)j0, out);
+            if (m->model == KF_MAT_SNOW) snow_batch(m, c, F, ps, project && m->plastic, first + (size_t)j0, out);
+            else hencky_batch(m, c, F, ps, project && m->plastic, first + (size_t)j0, out);
         }
         return;
     }
-#endif
     for (int j = 0; j < n; j++) scalar_one(m, F, ps, project && m->plastic, first + (size_t)j, tau6, j);
 }

@@ -84,6 +84,13 @@ KF_INLINE void p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m,
         size_t left = g->pstart[r + 1] - i0;
         ck->n = left < KF_CHUNK ? (int)left : KF_CHUNK;
         const int n = ck->n;
+        /* the planes this chunk's successors read */
+        prefetch_planes(p->x, 3, i0, 0);
+        prefetch_planes(p->v, 3, i0, 0);
+        prefetch_planes(p->C, 9, i0, 0);
+        prefetch_planes(p->tau, 6, i0, 0);
+        prefetch_planes(&p->mass, 1, i0, 0);
+        prefetch_planes(&p->vol0, 1, i0, 0);
         stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
         for (int a = 0; a < 3; a++)
             for (int j = 0; j < n; j++) {
@@ -344,6 +351,11 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
         size_t left = g->pstart[r + 1] - i0;
         ck->n = left < KF_CHUNK ? (int)left : KF_CHUNK;
         const int n = ck->n;
+        /* the planes this chunk's successors read or write */
+        prefetch_planes(p->x, 3, i0, 1);
+        prefetch_planes(p->v, 3, i0, 1);
+        prefetch_planes(p->C, 9, i0, 1);
+        prefetch_planes(p->F, 9, i0, 1);
         stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
 
         /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
@@ -440,9 +452,11 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
         /* water keeps F = I and tracks J ← (1 + Δt tr L) J instead */
         int any_water = 0;
         for (int j = 0; j < n; j++) any_water |= m->mat[p->mat[i0 + (size_t)j]].model == KF_MAT_WATER;
+        /* a whole chunk as one fixed-size copy per plane (a vector move, not
+         * the string copy a variable length compiles to) */
         for (int k = 0; k < 9; k++) {
-            kf_real *restrict F = p->F[k] + i0;
-            for (int j = 0; j < n; j++) F[j] = Fn[k][j];
+            if (n == KF_CHUNK) memcpy(p->F[k] + i0, Fn[k], sizeof Fn[k]);
+            else memcpy(p->F[k] + i0, Fn[k], sizeof(kf_real) * (size_t)n);
         }
         if (any_water) {
             for (int j = 0; j < n; j++) {

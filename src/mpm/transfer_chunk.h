@@ -81,6 +81,22 @@ static inline kf_v4 *nb_node(const kf_grid *g, const int32_t *nb, int a, int b, 
     return &g->node[(size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3))];
 }
 
+/* ---- prefetching -------------------------------------------------------------
+ * A chunk's phases stream two to three dozen particle planes at once, more
+ * streams than the hardware prefetcher follows, and a large scene's planes
+ * live in memory: each transfer asks for the planes it reads (and writes)
+ * KF_PREFETCH particles ahead. A prefetch never faults, past an array's end
+ * included. */
+#ifndef KF_PREFETCH
+#define KF_PREFETCH 64
+#endif
+KF_INLINE void prefetch_planes(kf_real *const *plane, int count, size_t i, int write) {
+    for (int k = 0; k < count; k++) {
+        if (write) __builtin_prefetch(plane[k] + i + KF_PREFETCH, 1, 3);
+        else __builtin_prefetch(plane[k] + i + KF_PREFETCH, 0, 3);
+    }
+}
+
 /* ---- trouble: the first (lowest id) particle in trouble, per thread ---- */
 
 typedef struct step_acc {
@@ -99,9 +115,53 @@ static inline void note_trouble(step_acc *acc, const kf_particles *p, size_t i, 
     acc->trouble.substep = substep;
 }
 
+#if defined(__AVX512F__) && !defined(KF_DOUBLE)
+#include <immintrin.h>
+#define KF_ROWS512 1
+#define KF_RN (_MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC)
+/* AVX-512, float: one stencil row (KW nodes along z, contiguous in the
+ * cache, 4 floats each) is one register under a mask of 4 KW lanes. Each
+ * lane computes what the portable path computes per node, with the same
+ * roundings: only the number of instructions changes. */
+static inline __m512 row_lanes(const kf_real *v, int KW) {
+    return _mm512_setr_ps(v[0], v[0], v[0], v[0], v[1], v[1], v[1], v[1], v[2], v[2], v[2], v[2], KW == 4 ? v[3] : 0,
+                          KW == 4 ? v[3] : 0, KW == 4 ? v[3] : 0, KW == 4 ? v[3] : 0);
+}
+static inline __m512 row_v4(kf_v4 a) { return _mm512_broadcast_f32x4((__m128)a); }
+#endif
+
 /* one particle's P2G contribution to the owner's node cache (edge CD_MAX) */
 KF_INLINE void scatter_one(int KW, int CLASSIC, const chunk *ck, int j, kf_v4 *cache) {
     const int CD = CD_MAX;
+#ifdef KF_ROWS512
+    if (!CLASSIC) {
+        const __mmask16 mk = KW == 4 ? 0xFFFF : 0x0FFF;
+        const kf_v4 base = {ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
+        const kf_v4 q0 = {ck->q[0][j], ck->q[3][j], ck->q[6][j], 0};
+        const kf_v4 q1 = {ck->q[1][j], ck->q[4][j], ck->q[7][j], 0};
+        const __m512 Q2 = row_v4((kf_v4){ck->q[2][j], ck->q[5][j], ck->q[8][j], 0});
+        kf_real w2[4], d2[4];
+        for (int c = 0; c < 4; c++) w2[c] = c < KW ? ck->w[2][c][j] : 0, d2[c] = c < KW ? ck->d[2][c][j] : 0;
+        /* d_c q2 once per particle, then added, rounded apart as the
+         * portable path compiles (the explicit rounding keeps the compiler
+         * from contracting the pair into one multiply-add) */
+        const __m512 WK = row_lanes(w2, KW), DQ2 = _mm512_mul_round_ps(row_lanes(d2, KW), Q2, KF_RN);
+        float *origin = (float *)&cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
+        for (int a = 0; a < KW; a++) {
+            const kf_v4 ha = base + ck->d[0][a][j] * q0;
+            for (int b = 0; b < KW; b++) {
+                const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
+                const kf_v4 hab = ha + ck->d[1][b][j] * q1;
+                float *row = origin + 4 * (a * CD + b) * CD;
+                /* (w_a w_b w_c) (h_ab + d_c q2) added to node c */
+                const __m512 t = _mm512_add_round_ps(row_v4(hab), DQ2, KF_RN);
+                const __m512 w = _mm512_mul_ps(_mm512_set1_ps(wab), WK);
+                _mm512_mask_storeu_ps(row, mk, _mm512_fmadd_ps(w, t, _mm512_maskz_loadu_ps(mk, row)));
+            }
+        }
+        return;
+    }
+#endif
     const kf_v4 base = {ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
     const kf_v4 q0 = {ck->q[0][j], ck->q[3][j], ck->q[6][j], 0};
     const kf_v4 q1 = {ck->q[1][j], ck->q[4][j], ck->q[7][j], 0};
@@ -173,9 +233,68 @@ KF_INLINE kf_v4 gather_velocity(int KW, const chunk *ck, int j, const kf_v4 *cac
     return v;
 }
 
+#ifdef KF_ROWS512
+/* The sums of four registers' four 4-lane groups: lanes 4k..4k+3 of the
+ * result hold register k's sum. */
+static inline __m512 group_sums4(__m512 a, __m512 b, __m512 c, __m512 d) {
+    __m512 ab = _mm512_add_ps(_mm512_shuffle_f32x4(a, b, 0x44), _mm512_shuffle_f32x4(a, b, 0xEE));
+    __m512 cd = _mm512_add_ps(_mm512_shuffle_f32x4(c, d, 0x44), _mm512_shuffle_f32x4(c, d, 0xEE));
+    return _mm512_add_ps(_mm512_shuffle_f32x4(ab, cd, 0x88), _mm512_shuffle_f32x4(ab, cd, 0xDD));
+}
+
+/* MLS gather, one stencil row per register: the rows of one x-offset a
+ * are summed with their y-weights first (A_a = Σ_b w_b R_ab and
+ * A'_a = Σ_b w_b d_b R_ab), then the x-weights (S = Σ_a w_a A_a,
+ * S0 = Σ_a w_a d_a A_a, S1 = Σ_a w_a A'_a), and the z-weights last, per
+ * lane: v = Σ_c w_c S_c, B:,0 = Σ_c w_c S0_c, B:,1 = Σ_c w_c S1_c,
+ * B:,2 = Σ_c w_c d_c S_c. The same sums as the portable path in another
+ * order: results differ from it in the last bits. */
+KF_INLINE void gather_rows512(int KW, chunk *ck, int j, const kf_v4 *cache) {
+    const int CD = CD_MAX;
+    const __mmask16 mk = KW == 4 ? 0xFFFF : 0x0FFF;
+    kf_real w2[4], wd2[4];
+    for (int c = 0; c < 4; c++) {
+        w2[c] = c < KW ? ck->w[2][c][j] : 0;
+        wd2[c] = c < KW ? ck->w[2][c][j] * ck->d[2][c][j] : 0;
+    }
+    const float *origin = (const float *)&cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
+    __m512 S = _mm512_setzero_ps(), S0 = S, S1 = S;
+    for (int a = 0; a < KW; a++) {
+        __m512 A = _mm512_setzero_ps(), A1 = A;
+        for (int b = 0; b < KW; b++) {
+            const __m512 r = _mm512_maskz_loadu_ps(mk, origin + 4 * (a * CD + b) * CD);
+            const kf_real wb = ck->w[1][b][j];
+            A = _mm512_fmadd_ps(_mm512_set1_ps(wb), r, A);
+            A1 = _mm512_fmadd_ps(_mm512_set1_ps(wb * ck->d[1][b][j]), r, A1);
+        }
+        const kf_real wa = ck->w[0][a][j];
+        S = _mm512_fmadd_ps(_mm512_set1_ps(wa), A, S);
+        S0 = _mm512_fmadd_ps(_mm512_set1_ps(wa * ck->d[0][a][j]), A, S0);
+        S1 = _mm512_fmadd_ps(_mm512_set1_ps(wa), A1, S1);
+    }
+    const __m512 WK = row_lanes(w2, KW);
+    const __m512 sum = group_sums4(_mm512_mul_ps(WK, S), _mm512_mul_ps(WK, S0), _mm512_mul_ps(WK, S1),
+                                   _mm512_mul_ps(row_lanes(wd2, KW), S));
+    float o[16] __attribute__((aligned(64)));
+    _mm512_store_ps(o, sum);
+    for (int k = 0; k < 3; k++) {
+        ck->v[k][j] = o[k];
+        ck->b[3 * k][j] = o[4 + k];
+        ck->b[3 * k + 1][j] = o[8 + k];
+        ck->b[3 * k + 2][j] = o[12 + k];
+    }
+}
+#endif
+
 /* one particle's G2P gather from the owner's node cache into the chunk's v, B (and G) */
 KF_INLINE void gather_one(int KW, int CLASSIC, chunk *ck, int j, const kf_v4 *cache) {
     const int CD = CD_MAX;
+#ifdef KF_ROWS512
+    if (!CLASSIC) {
+        gather_rows512(KW, ck, j, cache);
+        return;
+    }
+#endif
     kf_real w2[4], wd2[4], dw2[4];
     for (int c = 0; c < KW; c++) {
         w2[c] = ck->w[2][c][j];
