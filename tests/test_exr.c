@@ -7,6 +7,7 @@
  * f = (h / 2) / tan(fov / 2): depth, normals, motion and blur lengths all
  * have closed forms. Files go to ./exr_test_out/ (the build tree). */
 #include <math.h>
+#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -153,6 +154,42 @@ static kf_render_ctx *ctx(int samples) {
     return r;
 }
 
+/* two meshes before the front camera on a plain scene, ids ida and idb: the
+ * set-up the layout and motion cases share. The scene points into the pair,
+ * so a pair is set up where it stays. */
+typedef struct pair {
+    mesh m[2];
+    kf_render_mesh rm[2];
+    kf_render_scene sc;
+    kf_camera cam;
+} pair;
+
+static void pair_init(pair *p, mesh a, mesh b, int ida, int idb, float grey_b) {
+    p->m[0] = a, p->m[1] = b;
+    p->rm[0] = as_render(&p->m[0], ida, 0.8f), p->rm[1] = as_render(&p->m[1], idb, grey_b);
+    p->sc = plain_scene(p->rm, 2);
+    p->cam = front_camera(DIST, FOV);
+}
+
+static void pair_free(pair *p) { mesh_free(&p->m[0]), mesh_free(&p->m[1]); }
+
+/* write a shot's YAML (a format with its arguments) to path and load it */
+static kf_shot *shot_from(const char *path, kf_diag *d, const char *fmt, ...) {
+    FILE *f = fopen(path, "w");
+    if (f) {
+        va_list ap;
+        va_start(ap, fmt);
+        vfprintf(f, fmt, ap);
+        va_end(ap);
+        fclose(f);
+    }
+    kf_diag_init(d);
+    kf_shot *shot = kf_shot_load(path, NULL, 0, NULL, NULL, d);
+    if (!shot) kf_diag_print(stderr, d);
+    KT_CHECK(shot != NULL, "shot loads");
+    return shot;
+}
+
 /* ---- the layout ------------------------------------------------------------ */
 
 /* every channel there, half, ZIP; a unit sphere and a plane behind it */
@@ -160,12 +197,10 @@ static void test_channels(void) {
     kf_render_ctx *r = ctx(4);
     if (!r) return;
     const float c0[3] = {0, 0, 0}, c1[3] = {0, 0, -1};
-    mesh s = sphere(c0, 1, 64, 128), q = square(c1, 3);
-    kf_render_mesh rm[2] = {as_render(&s, 1, 0.8f), as_render(&q, 2, 0.5f)};
-    kf_render_scene sc = plain_scene(rm, 2);
-    kf_camera cam = front_camera(DIST, FOV);
+    pair two;
+    pair_init(&two, sphere(c0, 1, 64, 128), square(c1, 3), 1, 2, 0.5f);
     kf_exr_image img;
-    if (render_exr(r, &sc, &cam, "exr_test_out/channels.exr", NULL, &img) == 0) {
+    if (render_exr(r, &two.sc, &two.cam, "exr_test_out/channels.exr", NULL, &img) == 0) {
         static const char *want[] = {"A", "B",         "G",         "N.x", "N.y",     "N.z",    "R",
                                      "Z", "forward.u", "forward.v", "id",  "matte.a", "matte.b"};
         KT_CHECK(img.nch == 13, "13 channels, got %d", img.nch);
@@ -180,7 +215,7 @@ static void test_channels(void) {
         KT_CHECK(!strcmp(sw, "kerf test"), "software attribute: '%s'", sw);
         kf_exr_image_free(&img);
     }
-    mesh_free(&s), mesh_free(&q);
+    pair_free(&two);
     kf_render_destroy(r);
 }
 
@@ -191,12 +226,10 @@ static void test_depth_and_normals(void) {
     kf_render_ctx *r = ctx(4);
     if (!r) return;
     const float c0[3] = {0, 0, 0}, c1[3] = {0, 0, -1};
-    mesh s = sphere(c0, 1, 64, 128), q = square(c1, 4);
-    kf_render_mesh rm[2] = {as_render(&s, 1, 0.8f), as_render(&q, 2, 0.5f)};
-    kf_render_scene sc = plain_scene(rm, 2);
-    kf_camera cam = front_camera(DIST, FOV);
+    pair two;
+    pair_init(&two, sphere(c0, 1, 64, 128), square(c1, 4), 1, 2, 0.5f);
     kf_exr_image img;
-    if (render_exr(r, &sc, &cam, "exr_test_out/depth.exr", NULL, &img) == 0) {
+    if (render_exr(r, &two.sc, &two.cam, "exr_test_out/depth.exr", NULL, &img) == 0) {
         const float *Z = kf_exr_channel_data(&img, "Z"), *id = kf_exr_channel_data(&img, "id");
         const float *N[3] = {kf_exr_channel_data(&img, "N.x"), kf_exr_channel_data(&img, "N.y"),
                              kf_exr_channel_data(&img, "N.z")};
@@ -255,7 +288,7 @@ static void test_depth_and_normals(void) {
         KT_CHECK(worst_pn <= 1e-3, "plane normal off (0, 0, 1) by %.3g", worst_pn);
         kf_exr_image_free(&img);
     }
-    mesh_free(&s), mesh_free(&q);
+    pair_free(&two);
     kf_render_destroy(r);
 }
 
@@ -265,12 +298,10 @@ static void test_ids_and_mattes(void) {
     kf_render_ctx *r = ctx(4);
     if (!r) return;
     const float ca[3] = {-1.1f, 0, 0}, cb[3] = {1.1f, 0, 0};
-    mesh a = sphere(ca, 0.8f, 64, 128), b = sphere(cb, 0.8f, 64, 128);
-    kf_render_mesh rm[2] = {as_render(&a, 3, 0.8f), as_render(&b, 7, 0.8f)};
-    kf_render_scene sc = plain_scene(rm, 2);
-    kf_camera cam = front_camera(DIST, FOV);
+    pair two;
+    pair_init(&two, sphere(ca, 0.8f, 64, 128), sphere(cb, 0.8f, 64, 128), 3, 7, 0.8f);
     kf_exr_image img;
-    if (render_exr(r, &sc, &cam, "exr_test_out/ids.exr", NULL, &img) == 0) {
+    if (render_exr(r, &two.sc, &two.cam, "exr_test_out/ids.exr", NULL, &img) == 0) {
         const float *id = kf_exr_channel_data(&img, "id"), *ma = kf_exr_channel_data(&img, "matte.a"),
                     *mb = kf_exr_channel_data(&img, "matte.b");
         KT_CHECK(ma && mb, "one matte per id");
@@ -316,7 +347,7 @@ static void test_ids_and_mattes(void) {
         KT_CHECK(fabs(sum_a - area) <= 0.01 * area, "matte area %.1f px, analytic %.1f", sum_a, area);
         kf_exr_image_free(&img);
     }
-    mesh_free(&a), mesh_free(&b);
+    pair_free(&two);
     kf_render_destroy(r);
 }
 
@@ -328,13 +359,12 @@ static void test_motion_vectors(void) {
     kf_render_ctx *r = ctx(4);
     if (!r) return;
     const float c0[3] = {-1, 0, -1}, c1[3] = {1.2f, 0, -1}, m[3] = {0.3f, -0.2f, 0};
-    mesh a = square(c0, 0.6f), b = square(c1, 0.6f);
+    mesh a = square(c0, 0.6f);
     give_motion(&a, m);
-    kf_render_mesh rm[2] = {as_render(&a, 1, 0.8f), as_render(&b, 2, 0.8f)};
-    kf_render_scene sc = plain_scene(rm, 2);
-    kf_camera cam = front_camera(DIST, FOV);
+    pair two;
+    pair_init(&two, a, square(c1, 0.6f), 1, 2, 0.8f);
     kf_exr_image img;
-    if (render_exr(r, &sc, &cam, "exr_test_out/motion.exr", NULL, &img) == 0) {
+    if (render_exr(r, &two.sc, &two.cam, "exr_test_out/motion.exr", NULL, &img) == 0) {
         const float *u = kf_exr_channel_data(&img, "forward.u"), *v = kf_exr_channel_data(&img, "forward.v"),
                     *id = kf_exr_channel_data(&img, "id");
         double au = focal_px(FOV) * m[0] / (DIST + 1), av = focal_px(FOV) * m[1] / (DIST + 1);
@@ -352,7 +382,7 @@ static void test_motion_vectors(void) {
         KT_CHECK(still == 0, "still square and background move %g px", still);
         kf_exr_image_free(&img);
     }
-    mesh_free(&a), mesh_free(&b);
+    pair_free(&two);
     kf_render_destroy(r);
 }
 
@@ -363,16 +393,17 @@ static void test_camera_motion(void) {
     kf_render_ctx *r = ctx(4);
     if (!r) return;
     const float c0[3] = {-1, 0, -1}, c1[3] = {1.2f, 0, -1}, d[3] = {0.1f, 0.05f, 0};
-    mesh a = square(c0, 0.6f), b = square(c1, 0.6f);
+    mesh a = square(c0, 0.6f);
     give_motion(&a, d);
-    kf_render_mesh rm[2] = {as_render(&a, 1, 0.8f), as_render(&b, 2, 0.8f)};
-    kf_render_scene sc = plain_scene(rm, 2);
-    kf_camera cam = front_camera(DIST, FOV), next = cam;
+    pair two;
+    pair_init(&two, a, square(c1, 0.6f), 1, 2, 0.8f);
+    kf_camera next = two.cam;
     for (int k = 0; k < 3; k++) next.eye[k] += d[k], next.target[k] += d[k];
     kf_pipeline_aovs pa;
-    aovs_for(&pa, rm, 2);
+    aovs_for(&pa, two.rm, 2);
     char err[512];
-    KT_CHECK(kf_render_frame_ex(r, &sc, &cam, &next, 0, NULL, &pa.aov, err, sizeof err) == 0, "render: %s", err);
+    KT_CHECK(kf_render_frame_ex(r, &two.sc, &two.cam, &next, 0, NULL, &pa.aov, err, sizeof err) == 0, "render: %s",
+             err);
     double su = -focal_px(FOV) * d[0] / (DIST + 1), sv = -focal_px(FOV) * d[1] / (DIST + 1), w_still = 0, w_with = 0;
     int n_still = 0, n_with = 0;
     for (size_t i = 0; i < (size_t)W * H; i++) {
@@ -388,7 +419,7 @@ static void test_camera_motion(void) {
     KT_CHECK(w_still <= 1e-3, "still square's motion off by %.3g px", w_still);
     KT_CHECK(w_with <= 1e-3, "the square moving with the camera moves %.3g px", w_with);
     kf_pipeline_aovs_free(&pa);
-    mesh_free(&a), mesh_free(&b);
+    pair_free(&two);
     kf_render_destroy(r);
 }
 
@@ -484,18 +515,18 @@ static void test_motion_blur(void) {
     kf_render_ctx *r = ctx(4);
     if (!r) return;
     const float half = 0.25f, c0[3] = {-1.2f, 0, -1}, c1[3] = {1.6f, 0.2f, -1}, m[3] = {1.5f, 0.75f, 0};
-    mesh a = square(c0, half), b = square(c1, half);
+    mesh a = square(c0, half);
     give_motion(&a, m);
-    kf_render_mesh rm[2] = {as_render(&a, 1, 0.8f), as_render(&b, 2, 0.8f)};
-    kf_render_scene sc = plain_scene(rm, 2);
-    kf_camera cam = front_camera(DIST, FOV);
+    pair two;
+    pair_init(&two, a, square(c1, half), 1, 2, 0.8f);
     uint8_t *still = malloc((size_t)W * H * 4), *blur = malloc((size_t)W * H * 4);
     char err[512];
     kf_render_aovs aov;
     memset(&aov, 0, sizeof aov);
     const float shutter = 0.5f;
-    KT_CHECK(kf_render_frame(r, &sc, &cam, still, err, sizeof err) == 0, "still: %s", err);
-    KT_CHECK(kf_render_frame_ex(r, &sc, &cam, NULL, shutter, blur, &aov, err, sizeof err) == 0, "blur: %s", err);
+    KT_CHECK(kf_render_frame(r, &two.sc, &two.cam, still, err, sizeof err) == 0, "still: %s", err);
+    KT_CHECK(kf_render_frame_ex(r, &two.sc, &two.cam, NULL, shutter, blur, &aov, err, sizeof err) == 0, "blur: %s",
+             err);
     kf_png_write("exr_test_out/blur_still.png", still, W, H, NULL, 0, err, sizeof err);
     kf_png_write("exr_test_out/blur.png", blur, W, H, NULL, 0, err, sizeof err);
     const int n = aov.blur_samples;
@@ -534,10 +565,10 @@ static void test_motion_blur(void) {
             changed += memcmp(still + 4 * ((size_t)y * W + x), blur + 4 * ((size_t)y * W + x), 4) != 0;
     KT_CHECK(changed == 0, "%d pixels of the still square changed", changed);
     /* no shutter, no blur: the same bytes */
-    KT_CHECK(kf_render_frame_ex(r, &sc, &cam, NULL, 0, blur, NULL, err, sizeof err) == 0, "shutter 0: %s", err);
+    KT_CHECK(kf_render_frame_ex(r, &two.sc, &two.cam, NULL, 0, blur, NULL, err, sizeof err) == 0, "shutter 0: %s", err);
     KT_CHECK(memcmp(still, blur, (size_t)W * H * 4) == 0, "shutter 0 is the still picture");
     free(still), free(blur);
-    mesh_free(&a), mesh_free(&b);
+    pair_free(&two);
     kf_render_destroy(r);
 }
 
@@ -548,23 +579,18 @@ static void test_motion_blur(void) {
  * Every pixel of the ball moves f m / Z pixels a frame (m = v / fps, Z the
  * pixel's depth), which is what forward.u/v read; the two files agree. */
 static void test_pipeline(void) {
-    const char *yaml = "exr_test_out/ball.yaml";
-    FILE *fy = fopen(yaml, "w");
-    fprintf(fy,
-            "frames: {start: 1001, end: 1002, fps: 24}\n"
-            "materials: {m: {preset: water}}\n"
-            "objects: [{name: ball, shape: sphere, center: [0.5, 0.5, 0.5], radius: 0.2, material: m}]\n"
-            "colliders: [{name: slab, shape: box, size: [0.1, 0.1, 0.1], center: [0.1, 0.3, 0.5],\n"
-            "             velocity: [0.6, -0.3, 0]}]\n"
-            "render: {width: %d, height: %d, eye: [0.5, 0.5, 2.5], target: [0.5, 0.5, 0.5], fov: %g,\n"
-            "         format: both, ground: false}\n",
-            W, H, (double)FOV);
-    fclose(fy);
     kf_diag d;
-    kf_diag_init(&d);
-    kf_shot *shot = kf_shot_load(yaml, NULL, 0, NULL, NULL, &d);
-    if (!shot) kf_diag_print(stderr, &d);
-    KT_CHECK(shot != NULL, "shot loads");
+    kf_shot *shot =
+        shot_from("exr_test_out/ball.yaml", &d,
+                  "frames: {start: 1001, end: 1002, fps: 24}\n"
+                  "materials: {m: {preset: water}}\n"
+                  "objects: [{name: ball, shape: sphere, center: [0.5, 0.5, 0.5], radius: 0.2, material: m}]\n"
+                  "colliders: [{name: slab, shape: box, size: [0.1, 0.1, 0.1], center: [0.1, 0.3, 0.5],\n"
+                  "             velocity: [0.6, -0.3, 0]}]\n"
+                  "render: {width: %d, height: %d, eye: [0.5, 0.5, 2.5], target: [0.5, 0.5, 0.5], fov: %g,\n"
+                  "         format: both, ground: false}\n",
+                  W, H, (double)FOV);
+    kf_diag_free(&d);
     if (!shot) return;
     KT_CHECK(shot->render_format == KF_FORMAT_BOTH, "render.format: both");
     /* the particles: a lattice inside the ball, one velocity */
@@ -659,25 +685,22 @@ static void test_pipeline(void) {
  * (0.48 m/s, linear): at frame 1005 it reads id 201, its matte, and moves
  * f v / (fps Z) pixels a frame (the pose from its keys, no checkpoint) */
 static void test_rigid_motion(void) {
-    const char *yaml = "exr_test_out/rigid.yaml";
-    FILE *fy = fopen(yaml, "w");
-    fprintf(fy,
-            "frames: {start: 1001, end: 1013, fps: 24}\n"
-            "sim: {dx: 0.05}\n"
-            "materials: {m: {preset: water}}\n"
-            "objects: [{name: ball, shape: sphere, center: [0.5, 0.5, 0.5], radius: 0.2, material: m}]\n"
-            "rigids: [{name: crate, shape: box, size: [0.1, 0.1, 0.1], center: [0.1, 0.75, 0.5], motion: kinematic,\n"
-            "          keys: [{frame: 1001}, {frame: 1013, translate: [0.24, 0, 0]}]}]\n"
-            "render: {width: %d, height: %d, eye: [0.5, 0.5, 2.5], target: [0.5, 0.5, 0.5], fov: %g,\n"
-            "         format: exr, ground: false}\n",
-            W, H, (double)FOV);
-    fclose(fy);
     kf_diag d;
-    kf_diag_init(&d);
-    kf_shot *shot = kf_shot_load(yaml, NULL, 0, NULL, NULL, &d);
-    if (!shot) kf_diag_print(stderr, &d);
-    KT_CHECK(shot != NULL, "shot loads");
-    if (!shot) return;
+    kf_shot *shot = shot_from(
+        "exr_test_out/rigid.yaml", &d,
+        "frames: {start: 1001, end: 1013, fps: 24}\n"
+        "sim: {dx: 0.05}\n"
+        "materials: {m: {preset: water}}\n"
+        "objects: [{name: ball, shape: sphere, center: [0.5, 0.5, 0.5], radius: 0.2, material: m}]\n"
+        "rigids: [{name: crate, shape: box, size: [0.1, 0.1, 0.1], center: [0.1, 0.75, 0.5], motion: kinematic,\n"
+        "          keys: [{frame: 1001}, {frame: 1013, translate: [0.24, 0, 0]}]}]\n"
+        "render: {width: %d, height: %d, eye: [0.5, 0.5, 2.5], target: [0.5, 0.5, 0.5], fov: %g,\n"
+        "         format: exr, ground: false}\n",
+        W, H, (double)FOV);
+    if (!shot) {
+        kf_diag_free(&d);
+        return;
+    }
     kf_scene sc;
     memset(&sc, 0, sizeof sc);
     int rc = kf_scene_from_shot(shot, 1, &sc, NULL, &d);
