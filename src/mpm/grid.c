@@ -308,7 +308,7 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
         int identity = 1;
         size_t *first_slot = malloc((size_t)nt * (nb_old + 1) * sizeof *first_slot);
         if (!first_slot) goto oom;
-#pragma omp parallel num_threads(nt) reduction(& : identity)
+#pragma omp parallel num_threads(nt)
         {
             int t = omp_get_thread_num(), T = omp_get_num_threads();
             size_t lo = n * (size_t)t / (size_t)T, hi = n * (size_t)(t + 1) / (size_t)T;
@@ -321,13 +321,41 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
                 first_slot[(size_t)t * (nb_old + 1) + b] = g->pstart[remap[b]] + before;
             }
             size_t *slot = first_slot + (size_t)t * (nb_old + 1);
-            for (size_t i = lo; i < hi; i++) {
-                size_t d = slot[dest[i]]++;
-                dest[i] = (uint32_t)d;
-                identity &= d == i;
-            }
+            for (size_t i = lo; i < hi; i++) dest[i] = (uint32_t)slot[dest[i]]++;
         }
         free(first_slot);
+        /* inside each owner, particles by their base node (stable): runs of
+         * particles with the same stencil, which P2G adds up in registers
+         * before it touches the owner's nodes. The slot's particle comes
+         * from the permutation's scratch, used here as the inverse of dest. */
+        uint32_t *inv = g->scratch;
+        const int CELLS = KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE;
+#pragma omp parallel num_threads(nt)
+        {
+#pragma omp for schedule(static)
+            for (size_t i = 0; i < n; i++) inv[dest[i]] = (uint32_t)i;
+#pragma omp for schedule(dynamic, 16) reduction(& : identity)
+            for (size_t r = 0; r < nowner; r++) {
+                int32_t cnt[KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE + 1];
+                memset(cnt, 0, sizeof cnt);
+                const int32_t *bc = &g->bcoord[3 * r];
+                const size_t s0 = g->pstart[r], s1 = g->pstart[r + 1];
+                /* the key: the base node's offset in the owner (0..lmax per axis) */
+#define CELL_KEY(i)                                                                                                    \
+    (((kf_base_node(p->x[0][i], inv_dx, cubic) - KF_BLOCK * bc[0]) * KF_CACHE_EDGE +                                   \
+      (kf_base_node(p->x[1][i], inv_dx, cubic) - KF_BLOCK * bc[1])) *                                                  \
+         KF_CACHE_EDGE +                                                                                               \
+     (kf_base_node(p->x[2][i], inv_dx, cubic) - KF_BLOCK * bc[2]))
+                for (size_t q = s0; q < s1; q++) cnt[1 + CELL_KEY(inv[q])]++;
+                for (int c = 0; c < CELLS; c++) cnt[c + 1] += cnt[c];
+                for (size_t q = s0; q < s1; q++) {
+                    size_t i = inv[q], d = s0 + (size_t)cnt[CELL_KEY(i)]++;
+                    dest[i] = (uint32_t)d;
+                    identity &= d == i;
+                }
+#undef CELL_KEY
+            }
+        }
         if (!identity) {
             kf_particles_permute(p, g->dest, g->scratch, threads);
             g->permutes++;

@@ -135,8 +135,7 @@ KF_INLINE void p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m,
         /* near a rigid surface: compatible nodes only, impulses on the bodies */
         if (band) kf_cpic_p2g_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
         /* scatter: one node row per vector op, Q d as three column FMAs */
-        else
-            for (int j = 0; j < n; j++) scatter_one(KW, CLASSIC, ck, j, cache);
+        else scatter_chunk(KW, CLASSIC, ck, cache);
         /* where objects meet: each particle's share into its own field too */
         if (fields) kf_contact_p2g_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
         /* FLIP: the momentum alone, on every node the ordinary scatter

@@ -196,6 +196,62 @@ KF_INLINE void scatter_one(int KW, int CLASSIC, const chunk *ck, int j, kf_v4 *c
     }
 }
 
+/* a chunk's P2G contributions to the owner's node cache. With AVX-512 (MLS),
+ * a run of consecutive particles with the same base node (binning orders
+ * an owner's particles by base node) keeps its KW² stencil rows in
+ * registers: loaded once, each particle's share added in order, stored
+ * once. The sums are those of scatter_one, bit for bit; what goes is the
+ * store-to-load round trip through the same rows between particles. */
+KF_INLINE void scatter_chunk(int KW, int CLASSIC, const chunk *ck, kf_v4 *cache) {
+#ifdef KF_ROWS512
+    if (!CLASSIC) {
+        const int CD = CD_MAX;
+        const __mmask16 mk = KW == 4 ? 0xFFFF : 0x0FFF;
+        __m512 acc[16];
+        for (int k = 0; k < 16; k++) acc[k] = _mm512_setzero_ps();
+        float *origin = NULL;
+        int run = -1;
+        for (int j = 0; j < ck->n; j++) {
+            const int key = (ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j];
+            if (key != run) {
+                if (origin)
+                    for (int a = 0; a < KW; a++)
+                        for (int b = 0; b < KW; b++)
+                            _mm512_mask_storeu_ps(origin + 4 * (a * CD + b) * CD, mk, acc[a * KW + b]);
+                run = key;
+                origin = (float *)&cache[key];
+                for (int a = 0; a < KW; a++)
+                    for (int b = 0; b < KW; b++)
+                        acc[a * KW + b] = _mm512_maskz_loadu_ps(mk, origin + 4 * (a * CD + b) * CD);
+            }
+            const kf_v4 base = {ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
+            const kf_v4 q0 = {ck->q[0][j], ck->q[3][j], ck->q[6][j], 0};
+            const kf_v4 q1 = {ck->q[1][j], ck->q[4][j], ck->q[7][j], 0};
+            const __m512 Q2 = row_v4((kf_v4){ck->q[2][j], ck->q[5][j], ck->q[8][j], 0});
+            kf_real w2[4], d2[4];
+            for (int c = 0; c < 4; c++) w2[c] = c < KW ? ck->w[2][c][j] : 0, d2[c] = c < KW ? ck->d[2][c][j] : 0;
+            /* as scatter_one, rounding for rounding */
+            const __m512 WK = row_lanes(w2, KW), DQ2 = _mm512_mul_round_ps(row_lanes(d2, KW), Q2, KF_RN);
+            for (int a = 0; a < KW; a++) {
+                const kf_v4 ha = base + ck->d[0][a][j] * q0;
+                for (int b = 0; b < KW; b++) {
+                    const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
+                    const kf_v4 hab = ha + ck->d[1][b][j] * q1;
+                    const __m512 t = _mm512_add_round_ps(row_v4(hab), DQ2, KF_RN);
+                    const __m512 w = _mm512_mul_ps(_mm512_set1_ps(wab), WK);
+                    acc[a * KW + b] = _mm512_fmadd_ps(w, t, acc[a * KW + b]);
+                }
+            }
+        }
+        if (origin)
+            for (int a = 0; a < KW; a++)
+                for (int b = 0; b < KW; b++) _mm512_mask_storeu_ps(origin + 4 * (a * CD + b) * CD, mk, acc[a * KW + b]);
+        return;
+    }
+#endif
+    for (int j = 0; j < ck->n; j++) scatter_one(KW, CLASSIC, ck, j, cache);
+}
+
 /* FLIP: one particle's momentum and mass alone, m v + m C d (no stress
  * impulse), into a second node cache: divided by the mass, the grid's
  * velocity before the substep's forces */
