@@ -20,6 +20,7 @@
 
 #include <kerf/kerf.h>
 #include "kt.h"
+#include "problems/ringing.h"
 
 #define CFL 0.4 /* the default */
 /* E(10 T)/E₀ of the ringing bar, measured (Release, float): flip 0.95 at
@@ -30,77 +31,22 @@
 
 static kf_model *cube_model(kf_transfer transfer, double ratio, double dx, double dt, int *id) {
     *id = -1;
-    kf_sim_def sd = kf_default_sim_def();
-    sd.dx = dx;
-    sd.gravity[0] = sd.gravity[1] = sd.gravity[2] = 0;
-    sd.walls = 0;
-    sd.dt_fixed = dt;
-    sd.transfer = transfer;
-    sd.flip_ratio = ratio;
-    char err[256];
-    kf_model *m = kf_model_create(&sd, err, sizeof err);
-    if (!m) return NULL;
-    kf_material mat = {0};
-    mat.model = KF_MAT_COROTATED;
-    mat.density = 1;
-    mat.E = 1e3;
-    mat.nu = 0.3;
-    *id = kf_model_add_material(m, &mat, err, sizeof err);
-    return m;
+    ev_variant v = {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, 0, 0, transfer, ratio};
+    kf_material mat = ev_corotated(1, 1e3, 0.3);
+    return ev_model(&v, dx, dt, &mat, id);
 }
 
-/* the stretched cube at N cells across, 2³ particles per cell */
-static void cube_particles(kf_state *s, const kf_model *m, int id, int N, const double v0[3]) {
-    const double h = 0.5 / N;
-    const size_t n = (size_t)8 * N * N * N;
-    double *x = malloc(3 * n * sizeof *x), *F = malloc(9 * n * sizeof *F), *v = malloc(3 * n * sizeof *v);
-    size_t k = 0;
-    for (int i = -N; i < N; i++)
-        for (int j = -N; j < N; j++)
-            for (int l = -N; l < N; l++, k++) {
-                double q[3] = {(i + 0.5) * h, (j + 0.5) * h, (l + 0.5) * h};
-                for (int a = 0; a < 3; a++) x[3 * k + a] = 1.1 * q[a];
-                for (int e = 0; e < 9; e++) F[9 * k + e] = e % 4 == 0 ? 1.1 : 0;
-                /* a drift plus a spin about z, so momentum is not trivially zero */
-                if (v0) {
-                    v[3 * k] = v0[0] - 0.5 * x[3 * k + 1];
-                    v[3 * k + 1] = v0[1] + 0.5 * x[3 * k];
-                    v[3 * k + 2] = v0[2];
-                }
-            }
-    kf_state_add_particles(s, m, n, x, v0 ? v : NULL, F, id, h * h * h);
-    free(x), free(F), free(v);
-}
-
-/* The ringing bar: the jello preset's stiffness (E = 1e6, ν = 0.3, ρ =
- * 1000), 0.4 m x 8 cm x 12 cm at the default Δx = 2 cm (4 cells thick,
- * 3840 particles), free, no gravity, set ringing in bending by v_y = 1 m/s
- * (2u² − 2/3) with u = −1..1 along it (no net momentum). Its period T is
+/* The ringing bar (tests/problems/ringing.h). Its period T is
  * measured from the zero crossings of the middle fifth's mean v_y (half a
  * period apart); returns E(10 T)/E₀, the energy at the step nearest 10 T. */
 static double bar_kept(kf_transfer transfer, double ratio, double cfl, double *period) {
-    kf_sim_def sd = kf_default_sim_def();
-    sd.dx = 0.02;
-    sd.gravity[1] = 0;
-    sd.walls = 0;
-    sd.threads = 1; /* 3840 particles: threads only add their barriers (results do not depend on it) */
-    sd.transfer = transfer;
-    sd.flip_ratio = ratio;
-    char err[256];
-    kf_model *m = kf_model_create(&sd, err, sizeof err);
-    kf_material mat;
-    kf_material_preset("jello", &mat);
-    mat.E = 1e6, mat.nu = 0.3, mat.density = 1000;
-    int id = kf_model_add_material(m, &mat, err, sizeof err);
-    kf_state *s = kf_state_create(m);
-    const double lo[3] = {0.3, 0.56, 0.44}, hi[3] = {0.7, 0.64, 0.56};
-    kf_state_fill_box(s, m, lo, hi, id, NULL, 2, 0);
-    kf_particles_view pv = kf_state_particles(s);
-    for (size_t i = 0; i < pv.n; i++) {
-        const double u = (pv.x[0][i] - 0.5) / 0.2;
-        pv.v[1][i] = (kf_real)(2 * u * u - 2.0 / 3.0);
-    }
-    const double cp = sqrt(1e6 * 0.7 / (1.3 * 0.4) / 1000), dt = cfl * sd.dx / cp, tend = 0.8;
+    kf_state *s;
+    /* 3840 particles: one thread (threads only add their barriers; results do not depend on it) */
+    kf_model *m = ev_ringing_bar(transfer, ratio, 1, &s);
+    KT_CHECK(m != NULL, "the ringing bar");
+    if (!m) return 0;
+    kf_particles_view pv;
+    const double dt = cfl * EV_RING_BAR_DX / ev_cp(1000, 1e6, 0.3), tend = 0.8;
     const long steps = (long)(tend / dt);
     double *E = malloc((size_t)(steps + 1) * sizeof *E), cross[64];
     int ncross = 0, bad = 0;
@@ -166,7 +112,7 @@ static void momentum(kf_transfer transfer, double ratio, double P[3], double *vs
     int id;
     kf_model *m = cube_model(transfer, ratio, dx, dt, &id);
     kf_state *s = kf_state_create(m);
-    cube_particles(s, m, id, 8, v0);
+    KT_CHECK(ev_stretched_cube(s, m, id, 8, EV_CUBE_STRETCH, v0, 0.5) == 0, "the cube seeded");
     for (int k = 0; k < 40; k++) KT_CHECK(!kf_step(m, s, dt, NULL, NULL), "step %d", k);
     kf_energy e = kf_state_energy(m, s);
     for (int a = 0; a < 3; a++) P[a] = e.momentum[a];

@@ -17,17 +17,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../../tests/problems/problems.h"
+#include "../../tests/problems/ringing.h"
 
-typedef struct series {
-    long n;
-    double *t, *e;
-    double cpu_s;
-    int ok;
-} series;
-
-static series run(int balls, kf_force force, int quick) {
-    series out = {0};
+static ev_series run(int balls, kf_force force, int quick) {
     const double rho = 1, E = 1e3, nu = 0.3, cp = ev_cp(rho, E, nu);
     const double dx = balls ? 0.02 : (quick ? 1.0 / 8 : 1.0 / 16), v0 = balls ? 2.0 : 0;
     const double dt = 0.3 * dx / (cp + v0), tend = balls ? 0.15 : 0.3;
@@ -42,41 +34,10 @@ static series run(int balls, kf_force force, int quick) {
         const double va[3] = {v0, 0, 0}, vb[3] = {-v0, 0, 0};
         kf_state_fill_sphere(s, m, c0, r, id, va, 2, 0);
         kf_state_fill_sphere(s, m, c1, r, id, vb, 2, 0);
-    } else {
-        const int N = (int)lround(1 / dx);
-        const double h = dx / 2;
-        const size_t n = (size_t)8 * N * N * N;
-        double *x = malloc(3 * n * sizeof *x), *F = malloc(9 * n * sizeof *F);
-        size_t k = 0;
-        for (int i = -N; i < N; i++)
-            for (int j = -N; j < N; j++)
-                for (int l = -N; l < N; l++, k++) {
-                    double q[3] = {(i + 0.5) * h, (j + 0.5) * h, (l + 0.5) * h};
-                    for (int a = 0; a < 3; a++) x[3 * k + a] = 1.1 * q[a];
-                    for (int e = 0; e < 9; e++) F[9 * k + e] = e % 4 == 0 ? 1.1 : 0;
-                }
-        kf_state_add_particles(s, m, n, x, NULL, F, id, h * h * h);
-        free(x), free(F);
+    } else if (ev_stretched_cube(s, m, id, (int)lround(1 / dx), EV_CUBE_STRETCH, NULL, 0) < 0) {
+        exit(1);
     }
-    const long steps = (long)(tend / dt + 0.5);
-    out.t = malloc((steps + 1) * sizeof *out.t), out.e = malloc((steps + 1) * sizeof *out.e);
-    kf_energy e0 = kf_state_energy(m, s);
-    const double E0 = e0.kinetic + e0.elastic;
-    out.ok = 1;
-    for (long st = 0; st <= steps; st++) {
-        if (st > 0) {
-            double c = ev_cpu_s();
-            int bad = kf_step(m, s, dt, NULL, NULL);
-            out.cpu_s += ev_cpu_s() - c;
-            if (bad) {
-                out.ok = 0;
-                break;
-            }
-        }
-        kf_energy e = kf_state_energy(m, s);
-        out.t[st] = kf_state_time(s), out.e[st] = (e.kinetic + e.elastic) / E0;
-        out.n = st + 1;
-    }
+    ev_series out = ev_energy_series(m, s, dx, dt, (long)(tend / dt + 0.5));
     kf_state_destroy(s);
     kf_model_destroy(m);
     return out;
@@ -100,7 +61,7 @@ int main(int argc, char **argv) {
     fprintf(md, "| case | force | steps | E(end)/E0 | max E/E0 | largest difference MLS − classic (E0) | CPU s |\n"
                 "|---|---|---|---|---|---|---|\n");
     for (int b = 0; b < 2; b++) {
-        series a = run(b, KF_FORCE_MLS, quick), c = run(b, KF_FORCE_CLASSIC, quick);
+        ev_series a = run(b, KF_FORCE_MLS, quick), c = run(b, KF_FORCE_CLASSIC, quick);
         snprintf(path, sizeof path, "%s/energy_%s.dat", dir, b ? "balls" : "cube");
         FILE *f = fopen(path, "w");
         if (!f) return 1;
@@ -113,7 +74,7 @@ int main(int argc, char **argv) {
         }
         fclose(f);
         for (int k = 0; k < 2; k++) {
-            series *s = k ? &c : &a;
+            ev_series *s = k ? &c : &a;
             double mx = 0;
             for (long i = 0; i < s->n; i++) mx = fmax(mx, s->e[i]);
             fprintf(md, "| %s | %s | %ld | %s%.4f | %.4f | %.4f | %.2f |\n", b ? "colliding balls" : "oscillating cube",
@@ -123,7 +84,7 @@ int main(int argc, char **argv) {
                     b ? "colliding balls" : "oscillating cube", k ? "classic" : "MLS", s->n - 1, s->e[s->n - 1], mx,
                     dmax, s->cpu_s);
         }
-        free(a.t), free(a.e), free(c.t), free(c.e);
+        ev_series_free(&a), ev_series_free(&c);
     }
     fclose(md);
     return 0;

@@ -7,11 +7,12 @@
  * --no-energy skips the energy runs (cost and sweep only), --bar runs the
  * bar's energy alone.
  *
- * cube:  V7's stretched cube (tests/test_energy.c): side 1, F₀ = 1.1 I,
+ * cube:  V7's stretched cube (tests/problems/ringing.h): side 1, F₀ = 1.1 I,
  *        fixed corotated E = 1e3, ν = 0.3, ρ = 1, no gravity, 16 cells
  *        across (8 with --quick), 8 particles per cell, fixed step at CFL
  *        0.4 (the default) and 0.1, t ∈ [0, 0.48] (10 periods of
- *        T = 0.0479). Energy = kinetic + elastic (kf_state_energy) / E₀.
+ *        T = 0.0479). Energy = kinetic + elastic (kf_state_energy) / E₀,
+ *        and the staggered S (ringing.h).
  * cost:  the cube's first 150 substeps at CFL 0.4, APIC and flip
  *        alternating, N times each (--repeat, default 5): median process
  *        CPU seconds per substep inside kf_step, 1 thread.
@@ -25,11 +26,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../../tests/problems/problems.h"
+#include "../../tests/problems/ringing.h"
 #include "../median.h"
 
-#define CUBE_T 0.0479 /* the fundamental's period at 16 cells (tests/test_energy.c) */
-#define BAR_T 0.0715  /* the bar's first bending period, measured (tests/test_flip.c) */
+#define CUBE_T EV_CUBE_T
+#define BAR_T EV_RING_BAR_T
 
 typedef struct variant {
     const char *name;
@@ -44,16 +45,10 @@ static const variant VARIANTS[] = {{"APIC", KF_TRANSFER_APIC, 0},
                                    {"PIC", KF_TRANSFER_PIC, 0}};
 #define NVAR ((int)(sizeof VARIANTS / sizeof *VARIANTS))
 
-typedef struct series {
-    long n;
-    double *t, *e;
-    double cpu_s;
-    int ok;
-} series;
+typedef ev_series series;
 
 /* the cube, run for `steps` substeps (all of tend when steps < 0) */
 static series cube(const variant *var, double cfl, int quick, long steps) {
-    series out = {0};
     const double rho = 1, E = 1e3, nu = 0.3, cp = ev_cp(rho, E, nu);
     const double dx = quick ? 1.0 / 8 : 1.0 / 16, dt = cfl * dx / cp, tend = 10 * CUBE_T;
     ev_variant v = {KF_KERNEL_QUADRATIC, KF_FORCE_MLS, 2, cfl, 1, var->transfer, var->ratio};
@@ -62,92 +57,21 @@ static series cube(const variant *var, double cfl, int quick, long steps) {
     kf_model *m = ev_model(&v, dx, dt, &mat, &id);
     if (!m) exit(1);
     kf_state *s = kf_state_create(m);
-    const int N = (int)lround(1 / dx);
-    const double h = dx / 2;
-    const size_t n = (size_t)8 * N * N * N;
-    double *x = malloc(3 * n * sizeof *x), *F = malloc(9 * n * sizeof *F);
-    size_t k = 0;
-    for (int i = -N; i < N; i++)
-        for (int j = -N; j < N; j++)
-            for (int l = -N; l < N; l++, k++) {
-                double q[3] = {(i + 0.5) * h, (j + 0.5) * h, (l + 0.5) * h};
-                for (int a = 0; a < 3; a++) x[3 * k + a] = 1.1 * q[a];
-                for (int e = 0; e < 9; e++) F[9 * k + e] = e % 4 == 0 ? 1.1 : 0;
-            }
-    kf_state_add_particles(s, m, n, x, NULL, F, id, h * h * h);
-    free(x), free(F);
+    if (ev_stretched_cube(s, m, id, (int)lround(1 / dx), EV_CUBE_STRETCH, NULL, 0) < 0) exit(1);
     if (steps < 0) steps = (long)(tend / dt + 0.5);
-    out.t = malloc((steps + 1) * sizeof *out.t), out.e = malloc((steps + 1) * sizeof *out.e);
-    kf_energy e0 = kf_state_energy(m, s);
-    const double E0 = e0.kinetic + e0.elastic;
-    out.ok = 1;
-    for (long st = 0; st <= steps; st++) {
-        if (st > 0) {
-            double c = ev_cpu_s();
-            int bad = kf_step(m, s, dt, NULL, NULL);
-            out.cpu_s += ev_cpu_s() - c;
-            if (bad) {
-                out.ok = 0;
-                break;
-            }
-        }
-        kf_energy e = kf_state_energy(m, s);
-        out.t[st] = kf_state_time(s), out.e[st] = (e.kinetic + e.elastic) / E0;
-        out.n = st + 1;
-    }
+    series out = ev_energy_series(m, s, dx, dt, steps);
     kf_state_destroy(s);
     kf_model_destroy(m);
     return out;
 }
 
-/* the ringing bar: the jello preset (E = 1e6, ν = 0.3, ρ = 1000), 0.4 m x
- * 8 cm x 12 cm at the default Δx = 2 cm (4 cells thick), free, no
- * gravity, set ringing in bending by v_y = 1 m/s (2u² − 2/3), u = −1..1
- * along it (no net momentum; the implicit evidence's bending bar), at CFL
- * cfl for `tend` seconds */
+/* the ringing bar (ringing.h) at CFL cfl for `tend` seconds */
 static series bar(const variant *var, double cfl, double tend) {
-    series out = {0};
-    kf_sim_def sd = kf_default_sim_def();
-    sd.dx = 0.02;
-    sd.gravity[1] = 0;
-    sd.walls = 0;
-    sd.threads = 1;
-    sd.transfer = var->transfer;
-    sd.flip_ratio = var->ratio;
-    char err[256];
-    kf_model *m = kf_model_create(&sd, err, sizeof err);
-    kf_material mat;
-    kf_material_preset("jello", &mat);
-    mat.E = 1e6, mat.nu = 0.3, mat.density = 1000;
-    int id = kf_model_add_material(m, &mat, err, sizeof err);
-    kf_state *s = kf_state_create(m);
-    const double lo[3] = {0.3, 0.56, 0.44}, hi[3] = {0.7, 0.64, 0.56};
-    kf_state_fill_box(s, m, lo, hi, id, NULL, 2, 0);
-    kf_particles_view pv = kf_state_particles(s);
-    for (size_t i = 0; i < pv.n; i++) {
-        const double u = (pv.x[0][i] - 0.5) / 0.2;
-        pv.v[1][i] = (kf_real)(2 * u * u - 2.0 / 3.0);
-    }
-    const double dt = cfl * sd.dx / ev_cp(1000, 1e6, 0.3);
-    const long steps = (long)(tend / dt + 0.5);
-    out.t = malloc((steps + 1) * sizeof *out.t), out.e = malloc((steps + 1) * sizeof *out.e);
-    kf_energy e0 = kf_state_energy(m, s);
-    const double E0 = e0.kinetic + e0.elastic;
-    out.ok = 1;
-    for (long st = 0; st <= steps; st++) {
-        if (st > 0) {
-            double c = ev_cpu_s();
-            int bad = kf_step(m, s, dt, NULL, NULL);
-            out.cpu_s += ev_cpu_s() - c;
-            if (bad) {
-                out.ok = 0;
-                break;
-            }
-        }
-        kf_energy e = kf_state_energy(m, s);
-        out.t[st] = kf_state_time(s), out.e[st] = (e.kinetic + e.elastic) / E0;
-        out.n = st + 1;
-    }
+    kf_state *s;
+    kf_model *m = ev_ringing_bar(var->transfer, var->ratio, 1, &s);
+    if (!m) exit(1);
+    const double dt = cfl * EV_RING_BAR_DX / ev_cp(1000, 1e6, 0.3);
+    series out = ev_energy_series(m, s, EV_RING_BAR_DX, dt, (long)(tend / dt + 0.5));
     kf_state_destroy(s);
     kf_model_destroy(m);
     return out;
@@ -158,8 +82,9 @@ static void energy(FILE *md, const char *dir, const char *file, int is_bar, doub
     series r[NVAR];
     for (int v = 0; v < NVAR; v++) {
         r[v] = is_bar ? bar(&VARIANTS[v], cfl, 10 * BAR_T) : cube(&VARIANTS[v], cfl, quick, -1);
-        fprintf(stderr, "  %s cfl %.2f %-9s %ld steps: E(10T)/E0 %.4f, %.2f s CPU%s\n", is_bar ? "bar" : "cube", cfl,
-                VARIANTS[v].name, r[v].n - 1, r[v].e[r[v].n - 1], r[v].cpu_s, r[v].ok ? "" : " FAILED");
+        fprintf(stderr, "  %s cfl %.2f %-9s %ld steps: E(10T)/E0 %.4f, S(10T)/E0 %.4f, %.2f s CPU%s\n",
+                is_bar ? "bar" : "cube", cfl, VARIANTS[v].name, r[v].n - 1, r[v].e[r[v].n - 1], r[v].s[r[v].n - 1],
+                r[v].cpu_s, r[v].ok ? "" : " FAILED");
     }
     char path[1024];
     snprintf(path, sizeof path, "%s/%s", dir, file);
@@ -180,10 +105,10 @@ static void energy(FILE *md, const char *dir, const char *file, int is_bar, doub
         /* at each whole period: the energy is sampled where the cube is
          * back near its stretched start */
         const long per = (long)((double)(r[v].n - 1) / 10 + 0.5);
-        fprintf(md, "| %s | %.1f | %s | %ld | %s%.4f | %.4f | %.4f |\n", is_bar ? "bar" : "cube", cfl, VARIANTS[v].name,
-                r[v].n - 1, r[v].ok ? "" : "FAILED ", r[v].e[r[v].n - 1], r[v].e[per < r[v].n ? per : r[v].n - 1],
-                r[v].e[5 * per < r[v].n ? 5 * per : r[v].n - 1]);
-        free(r[v].t), free(r[v].e);
+        fprintf(md, "| %s | %.1f | %s | %ld | %s%.4f | %.4f | %.4f | %.4f |\n", is_bar ? "bar" : "cube", cfl,
+                VARIANTS[v].name, r[v].n - 1, r[v].ok ? "" : "FAILED ", r[v].e[r[v].n - 1], r[v].s[r[v].n - 1],
+                r[v].e[per < r[v].n ? per : r[v].n - 1], r[v].e[5 * per < r[v].n ? 5 * per : r[v].n - 1]);
+        ev_series_free(&r[v]);
     }
 }
 
@@ -213,11 +138,12 @@ int main(int argc, char **argv) {
         fprintf(md,
                 "Total energy (kinetic + elastic) / E0 after 1, 5 and 10 periods of the fundamental: the ringing "
                 "bar (jello, 4 cells thick at the default dx = 2 cm, T = %.4f s) and V7's ringing cube (%d cells "
-                "across, T = %.4f s); 8 particles per cell, fixed step:\n\n",
+                "across, T = %.4f s); 8 particles per cell, fixed step. S: the staggered energy symplectic Euler "
+                "conserves (tests/problems/ringing.h), which the plain E oscillates about within each period:\n\n",
                 BAR_T, quick ? 8 : 16, CUBE_T);
     if (!no_energy) {
-        fprintf(md,
-                "| body | CFL | transfer | steps | E(10T)/E0 | E(T)/E0 | E(5T)/E0 |\n|---|---|---|---|---|---|---|\n");
+        fprintf(md, "| body | CFL | transfer | steps | E(10T)/E0 | S(10T)/E0 | E(T)/E0 | E(5T)/E0 |\n"
+                    "|---|---|---|---|---|---|---|---|\n");
         energy(md, dir, "flip_bar.dat", 1, 0.4, quick);
         energy(md, dir, "flip_bar_cfl01.dat", 1, 0.1, quick);
         if (only_bar) return 0;
@@ -233,7 +159,7 @@ int main(int argc, char **argv) {
         for (int v = 0; v < 2; v++) {
             series r = cube(ab[v], 0.4, quick, steps);
             cost[v][k] = r.cpu_s / (double)(r.n - 1);
-            free(r.t), free(r.e);
+            ev_series_free(&r);
         }
     double med[2] = {kf_median(cost[0], repeat), kf_median(cost[1], repeat)};
     fprintf(md,
