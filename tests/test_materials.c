@@ -265,16 +265,19 @@ static void corotated_fast_path_matches_svd(void) {
                 for (int k = 0; k < 3; k++) s += (Fd[3 * i + k] - R[3 * i + k]) * Fd[3 * j + k];
                 A[3 * i + j] = s;
             }
+        /* the volume term, with its barrier below J_b (material.h) */
+        double g, g1, g2;
+        kf_corot_volume(m.mu, m.lambda, J, 0, &g, &g1, &g2);
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++) {
-                double ref =
-                    (double)m.mu * (A[3 * i + j] + A[3 * j + i]) + (i == j ? (double)m.lambda * (J - 1) * J : 0);
-                worst = fmax(worst, fabs(ref - tau[3 * i + j]) /
-                                        ((double)m.mu * (1 + nf2) + (double)m.lambda * fabs(J) * (1 + fabs(J))));
+                double ref = (double)m.mu * (A[3 * i + j] + A[3 * j + i]) + (i == j ? g1 * J : 0);
+                worst = fmax(
+                    worst, fabs(ref - tau[3 * i + j]) /
+                               ((double)m.mu * (1 + nf2) + (double)m.lambda * fabs(J) * (1 + fabs(J)) + fabs(g1 * J)));
             }
     }
     /* the reference uses R rounded to kf_real (error ~u) and τ is rounded
-     * once: a few u relative to the stress scale μ‖F‖² + λJ(1+J) */
+     * once: a few u relative to the stress scale μ‖F‖² + λJ(1+J) + |g'J| */
     KT_CHECK(worst <= 20 * U_, "corotated fast vs SVD path: %.3g relative (limit 20 u = %.1g)", worst, 20 * U_);
 }
 
@@ -567,6 +570,87 @@ static void wave_speeds(void) {
     KT_NEAR(c9 / c0, sqrt(exp(sn.xi * 0.1)), 10 * U_, "compacted snow is stiffer: c ∝ √e^{ξ(1−Jp)}");
 }
 
+/* uniform compression F = s I with s³ = J */
+static void iso_F(kf_real F[9], double J) {
+    double s = cbrt(J);
+    for (int k = 0; k < 9; k++) F[k] = (kf_real)(k % 4 == 0 ? s : 0);
+}
+
+/* Fixed corotated's volume barrier below J_b (material.h): the
+ * Kirchhoff stress of F = sI is [2μ(s − 1)s + g'(J) J] I, with
+ * g' = −λ(1 − J_b) − (λ + 2μ) J_b²/3 (J⁻³ − J_b⁻³) below J_b, continuous with
+ * λ(J − 1) at J_b; its wave speed c0 J_b/J; ψ' = g' in J. */
+static void corotated_barrier(void) {
+    kf_material d = base(KF_MAT_COROTATED);
+    kf_mat m = compiled(&d);
+    const double mu = m.mu, la = m.lambda, jb = KF_COROT_JB, kb = la + 2 * mu;
+    const double tol = 64 * U_ * (3 * la + 2 * mu);
+    double Jt[] = {0.9, 0.6, jb * (1 + 1e-6), jb * (1 - 1e-6), 0.4, 0.25, 0.1};
+    for (size_t k = 0; k < sizeof Jt / sizeof Jt[0]; k++) {
+        double J = Jt[k], s = cbrt(J), g1 = la * (J - 1);
+        if (J < jb) g1 = -la * (1 - jb) - kb * jb * jb / 3 * (1 / (J * J * J) - 1 / (jb * jb * jb));
+        kf_real F[9], ps[2] = {0, 0}, tau[9];
+        iso_F(F, J);
+        kf_mat_kirchhoff(&m, F, ps, tau);
+        double want = 2 * mu * (s - 1) * s + g1 * J;
+        KT_NEAR(tau[0], want, tol * (J < jb ? 1 / (J * J * J) : 1), "corotated τ of F = sI (barrier below J_b)");
+        /* ψ(s) along F = sI: dψ/ds = 6μ(s − 1) + 3s² g'(J), central difference */
+        double h = 1e-4 * s;
+        kf_real Fp[9], Fm[9];
+        iso_F(Fp, (s + h) * (s + h) * (s + h));
+        iso_F(Fm, (s - h) * (s - h) * (s - h));
+        double dpsi = (kf_mat_energy_density(&m, Fp, ps) - kf_mat_energy_density(&m, Fm, ps)) / (2 * h);
+        double dwant = 6 * mu * (s - 1) + 3 * s * s * g1;
+        KT_NEAR(dpsi, dwant, 1e-3 * fabs(dwant) + 1e3 * U_ * kb / h, "corotated ψ' of F = sI");
+    }
+    double c0 = kf_mat_wave_speed(&m, 1);
+    KT_NEAR(kf_mat_wave_speed(&m, 0.75), c0, 0, "above J_b the wave speed is the rest speed");
+    KT_NEAR(kf_mat_wave_speed(&m, 0.1), c0 * KF_COROT_JB / 0.1, 10 * U_ * c0, "below J_b it is c0 J_b/J");
+}
+
+/* The resolvable stiffness under a fixed step (kf_mat_limit): water limited
+ * to 3 c0 follows Tait down to J_c = 3^(−2/(γ−1)), where its wave speed is
+ * 3 c0, and below it the pressure of that constant speed,
+ * p = p(J_c) + ρ c_l² (1/J − 1/J_c); snow's hardening stops at the Jp where
+ * c = c_l; the corotated barrier at J_b c0/c_l; a limit below the rest
+ * speed is raised to it. */
+static void stiffness_limit(void) {
+    kf_material w = base(KF_MAT_WATER);
+    kf_mat mw = compiled(&w);
+    const double c0 = kf_mat_wave_speed(&mw, 1), g = w.gamma, kap = w.bulk_modulus, rho = w.density;
+    kf_mat_limit(&mw, 3 * c0);
+    double jc = pow(3.0, -2 / (g - 1));
+    KT_NEAR(mw.state_limit, jc, 1e-12, "water limited at J_c = 3^(-2/(γ-1))");
+    KT_NEAR(kf_mat_wave_speed(&mw, 0.5 * jc), 3 * c0, 1e-9 * c0, "below J_c the wave speed is the limit");
+    kf_mat tait = compiled(&w);
+    KT_NEAR(kf_mat_wave_speed(&mw, 0.95), kf_mat_wave_speed(&tait, 0.95), 0, "above J_c water is Tait's");
+    double pc = kap * (pow(jc, -g) - 1), cl = 3 * c0;
+    double Js[] = {jc * (1 + 1e-7), jc * (1 - 1e-7), 0.5 * jc};
+    for (int k = 0; k < 3; k++) {
+        double J = Js[k], p = J < jc ? pc + rho * cl * cl * (1 / J - 1 / jc) : kap * (pow(J, -g) - 1);
+        kf_real F[9], ps[2] = {(kf_real)J, 0}, tau[9];
+        iso_F(F, 1);
+        kf_mat_kirchhoff(&mw, F, ps, tau);
+        KT_NEAR(tau[0], -p * (double)ps[0], 64 * U_ * p, "limited water pressure");
+        KT_CHECK(kf_mat_is_limited(&mw, F, ps) == (J < jc), "J = %g limited iff below J_c", J);
+    }
+    kf_mat slow = compiled(&w);
+    kf_mat_limit(&slow, 0.5 * c0);
+    KT_NEAR(slow.c_limit, c0, 1e-12 * c0, "a limit below the rest speed is raised to it");
+    kf_material sn = base(KF_MAT_SNOW);
+    kf_mat ms = compiled(&sn);
+    double cs = kf_mat_wave_speed(&ms, 1);
+    kf_mat_limit(&ms, 2 * cs);
+    KT_NEAR(ms.state_limit, 1 - 2 * log(2.0) / sn.xi, 1e-12, "snow limited where e^{ξ(1−Jp)/2} = 2");
+    KT_NEAR(kf_mat_wave_speed(&ms, 0.5), 2 * cs, 1e-9 * cs, "packed snow at the limited speed");
+    kf_material d = base(KF_MAT_COROTATED);
+    kf_mat mc = compiled(&d);
+    double cc = kf_mat_wave_speed(&mc, 1);
+    kf_mat_limit(&mc, 4 * cc);
+    KT_NEAR(mc.state_limit, KF_COROT_JB / 4, 1e-12, "the corotated barrier limited at J_b/4");
+    KT_NEAR(kf_mat_wave_speed(&mc, 0.05), 4 * cc, 1e-9 * cc, "crushed jelly at the limited speed");
+}
+
 int main(int argc, char **argv) {
     KT_RUN(rest_is_stress_free, argc, argv);
     KT_RUN(tau_is_symmetric, argc, argv);
@@ -581,5 +665,7 @@ int main(int argc, char **argv) {
     KT_RUN(presets_are_valid, argc, argv);
     KT_RUN(check_messages, argc, argv);
     KT_RUN(wave_speeds, argc, argv);
+    KT_RUN(corotated_barrier, argc, argv);
+    KT_RUN(stiffness_limit, argc, argv);
     return KT_EXIT();
 }

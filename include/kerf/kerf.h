@@ -376,6 +376,10 @@ typedef struct kf_step_stats {
     int retries;         /* frames retried at a smaller CFL number (or, opted in, a halved fixed step) */
     double fixed_halved; /* > 0: the last retry ran the frame at this halved sim.dt_fixed, s */
     long warnings;       /* counted warnings (see message) */
+    /* under a fixed step: the most particles in one substep whose state was
+     * stiffer than the step resolves (compressed water, hardened snow),
+     * evaluated at the stiffness it resolves instead */
+    long stiff_limited;
 } kf_step_stats;
 
 typedef struct kf_trouble {

@@ -525,6 +525,15 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                         "frame's end (deepest %.2f cells)\n",
                         frame, st.thin_caught, st.thin_deepest, left, deep_left);
             }
+            /* a fixed step too long for compressed water, packed snow or
+             * crushed jelly: those particles were evaluated at the stiffness
+             * the step resolves (a local softening), so the artist knows */
+            if (st.stiff_limited > 0)
+                fprintf(stderr,
+                        "frame %d: %ld particles stiffness-limited (stiffer than sim.dt_fixed = %g s resolves; "
+                        "evaluated at the stiffness it does, a local softening; a shorter step or the CFL rule "
+                        "keeps the full stiffness)\n",
+                        frame, st.stiff_limited, kf_model_sim(sc.model)->dt_fixed);
             if (st.fixed_halved > 0)
                 fprintf(stderr,
                         "frame %d: retried at a fixed step of %g s (sim.retry_fixed: half of sim.dt_fixed %g s)\n",

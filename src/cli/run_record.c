@@ -25,15 +25,16 @@ void kf_record_frame(const char *dir, int frame, size_t particles, const kf_step
                      long thin_across, double thin_across_deepest) {
     char path[2200], line[1024];
     snprintf(path, sizeof path, "%s/frames.jsonl", dir);
-    int n = snprintf(line, sizeof line,
-                     "{\"frame\":%d,\"particles\":%zu,\"blocks\":%ld,\"substeps\":%ld,\"max_cfl\":%.4g,\"ms\":%.1f,"
-                     "\"ms_stage\":{\"sort\":%.1f,\"p2g\":%.1f,\"grid\":%.1f,\"g2p\":%.1f,\"stress\":%.1f,\"cdf\":%.1f,"
-                     "\"rigid\":%.1f},\"retries\":%d,\"warnings\":%ld,\"thin_caught\":%ld,\"thin_deepest\":%.3g,"
-                     "\"thin_across\":%ld,\"thin_across_deepest\":%.3g,\"newton\":%ld,\"krylov\":%ld}\n",
-                     frame, particles, st->active_blocks, st->substeps, st->max_cfl, frame_ms, st->ms[KF_STAGE_SORT],
-                     st->ms[KF_STAGE_P2G], st->ms[KF_STAGE_GRID], st->ms[KF_STAGE_G2P], st->ms[KF_STAGE_STRESS],
-                     st->ms[KF_STAGE_CDF], st->ms[KF_STAGE_RIGID], st->retries, st->warnings, st->thin_caught,
-                     st->thin_deepest, thin_across, thin_across_deepest, st->newton_iterations, st->krylov_iterations);
+    int n = snprintf(
+        line, sizeof line,
+        "{\"frame\":%d,\"particles\":%zu,\"blocks\":%ld,\"substeps\":%ld,\"max_cfl\":%.4g,\"ms\":%.1f,"
+        "\"ms_stage\":{\"sort\":%.1f,\"p2g\":%.1f,\"grid\":%.1f,\"g2p\":%.1f,\"stress\":%.1f,\"cdf\":%.1f,"
+        "\"rigid\":%.1f},\"retries\":%d,\"warnings\":%ld,\"thin_caught\":%ld,\"thin_deepest\":%.3g,"
+        "\"thin_across\":%ld,\"thin_across_deepest\":%.3g,\"stiff_limited\":%ld,\"newton\":%ld,\"krylov\":%ld}\n",
+        frame, particles, st->active_blocks, st->substeps, st->max_cfl, frame_ms, st->ms[KF_STAGE_SORT],
+        st->ms[KF_STAGE_P2G], st->ms[KF_STAGE_GRID], st->ms[KF_STAGE_G2P], st->ms[KF_STAGE_STRESS],
+        st->ms[KF_STAGE_CDF], st->ms[KF_STAGE_RIGID], st->retries, st->warnings, st->thin_caught, st->thin_deepest,
+        thin_across, thin_across_deepest, st->stiff_limited, st->newton_iterations, st->krylov_iterations);
     if (n <= 0 || n >= (int)sizeof line) return;
     /* one write of a whole line with O_APPEND: lines never interleave or tear mid-way */
     int fd = open(path, O_WRONLY | O_CREAT | O_APPEND, 0644);

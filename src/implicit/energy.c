@@ -26,24 +26,28 @@ typedef struct principal {
 
 static const int PAIR[3][3] = {{0, 1, 2}, {0, 2, 1}, {1, 2, 0}}; /* i, j, and the third k */
 
+/* the volume term g(J) (½λ(J − 1)², with material.h's barrier below J_b):
+ * ψ_i = 2μ(σ_i − 1) + g' J/σ_i, ψ_ii = 2μ + g'' (J/σ_i)², and for i ≠ j
+ * ψ_ij = σ_k (g'' J + g') */
 static void corotated(double mu, double la, const double s[3], principal *o) {
-    double J = s[0] * s[1] * s[2];
-    o->psi = 0.5 * la * (J - 1) * (J - 1);
+    double J = s[0] * s[1] * s[2], g, g1, g2;
+    kf_corot_volume(mu, la, J, 0, &g, &g1, &g2);
+    o->psi = g;
     for (int i = 0; i < 3; i++) o->psi += mu * (s[i] - 1) * (s[i] - 1);
     for (int i = 0; i < 3; i++) {
         int j = (i + 1) % 3, k = (i + 2) % 3;
         double Ji = s[j] * s[k]; /* ∂J/∂σ_i */
-        o->d[i] = 2 * mu * (s[i] - 1) + la * (J - 1) * Ji;
-        o->A[4 * i] = 2 * mu + la * Ji * Ji;
-        /* ∂²ψ/∂σ_i∂σ_j = λ σ_k (2J − 1) for i ≠ j */
-        o->A[3 * i + j] = o->A[3 * j + i] = la * s[k] * (2 * J - 1);
+        o->d[i] = 2 * mu * (s[i] - 1) + g1 * Ji;
+        o->A[4 * i] = 2 * mu + g2 * Ji * Ji;
+        /* above J_b written as before the barrier, λ σ_k (2J − 1), bit for bit */
+        o->A[3 * i + j] = o->A[3 * j + i] = J < KF_COROT_JB ? s[k] * (g2 * J + g1) : la * s[k] * (2 * J - 1);
     }
     for (int q = 0; q < 3; q++) {
         int i = PAIR[q][0], j = PAIR[q][1], k = PAIR[q][2];
-        o->stretch[q] = 2 * mu - la * (J - 1) * s[k];
+        o->stretch[q] = 2 * mu - g1 * s[k];
         double sum = s[i] + s[j];
         if (fabs(sum) < 1e-12) sum = 1e-12; /* only a degenerate, inverted F gets here */
-        o->twist[q] = 2 * mu - 4 * mu / sum + la * (J - 1) * s[k];
+        o->twist[q] = 2 * mu - 4 * mu / sum + g1 * s[k];
     }
 }
 
@@ -160,13 +164,14 @@ static int corotated_moduli(const kf_mat *m, const kf_real ps[2], double *mu, do
 static int corotated_by_polar(const kf_mat *m, const double F[9], const kf_real ps[2], double *psi, double P[9]) {
     double mu, la, R[9], C[9];
     if (!corotated_moduli(m, ps, &mu, &la) || polar_rotation(F, R)) return -1;
-    double J = cofactor(F, C), fr2 = 0;
+    double J = cofactor(F, C), fr2 = 0, g, g1, g2;
+    kf_corot_volume(mu, la, J, 0, &g, &g1, &g2);
     for (int k = 0; k < 9; k++) {
         double e = F[k] - R[k];
         fr2 += e * e;
-        if (P) P[k] = 2 * mu * e + la * (J - 1) * C[k];
+        if (P) P[k] = 2 * mu * e + g1 * C[k];
     }
-    *psi = mu * fr2 + 0.5 * la * (J - 1) * (J - 1);
+    *psi = mu * fr2 + g;
     return 0;
 }
 

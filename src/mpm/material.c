@@ -104,9 +104,10 @@ static void rotation_of(const double Fd[9], const kf_real F[9], double R[9]) {
     to_double(R, Rr);
 }
 
-/* fixed corotated τ = 2μ(F − R)Fᵀ + λ(J − 1)J I, symmetrised so the
- * transfer's angular momentum balance does not see round-off skew */
-static void corotated_tau(double mu, double la, const kf_real F[9], kf_real tau[9]) {
+/* fixed corotated τ = 2μ(F − R)Fᵀ + λ(J − 1)J I (below J_b the volume
+ * barrier's g'(J) J, material.h), symmetrised so the transfer's angular
+ * momentum balance does not see round-off skew */
+static void corotated_tau(double mu, double la, double jc, const kf_real F[9], kf_real tau[9]) {
     double Fd[9], R[9], A[9];
     to_double(Fd, F);
     rotation_of(Fd, F, R);
@@ -116,7 +117,9 @@ static void corotated_tau(double mu, double la, const kf_real F[9], kf_real tau[
             for (int k = 0; k < 3; k++) t += (Fd[3 * i + k] - R[3 * i + k]) * Fd[3 * j + k];
             A[3 * i + j] = t;
         }
-    double J = kf_m3d_det(Fd), vol = la * (J - 1) * J;
+    double J = kf_m3d_det(Fd), g, g1, g2;
+    kf_corot_volume(mu, la, J, jc, &g, &g1, &g2);
+    double vol = g1 * J;
     for (int i = 0; i < 3; i++)
         for (int j = i; j < 3; j++) {
             double t = mu * (A[3 * i + j] + A[3 * j + i]) + (i == j ? vol : 0.0);
@@ -124,18 +127,24 @@ static void corotated_tau(double mu, double la, const kf_real F[9], kf_real tau[
         }
 }
 
-static double corotated_psi(double mu, double la, const kf_real F[9]) {
+static double corotated_psi(double mu, double la, double jc, const kf_real F[9]) {
     double Fd[9], R[9], s = 0;
     to_double(Fd, F);
     rotation_of(Fd, F, R);
     for (int i = 0; i < 9; i++) s += (Fd[i] - R[i]) * (Fd[i] - R[i]);
-    double J = kf_m3d_det(Fd);
-    return mu * s + 0.5 * la * (J - 1) * (J - 1);
+    double J = kf_m3d_det(Fd), g, g1, g2;
+    kf_corot_volume(mu, la, J, jc, &g, &g1, &g2);
+    return mu * s + g;
 }
 
-/* snow's hardening factor e^{ξ(1 − Jp)} */
+/* fixed corotated's limited state J_c (kf_corot_volume), 0 for none */
+static double corot_jc(const kf_mat *m) { return m->model == KF_MAT_COROTATED ? m->state_limit : 0.0; }
+
+/* snow's hardening factor e^{ξ(1 − Jp)}; under a fixed step, at most the
+ * stiffness the step resolves (Jp below state_limit: the factor there) */
 static double snow_hardening(const kf_mat *m, const kf_real ps[2]) {
-    return exp((double)m->xi * (1.0 - (double)ps[0]));
+    double jp = m->c_limit > 0 && (double)ps[0] < m->state_limit ? m->state_limit : (double)ps[0];
+    return exp((double)m->xi * (1.0 - jp));
 }
 
 /* ---- Hencky helpers -------------------------------------------------------- */
@@ -150,6 +159,29 @@ static void hencky_strain(const kf_real F[9], kf_real U[9], kf_real V[9], kf_rea
 }
 
 static double water_J(const kf_real ps[2]) { return floor_nan((double)ps[0], WATER_J_MIN); }
+
+/* Tait's p = κ(J^−γ − 1); below the limited state J_c (kf_mat_limit) the
+ * pressure goes on with the constant wave speed c_limit the step resolves,
+ * dp/dJ = −ρ c²/J²: continuous at J_c, still without bound as J → 0 */
+static double water_pressure(const kf_mat *m, double J) {
+    double k = m->kappa, g = m->gamma;
+    if (!(m->c_limit > 0 && J < m->state_limit)) return k * (pow(J, -g) - 1);
+    double jc = m->state_limit, c2 = m->c_limit * m->c_limit * (double)m->rho;
+    return k * (pow(jc, -g) - 1) + c2 * (1 / J - 1 / jc);
+}
+
+/* ψ(J) = κ/(γ−1) (J^{1−γ} − 1 + (γ−1)(J − 1)), so ψ(1) = 0 and ψ'(J) = −p;
+ * written with expm1 to keep accuracy near J = 1; below J_c the integral of
+ * the limited pressure */
+static double water_psi(const kf_mat *m, double J) {
+    double k = m->kappa, g = m->gamma, jl = J;
+    if (m->c_limit > 0 && J < m->state_limit) jl = m->state_limit;
+    double psi =
+        fabs(g - 1) < 1e-12 ? k * ((jl - 1) - log(jl)) : k / (g - 1) * (expm1((1 - g) * log(jl)) + (g - 1) * (jl - 1));
+    if (jl == J) return psi;
+    double c2 = m->c_limit * m->c_limit * (double)m->rho;
+    return psi + water_pressure(m, jl) * (jl - J) + c2 * (log(jl / J) - (jl - J) / jl);
+}
 
 /* ---- compile --------------------------------------------------------------- */
 
@@ -186,10 +218,10 @@ void kf_mat_compile(kf_mat *out, const kf_material *in) {
 
 void kf_mat_kirchhoff(const kf_mat *m, const kf_real F[9], const kf_real ps[2], kf_real tau[9]) {
     switch (m->model) {
-    case KF_MAT_COROTATED: corotated_tau(m->mu, m->lambda, F, tau); return;
+    case KF_MAT_COROTATED: corotated_tau(m->mu, m->lambda, corot_jc(m), F, tau); return;
     case KF_MAT_SNOW: {
         double h = snow_hardening(m, ps);
-        corotated_tau(h * m->mu, h * m->lambda, F, tau);
+        corotated_tau(h * m->mu, h * m->lambda, 0, F, tau);
         return;
     }
     case KF_MAT_VON_MISES:
@@ -208,7 +240,7 @@ void kf_mat_kirchhoff(const kf_mat *m, const kf_real F[9], const kf_real ps[2], 
          * field is not used here: a viscous stress needs the velocity
          * gradient C, which this interface does not see. */
         double J = water_J(ps);
-        double p = (double)m->kappa * (pow(J, -(double)m->gamma) - 1);
+        double p = water_pressure(m, J);
         for (int i = 0; i < 9; i++) tau[i] = 0;
         tau[0] = tau[4] = tau[8] = (kf_real)(-p * J);
         return;
@@ -328,8 +360,9 @@ void kf_mat_update(const kf_mat *m, kf_real F[9], kf_real ps[2], int project, kf
         if (project && return_snow(m, s, d, ps)) set_usvt(F, U, d, V);
         else
             for (int i = 0; i < 3; i++) d[i] = s[i];
-        double h = snow_hardening(m, ps), mu = h * m->mu, la = h * m->lambda, J = d[0] * d[1] * d[2], t[3];
-        for (int i = 0; i < 3; i++) t[i] = 2 * mu * (d[i] - 1) * d[i] + la * (J - 1) * J;
+        double h = snow_hardening(m, ps), mu = h * m->mu, la = h * m->lambda, J = d[0] * d[1] * d[2], t[3], g, g1, g2;
+        kf_corot_volume(mu, la, J, 0, &g, &g1, &g2);
+        for (int i = 0; i < 3; i++) t[i] = 2 * mu * (d[i] - 1) * d[i] + g1 * J;
         sym_udut(tau, U, t);
         return;
     }
@@ -355,10 +388,10 @@ void kf_mat_project(const kf_mat *m, kf_real F[9], kf_real ps[2]) {
 
 double kf_mat_energy_density(const kf_mat *m, const kf_real F[9], const kf_real ps[2]) {
     switch (m->model) {
-    case KF_MAT_COROTATED: return corotated_psi(m->mu, m->lambda, F);
+    case KF_MAT_COROTATED: return corotated_psi(m->mu, m->lambda, corot_jc(m), F);
     case KF_MAT_SNOW: {
         double h = snow_hardening(m, ps);
-        return corotated_psi(h * m->mu, h * m->lambda, F);
+        return corotated_psi(h * m->mu, h * m->lambda, 0, F);
     }
     case KF_MAT_VON_MISES:
     case KF_MAT_SAND: {
@@ -368,18 +401,13 @@ double kf_mat_energy_density(const kf_mat *m, const kf_real F[9], const kf_real 
         double tr = e[0] + e[1] + e[2];
         return (double)m->mu * (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) + 0.5 * (double)m->lambda * tr * tr;
     }
-    case KF_MAT_WATER: {
-        /* ψ(J) = κ/(γ−1) (J^{1−γ} − 1 + (γ−1)(J − 1)), so ψ(1) = 0 and
-         * ψ'(J) = −p; written with expm1 to keep accuracy near J = 1 */
-        double J = water_J(ps), k = m->kappa, g = m->gamma;
-        if (fabs(g - 1) < 1e-12) return k * ((J - 1) - log(J));
-        return k / (g - 1) * (expm1((1 - g) * log(J)) + (g - 1) * (J - 1));
-    }
+    case KF_MAT_WATER: return water_psi(m, water_J(ps));
     default: return 0;
     }
 }
 
-double kf_mat_wave_speed(const kf_mat *m, double state) {
+/* the model's own wave speed, without the limit */
+static double wave_speed_of(const kf_mat *m, double state) {
     if (m->model == KF_MAT_WATER) {
         double Jc = floor_nan(state, WATER_J_MIN), g = m->gamma;
         return sqrt((double)m->kappa * g * pow(Jc, 1 - g) / (double)m->rho);
@@ -387,7 +415,47 @@ double kf_mat_wave_speed(const kf_mat *m, double state) {
     double c = sqrt(((double)m->lambda + 2 * (double)m->mu) / (double)m->rho);
     /* snow stiffens by e^{ξ(1 − Jp)} as it compacts: c grows by its root */
     if (m->model == KF_MAT_SNOW) c *= sqrt(exp((double)m->xi * (1.0 - state)));
+    /* fixed corotated's volume barrier below J_b: c0 J_b/J (material.h);
+     * J floored where the step's det F check stops a run anyway */
+    if (m->model == KF_MAT_COROTATED && state < KF_COROT_JB) c *= KF_COROT_JB / (state > 1e-3 ? state : 1e-3);
     return c;
+}
+
+double kf_mat_wave_speed(const kf_mat *m, double state) {
+    double c = wave_speed_of(m, state);
+    if (m->c_limit > 0 && c > m->c_limit) c = m->c_limit;
+    return c;
+}
+
+int kf_mat_is_limited(const kf_mat *m, const kf_real F[9], const kf_real ps[2]) {
+    if (!(m->c_limit > 0)) return 0;
+    if (m->model == KF_MAT_COROTATED) {
+        double Fd[9];
+        to_double(Fd, F);
+        return kf_m3d_det(Fd) < m->state_limit;
+    }
+    return (double)ps[0] < m->state_limit;
+}
+
+/* the state where the model's wave speed reaches c_limit: water's
+ * c = √(κγ J^{1−γ}/ρ), snow's c0 e^{ξ(1 − Jp)/2} and the corotated barrier's
+ * c0 J_b/J solved for J, Jp, J; a limit below the speed at rest is raised
+ * to it (the material at rest is never softened) */
+void kf_mat_limit(kf_mat *m, double c_limit) {
+    m->c_limit = 0, m->state_limit = 0;
+    if (!(c_limit > 0) || (m->model != KF_MAT_WATER && m->model != KF_MAT_SNOW && m->model != KF_MAT_COROTATED)) return;
+    double c0 = wave_speed_of(m, 1.0), c = c_limit > c0 ? c_limit : c0;
+    if (m->model == KF_MAT_WATER) {
+        double g = m->gamma;
+        if (!(g > 1)) return; /* γ <= 1 does not stiffen */
+        m->state_limit = pow(c * c * (double)m->rho / ((double)m->kappa * g), 1 / (1 - g));
+    } else if (m->model == KF_MAT_COROTATED) {
+        m->state_limit = KF_COROT_JB * c0 / c;
+    } else {
+        if (!(m->xi > 0)) return;
+        m->state_limit = 1 - 2 * log(c / c0) / (double)m->xi;
+    }
+    m->c_limit = c;
 }
 
 /* ---- public presets and validation ----------------------------------------- */

@@ -16,6 +16,7 @@
 #define KF_MATERIAL_H
 
 #include <kerf/kerf.h>
+#include <math.h>
 
 typedef struct kf_mat {
     kf_material_model model;
@@ -30,7 +31,60 @@ typedef struct kf_mat {
     kf_real theta_c, theta_s, xi;
     int plastic;        /* 1 when kf_mat_project does anything */
     double wave_speed0; /* elastic P-wave speed at rest, m/s */
+    /* the resolvable stiffness under a fixed step (kf_mat_limit): 0, or the
+     * fastest wave speed the step integrates, m/s, and the state where the
+     * model's own wave speed reaches it (water: J, snow: Jp); states below
+     * it are evaluated with a pressure of that constant wave speed */
+    double c_limit, state_limit;
 } kf_mat;
+
+/* Fixed corotated's volume term ½λ(J − 1)² gives a Cauchy pressure λ(1 − J)
+ * bounded by λ, and a volume wave speed √(λ/ρ) J that vanishes as J → 0:
+ * nothing resists a collapse, so a blow faster than the material's waves
+ * crushes it through J = 0 whatever the step (the pressure a piston at u
+ * needs, ρ u² r/(r − 1), exceeds λ once u outruns those waves). Below
+ * KF_COROT_JB the volume stiffens instead, as real matter does: its wave
+ * speed grows as c(J) = c0 J_b/J from the P-wave speed at rest c0 =
+ * √((λ + 2μ)/ρ) (dp/dJ = −(λ + 2μ) J_b²/J⁴, so p → ∞ as J → 0), continuous in
+ * pressure with the model at J_b. Above J_b the model is unchanged and so
+ * is every state an ordinary shot reaches; the CFL rule sees the stiffened
+ * speed (kf_mat_wave_speed of the smallest J). Under a fixed step whose
+ * resolvable wave speed c_l (kf_mat_limit) the barrier would outgrow, it
+ * goes on below J_c = J_b c0/c_l at the constant speed c_l. g, g1, g2: the
+ * volume energy per reference volume and its first and second derivatives
+ * in J (g1 J is the Kirchhoff volume stress); jc: J_c, or 0 for no limit. */
+#define KF_COROT_JB 0.3
+static inline void kf_corot_volume(double mu, double la, double J, double jc, double *g, double *g1, double *g2) {
+    /* an inverted F (J <= 0) keeps the model's own term: the step stops such a run on its det F check */
+    if (!(J < KF_COROT_JB) || !(J > 0)) {
+        *g = 0.5 * la * (J - 1) * (J - 1), *g1 = la * (J - 1), *g2 = la;
+        return;
+    }
+    const double jb = KF_COROT_JB, kb3 = (la + 2 * mu) * jb * jb / 3;
+    double j = J > 1e-6 ? J : 1e-6, jl = j < jc ? jc : j; /* the barrier's own part down to J_c */
+    *g = 0.5 * la * (jb - 1) * (jb - 1) + la * (1 - jb) * (jb - jl) +
+         kb3 * (0.5 / (jl * jl) - 0.5 / (jb * jb) - (jb - jl) / (jb * jb * jb));
+    *g1 = -la * (1 - jb) - kb3 * (1 / (jl * jl * jl) - 1 / (jb * jb * jb));
+    *g2 = 3 * kb3 / (jl * jl * jl * jl);
+    if (jl == j) return;
+    /* below J_c: the gas of wave speed c_l, ρ c_l² = g''(J_c) J_c² */
+    const double kl = *g2 * jl * jl;
+    *g += -*g1 * (jl - j) + kl * (log(jl / j) - (jl - j) / jl);
+    *g1 -= kl * (1 / j - 1 / jl);
+    *g2 = kl / (j * j);
+}
+
+/* The resolvable stiffness: a fixed step Δt integrates waves up to
+ * KF_CFL_STIFF Δx/Δt. Water (Tait), snow (hardening) and the corotated
+ * barrier stiffen without bound as they compact; where a state's wave speed
+ * would exceed that, the material is evaluated at the stiffness the step
+ * resolves (never below its stiffness at rest). c_limit 0: none (the CFL
+ * rule's steps resolve every state, and the model is untouched). */
+#define KF_CFL_STIFF 1.0
+void kf_mat_limit(kf_mat *m, double c_limit);
+
+/* 1 when the particle's state (F, ps) is evaluated at the limited stiffness */
+int kf_mat_is_limited(const kf_mat *m, const kf_real F[9], const kf_real ps[2]);
 
 void kf_mat_compile(kf_mat *out, const kf_material *in);
 
@@ -45,9 +99,10 @@ void kf_mat_update(const kf_mat *m, kf_real F[9], kf_real ps[2], int project, kf
 /* kf_mat_update for n consecutive particles first..first+n-1 of one material,
  * on the particle planes; τ goes to the symmetric planes tau6 (xx, yy, zz,
  * xy, xz, yz). The fixed-corotated model runs SIMD across particles
- * (material_batch.c). */
-void kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
-                         kf_real *const tau6[6]);
+ * (material_batch.c). Returns how many of them were evaluated at the
+ * limited stiffness (kf_mat_limit). */
+int kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
+                        kf_real *const tau6[6]);
 
 /* Return mapping after F ← (I + Δt C) F: replaces F by its elastic part and
  * updates ps. Does nothing for elastic models and water. */
@@ -58,7 +113,8 @@ double kf_mat_energy_density(const kf_mat *m, const kf_real F[9], const kf_real 
 
 /* P-wave speed in the stiffest state: state is ps[0], the smallest among the
  * material's particles, for water (J: stiffens under compression) and snow
- * (Jp: hardens as it compacts); 1 (ignored) for the other models. */
+ * (Jp: hardens as it compacts), the smallest det F for fixed corotated (its
+ * volume barrier); 1 (ignored) for the other models. */
 double kf_mat_wave_speed(const kf_mat *m, double state);
 
 #endif

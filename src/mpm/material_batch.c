@@ -33,9 +33,17 @@ static void scalar_one(const kf_mat *m, kf_real *const F[9], kf_real *const ps[2
     tau6[3][j] = t[1], tau6[4][j] = t[2], tau6[5][j] = t[5];
 }
 
-/* τ = 2μ sym((F − R)Fᵀ) + λ(J − 1)J I for n <= BATCH particles */
-static void corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], size_t first,
-                            kf_real *const tau[6]) {
+/* kf_mat_is_limited for particle i of the planes */
+static int limited_at(const kf_mat *m, kf_real *const F[9], kf_real *const ps[2], size_t i) {
+    kf_real Fi[9], psi[2] = {ps[0][i], ps[1][i]};
+    for (int k = 0; k < 9; k++) Fi[k] = F[k][i];
+    return kf_mat_is_limited(m, Fi, psi);
+}
+
+/* τ = 2μ sym((F − R)Fᵀ) + λ(J − 1)J I for n <= BATCH particles; returns how
+ * many of them the scalar path evaluated at the limited stiffness */
+static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], size_t first,
+                           kf_real *const tau[6]) {
     kf_real F[9][BATCH], X[9][BATCH], K[9][BATCH];
     int ok[BATCH];
     const kf_real mu = m->mu, la = m->lambda;
@@ -93,7 +101,8 @@ static void corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_rea
                 e02 = x0 * x2 + x3 * x5 + x6 * x8, e12 = x1 * x2 + x4 * x5 + x7 * x8;
         kf_real e = e00 * e00 + e11 * e11 + e22 * e22 + 2 * (e01 * e01 + e02 * e02 + e12 * e12);
         kf_real Jj = f0 * (f4 * f8 - f5 * f7) - f1 * (f3 * f8 - f5 * f6) + f2 * (f3 * f7 - f4 * f6);
-        ok[j] = (e < tol2) & (Jj > KF_R(1e-2));
+        /* below J_b the volume barrier (material.h): the scalar path */
+        ok[j] = (e < tol2) & (Jj > KF_R(KF_COROT_JB));
         /* τ = μ (A + Aᵀ) + λ(J − 1)J I with A = (F − R)Fᵀ = FFᵀ − RFᵀ */
         kf_real vol = la * (Jj - 1) * Jj;
         kf_real ff00 = f0 * f0 + f1 * f1 + f2 * f2, ff11 = f3 * f3 + f4 * f4 + f5 * f5,
@@ -114,8 +123,13 @@ static void corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_rea
     }
     for (int k = 0; k < 6; k++)
         for (int j = 0; j < n; j++) tau[k][j] = T[k][j];
+    int limited = 0;
     for (int j = 0; j < n; j++)
-        if (!ok[j]) scalar_one(m, Fp, ps, 0, first + (size_t)j, tau, j);
+        if (!ok[j]) {
+            scalar_one(m, Fp, ps, 0, first + (size_t)j, tau, j);
+            if (m->c_limit > 0) limited += limited_at(m, Fp, ps, first + (size_t)j);
+        }
+    return limited;
 }
 
 /* ---- the lock-step SVD: Hencky models (von Mises, Drucker–Prager sand), snow ---
@@ -415,8 +429,8 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
  * keeps F bit for bit. */
 #define SNOW_LO KF_R(0.9)
 #define SNOW_HI KF_R(1.1)
-static void snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
-                       kf_real *const tau[6]) {
+static int snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
+                      kf_real *const tau[6]) {
     kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], S[3][BATCH], D[3][BATCH], JP[BATCH], H[BATCH];
     int ok[BATCH], chg[BATCH];
     for (int k = 0; k < 9; k++)
@@ -435,8 +449,15 @@ static void snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *co
         chg[j] = c;
         JP[j] = c ? jp * ratio : jp;
     }
-    /* the hardening's exponent is unbounded: the library's exp, per lane */
-    for (int j = 0; j < n; j++) H[j] = (kf_real)exp((double)m->xi * (1.0 - (double)JP[j]));
+    /* the hardening's exponent is unbounded: the library's exp, per lane;
+     * under a fixed step at most the stiffness the step resolves (Jp below
+     * state_limit hardens as at state_limit, material.h: kf_mat_limit) */
+    int limited = 0;
+    for (int j = 0; j < n; j++) {
+        double jp = (double)JP[j];
+        if (m->c_limit > 0 && jp < m->state_limit) jp = m->state_limit, limited += ok[j];
+        H[j] = (kf_real)exp((double)m->xi * (1.0 - jp));
+    }
     const kf_real mu2 = 2 * m->mu, la = m->lambda;
     kf_real T[6][BATCH], G[9][BATCH];
     for (int j = 0; j < n; j++) {
@@ -467,29 +488,42 @@ static void snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *co
             if (ok[j]) ps[0][first + (size_t)j] = JP[j];
     }
     for (int j = 0; j < n; j++)
-        if (!ok[j]) scalar_one(m, Fp, ps, project, first + (size_t)j, tau, j);
+        if (!ok[j]) {
+            scalar_one(m, Fp, ps, project, first + (size_t)j, tau, j);
+            if (m->c_limit > 0) limited += limited_at(m, Fp, ps, first + (size_t)j);
+        }
+    return limited;
 }
 
-void kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
-                         kf_real *const tau6[6]) {
+int kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
+                        kf_real *const tau6[6]) {
     if (m->model == KF_MAT_COROTATED) {
+        int limited = 0;
         for (int j0 = 0; j0 < n; j0 += BATCH) {
             int c = n - j0 < BATCH ? n - j0 : BATCH;
             kf_real *out[6];
             for (int k = 0; k < 6; k++) out[k] = tau6[k] + j0;
-            corotated_batch(m, c, F, ps, first + (size_t)j0, out);
+            limited += corotated_batch(m, c, F, ps, first + (size_t)j0, out);
         }
-        return;
+        return limited;
     }
     if (m->model == KF_MAT_VON_MISES || m->model == KF_MAT_SAND || m->model == KF_MAT_SNOW) {
+        int limited = 0;
         for (int j0 = 0; j0 < n; j0 += BATCH) {
             int c = n - j0 < BATCH ? n - j0 : BATCH;
             kf_real *out[6];
             for (int k = 0; k < 6; k++) out[k] = tau6[k] + j0;
-            if (m->model == KF_MAT_SNOW) snow_batch(m, c, F, ps, project && m->plastic, first + (size_t)j0, out);
+            if (m->model == KF_MAT_SNOW)
+                limited += snow_batch(m, c, F, ps, project && m->plastic, first + (size_t)j0, out);
             else hencky_batch(m, c, F, ps, project && m->plastic, first + (size_t)j0, out);
         }
-        return;
+        return limited;
     }
-    for (int j = 0; j < n; j++) scalar_one(m, F, ps, project && m->plastic, first + (size_t)j, tau6, j);
+    int limited = 0;
+    for (int j = 0; j < n; j++) {
+        size_t i = first + (size_t)j;
+        scalar_one(m, F, ps, project && m->plastic, i, tau6, j);
+        if (m->c_limit > 0) limited += limited_at(m, F, ps, i);
+    }
+    return limited;
 }

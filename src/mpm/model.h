@@ -46,6 +46,7 @@ struct kf_state {
     int snapshot_in_file;  /* the current interval's start is in the file */
     kf_particles snapshot; /* the memory copy (empty while the file serves) */
     int tau_valid;         /* particle stress planes match F (set by kf_stress) */
+    long stiff_limited;    /* particles the last kf_stress evaluated at the limited stiffness */
     int snapshot_tau_valid;
     /* rigid bodies (CPIC): motion state and the solver, created with the
      * state from the model's bodies; copies for retrying an interval */
@@ -153,10 +154,19 @@ void kf_wall_ghosts(const kf_model *m, kf_state *s);
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F */
 void kf_stress(const kf_model *m, kf_state *s, int project);
+
+/* The fastest wave a fixed explicit step resolves, KF_CFL_STIFF Δx/Δt
+ * (material.h: kf_mat_limit); 0 under the CFL rule or the implicit
+ * integrator, which leave every material as it is. */
+static inline double kf_model_c_limit(const kf_model *m) {
+    if (!(m->sim.dt_fixed > 0) || m->sim.integrator == KF_INTEGRATOR_IMPLICIT) return 0;
+    return KF_CFL_STIFF * m->sim.dx / m->sim.dt_fixed;
+}
 /* the same over n particles' planes, in runs of one material inside chunks
  * of 64 counted from the first: a particle's stress depends on which
- * particles share its SIMD batch, so the chunks are part of the result */
-void kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2], const uint16_t *mat,
+ * particles share its SIMD batch, so the chunks are part of the result.
+ * Returns how many were evaluated at the limited stiffness. */
+long kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2], const uint16_t *mat,
                     kf_real *const tau[6], size_t n, int project);
 
 /* collider pose and velocity at a time (collider.c) */

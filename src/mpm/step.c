@@ -126,6 +126,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
 
     /* plasticity, and the stress the next P2G scatters */
     kf_stress(m, s, 1);
+    if (st && s->stiff_limited > st->stiff_limited) st->stiff_limited = s->stiff_limited;
     t1 = kf_now_ms();
     if (st) st->ms[KF_STAGE_STRESS] += t1 - t0;
 
@@ -217,7 +218,15 @@ static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
                 (double)p->v[0][i] * p->v[0][i] + (double)p->v[1][i] * p->v[1][i] + (double)p->v[2][i] * p->v[2][i];
             if (v2 > v2max) v2max = v2;
             uint16_t k = p->mat[i];
-            if (p->ps[0][i] < local[k] && m->mat[k].model != KF_MAT_SAND) local[k] = p->ps[0][i];
+            kf_real st = p->ps[0][i];
+            /* fixed corotated: det F (its volume barrier stiffens below J_b) */
+            if (m->mat[k].model == KF_MAT_COROTATED) {
+                const kf_real *const *F = (const kf_real *const *)p->F;
+                st = F[0][i] * (F[4][i] * F[8][i] - F[5][i] * F[7][i]) -
+                     F[1][i] * (F[3][i] * F[8][i] - F[5][i] * F[6][i]) +
+                     F[2][i] * (F[3][i] * F[7][i] - F[4][i] * F[6][i]);
+            }
+            if (st < local[k] && m->mat[k].model != KF_MAT_SAND) local[k] = st;
         }
 #pragma omp critical
         {
@@ -231,9 +240,14 @@ static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
         vmax2 = kf_dist_max(s, vmax2);
         kf_dist_min_reals(s, state_min, nmat);
     }
+    /* under a fixed step, the wave speed of the stiffness the step resolves */
+    const double c_limit = kf_model_c_limit(m);
     for (int k = 0; k < nmat; k++) {
-        int stateful = m->mat[k].model == KF_MAT_WATER || m->mat[k].model == KF_MAT_SNOW;
-        double c = kf_mat_wave_speed(&m->mat[k], stateful ? (double)state_min[k] : 1.0);
+        int stateful =
+            m->mat[k].model == KF_MAT_WATER || m->mat[k].model == KF_MAT_SNOW || m->mat[k].model == KF_MAT_COROTATED;
+        kf_mat mk = m->mat[k];
+        if (c_limit > 0) kf_mat_limit(&mk, c_limit);
+        double c = kf_mat_wave_speed(&mk, stateful ? (double)state_min[k] : 1.0);
         if (c > cmax) cmax = c;
     }
     if (m->sim.integrator == KF_INTEGRATOR_IMPLICIT) {
@@ -279,9 +293,10 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
     /* the CFL number a fixed step reached before the trouble, for the
      * message: a body faster than the material's waves shocks it, and the
      * shocked state's wave speed (compressed water's Tait speed grows as
-     * J^((1-γ)/2)) can outgrow what the fixed step resolves, which no
-     * explicit scheme survives; the step is the shot's, so the message says
-     * how far it was outgrown rather than changing it */
+     * J^((1-γ)/2)) would outgrow what the fixed step resolves; such states
+     * are evaluated at the stiffness the step resolves (kf_mat_limit, counted
+     * in stiff_limited), and what trouble remains is reported with how far
+     * the step was outgrown rather than by changing the shot's step */
     double reached = 0;
     for (; attempt <= retries; attempt++) {
         double t = 0;

@@ -546,10 +546,19 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
  * serves both (kf_mat_update); runs of one material go through the batch
  * path, SIMD across particles for the corotated model. */
 
-void kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2], const uint16_t *mat,
+long kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2], const uint16_t *mat,
                     kf_real *const tau_all[6], size_t n, int project) {
     size_t nchunks = (n + 63) / 64;
-#pragma omp parallel for schedule(static) num_threads(m->nthreads)
+    /* under a fixed step, the materials as the step resolves them */
+    const kf_mat *mats = m->mat;
+    kf_mat limited_mat[KF_MAX_MATERIALS];
+    double c_limit = kf_model_c_limit(m);
+    if (c_limit > 0) {
+        for (int k = 0; k < m->nmat; k++) limited_mat[k] = m->mat[k], kf_mat_limit(&limited_mat[k], c_limit);
+        mats = limited_mat;
+    }
+    long limited = 0;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(+ : limited)
     for (size_t c = 0; c < nchunks; c++) {
         kf_ftz();
         size_t lo = c * 64, hi = lo + 64 < n ? lo + 64 : n;
@@ -559,16 +568,17 @@ void kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2]
             while (e < hi && mat[e] == mt) e++;
             kf_real *tau[6];
             for (int k = 0; k < 6; k++) tau[k] = tau_all[k] + lo;
-            kf_mat_update_batch(&m->mat[mt], (int)(e - lo), F, ps, project, lo, tau);
+            limited += kf_mat_update_batch(&mats[mt], (int)(e - lo), F, ps, project, lo, tau);
             lo = e;
         }
     }
+    return limited;
 }
 
 void kf_stress(const kf_model *m, kf_state *s, int project) {
     kf_particles *p = &s->p;
     /* across ranks: the batches of 64 fall where they fall in the one-rank array */
-    if (s->dist) kf_dist_stress(m, s, project);
-    else kf_stress_span(m, p->F, p->ps, p->mat, p->tau, p->n, project);
+    if (s->dist) kf_dist_stress(m, s, project), s->stiff_limited = 0;
+    else s->stiff_limited = kf_stress_span(m, p->F, p->ps, p->mat, p->tau, p->n, project);
     s->tau_valid = 1;
 }

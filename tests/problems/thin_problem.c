@@ -170,6 +170,8 @@ int thin_run(const thin_case *c, thin_result *r) {
         side0[pv.id[i]] = w > 0 ? 1 : -1;
     }
     const int sweep = c->motion == THIN_SWEEP || c->motion == THIN_DIAGONAL;
+    const int water = mat.model == KF_MAT_WATER;
+    r->j_min = 1;
     const long total = travel_steps + hold_steps;
     const int frames = c->frames > 0 ? c->frames : 10;
     const long per_frame = total / frames > 0 ? total / frames : 1;
@@ -197,6 +199,15 @@ int thin_run(const thin_case *c, thin_result *r) {
         pose = kf_state_rigid(s, 0);
         long across = 0;
         for (size_t i = 0; i < pv.n; i++) {
+            /* how far the material was compressed */
+            double J = pv.ps[0][i];
+            if (!water) {
+                double f[9];
+                for (int q = 0; q < 9; q++) f[q] = pv.F[q][i];
+                J = f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6]) +
+                    f[2] * (f[3] * f[7] - f[4] * f[6]);
+            }
+            if (J < r->j_min) r->j_min = J;
             double a, b, w, x[3] = {pv.x[0][i], pv.x[1][i], pv.x[2][i]};
             sheet_coords(&sc.sh, &pose, x, &a, &b, &w);
             if (fabs(a) > sc.sh.hu || fabs(b) > sc.sh.hv) continue; /* beside the sheet, not behind it */
@@ -226,6 +237,7 @@ int thin_run(const thin_case *c, thin_result *r) {
 #ifdef KF_RIGID_AUTO /* the counters came with the automatic penalty; an older build lacks them */
     r->max_cells = st.max_cells_moved;
     r->caught = st.thin_caught;
+    r->stiff_limited = st.stiff_limited;
 #endif
     /* rest: how still the material on the sheet is */
     if (c->motion == THIN_REST && !r->failed) {

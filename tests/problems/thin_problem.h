@@ -48,6 +48,11 @@ typedef struct thin_result {
     long caught;           /* kerf's own count of crossings it caught and undid (kf_step_stats) */
     double cfl_max;        /* fixed step: the largest CFL number it reached (dt over the step at CFL 1 for
                               the material's current wave speed and fastest particle) */
+    double j_min;          /* the smallest volume ratio of any particle at any substep's end (water: its
+                              tracked J; the others: det F, elastic and plastic parts together for snow
+                              and sand being the particle's F) */
+    long stiff_limited;    /* the most particles in one substep evaluated at the stiffness the fixed step
+                              resolves (kf_step_stats.stiff_limited) */
 } thin_result;
 
 /* Run one case; returns 0 (result filled) or -1 (setup failed). */

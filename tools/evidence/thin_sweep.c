@@ -5,8 +5,10 @@
  * most across at an output frame, ever across (> 0.1 dx), deepest (dx),
  * across at the end, fastest particle (cells/substep), crossings the guard
  * caught, ms, the largest CFL number the fixed step reached (the material's
- * wave speed in its current state plus the fastest particle), and the
- * trouble if the run failed. --off: penalty and push off
+ * wave speed in its current state, as the step resolves it, plus the fastest
+ * particle), the smallest volume ratio J of any particle at any substep's
+ * end, the most particles evaluated at the stiffness the fixed step resolves
+ * in one substep (stiff), and the trouble if the run failed. --off: penalty and push off
  * (the shot defaults before the thin-boundary work). --adaptive: the default CFL rule
  * instead of the fixed step (the speed is then cells per rest step). */
 #include <stdio.h>
@@ -33,8 +35,8 @@ int main(int argc, char **argv) {
     }
     static const char *mats[] = {"sand", "goo", "water", "jello", "snow", NULL};
     static const double speeds[] = {0.05, 0.25, 0.5, 1.0, 0};
-    printf("%-6s %-9s %5s %7s %6s %6s %6s %7s %5s %6s %7s %8s %5s %s\n", "mat", "motion", "cells", "parts", "steps",
-           "frame", "ever", "deep", "end", "vmax", "caught", "ms", "cfl", "trouble");
+    printf("%-6s %-9s %5s %7s %6s %6s %6s %7s %5s %6s %7s %8s %5s %6s %6s %s\n", "mat", "motion", "cells", "parts",
+           "steps", "frame", "ever", "deep", "end", "vmax", "caught", "ms", "cfl", "J_min", "stiff", "trouble");
     for (int mo = THIN_SWEEP; mo <= THIN_REST; mo++) {
         if (only_motion && strcmp(only_motion, thin_motion_name((thin_motion)mo))) continue;
         for (int k = 0; mats[k]; k++) {
@@ -45,10 +47,10 @@ int main(int argc, char **argv) {
                 thin_case c = {mats[k], (thin_motion)mo, speeds[v], dx, 10, 0, defaults, adaptive};
                 thin_result r;
                 if (thin_run(&c, &r)) return 1;
-                printf("%-6s %-9s %5.2f %7ld %6ld %6ld %6ld %7.3f %5ld %6.2f %7ld %8.0f %5.2f %s", mats[k],
+                printf("%-6s %-9s %5.2f %7ld %6ld %6ld %6ld %7.3f %5ld %6.2f %7ld %8.0f %5.2f %6.3f %6ld %s", mats[k],
                        thin_motion_name((thin_motion)mo), mo == THIN_REST ? 0 : speeds[v], r.particles, r.substeps,
                        r.across_frame_max, r.across_ever, r.deepest, r.end_across, r.max_cells, r.caught, r.ms,
-                       r.cfl_max, r.failed ? r.trouble : "");
+                       r.cfl_max, r.j_min, r.stiff_limited, r.failed ? r.trouble : "");
                 if (mo == THIN_REST) printf(" rms speed %.4f m/s", r.jitter);
                 printf("\n");
                 fflush(stdout);
