@@ -26,27 +26,43 @@
 
 #include "io/vdb_bridge.h"
 #include "scene/sample.h"
+#include "shot/shot.h"
 
 /* a shot's surface settings, in particle spacings, as the surface stage
- * turns them into the bridge's parameters (erosion back onto the material) */
+ * turns them into the bridge's parameters (erosion back onto the material);
+ * kernel as the shot key: 0 anisotropic discs, 1 spheres */
 typedef struct look_settings {
-    double voxel, radius, average, average_radius;
+    int kernel;
+    double voxel, radius, average, average_radius, reach;
     int iterations;
 } look_settings;
 
-/* kerf's settings before centre averaging (the comparison in the evidence) */
-static const look_settings look_before = {0.75, 1.2, 0, 0, 3};
+/* kerf's settings before the anisotropic discs: spheres on averaged centres
+ * (the comparison in the evidence) */
+static const look_settings look_spheres = {1, 0.75, 2, 1, 3, 3, 1};
+
+/* a loaded shot's surface settings */
+static inline look_settings look_of_shot(const kf_shot *shot) {
+    return (look_settings){shot->surface_kernel,    shot->surface_voxel,          shot->surface_radius,
+                           shot->surface_average,   shot->surface_average_radius, shot->surface_reach,
+                           shot->surface_iterations};
+}
 
 static inline void look_params(kf_vdb_surface_params *p, double h, look_settings s) {
     kf_vdb_surface_params_default(p);
     p->spacing = h;
     p->voxel = s.voxel * h;
-    p->radius = s.radius * h;
     p->smooth = KF_VDB_OP_MEAN_CURVATURE;
     p->smooth_iterations = s.iterations;
-    p->erode = (s.radius - 0.5) * h;
-    p->average = s.average;
-    p->average_radius = s.average_radius * h;
+    if (s.kernel == 0) {
+        p->kernel = KF_VDB_KERNEL_ANISOTROPIC;
+        p->radius = p->average_radius = s.reach * h;
+    } else {
+        p->radius = s.radius * h;
+        p->average = s.average;
+        p->average_radius = s.average_radius * h;
+    }
+    p->erode = kf_vdb_surface_offset(p);
     p->clamp_small = 1;
 }
 

@@ -114,18 +114,23 @@ static const char *const frame_stage_name[FS_COUNT] = {"average", "sort", "splat
                                                        "filter",  "mesh", "write_vdb", "render_1080p"};
 
 /* the settings a frame is surfaced and rendered with: the shot's defaults
- * (src/shot/keys.c) and its `quality: preview` presets (src/shot/shot.c) */
+ * (src/shot/keys.c) and its `quality: preview` presets (src/shot/shot.c);
+ * beside them the same with surface.kernel: spheres (kerf's earlier look) */
 typedef struct frame_quality {
     const char *name;
-    double voxel, radius;           /* particle spacings */
+    int kernel;                     /* 0 anisotropic discs, 1 spheres (surface.kernel) */
+    double voxel, radius, reach;    /* particle spacings */
     int iterations;                 /* mean-curvature passes */
-    double average, average_radius; /* centre averaging: weight, neighbourhood in spacings */
+    double average, average_radius; /* spheres' centre averaging: weight, neighbourhood in spacings */
     int samples, shadow;            /* MSAA samples; shadow map texels (0: automatic) */
 } frame_quality;
-enum { FQ_FINAL, FQ_PREVIEW, FQ_COUNT };
+enum { FQ_FINAL, FQ_PREVIEW, FQ_FINAL_SPHERES, FQ_PREVIEW_SPHERES, FQ_COUNT };
 static const frame_quality frame_qualities[FQ_COUNT] = {
-    {"final", 0.75, 2, 1, 1, 3, 4, 0},
-    {"preview", KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, KF_VDB_PREVIEW_ITERATIONS, 1, 3, 1,
+    {"final", 0, 0.75, 2, 3, 2, 1, 3, 4, 0},
+    {"preview", 0, KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, 3, KF_VDB_PREVIEW_ITERATIONS, 1, 3, 1,
+     KF_RENDER_PREVIEW_SHADOW},
+    {"final_spheres", 1, 0.75, 2, 3, 1, 1, 3, 4, 0},
+    {"preview_spheres", 1, KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, 3, KF_VDB_PREVIEW_ITERATIONS, 1, 3, 1,
      KF_RENDER_PREVIEW_SHADOW},
 };
 
@@ -157,12 +162,17 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
     kf_vdb_surface_params_default(&sp);
     sp.spacing = spacing;
     sp.voxel = q->voxel * spacing;
-    sp.radius = q->radius * spacing;
     sp.smooth = KF_VDB_OP_MEAN_CURVATURE;
     sp.smooth_iterations = q->iterations;
-    sp.average = q->average;
-    sp.average_radius = q->average_radius * spacing;
-    sp.erode = (q->radius - 0.5) * spacing;
+    if (q->kernel == 0) {
+        sp.kernel = KF_VDB_KERNEL_ANISOTROPIC;
+        sp.radius = sp.average_radius = q->reach * spacing;
+    } else {
+        sp.radius = q->radius * spacing;
+        sp.average = q->average;
+        sp.average_radius = q->average_radius * spacing;
+    }
+    sp.erode = kf_vdb_surface_offset(&sp);
     sp.clamp_small = 1;
     kf_vdb_grid *g = NULL;
     kf_vdb_trimesh mesh = {0};

@@ -69,6 +69,21 @@ typedef enum kf_vdb_op {
     KF_VDB_OP_LAPLACIAN,      /* iterations: Laplacian flow steps */
 } kf_vdb_op;
 
+/* how particles become a level set:
+ *   SPHERES: the union of spheres of `radius` (the convention above), centres
+ *     averaged first when `average` > 0;
+ *   ANISOTROPIC: anisotropic kernels (after Yu & Turk 2013): each particle
+ *     near a face is an ellipsoidal disc, `thickness` thick on either side
+ *     of its centre across its neighbourhood's thinnest direction (the
+ *     weighted covariance of its neighbours within average_radius, default
+ *     3 spacings) and of radius `radius` along the other two, shortened
+ *     in proportion to the covariance where the neighbourhood is cut short
+ *     (at an edge, in a sheet); deep particles are balls of `radius`, a
+ *     particle with under 6 neighbours a ball of 2 x thickness. The surface
+ *     is their union, `thickness` proud of the outermost centres (erode by
+ *     it to put it on the material); `average` does not apply. */
+typedef enum kf_vdb_kernel { KF_VDB_KERNEL_SPHERES = 0, KF_VDB_KERNEL_ANISOTROPIC } kf_vdb_kernel;
+
 /* particles -> level set. Zero means default in every field. */
 typedef struct kf_vdb_surface_params {
     double voxel;         /* voxel size, m (default spacing / 2) */
@@ -86,6 +101,9 @@ typedef struct kf_vdb_surface_params {
     double average_radius; /* m, the neighbourhood of `average` (default 2 x spacing) */
     int clamp_small;       /* 1: raise radii under 1.5 voxels and count; 0: error */
     const char *name;      /* grid name (default "surface") */
+    kf_vdb_kernel kernel;  /* KF_VDB_KERNEL_SPHERES (the union above) or _ANISOTROPIC (below) */
+    double thickness;      /* anisotropic: a disc's half thickness, m (default spacing / 2) */
+    double anisotropy;     /* anisotropic: a disc's radius at least 1/anisotropy of its longest (default 8) */
 } kf_vdb_surface_params;
 
 typedef struct kf_vdb_surface_stats {
@@ -149,6 +167,15 @@ typedef struct kf_vdb_points {
 } kf_vdb_points;
 
 void kf_vdb_surface_params_default(kf_vdb_surface_params *p);
+
+/* How far (m) the surface of p's kernels lies beyond the material's boundary
+ * on a flat face, before smoothing: the erosion that puts it back there.
+ * Spheres: radius - spacing / 2 (the convention above; the bridge itself
+ * takes off the averaging's shift). Anisotropic: the discs' half thickness
+ * less how far the highest of the N centres under a disc (N = pi radius^2 /
+ * spacing^2, each uniform in the outermost spacing) lies below the face on
+ * average, spacing / (N + 1). */
+double kf_vdb_surface_offset(const kf_vdb_surface_params *p);
 
 /* Surface n particles. Positions are xd (n x 3 doubles) or xf (n x 3
  * floats), exactly one non-NULL. radii: (n) per-particle radius in m or NULL

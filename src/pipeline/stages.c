@@ -53,25 +53,30 @@ int kf_output_current(const char *output, const char *input) {
 /* ---- surface ------------------------------------------------------------ */
 
 /* the settings every material's level set uses (the shot's surface keys):
- * centres averaged with their neighbours, spheres on a voxel finer than the
- * spacing, a little mean-curvature smoothing, then an erosion that puts the
- * zero crossing back on the material's boundary (vdb_bridge.h explains the
- * half-spacing offset; the bridge takes off the averaging's inward shift) */
+ * anisotropic discs (or spheres on averaged centres), a voxel finer than
+ * the spacing, a little mean-curvature smoothing, then an erosion that puts
+ * the zero crossing back on the material's boundary (vdb_bridge.h gives
+ * each kernel's offset; the bridge takes off the averaging's inward shift) */
 static void surface_params(const kf_shot *shot, kf_vdb_surface_params *p, const char *name) {
     static const kf_vdb_op ops[4] = {KF_VDB_OP_NONE, KF_VDB_OP_MEAN_CURVATURE, KF_VDB_OP_GAUSSIAN, KF_VDB_OP_LAPLACIAN};
     kf_vdb_surface_params_default(p);
     double spacing = shot->sim.dx / shot->ppc_axis;
     p->spacing = spacing;
     p->voxel = shot->surface_voxel * spacing;
-    p->radius = shot->surface_radius * spacing;
     p->smooth = ops[shot->surface_smooth & 3];
     p->smooth_iterations = shot->surface_iterations;
-    p->average = shot->surface_average;
-    p->average_radius = shot->surface_average_radius * spacing;
     p->dilate = shot->surface_dilate;
+    if (shot->surface_kernel == 0) {
+        p->kernel = KF_VDB_KERNEL_ANISOTROPIC;
+        p->radius = shot->surface_reach * spacing;
+        p->average_radius = shot->surface_reach * spacing;
+    } else {
+        p->radius = shot->surface_radius * spacing;
+        p->average = shot->surface_average;
+        p->average_radius = shot->surface_average_radius * spacing;
+    }
     /* automatic erosion puts the zero crossing back on the material boundary */
-    p->erode =
-        shot->surface_erode >= 0 ? shot->surface_erode : (shot->surface_radius - 0.5) * spacing + shot->surface_dilate;
+    p->erode = shot->surface_erode >= 0 ? shot->surface_erode : kf_vdb_surface_offset(p) + shot->surface_dilate;
     p->clamp_small = 1;
     p->name = name;
 }

@@ -418,27 +418,39 @@ KF_KEY(OUTPUT_POINTS, "output.points", KT_BOOL, TOP(s.output_points), ANY, NULL,
 
 KF_KEY(SURFACE, "surface", KT_SECTION, KS_TOP, NOFIELD, ANY, NULL, NULL, NULL, NULL, 0,
        "How particles become OpenVDB level sets (changing these never re-simulates).")
+KF_KEY(SURFACE_KERNEL, "surface.kernel", KT_ENUM, TOP(s.surface_kernel), ANY, "anisotropic|spheres", "anisotropic",
+       NULL, NULL, 0,
+       "anisotropic: each particle near a face is a thin disc along it, oriented by its neighbours (Yu & Turk "
+       "2013), so faces come out flat and edges sharp; spheres: a union of spheres of surface.radius, centres "
+       "averaged by surface.average (kerf's earlier look, rounder edges).")
+KF_KEY(SURFACE_REACH, "surface.reach", KT_NUM, TOP(s.surface_reach), CC(1.5, 6), NULL, "3", "particle spacings", NULL,
+       0,
+       "anisotropic: the neighbourhood that orients each particle's disc, and the disc's radius along a face: "
+       "larger is flatter, but costs more and reaches further round small features.")
 KF_KEY(SURFACE_VOXEL, "surface.voxel", KT_NUM, TOP(s.surface_voxel), CC(0.1, 4), NULL, "0.75", "particle spacings",
        NULL, 0, "Voxel size of the level set, in particle spacings (dx / cube root of ppc).")
 KF_KEY(SURFACE_RADIUS, "surface.radius", KT_NUM, TOP(s.surface_radius), CC(0.5, 4), NULL, "2", "particle spacings",
-       NULL, 0, "Radius of each particle's sphere; at least 1.5 voxels (smaller ones are raised and counted).")
+       NULL, 0, "spheres: radius of each particle's sphere; at least 1.5 voxels (smaller ones are raised and counted).")
 KF_KEY(SURFACE_SMOOTH, "surface.smooth", KT_ENUM, TOP(s.surface_smooth), ANY, "none|mean_curvature|gaussian|laplacian",
        "mean_curvature", NULL, NULL, 0, "Smoothing filter between dilation and erosion.")
-KF_KEY(SURFACE_ITERATIONS, "surface.iterations", KT_INT, TOP(s.surface_iterations), CC(0, 100), NULL, "1", NULL, NULL,
-       0, "Smoothing passes.")
+KF_KEY(SURFACE_ITERATIONS, "surface.iterations", KT_INT, TOP(s.surface_iterations), CC(0, 100), NULL, "2", NULL, NULL,
+       0, "Smoothing passes (unset: 1 with surface.kernel: spheres).")
 KF_KEY(SURFACE_AVERAGE, "surface.average", KT_NUM, TOP(s.surface_average), CC(0, 1), NULL, "1", NULL, NULL, 0,
-       "Before surfacing, move each particle's centre this far toward the weighted mean of its neighbours "
+       "spheres: before surfacing, move each particle's centre this far toward the weighted mean of its neighbours "
        "(Yu & Turk 2013): flattens the jitter of the seeding lattice on faces (0 = off); the surface stays on the "
        "material.")
 KF_KEY(SURFACE_AVERAGE_RADIUS, "surface.average_radius", KT_NUM, TOP(s.surface_average_radius), CC(1, 6), NULL, "3",
-       "particle spacings", NULL, 0, "Neighbourhood of surface.average: larger is flatter, but rounds edges more.")
+       "particle spacings", NULL, 0,
+       "spheres: neighbourhood of surface.average: larger is flatter, but rounds edges more.")
 KF_KEY(SURFACE_DILATE, "surface.dilate", KT_NUM, TOP(s.surface_dilate), GE(0), NULL, "0", "m", NULL, 0,
        "Grow the surface before smoothing (fills small gaps).")
 KF_KEY(SURFACE_ERODE, "surface.erode", KT_NUM, TOP(s.surface_erode), GE(-1), NULL, "-1", "m", NULL, 0,
-       "Shrink it after smoothing; -1 = back onto the material (radius - half a spacing, plus dilate).")
+       "Shrink it after smoothing; -1 = back onto the material (spheres: radius - half a spacing; anisotropic: the "
+       "discs' half thickness, less the depth of the highest centre under a disc; plus dilate).")
 KF_KEY(SURFACE_QUALITY, "surface.quality", KT_ENUM, TOP(s.surface_quality), ANY, "final|preview", "final", NULL, NULL,
        0,
-       "Preset: preview doubles the voxel (1.5 spacings: 1/8 the voxels), spheres of 2.4 spacings, one smoothing pass; "
+       "Preset: preview doubles the voxel (1.5 spacings: 1/8 the voxels), spheres of 2.4 spacings, one smoothing "
+       "pass; "
        "surface keys the shot sets itself win.")
 KF_KEY(SURFACE_GROUP, "surface.group", KT_ENUM, TOP(s.surface_group), ANY, "material|object", "material", NULL, NULL, 0,
        "One level set (and render colour) per material, or per object (objects of one material stay apart).")

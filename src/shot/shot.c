@@ -212,6 +212,8 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
     }
     /* the preview presets (surface.quality, render.quality): what the shot
      * sets itself wins; the numbers live beside the code they drive */
+    /* the spheres' own look had one smoothing pass */
+    if (s->surface_kernel == 1 && !T->at[KK_SURFACE_ITERATIONS]) s->surface_iterations = 1;
     if (s->surface_quality == 1) {
         if (!T->at[KK_SURFACE_VOXEL]) s->surface_voxel = KF_VDB_PREVIEW_VOXEL;
         if (!T->at[KK_SURFACE_RADIUS]) s->surface_radius = KF_VDB_PREVIEW_RADIUS;

@@ -199,6 +199,8 @@ typedef struct kf_shot {
     int output_images;      /* render each frame to .png */
     int output_points;      /* particles as OpenVDB points each frame */
 
+    int surface_kernel;    /* 0 anisotropic discs, 1 spheres (vdb_bridge.h) */
+    double surface_reach;  /* particle spacings: anisotropic neighbourhood and disc radius */
     double surface_voxel;  /* particle spacings */
     double surface_radius; /* particle spacings */
     int surface_smooth;    /* 0 none, 1 mean curvature, 2 gaussian, 3 laplacian */

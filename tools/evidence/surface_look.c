@@ -1,12 +1,13 @@
 /* surface_look.c — orange peel, measured: a resting jittered block and a
- * sheet two particles thick, surfaced with kerf's settings before centre
- * averaging and with the shot defaults now (read from shots/demo.yaml,
- * which sets no surface key), probed by tests/surface_look.h.
+ * sheet two particles thick, surfaced with kerf's earlier settings (spheres
+ * on averaged centres, surface.kernel: spheres) and with the shot defaults
+ * now (anisotropic discs; read from shots/demo.yaml, which sets no surface
+ * key), probed by tests/surface_look.h.
  *   kf_evid_surface_look OUT.png [repeats]   (repeats 0: the shot defaults' rows alone)
  * prints a markdown table (3 seeds each) and the surfacing time of a larger
  * block (median of `repeats`, wall clock, before and after interleaved), and
- * writes OUT.png: the top face's height above its fitted plane, before
- * (left) and after (right), grey = plane, white/black = +/- 0.25 spacing. */
+ * writes OUT.png: the top face's height above its fitted plane, spheres
+ * (left) and now (right), grey = plane, white/black = +/- 0.25 spacing. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
@@ -77,8 +78,7 @@ int main(int argc, char **argv) {
         kf_diag_print(stderr, &diag);
         return 1;
     }
-    const look_settings after = {shot->surface_voxel, shot->surface_radius, shot->surface_average,
-                                 shot->surface_average_radius, shot->surface_iterations};
+    const look_settings after = look_of_shot(shot);
     kf_shot_free(shot);
     kf_diag_free(&diag);
     const double h = 0.01;
@@ -90,13 +90,13 @@ int main(int argc, char **argv) {
     const int n = 128, W = 2 * n + 8;
     uint8_t *img = calloc((size_t)W * n * 4, 1);
     for (int v = reps == 0 ? 1 : 0; v < 2; v++) {
-        look_settings s = v ? after : look_before;
+        look_settings s = v ? after : look_spheres;
         for (uint32_t seed = 1; seed <= 3; seed++) {
             kf_points pts, sheet;
             if (look_seed(lo, hi, h, seed, &pts) || look_seed(lo, shi, h, seed, &sheet)) return 1;
             kf_vdb_grid *g = surface(&pts, h, s, NULL), *gs = surface(&sheet, h, s, NULL);
             look_result r = look_measure(g, lo, hi, h);
-            printf("| %s | %u | %.4f | %+.3f | %.3f | %+.4f | %.4f |\n", v ? "now" : "before", seed, r.top_rms,
+            printf("| %s | %u | %.4f | %+.3f | %.3f | %+.4f | %.4f |\n", v ? "now" : "spheres", seed, r.top_rms,
                    r.top_off, r.edge, r.vol_err, look_sheet_holes(gs, lo, shi, h));
             if (seed == 1) height_map(g, lo, hi, h, img, W, v ? n + 8 : 0, n);
             kf_vdb_free(g);
@@ -116,22 +116,23 @@ int main(int argc, char **argv) {
     /* wall, then process CPU seconds of each phase (averaging, sort, splat,
      * re-distance, filter) and their sum */
     enum { T_WALL, T_AVG, T_SORT, T_SPLAT, T_DIST, T_FILT, T_CPU, T_N };
-    static const char *const tname[T_N] = {"wall", "average", "sort", "splat", "re-distance", "filter", "CPU total"};
+    static const char *const tname[T_N] = {"wall",        "average / shape", "sort",     "splat",
+                                           "re-distance", "filter",          "CPU total"};
     double t[2][T_N][32];
     size_t kept = 0;
     reps = reps > 32 ? 32 : reps;
     for (int r = 0; r < reps; r++)
         for (int v = 0; v < 2; v++) {
-            kf_vdb_free(surface(&big, h, v ? after : look_before, &t[v][T_WALL][r]));
+            kf_vdb_free(surface(&big, h, v ? after : look_spheres, &t[v][T_WALL][r]));
             const kf_vdb_surface_stats *st = &last_stats;
             double c[T_N] = {0, st->cpu_average, st->cpu_sort, st->cpu_splat, st->cpu_redistance, st->cpu_filter, 0};
             for (int k = T_AVG; k < T_CPU; k++) t[v][k][r] = c[k], c[T_CPU] += c[k];
             t[v][T_CPU][r] = c[T_CPU];
             if (v) kept = st->n_average_kept;
         }
-    printf("\nsurfacing %zu particles, seconds (median of %d; %zu kept their place in the averaging):\n\n", big.n, reps,
+    printf("\nsurfacing %zu particles, seconds (median of %d; %zu deep enough to need no shape):\n\n", big.n, reps,
            kept);
-    printf("| phase | before | now |\n|---|---|---|\n");
+    printf("| phase | spheres | now |\n|---|---|---|\n");
     for (int k = 0; k < T_N; k++)
         printf("| %s | %.3f | %.3f |\n", tname[k], kf_median(t[0][k], reps), kf_median(t[1][k], reps));
     kf_points_free(&big);

@@ -22,6 +22,8 @@ inline uint64_t cell_key(int64_t i, int64_t j, int64_t k) {
     return (uint64_t(i + o) & 0x1fffff) | (uint64_t(j + o) & 0x1fffff) << 21 | (uint64_t(k + o) & 0x1fffff) << 42;
 }
 
+} // namespace
+
 // Particles deeper than `depth` below every face, by occupancy: cells of
 // edge c = 2 spacings each hold a particle of a jittered lattice (every
 // such cube contains a whole lattice cell), so an empty cell is a gap in
@@ -65,8 +67,6 @@ std::vector<uint8_t> deep_particles(size_t n, const double *xd, const float *xf,
     for (size_t k = 0; k < n; k++) deep[order[k].second] = flag[k];
     return deep;
 }
-
-} // namespace
 
 std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, double lambda, double R, double h,
                                   double keep_depth, size_t *n_skipped) {

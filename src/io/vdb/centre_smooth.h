@@ -15,6 +15,7 @@
 #define KF_VDB_CENTRE_SMOOTH_H
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace kf_vdb {
@@ -29,6 +30,11 @@ namespace kf_vdb {
 // output depends only on the input).
 std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, double lambda, double R, double h,
                                   double keep_depth, size_t *n_skipped);
+
+// Flags in input order, 1 = deeper than `depth` below every face of a
+// material seeded at spacing h (every cell of two spacings around holds a
+// particle); all 0 when the test cannot run (depth over 14 h, too far out).
+std::vector<uint8_t> deep_particles(size_t n, const double *xd, const float *xf, double h, double depth);
 
 // How far inward the smoothing moves the centres of a flat face of a
 // uniformly filled half-space with particle spacing h, averaged over the

@@ -281,10 +281,59 @@ struct splat_leaf_out {
 
 } // namespace
 
+FloatGrid::Ptr band_to_grid(dense_band &band, double h, double hw, float W, const band_filter *f,
+                            const std::vector<int32_t> *who, const float *vel, Vec3SGrid::Ptr *velgrid) {
+    if (f) band_smooth(band, W, float(f->dilate / h), f->mc_iterations, float(f->erode / h));
+    const bool track = who && vel && velgrid;
+    const size_t nl = band.size();
+    const float bg = float(hw * h), hwv = float(hw);
+    std::vector<Leaf *> leaves(nl, nullptr);
+    std::vector<VelLeaf *> vleaves(track ? nl : 0, nullptr);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 16), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            const float *phi = band.leaf(i);
+            bool any = false;
+            for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < hwv;
+            if (!any) continue;
+            const Coord lc = unpack(band.key[i]);
+            const Coord origin(lc.x() * DIM, lc.y() * DIM, lc.z() * DIM);
+            auto *leaf = new Leaf(origin, bg, false);
+            VelLeaf *vl = track ? new VelLeaf(origin, Vec3s(0.f), false) : nullptr;
+            const int32_t *w = track ? who->data() + i * Leaf::SIZE : nullptr;
+            for (int v = 0; v < LEAF_SIZE; v++) {
+                const float d = phi[v];
+                if (!(std::fabs(d) < hwv)) {
+                    leaf->setValueOnly(v, d < 0 ? -bg : bg);
+                    continue;
+                }
+                leaf->setValueOn(v, d * float(h));
+                if (vl && w[v] >= 0) {
+                    const size_t k = size_t(w[v]);
+                    vl->setValueOn(v, Vec3s(vel[3 * k], vel[3 * k + 1], vel[3 * k + 2]));
+                }
+            }
+            leaves[i] = leaf;
+            if (vl && vl->isEmpty()) delete vl;
+            else if (vl) vleaves[i] = vl;
+        }
+    });
+    auto grid = openvdb::createLevelSet<FloatGrid>(h, float(hw));
+    for (Leaf *l : leaves)
+        if (l) grid->tree().addLeaf(l);
+    openvdb::tools::signedFloodFill(grid->tree()); // the interior's tiles and inactive values get their sign
+    if (track) {
+        auto vg = Vec3SGrid::create(Vec3s(0.f));
+        vg->setTransform(grid->transform().copy());
+        for (VelLeaf *l : vleaves)
+            if (l) vg->tree().addLeaf(l);
+        *velgrid = vg;
+    }
+    return grid;
+}
+
 FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, const band_filter *f, Vec3SGrid::Ptr *vel,
                                  raster_timing *timing) {
     double t0 = cpu_now();
-    const float bg = float(hw * h);
     // Spheres are splatted only SPLAT voxels beyond their radius: exact
     // distances near the zero crossing, their closest points and the right
     // sign everywhere inside is all the distance below needs (wider splats
@@ -397,52 +446,15 @@ FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, const
     band_distance(band, sp, ws, W);
     if (timing) timing->redistance_s = cpu_now() - t0;
 
-    // dilate, smooth and erode in place; then the tree, once: |phi| < hw active
+    // dilate, smooth and erode in place; then the tree, once
     t0 = cpu_now();
-    if (f) band_smooth(band, W, float(f->dilate / h), f->mc_iterations, float(f->erode / h));
     const bool track = s.vel != nullptr && vel;
-    const float hwv = float(hw);
-    std::vector<Leaf *> leaves(nl, nullptr);
-    std::vector<VelLeaf *> vleaves(track ? nl : 0, nullptr);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 16), [&](const tbb::blocked_range<size_t> &rg) {
-        for (size_t i = rg.begin(); i != rg.end(); i++) {
-            const float *phi = band.leaf(i);
-            bool any = false;
-            for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < hwv;
-            if (!any) continue;
-            const Coord lc = unpack(band.key[i]);
-            const Coord origin(lc.x() * DIM, lc.y() * DIM, lc.z() * DIM);
-            auto *leaf = new Leaf(origin, bg, false);
-            VelLeaf *vl = track ? new VelLeaf(origin, Vec3s(0.f), false) : nullptr;
-            const int32_t *w = who.data() + i * Leaf::SIZE;
-            for (int v = 0; v < LEAF_SIZE; v++) {
-                const float d = phi[v];
-                if (!(std::fabs(d) < hwv)) {
-                    leaf->setValueOnly(v, d < 0 ? -bg : bg);
-                    continue;
-                }
-                leaf->setValueOn(v, d * float(h));
-                if (vl && w[v] >= 0) {
-                    const size_t k = p.src[size_t(w[v])];
-                    vl->setValueOn(v, Vec3s(s.vel[3 * k], s.vel[3 * k + 1], s.vel[3 * k + 2]));
-                }
-            }
-            leaves[i] = leaf;
-            if (vl && vl->isEmpty()) delete vl;
-            else if (vl) vleaves[i] = vl;
-        }
-    });
-    auto grid = openvdb::createLevelSet<FloatGrid>(h, float(hw));
-    for (Leaf *l : leaves)
-        if (l) grid->tree().addLeaf(l);
-    openvdb::tools::signedFloodFill(grid->tree()); // the interior's tiles and inactive values get their sign
-    if (track) {
-        auto vg = Vec3SGrid::create(Vec3s(0.f));
-        vg->setTransform(grid->transform().copy());
-        for (VelLeaf *l : vleaves)
-            if (l) vg->tree().addLeaf(l);
-        *vel = vg;
-    }
+    if (track)
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, who.size(), 4096), [&](const tbb::blocked_range<size_t> &rg) {
+            for (size_t v = rg.begin(); v != rg.end(); v++)
+                if (who[v] >= 0) who[v] = int32_t(p.src[size_t(who[v])]);
+        });
+    FloatGrid::Ptr grid = band_to_grid(band, h, hw, W, f, track ? &who : nullptr, s.vel, vel);
     if (timing) timing->filter_s = cpu_now() - t0;
     return grid;
 }

@@ -18,6 +18,8 @@
 #include <openvdb/openvdb.h>
 
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 namespace kf_vdb {
 
@@ -52,6 +54,15 @@ struct band_filter {
 // background). When s.vel is set, *vel gets a Vec3s grid on the active
 // voxels within the spheres' reach, holding the velocity of the closest
 // particle.
+// A band (values in voxels, negative inside) as a level set of voxel size h:
+// filtered by f first when given (W: the width it was computed to), |phi| <
+// hw active, the interior by flood fill. With who (band.size() x LEAF_SIZE
+// particle indices, -1 none), vel (n x 3) and velgrid, *velgrid gets each
+// active voxel's particle's velocity.
+openvdb::FloatGrid::Ptr band_to_grid(dense_band &band, double h, double hw, float W, const band_filter *f,
+                                     const std::vector<int32_t> *who, const float *vel,
+                                     openvdb::Vec3SGrid::Ptr *velgrid);
+
 openvdb::FloatGrid::Ptr rasterise_spheres(const sphere_set &s, double h, double hw, const band_filter *f,
                                           openvdb::Vec3SGrid::Ptr *vel, raster_timing *timing);
 

@@ -5,6 +5,7 @@
 // buffer. Nothing C++ leaves this file.
 
 #include "io/vdb_bridge.h"
+#include "aniso_raster.h"
 #include "centre_smooth.h"
 #include "sphere_raster.h"
 
@@ -363,6 +364,13 @@ void kf_vdb_surface_params_default(kf_vdb_surface_params *p) {
     p->name = "surface";
 }
 
+double kf_vdb_surface_offset(const kf_vdb_surface_params *p) {
+    const double h = p->spacing, r = p->radius > 0 ? p->radius : (p->radius_factor > 0 ? p->radius_factor : 1) * h;
+    if (p->kernel != KF_VDB_KERNEL_ANISOTROPIC) return r - 0.5 * h;
+    const double t = p->thickness > 0 ? p->thickness : 0.5 * h, N = 3.14159265358979323846 * (r / h) * (r / h);
+    return t - h / (N + 1);
+}
+
 int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, const float *radii, const float *vel,
                                    const kf_vdb_surface_params *pp, kf_vdb_grid **out, kf_vdb_surface_stats *stats,
                                    char *err, size_t errlen) {
@@ -426,7 +434,9 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, 
         size_t n_kept = 0;
         double cpu_average = 0;
         if (!(p.average >= 0 && p.average <= 1)) throw bridge_error(fmt("average %g must be in 0..1", p.average));
-        if (p.average > 0) {
+        const bool aniso = p.kernel == KF_VDB_KERNEL_ANISOTROPIC;
+        if (p.kernel != KF_VDB_KERNEL_SPHERES && !aniso) throw bridge_error(fmt("unknown kernel %d", int(p.kernel)));
+        if (p.average > 0 && !aniso) {
             const double spacing = p.spacing > 0 ? p.spacing : r / factor;
             const double R = p.average_radius > 0 ? p.average_radius : 2 * spacing;
             // particles deeper than their sphere plus the averaging's reach
@@ -451,7 +461,22 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, 
         const bool on_band = amounts_ok && (p.smooth == KF_VDB_OP_NONE || p.smooth == KF_VDB_OP_MEAN_CURVATURE) &&
                              p.smooth_iterations >= 0 && hw + (p.dilate + p.erode) / voxel <= 6;
         kf_vdb::band_filter bf{p.dilate, p.erode, p.smooth == KF_VDB_OP_MEAN_CURVATURE ? p.smooth_iterations : 0};
-        h->ls = kf_vdb::rasterise_spheres(ss, voxel, hw, on_band ? &bf : nullptr, vel ? &h->vel : nullptr, &rt);
+        if (aniso) {
+            // the discs' radius is the radius; their neighbourhood the averaging's
+            if (!(p.spacing > 0)) throw bridge_error("anisotropic kernels need the particle spacing");
+            if (radii) throw bridge_error("anisotropic kernels take one radius for all particles");
+            kf_vdb::aniso_params ap{p.spacing, r, p.average_radius > 0 ? p.average_radius : 3 * p.spacing,
+                                    p.thickness > 0 ? p.thickness : 0.5 * p.spacing,
+                                    p.anisotropy > 0 ? p.anisotropy : 8};
+            kf_vdb::aniso_timing at{};
+            h->ls = kf_vdb::rasterise_anisotropic(n, xd, xf, vel, ap, voxel, hw, on_band ? &bf : nullptr,
+                                                  vel ? &h->vel : nullptr, &at);
+            cpu_average = at.shape_s, n_kept = at.n_deep;
+            rt.sort_s = at.sort_s, rt.splat_s = at.splat_s, rt.redistance_s = at.redistance_s,
+            rt.filter_s = at.filter_s;
+        } else {
+            h->ls = kf_vdb::rasterise_spheres(ss, voxel, hw, on_band ? &bf : nullptr, vel ? &h->vel : nullptr, &rt);
+        }
         h->ls->setName(p.name && *p.name ? p.name : "surface");
         if (h->vel) {
             h->vel->setName(h->ls->getName() == "surface" ? std::string("vel") : h->ls->getName() + "_vel");

@@ -1,0 +1,479 @@
+// aniso_raster.cpp — a union of anisotropic kernels made a signed distance
+// (see aniso_raster.h).
+#include "aniso_raster.h"
+
+#include "band_distance.h"
+#include "centre_smooth.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <ctime>
+#include <stdexcept>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace kf_vdb {
+
+namespace {
+
+using openvdb::Coord;
+
+double cpu_now() {
+    timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+// fewer neighbours than this (within R) and the covariance says little:
+// a small round kernel
+constexpr int FEW_NEIGHBOURS = 6;
+// each kernel's value is evaluated within its ellipsoid grown by this much
+// (voxels) along each axis, which holds every voxel beside one inside it
+// (their crossings need the values on both sides); -PAD where none reaches
+constexpr float PAD = 1.01f;
+
+// One particle's kernel in index space: the ellipsoid d^T M d <= 1 about c,
+// its value at a voxel amin (1 - sqrt(d^T M d)) (the distance to its
+// surface along its thinnest axis, positive inside), evaluated within ext
+// voxels of c along each axis.
+struct kernel {
+    float c[3];
+    float M[6]; // xx, xy, xz, yy, yz, zz
+    float P[6]; // the same for the grown ellipsoid
+    float amin;
+    float ext[3]; // the grown ellipsoid's half extent along each axis
+};
+
+// eigenvalues (descending) and eigenvectors (columns of V) of a symmetric
+// 3x3 matrix, by cyclic Jacobi rotations
+void eigen3(const double A0[3][3], double ev[3], double V[3][3]) {
+    double A[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) A[i][j] = A0[i][j], V[i][j] = i == j;
+    for (int sweep = 0; sweep < 12; sweep++) {
+        const double off = A[0][1] * A[0][1] + A[0][2] * A[0][2] + A[1][2] * A[1][2];
+        if (off <= 1e-30 * (A[0][0] * A[0][0] + A[1][1] * A[1][1] + A[2][2] * A[2][2]) || off == 0) break;
+        for (int p = 0; p < 2; p++)
+            for (int q = p + 1; q < 3; q++) {
+                if (A[p][q] == 0) continue;
+                const double th = (A[q][q] - A[p][p]) / (2 * A[p][q]);
+                const double t = (th >= 0 ? 1 : -1) / (std::fabs(th) + std::sqrt(th * th + 1));
+                const double c = 1 / std::sqrt(t * t + 1), s = t * c;
+                for (int k = 0; k < 3; k++) {
+                    const double akp = A[k][p], akq = A[k][q];
+                    A[k][p] = c * akp - s * akq, A[k][q] = s * akp + c * akq;
+                }
+                for (int k = 0; k < 3; k++) {
+                    const double apk = A[p][k], aqk = A[q][k];
+                    A[p][k] = c * apk - s * aqk, A[q][k] = s * apk + c * aqk;
+                }
+                for (int k = 0; k < 3; k++) {
+                    const double vkp = V[k][p], vkq = V[k][q];
+                    V[k][p] = c * vkp - s * vkq, V[k][q] = s * vkp + c * vkq;
+                }
+            }
+    }
+    int o[3] = {0, 1, 2};
+    std::sort(o, o + 3, [&](int a, int b) { return A[a][a] > A[b][b]; });
+    double W[3][3];
+    for (int k = 0; k < 3; k++) {
+        ev[k] = A[o[k]][o[k]];
+        for (int i = 0; i < 3; i++) W[i][k] = V[i][o[k]];
+    }
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++) V[i][k] = W[i][k];
+}
+
+// a kernel with semi-axes a (index space) along the columns of V, centred at c
+kernel make_kernel(const double c[3], const double a[3], const double V[3][3]) {
+    kernel k;
+    for (int i = 0; i < 3; i++) k.c[i] = float(c[i]);
+    double M[3][3] = {{0}}, P[3][3] = {{0}}, E[3] = {0, 0, 0};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            for (int m = 0; m < 3; m++) {
+                M[i][j] += V[i][m] * V[j][m] / (a[m] * a[m]);
+                P[i][j] += V[i][m] * V[j][m] / ((a[m] + PAD) * (a[m] + PAD));
+            }
+    for (int i = 0; i < 3; i++)
+        for (int m = 0; m < 3; m++) E[i] += V[i][m] * V[i][m] * (a[m] + PAD) * (a[m] + PAD);
+    k.M[0] = float(M[0][0]), k.M[1] = float(M[0][1]), k.M[2] = float(M[0][2]);
+    k.M[3] = float(M[1][1]), k.M[4] = float(M[1][2]), k.M[5] = float(M[2][2]);
+    k.P[0] = float(P[0][0]), k.P[1] = float(P[0][1]), k.P[2] = float(P[0][2]);
+    k.P[3] = float(P[1][1]), k.P[4] = float(P[1][2]), k.P[5] = float(P[2][2]);
+    for (int i = 0; i < 3; i++) k.ext[i] = float(std::sqrt(E[i]));
+    k.amin = float(std::min(a[0], std::min(a[1], a[2])));
+    return k;
+}
+
+inline uint64_t cell_key(int64_t i, int64_t j, int64_t k) {
+    const int64_t o = int64_t(1) << 20;
+    return (uint64_t(i + o) & 0x1fffff) | (uint64_t(j + o) & 0x1fffff) << 21 | (uint64_t(k + o) & 0x1fffff) << 42;
+}
+
+// Every particle's kernel (index space, voxel vx). Deep particles (deeper
+// than their ball reaches) get a ball of 2/3 the neighbourhood unexamined
+// (the spheres' radius: no gaps inside, on a lattice or after it deforms); the others a disc from the weighted
+// covariance of their neighbours within R (weight 1 - (d/R)^3), gathered in cells of edge R, cell by cell in parallel
+// (each kernel depends only on the input).
+std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, const aniso_params &a, double vx,
+                                  std::vector<uint8_t> &deep) {
+    auto pos = [&](size_t i, int k) { return xd ? xd[3 * i + k] : double(xf[3 * i + k]); };
+    const double inv = 1 / vx, R = a.R, invR = 1 / R, R2 = R * R;
+    // a full neighbourhood's covariance per axis: the weighted second moment
+    // of a uniform ball, int w r^4 dr / int w r^2 dr / 3 = 0.15 R^2
+    const double s_full = 0.15 * R2, sup = a.support * inv, t = a.thickness * inv;
+    std::vector<kernel> K(n);
+    const double I3[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    // deep: a ball of rb, at least rb under every face (which the discs put
+    // `thickness` beyond the outermost centres)
+    const double rb = std::max(2 * R / 3, 2 * a.thickness);
+    deep = deep_particles(n, xd, xf, a.spacing, rb);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            if (!deep[i]) continue;
+            const double c[3] = {pos(i, 0) * inv, pos(i, 1) * inv, pos(i, 2) * inv},
+                         ax[3] = {rb * inv, rb * inv, rb * inv};
+            K[i] = make_kernel(c, ax, I3);
+        }
+    });
+    std::vector<uint64_t> key(n);
+    std::vector<size_t> order(n);
+    for (size_t i = 0; i < n; i++) {
+        key[i] = cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
+                          int64_t(std::floor(pos(i, 2) * invR)));
+        order[i] = i;
+    }
+    std::sort(order.begin(), order.end(),
+              [&](size_t p, size_t q) { return key[p] != key[q] ? key[p] < key[q] : p < q; });
+    std::unordered_map<uint64_t, std::pair<size_t, size_t>> cells;
+    std::vector<std::pair<size_t, size_t>> ranges;
+    cells.reserve(n / 4 + 16);
+    for (size_t s0 = 0; s0 < n;) {
+        size_t e = s0;
+        while (e < n && key[order[e]] == key[order[s0]]) e++;
+        cells.emplace(key[order[s0]], std::make_pair(s0, e));
+        ranges.emplace_back(s0, e);
+        s0 = e;
+    }
+    const float fR2 = float(R2), finvR = float(invR);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, ranges.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
+        std::vector<float> bx, by, bz;
+        for (size_t cc = rg.begin(); cc != rg.end(); cc++) {
+            bool any = false; // a cell of deep particles only: nothing to do
+            for (size_t s1 = ranges[cc].first; s1 < ranges[cc].second && !any; s1++) any = !deep[order[s1]];
+            if (!any) continue;
+            // the 27 cells around, relative to the cell's corner (floats keep their precision there)
+            const size_t first = order[ranges[cc].first];
+            const int64_t ci[3] = {int64_t(std::floor(pos(first, 0) * invR)), int64_t(std::floor(pos(first, 1) * invR)),
+                                   int64_t(std::floor(pos(first, 2) * invR))};
+            const double o[3] = {double(ci[0]) * R, double(ci[1]) * R, double(ci[2]) * R};
+            bx.clear(), by.clear(), bz.clear();
+            for (int dz = -1; dz <= 1; dz++)
+                for (int dy = -1; dy <= 1; dy++)
+                    for (int dxc = -1; dxc <= 1; dxc++) {
+                        auto it = cells.find(cell_key(ci[0] + dxc, ci[1] + dy, ci[2] + dz));
+                        if (it == cells.end()) continue;
+                        for (size_t s1 = it->second.first; s1 < it->second.second; s1++) {
+                            const size_t j = order[s1];
+                            bx.push_back(float(pos(j, 0) - o[0]));
+                            by.push_back(float(pos(j, 1) - o[1]));
+                            bz.push_back(float(pos(j, 2) - o[2]));
+                        }
+                    }
+            const size_t nb = bx.size();
+            for (size_t s1 = ranges[cc].first; s1 < ranges[cc].second; s1++) {
+                const size_t i = order[s1];
+                if (deep[i]) continue;
+                const float x = float(pos(i, 0) - o[0]), y = float(pos(i, 1) - o[1]), z = float(pos(i, 2) - o[2]);
+                // the weighted mean of the neighbours (relative to the particle),
+                // their count, and their weighted covariance about that mean (one
+                // pass: second moments less the mean's; offsets are a few spacings)
+                // (branch-free, in floats, so that it vectorises; sums in
+                // candidate order: the same for any thread count)
+                float fw = 0, f0 = 0, f1 = 0, f2 = 0, g0 = 0, g1 = 0, g2 = 0, g3 = 0, g4 = 0, g5 = 0;
+                int cnt = 0;
+                for (size_t k = 0; k < nb; k++) {
+                    const float dx = bx[k] - x, dy = by[k] - y, dz = bz[k] - z, d2 = dx * dx + dy * dy + dz * dz;
+                    const float sd = std::sqrt(d2) * finvR, w = d2 < fR2 ? 1 - sd * sd * sd : 0.f;
+                    cnt += d2 < fR2;
+                    fw += w, f0 += w * dx, f1 += w * dy, f2 += w * dz;
+                    g0 += w * dx * dx, g1 += w * dx * dy, g2 += w * dx * dz;
+                    g3 += w * dy * dy, g4 += w * dy * dz, g5 += w * dz * dz;
+                }
+                double ws = fw, m[3] = {f0, f1, f2}, S[6] = {g0, g1, g2, g3, g4, g5};
+                const double c[3] = {pos(i, 0) * inv, pos(i, 1) * inv, pos(i, 2) * inv};
+                if (cnt < FEW_NEIGHBOURS) {
+                    const double ax[3] = {2 * t, 2 * t, 2 * t};
+                    K[i] = make_kernel(c, ax, I3);
+                    continue;
+                }
+                for (int k = 0; k < 3; k++) m[k] /= ws; // ws >= 1: the particle itself
+                const double C[3][3] = {{S[0] / ws - m[0] * m[0], S[1] / ws - m[0] * m[1], S[2] / ws - m[0] * m[2]},
+                                        {S[1] / ws - m[0] * m[1], S[3] / ws - m[1] * m[1], S[4] / ws - m[1] * m[2]},
+                                        {S[2] / ws - m[0] * m[2], S[4] / ws - m[1] * m[2], S[5] / ws - m[2] * m[2]}};
+                double ev[3], V[3][3], ax[3];
+                eigen3(C, ev, V);
+                // a disc: across its thinnest direction the thickness; along
+                // the other two the reach, shortened as the neighbourhood is
+                // (Yu & Turk: in proportion to the covariance, at least 1/kr
+                // of the longest), so that near an edge it stops at the edge
+                for (int k = 0; k < 2; k++)
+                    ax[k] = std::max(t, sup * std::min(std::max(ev[k], ev[0] / a.kr) / s_full, 1.0));
+                ax[2] = t;
+                K[i] = make_kernel(c, ax, V);
+            }
+        }
+    });
+    return K;
+}
+
+// kernels in 8^3-voxel leaf bins of their centres
+struct binned {
+    std::vector<kernel> k;
+    std::vector<uint32_t> src;
+    std::vector<uint64_t> key; // distinct bins, ascending
+    std::vector<uint32_t> at;  // (nbins + 1)
+    int reach = 1;             // leaves a kernel reaches beyond its own
+    long find(uint64_t q) const {
+        auto it = std::lower_bound(key.begin(), key.end(), q);
+        return it == key.end() || *it != q ? -1 : long(it - key.begin());
+    }
+};
+
+inline int64_t leaf_of(float c) { return int64_t(std::floor(c)) >> LEAF_LOG2; }
+
+// the union's value over one leaf (the largest kernel value at each voxel,
+// -PAD where none reaches), and the particle it came from
+void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who) {
+    std::fill(F, F + LEAF_SIZE, -PAD);
+    if (who) std::fill(who, who + LEAF_SIZE, -1);
+    const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM, r = b.reach;
+    for (int i = -r; i <= r; i++)
+        for (int j = -r; j <= r; j++)
+            for (int l = -r; l <= r; l++) {
+                const long bi = b.find(leaf_key(lc.x() + i, lc.y() + j, lc.z() + l));
+                if (bi < 0) continue;
+                for (uint32_t q = b.at[size_t(bi)]; q < b.at[size_t(bi) + 1]; q++) {
+                    const kernel &K = b.k[q];
+                    const int x0 = std::max(ox, int(std::ceil(K.c[0] - K.ext[0]))),
+                              x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(K.c[0] + K.ext[0])));
+                    const int y0 = std::max(oy, int(std::ceil(K.c[1] - K.ext[1]))),
+                              y1 = std::min(oy + LEAF_DIM - 1, int(std::floor(K.c[1] + K.ext[1])));
+                    const int z0 = std::max(oz, int(std::ceil(K.c[2] - K.ext[2]))),
+                              z1 = std::min(oz + LEAF_DIM - 1, int(std::floor(K.c[2] + K.ext[2])));
+                    if (x0 > x1 || y0 > y1 || z0 > z1) continue;
+                    for (int x = x0; x <= x1; x++) {
+                        const float dx = float(x) - K.c[0];
+                        for (int y = y0; y <= y1; y++) {
+                            const float dy = float(y) - K.c[1];
+                            // the row's span inside the grown ellipsoid: P5 dz^2 + pb dz + pa <= 1
+                            const float pa = K.P[0] * dx * dx + 2 * K.P[1] * dx * dy + K.P[3] * dy * dy;
+                            const float pb = 2 * (K.P[2] * dx + K.P[4] * dy);
+                            const float disc = pb * pb - 4 * K.P[5] * (pa - 1);
+                            if (disc < 0) continue;
+                            const float sq = std::sqrt(disc), inv2 = 0.5f / K.P[5];
+                            const int za = std::max(z0, int(std::floor(K.c[2] + (-pb - sq) * inv2))),
+                                      zb = std::min(z1, int(std::ceil(K.c[2] + (-pb + sq) * inv2)));
+                            const float qa = K.M[0] * dx * dx + 2 * K.M[1] * dx * dy + K.M[3] * dy * dy;
+                            const float qb = 2 * (K.M[2] * dx + K.M[4] * dy);
+                            float *row = F + ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2) - oz;
+                            int32_t *wrow =
+                                who ? who + ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2) - oz : nullptr;
+                            for (int z = za; z <= zb; z++) {
+                                const float dz = float(z) - K.c[2];
+                                const float val = K.amin * (1 - std::sqrt(std::max(qa + dz * (qb + K.M[5] * dz), 0.f)));
+                                if (val > row[z]) {
+                                    row[z] = val;
+                                    if (wrow) wrow[z] = int32_t(q);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+}
+
+// Where the union's value D (one per band voxel; a missing leaf reads
+// `outside`) crosses 0, made a signed distance in band.phi (voxel units).
+void distance_from_crossings(dense_band &band, const std::vector<float> &D, float outside, float W) {
+    const float iso = 0;
+    const size_t nl = band.size();
+    // The crossings: along each voxel edge from an inside voxel (value at
+    // least 0) to an outside one, linearly placed; they are the surface
+    // points of the distance. An inside voxel beside a crossing gets the
+    // distance to the plane through its crossings (intercepts t_a on its
+    // axes: 1 / sqrt(sum 1 / t_a^2)); every other voxel gets its sign alone.
+    band.phi.assign(nl * LEAF_SIZE, 0.f);
+    std::vector<std::vector<float>> pts(nl);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 4), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            const float *d = D.data() + i * LEAF_SIZE;
+            float *phi = band.leaf(i);
+            const Coord lc = leaf_coord(band.key[i]);
+            for (int v = 0; v < LEAF_SIZE; v++) {
+                if (d[v] < iso) {
+                    phi[v] = 0.f; // outside: the distance decides
+                    continue;
+                }
+                const int c[3] = {v >> 6, (v >> 3) & 7, v & 7};
+                double inv2 = 0;
+                for (int ax = 0; ax < 3; ax++) {
+                    double tmin = 2;
+                    for (int s = -1; s <= 1; s += 2) {
+                        int nn[3] = {c[0], c[1], c[2]}, dl[3] = {0, 0, 0};
+                        nn[ax] += s;
+                        if (nn[ax] < 0 || nn[ax] >= LEAF_DIM) dl[ax] = s, nn[ax] -= s * LEAF_DIM;
+                        const int32_t j =
+                            dl[ax] ? band.nbr[27 * i + dense_band::nbr_slot(dl[0], dl[1], dl[2])] : int32_t(i);
+                        const float dn =
+                            j < 0 ? outside : D[size_t(j) * LEAF_SIZE + size_t((nn[0] << 6) + (nn[1] << 3) + nn[2])];
+                        if (dn >= iso) continue;
+                        const double t = double(d[v] - iso) / double(d[v] - dn);
+                        tmin = std::min(tmin, t);
+                        float p[3] = {float(lc.x() * LEAF_DIM + c[0]), float(lc.y() * LEAF_DIM + c[1]),
+                                      float(lc.z() * LEAF_DIM + c[2])};
+                        p[ax] += float(s * t);
+                        pts[i].insert(pts[i].end(), p, p + 3);
+                    }
+                    if (tmin < 2) inv2 += 1 / std::max(tmin * tmin, 1e-12);
+                }
+                phi[v] = inv2 > 0 ? -float(1 / std::sqrt(inv2)) : -1e-6f;
+            }
+        }
+    });
+    surface_points sp;
+    sp.at.assign(nl + 1, 0);
+    for (size_t i = 0; i < nl; i++) sp.at[i + 1] = sp.at[i] + uint32_t(pts[i].size() / 3);
+    sp.x.resize(sp.at[nl]), sp.y.resize(sp.at[nl]), sp.z.resize(sp.at[nl]);
+    for (size_t i = 0; i < nl; i++)
+        for (size_t k = 0; 3 * k < pts[i].size(); k++)
+            sp.x[sp.at[i] + k] = pts[i][3 * k], sp.y[sp.at[i] + k] = pts[i][3 * k + 1],
+                            sp.z[sp.at[i] + k] = pts[i][3 * k + 2];
+    pts.clear();
+    band_distance(band, sp, 0.f, W);
+}
+
+} // namespace
+
+openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const float *xf, const float *vel,
+                                              const aniso_params &a, double vx, double hw, const band_filter *f,
+                                              openvdb::Vec3SGrid::Ptr *velgrid, aniso_timing *timing) {
+    if (n >= (size_t(1) << 31)) throw std::runtime_error("more than 2^31 particles");
+    if (!(a.support > 0 && a.R > 0 && a.kr >= 1 && a.thickness > 0 && a.spacing > 0))
+        throw std::runtime_error("anisotropic kernels: reach, neighbourhood, ratio, thickness or spacing out of range");
+    aniso_timing tm{};
+    double t0 = cpu_now();
+    std::vector<uint8_t> deep;
+    std::vector<kernel> K = shape_kernels(n, xd, xf, a, vx, deep);
+    for (size_t i = 0; i < n; i++) tm.n_deep += deep[i];
+    tm.shape_s = cpu_now() - t0;
+
+    // kernels sorted into leaf bins (ties by index: deterministic)
+    t0 = cpu_now();
+    std::vector<std::pair<uint64_t, uint32_t>> order(n);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++)
+            order[i] = {leaf_key(leaf_of(K[i].c[0]), leaf_of(K[i].c[1]), leaf_of(K[i].c[2])), uint32_t(i)};
+    });
+    tbb::parallel_sort(order.begin(), order.end());
+    binned b;
+    b.k.resize(n), b.src.resize(n);
+    float emax = 0;
+    for (size_t q = 0; q < n; q++) {
+        b.k[q] = K[order[q].second], b.src[q] = order[q].second;
+        if (q == 0 || order[q].first != order[q - 1].first)
+            b.key.push_back(order[q].first), b.at.push_back(uint32_t(q));
+        emax = std::max(emax, std::max(b.k[q].ext[0], std::max(b.k[q].ext[1], b.k[q].ext[2])));
+    }
+    b.at.push_back(uint32_t(n));
+    b.reach = int(std::ceil(double(emax) / LEAF_DIM));
+    // the leaves within reach of a bin holding a particle near a face: the
+    // surface lies in them; the others are wholly inside or outside
+    std::vector<uint64_t> targets;
+    const int r = b.reach;
+    for (size_t bi = 0; bi + 1 < b.at.size(); bi++) {
+        bool any = false;
+        for (uint32_t q = b.at[bi]; q < b.at[bi + 1] && !any; q++) any = !deep[b.src[q]];
+        if (!any) continue;
+        const Coord c = leaf_coord(b.key[bi]);
+        for (int x = -r; x <= r; x++)
+            for (int y = -r; y <= r; y++)
+                for (int z = -r; z <= r; z++) targets.push_back(leaf_key(c.x() + x, c.y() + y, c.z() + z));
+    }
+    K.clear();
+    K.shrink_to_fit();
+    tbb::parallel_sort(targets.begin(), targets.end());
+    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    tm.sort_s = cpu_now() - t0;
+
+    // the union over the targets; then the band: the targets and the 26
+    // leaves around each that holds an inside voxel (the deep leaves beside
+    // the surface), each leaf in its own buffer
+    t0 = cpu_now();
+    const bool track = vel && velgrid;
+    std::vector<float> F(targets.size() * LEAF_SIZE);
+    std::vector<int32_t> who(track ? targets.size() * LEAF_SIZE : 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, targets.size(), 4), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t t = rg.begin(); t != rg.end(); t++)
+            splat_leaf(b, leaf_coord(targets[t]), F.data() + t * LEAF_SIZE,
+                       track ? who.data() + t * LEAF_SIZE : nullptr);
+    });
+    dense_band band;
+    band.key = targets;
+    for (size_t t = 0; t < targets.size(); t++) {
+        const float *f0 = F.data() + t * LEAF_SIZE;
+        if (std::none_of(f0, f0 + LEAF_SIZE, [](float v) { return v >= 0; })) continue;
+        const Coord c = leaf_coord(targets[t]);
+        for (int i = -1; i <= 1; i++)
+            for (int j = -1; j <= 1; j++)
+                for (int k = -1; k <= 1; k++)
+                    if (i || j || k) band.key.push_back(leaf_key(c.x() + i, c.y() + j, c.z() + k));
+    }
+    tbb::parallel_sort(band.key.begin(), band.key.end());
+    band.key.erase(std::unique(band.key.begin(), band.key.end()), band.key.end());
+    const size_t nl = band.size();
+    std::vector<float> D(nl * LEAF_SIZE);
+    std::vector<int32_t> bwho(track ? nl * LEAF_SIZE : 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 4), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            auto it = std::lower_bound(targets.begin(), targets.end(), band.key[i]);
+            float *d = D.data() + i * LEAF_SIZE;
+            int32_t *w = track ? bwho.data() + i * LEAF_SIZE : nullptr;
+            if (it != targets.end() && *it == band.key[i]) {
+                const size_t t = size_t(it - targets.begin());
+                std::copy(F.data() + t * LEAF_SIZE, F.data() + (t + 1) * LEAF_SIZE, d);
+                if (w) std::copy(who.data() + t * LEAF_SIZE, who.data() + (t + 1) * LEAF_SIZE, w);
+            } else {
+                splat_leaf(b, leaf_coord(band.key[i]), d, w);
+            }
+            if (w)
+                for (int v = 0; v < LEAF_SIZE; v++)
+                    if (w[v] >= 0) w[v] = int32_t(b.src[size_t(w[v])]);
+        }
+    });
+    F.clear(), F.shrink_to_fit(), who.clear(), who.shrink_to_fit();
+    band.link();
+    tm.splat_s = cpu_now() - t0;
+
+    t0 = cpu_now();
+    const float W = float(hw + 1 + (f ? f->dilate / vx + f->erode / vx : 0.0));
+    if (W > 7) throw std::runtime_error("half width + dilate + erode must stay within 6 voxels");
+    distance_from_crossings(band, D, -PAD, W);
+    D.clear(), D.shrink_to_fit();
+    tm.redistance_s = cpu_now() - t0;
+
+    t0 = cpu_now();
+    openvdb::FloatGrid::Ptr grid = band_to_grid(band, vx, hw, W, f, track ? &bwho : nullptr, vel, velgrid);
+    tm.filter_s = cpu_now() - t0;
+    if (timing) *timing = tm;
+    return grid;
+}
+
+} // namespace kf_vdb
