@@ -43,7 +43,10 @@ KF_KEY(SIM_DT_MAX, "sim.dt_max", KT_NUM, TOP(s.sim.dt_max), GE(0), NULL, "0", "s
        "Longest substep allowed (0 = only the CFL rule).")
 KF_KEY(SIM_DT_FIXED, "sim.dt_fixed", KT_NUM, TOP(s.sim.dt_fixed), GE(0), NULL, "0", "s", NULL, 0,
        "Fixed substep instead of the CFL rule (0 = adaptive); for tests and benchmarks. Fixed means fixed: "
-       "numerical trouble at it fails the frame naming the step, unless sim.retry_fixed lets a retry halve it.")
+       "numerical trouble at it fails the frame naming the step, unless sim.retry_fixed lets a retry halve it. "
+       "Material compressed stiffer than the step resolves (water's pressure, packed snow, crushed jelly: a wave "
+       "faster than a cell per step) is evaluated at the stiffness the step does resolve, and each frame's log "
+       "counts those particles (stiffness-limited).")
 KF_KEY(SIM_RETRY_FIXED, "sim.retry_fixed", KT_BOOL, TOP(s.sim.retry_fixed), ANY, NULL, "false", NULL, NULL, 0,
        "Under sim.dt_fixed, let a frame that runs into numerical trouble be retried at half the fixed step "
        "(up to sim.max_retries times; each retry is logged with the step it used).")
