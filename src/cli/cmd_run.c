@@ -150,15 +150,82 @@ static void remove_stale_after(const kf_shot *shot, const char *out, uint64_t ha
 
 static int write_frame_here(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash);
 
-/* write this frame's outputs; returns 0 or prints and returns 1. Over
- * several ranks: the whole state gathered into `whole` (only when the frame
- * has a file to write), written by rank 0. */
+/* over several ranks, rank 0's window of the whole state (or all of it, gathered) */
 static kf_state *whole;
+
+/* Over several ranks a frame's checkpoint and particle file are written by
+ * rank 0 a window of particles at a time (kf_dist_stream): no rank holds
+ * the whole state. */
+typedef struct frame_out {
+    const kf_model *m;
+    kf_checkpoint_out ck;
+    kf_ply_out ply;
+    int ck_open, ply_open;
+} frame_out;
+
+static int put_window(void *ctx, const kf_state *win, size_t a) {
+    frame_out *fo = ctx;
+    if (fo->ck_open) kf_checkpoint_window(&fo->ck, win, a);
+    if (fo->ply_open) kf_ply_records(&fo->ply, fo->m, win);
+    return 0;
+}
+
+static int write_frame_streamed(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash) {
+    frame_out fo;
+    memset(&fo, 0, sizeof fo);
+    fo.m = sc->model;
+    kf_frame_paths rp;
+    char err[4200];
+    int rc = 0;
+    long n = kf_dist_sum_long(sc->state, (long)kf_state_count(sc->state));
+    const int ply = shot->output_particles && frame >= shot->first;
+    if (root()) {
+        if (kf_frame_paths_make(shot, out, frame, &rp)) {
+            fprintf(stderr, "kerf: output path for frame %d is too long\n", frame);
+            rc = 1;
+        } else if (shot->output_checkpoints && kf_ensure_parent(rp.checkpoint)) {
+            fprintf(stderr, "kerf: %s: cannot create directory: %s\n", rp.checkpoint, strerror(errno));
+            rc = 1;
+        } else if (ply && kf_ensure_parent(rp.particles)) {
+            fprintf(stderr, "kerf: %s: cannot create directory: %s\n", rp.particles, strerror(errno));
+            rc = 1;
+        } else if (shot->output_checkpoints &&
+                   kf_checkpoint_begin(&fo.ck, rp.checkpoint, sc->state, (size_t)n, frame, hash, err, sizeof err)) {
+            fprintf(stderr, "kerf: %s\n", err);
+            rc = 1;
+        } else {
+            fo.ck_open = shot->output_checkpoints;
+            if (ply && kf_ply_begin(&fo.ply, rp.particles, sc->state, (size_t)n, err, sizeof err)) {
+                fprintf(stderr, "kerf: %s\n", err);
+                rc = 1;
+            } else fo.ply_open = ply;
+        }
+    }
+    /* the first frame of a run from the start: the state as seeded, in id order */
+    if (kf_dist_stream(sc->state, whole, frame == shot->frame_start, put_window, &fo) && root()) {
+        fprintf(stderr, "kerf: frame %d: the ranks' particles did not add up to the whole state\n", frame);
+        rc = 1;
+    }
+    if (fo.ck_open && kf_checkpoint_end(&fo.ck, sc->state, err, sizeof err)) {
+        fprintf(stderr, "kerf: %s\n", err);
+        rc = 1;
+    }
+    if (fo.ply_open && kf_ply_end(&fo.ply, err, sizeof err)) {
+        fprintf(stderr, "kerf: %s\n", err);
+        rc = 1;
+    }
+    return kf_dist_bcast_int(rc);
+}
+
+/* write this frame's outputs; returns 0 or prints and returns 1. Over
+ * several ranks only when the frame has a file to write: streamed, or for
+ * the points output (the pipeline's, which reads a whole state) from the
+ * whole state gathered into `whole`, written by rank 0. */
 static int write_frame(const kf_shot *shot, const char *out, kf_scene *sc, int frame, uint64_t hash) {
     if (ranks() == 1) return write_frame_here(shot, out, sc, frame, hash);
-    int files = shot->output_checkpoints || (frame >= shot->first && (shot->output_points || shot->output_particles));
-    if (!files) return 0;
-    /* the first frame of a run from the start: the state as seeded, in id order */
+    const int later = frame >= shot->first;
+    if (!shot->output_checkpoints && !(later && (shot->output_points || shot->output_particles))) return 0;
+    if (!(later && shot->output_points)) return write_frame_streamed(shot, out, sc, frame, hash);
     int rc = kf_dist_gather(sc->state, whole, frame == shot->frame_start);
     if (root() && rc == 0) {
         kf_scene w = *sc;

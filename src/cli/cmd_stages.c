@@ -181,9 +181,12 @@ static int render_frame(const kf_shot *shot, kf_scene *sc, const kf_frame_paths 
 
 /* surface and render frames first..last, skipping current outputs */
 int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render) {
-    kf_render_opts ro = framing(o, shot, sc);
     do_surface &= shot->output_surface;
     do_render &= shot->output_images;
+    /* the camera only for rendering: it reads whole checkpoints */
+    kf_render_opts ro;
+    memset(&ro, 0, sizeof ro);
+    if (do_render) ro = framing(o, shot, sc);
     char settings[4096], stamp[2200];
     kf_frame_paths first;
     kf_frame_paths_make(shot, o->out, shot->first, &first);

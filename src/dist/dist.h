@@ -99,6 +99,15 @@ void kf_dist_seed_free(kf_dist_seed *sd);
  * end to end are the one-rank order. */
 int kf_dist_gather(const kf_state *s, kf_state *whole, int by_id);
 
+/* The same particles, a window at a time, without the whole state on rank
+ * 0: put(ctx, win, a) is called on rank 0 for each window, in order, with
+ * win holding particles [a, a + its count) of the one-rank array (and s's
+ * clock); a put that fails (returns nonzero) ends the calls, not the
+ * collective. Returns 0, or on rank 0 -1 when a window was wrong or put
+ * failed. */
+typedef int (*kf_dist_put)(void *ctx, const kf_state *win, size_t a);
+int kf_dist_stream(const kf_state *s, kf_state *win, int by_id, kf_dist_put put, void *ctx);
+
 /* Re-cut the ranges when the busiest rank holds more than `threshold` times
  * the mean; particles move at the next substep. Collective. */
 void kf_dist_rebalance(kf_state *s, double threshold);

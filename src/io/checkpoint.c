@@ -94,6 +94,111 @@ int kf_checkpoint_write(const char *path, kf_state *s, int frame, uint64_t input
     return 0;
 }
 
+/* ---- written from pieces ---- */
+
+static void fill_header(header *h, const kf_state *s, size_t n, int frame, uint64_t inputs_hash, uint64_t rsim_bytes) {
+    memset(h, 0, sizeof *h);
+    memcpy(h->magic, MAGIC, sizeof MAGIC);
+    h->version = KF_CHECKPOINT_VERSION;
+    h->real_size = sizeof(kf_real);
+    h->particles = n;
+    h->frame = frame;
+    h->time = s->time;
+    h->substep = s->substep;
+    h->next_id = s->next_id;
+    h->inputs_hash = inputs_hash;
+    h->nrigid = (uint32_t)s->nrigid;
+    h->rsim_bytes = rsim_bytes;
+}
+
+/* bytes at an offset of the file, all of them or failed */
+static void put_at(kf_checkpoint_out *o, const void *p, size_t n, long at) {
+    if (o->failed || n == 0) return;
+    FILE *f = ((kf_atomic_file *)o->af)->f;
+    if (fseek(f, at, SEEK_SET) != 0 || fwrite(p, 1, n, f) != n) o->failed = 1, o->err_no = errno;
+}
+
+int kf_checkpoint_begin(kf_checkpoint_out *o, const char *path, const kf_state *s, size_t n, int frame,
+                        uint64_t inputs_hash, char *err, size_t errlen) {
+    memset(o, 0, sizeof *o);
+    o->af = malloc(sizeof(kf_atomic_file));
+    if (!o->af || kf_atomic_open(o->af, path)) {
+        snprintf(err, errlen, "%s: cannot write checkpoint: %s", path, kf_io_reason(o->af ? errno : ENOMEM));
+        free(o->af);
+        o->af = NULL;
+        return -1;
+    }
+    header h;
+    fill_header(&h, s, n, frame, inputs_hash, s->rsim ? kf_rigid_sim_state_size(s->rsim) : 0);
+    o->n = n;
+    o->body = (long)sizeof h;
+    put_at(o, &h, sizeof h, 0);
+    return 0;
+}
+
+void kf_checkpoint_window(kf_checkpoint_out *o, const kf_state *win, size_t at) {
+    const kf_particles *p = &win->p;
+    const size_t n = o->n, m = p->n;
+    long base = o->body;
+    /* each array's slice at its place in the file: the arrays follow each other, n values each */
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++, base += (long)(n * sizeof(kf_real)))
+        put_at(o, p->plane[k], m * sizeof(kf_real), base + (long)(at * sizeof(kf_real)));
+    put_at(o, p->mat, m * sizeof *p->mat, base + (long)(at * sizeof *p->mat));
+    base += (long)(n * sizeof *p->mat);
+    put_at(o, p->id, m * sizeof *p->id, base + (long)(at * sizeof *p->id));
+    base += (long)(n * sizeof *p->id);
+    put_at(o, p->obj, m * sizeof *p->obj, base + (long)(at * sizeof *p->obj));
+    base += (long)(n * sizeof *p->obj);
+    put_at(o, p->colour, m * sizeof *p->colour, base + (long)(at * sizeof *p->colour));
+}
+
+int kf_checkpoint_end(kf_checkpoint_out *o, const kf_state *s, char *err, size_t errlen) {
+    kf_atomic_file *af = o->af;
+    const size_t n = o->n;
+    long at =
+        o->body + (long)(n * (KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof(uint16_t) * 2 + sizeof(uint32_t) * 2));
+    put_at(o, s->rigid, (size_t)s->nrigid * sizeof s->rigid[0], at);
+    at += (long)((size_t)s->nrigid * sizeof s->rigid[0]);
+    if (s->rsim) {
+        size_t nb = kf_rigid_sim_state_size(s->rsim);
+        void *rsim = malloc(nb ? nb : 1);
+        if (!rsim) o->failed = 1, o->err_no = ENOMEM;
+        else kf_rigid_sim_save(s->rsim, rsim);
+        put_at(o, rsim, nb, at);
+        at += (long)nb;
+        free(rsim);
+    }
+    /* the checksum of every byte before it, read back in order */
+    uint64_t sum = KF_FNV_BASIS;
+    FILE *back = NULL;
+    if (!o->failed && (fflush(af->f) != 0 || !(back = fopen(af->tmp, "rb")))) o->failed = 1, o->err_no = errno;
+    const size_t chunk = 1 << 20;
+    char *buf = malloc(chunk);
+    if (!buf) o->failed = 1, o->err_no = ENOMEM;
+    for (long left = at; !o->failed && left > 0;) {
+        size_t want = left < (long)chunk ? (size_t)left : chunk;
+        if (fread(buf, 1, want, back) != want) {
+            o->failed = 1, o->err_no = errno ? errno : EIO;
+            break;
+        }
+        fnv(&sum, buf, want);
+        left -= (long)want;
+    }
+    free(buf);
+    if (back) fclose(back);
+    put_at(o, &sum, sizeof sum, at);
+    int rc = 0;
+    if (o->failed || kf_atomic_commit(af)) {
+        int e = o->failed ? o->err_no : errno;
+        if (af->f) kf_atomic_abort(af);
+        snprintf(err, errlen, "%s: writing checkpoint failed: %s", af->path, kf_io_reason(e));
+        rc = -1;
+    }
+    free(af);
+    o->af = NULL;
+    return rc;
+}
+
 /* ---- reading: nothing the header says is used before the file vouches for it ---- */
 
 /* the bytes one particle takes in the file */

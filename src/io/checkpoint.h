@@ -37,6 +37,24 @@ typedef struct kf_checkpoint_info {
  * from this file will: both continue bit for bit alike. */
 int kf_checkpoint_write(const char *path, kf_state *s, int frame, uint64_t inputs_hash, char *err, size_t errlen);
 
+/* The same file written from pieces (one MPI run's ranks' particles, a
+ * window at a time, without the whole state in one place): _begin with the
+ * state's clock and rigid bodies and the whole particle count n; _window
+ * for particles [at, at + win's count) of the whole array, in any order of
+ * windows; _end writes the rest and the checksum (read back from the file)
+ * and renames. A failure is kept and reported by _end, which also cleans
+ * up; _abort drops the file. Returns 0, or -1 with a message in err. */
+typedef struct kf_checkpoint_out {
+    void *af; /* the atomic file */
+    size_t n;
+    long body; /* where the particle arrays begin */
+    int failed, err_no;
+} kf_checkpoint_out;
+int kf_checkpoint_begin(kf_checkpoint_out *o, const char *path, const kf_state *s, size_t n, int frame,
+                        uint64_t inputs_hash, char *err, size_t errlen);
+void kf_checkpoint_window(kf_checkpoint_out *o, const kf_state *win, size_t at);
+int kf_checkpoint_end(kf_checkpoint_out *o, const kf_state *s, char *err, size_t errlen);
+
 /* Replace the state's particles and clock with the checkpoint's. The
  * checksum over the whole file is verified before any header field is
  * believed; then the version, the precision, and every count against the
