@@ -34,9 +34,13 @@ check "only rank 0 speaks" test "$(grep -c '^frame 1002: 3 ranks' np3.log)" -eq 
 
 # --- resume across rank counts ----------------------------------------------------
 mpi 4 run drop.yaml --out r42 --frames 1001-1003 --quiet
+# (as if killed between frame 1003's checkpoint and its particle file)
+rm r42/particles/drop.1003.ply
 mpi 2 run drop.yaml --out r42 --resume > r42.log 2>&1
 check "4 ranks cut short, resumed on 2: equal to the one-rank run" \
     bash -c "grep -q 'resuming after frame 1003' r42.log && cmp -s ref/checkpoints/drop.$last.kfc r42/checkpoints/drop.$last.kfc"
+check "the particle file missing at the frame resumed from is written again, the one-rank run's" \
+    bash -c "grep -q 'drop.1003.ply is missing or cut short; writing it again' r42.log && cmp -s ref/particles/drop.1003.ply r42/particles/drop.1003.ply"
 "$kerf" run drop.yaml --out r31 --frames 1001-1004 --quiet
 mpi 3 run drop.yaml --out r31 --resume > r31.log 2>&1
 check "1 rank cut short, resumed on 3: equal to the one-rank run" \

@@ -66,5 +66,6 @@ check "resumed run ends bit for bit on the one-rank run's last checkpoint" \
 check "every particle file equals the one-rank run's" \
     bash -c 'for f in ref/particles/*.ply; do cmp -s $f k/${f#ref/} || exit 1; done'
 
+[ $fails -eq 0 ] || { echo "--- the killed run's log:"; tail -20 k.log; echo "--- the resumed run's:"; tail -20 r.log; ls k/checkpoints k/particles; }
 echo "$fails failure(s)"
 test $fails -eq 0

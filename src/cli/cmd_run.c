@@ -206,11 +206,12 @@ static int write_frame_streamed(const kf_shot *shot, const char *out, kf_scene *
         fprintf(stderr, "kerf: frame %d: the ranks' particles did not add up to the whole state\n", frame);
         rc = 1;
     }
-    if (fo.ck_open && kf_checkpoint_end(&fo.ck, sc->state, err, sizeof err)) {
+    /* the checkpoint last: a frame whose checkpoint exists has its other files */
+    if (fo.ply_open && kf_ply_end(&fo.ply, err, sizeof err)) {
         fprintf(stderr, "kerf: %s\n", err);
         rc = 1;
     }
-    if (fo.ply_open && kf_ply_end(&fo.ply, err, sizeof err)) {
+    if (fo.ck_open && kf_checkpoint_end(&fo.ck, sc->state, err, sizeof err)) {
         fprintf(stderr, "kerf: %s\n", err);
         rc = 1;
     }
@@ -476,6 +477,19 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
     if (resume_from) {
         if (find_resume(shot, o.out, &sc, hash, resume_from, &frame) == 0) {
             if (!o.quiet) fprintf(stderr, "kerf: resuming after frame %d\n", frame);
+            /* a run killed between the frame's checkpoint and its particle file: that file again */
+            kf_frame_paths fp;
+            char err[4200];
+            if (root() && shot->output_particles && frame >= shot->first &&
+                kf_frame_paths_make(shot, o.out, frame, &fp) == 0 && !ply_complete(fp.particles)) {
+                fprintf(stderr, "kerf: frame %d: %s is missing or cut short; writing it again from %s\n", frame,
+                        fp.particles, fp.checkpoint);
+                if (kf_ensure_parent(fp.particles) ||
+                    kf_write_points_ply(fp.particles, sc.model, sc.state, err, sizeof err)) {
+                    fprintf(stderr, "kerf: %s\n", err);
+                    rc = KF_EXIT_FAIL;
+                }
+            }
             /* over several ranks: every rank read the whole state; each keeps its part */
             if (ranks() > 1 && kf_dist_attach(sc.model, sc.state)) {
                 fprintf(stderr, "kerf: out of memory splitting the state over %d ranks\n", ranks());
@@ -486,6 +500,7 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
             frame = shot->frame_start;
         }
     }
+    rc = kf_dist_bcast_int(rc);                                 /* rank 0's word on the rewritten particle file */
     const int resumed = frame != shot->frame_start ? frame : 0; /* the frame the simulation continued after */
     /* the frames a resume keeps are ready for the later stages now */
     if (!root()) o.frame_ready = NULL; /* the frame callbacks are rank 0's */

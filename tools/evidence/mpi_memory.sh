@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # mpi_memory.sh — peak resident size of each MPI rank, on 1, 2 and 4 ranks:
 # a jelly cube falling in a closed box (about 1.7M particles at dx 0.01),
-# two frames, once with every output off and once writing checkpoints and
+# one frame stepped, once with every output off and once writing checkpoints and
 # particle files. Prints a markdown table (MB, from /usr/bin/time's %M).
 #   usage: tools/evidence/mpi_memory.sh [kerf binary] [dx]
 # Open MPI (as root it is allowed; ranks oversubscribed). Each run's files
@@ -15,7 +15,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS
 cd "$work"
 cat > cube.yaml <<SHOT
 shot: cube
-frames: {start: 1001, end: 1003, fps: 24}
+frames: {start: 1001, end: 1002, fps: 24}
 sim: {dx: $dx, ppc: 8, cfl: 0.4}
 domain: {min: [0, 0, 0], max: [1, 1, 1], walls: separate}
 materials:
