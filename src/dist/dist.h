@@ -29,6 +29,12 @@
  * each holds the one-rank impulse and steps its own copy of the rigid
  * solver to the same state.
  *
+ * Memory. No rank holds the whole state: each seeds only its own range
+ * (seed.c; a resume reads the checkpoint whole, then keeps its part),
+ * migration rebuilds the part in place, and a frame's files reach rank 0
+ * a window of particles at a time (stream.c), only when the frame has a
+ * file to write.
+ *
  * Everything else that couples particles is a global reduction of an exact
  * operation (max, min, or), so the substep, the retries and the trouble
  * report agree on every rank. Nothing here runs on one rank: a state
