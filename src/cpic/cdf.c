@@ -45,6 +45,8 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->seed_bin);
     free(c->seed_order);
     free(c->aff);
+    free(c->rbox);
+    free(c->obox);
     free(c->bin_start);
     free(c->slot);
     free(c->imp);
@@ -163,10 +165,12 @@ typedef struct cdf_layer {
     float *d, *best;
     uint32_t *c, *stamp, *best_stamp, *mark;
     uint32_t epoch;
+    const kf_cpic *reads; /* the grid's: splat only the nodes particles may read (NULL: all) */
+    const kf_grid *g;
 } cdf_layer;
 
-static cdf_layer grid_layer(kf_cpic *c) {
-    return (cdf_layer){c->node_d, c->best, c->node_c, c->stamp, c->best_stamp, c->mark, c->epoch};
+static cdf_layer grid_layer(kf_cpic *c, const kf_grid *g) {
+    return (cdf_layer){c->node_d, c->best, c->node_c, c->stamp, c->best_stamp, c->mark, c->epoch, c, g};
 }
 
 /* a block's CDF cleared, and its per-body best reset, on first touch */
@@ -265,6 +269,107 @@ static int seed_box_of(const kf_cpic *c, const kf_grid *g, const double x[3], do
     return any;
 }
 
+/* The nodes particles read. A node's colour and distance matter only to a
+ * particle whose stencil holds it: P2G's colour and fit, the scatter, the
+ * gather and the guard all read the particle's own stencil, and an owner
+ * whose particles' stencils hold no node with affinity behaves as outside
+ * the band (their colours lapse alike; their transfers are the ordinary
+ * ones). So a seed splats only the nodes some stencil may read, and a seed
+ * whose box holds none is not splatted at all: every node that is read
+ * gets the same seeds in the same order, and so the same bits, while a
+ * blade above the material, or the part of one far from it, costs nothing.
+ * The boxes are per block, from the owners' particle positions. */
+static int read_boxes(const kf_model *m, kf_state *s) {
+    kf_cpic *c = s->cpic;
+    const kf_grid *g = &s->g;
+    const kf_particles *p = &s->p;
+    const size_t nb = g->nblocks, no = g->nowner;
+    if (nb > c->cap_rbox) {
+        size_t cap = nb + nb / 2 + 16;
+        if (grow((void **)&c->rbox, sizeof c->rbox[0], cap)) return -1;
+        c->cap_rbox = cap;
+    }
+    if (no > c->cap_obox) {
+        size_t cap = no + no / 2 + 16;
+        if (grow((void **)&c->obox, sizeof c->obox[0], cap)) return -1;
+        c->cap_obox = cap;
+    }
+    /* the stencil's base node, as the transfers find it, is monotone in the
+     * position: the owner's extreme particles give its extreme base nodes */
+    const kf_real inv_dx = kf_model_inv_dx(m);
+    const int cubic = m->sim.kernel == KF_KERNEL_CUBIC, kw = cubic ? 4 : 3;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) if (p->n >= 65536)
+    for (size_t k = 0; k < no; k++) {
+        int32_t *ob = c->obox[k];
+        if (g->pstart[k] == g->pstart[k + 1]) {
+            ob[0] = 1, ob[3] = 0;
+            continue;
+        }
+        for (int a = 0; a < 3; a++) {
+            const kf_real *x = p->x[a];
+            kf_real lo = x[g->pstart[k]], hi = lo;
+            for (size_t i = g->pstart[k] + 1; i < g->pstart[k + 1]; i++) {
+                lo = x[i] < lo ? x[i] : lo;
+                hi = x[i] > hi ? x[i] : hi;
+            }
+            ob[a] = kf_base_node(lo, inv_dx, cubic);
+            ob[3 + a] = kf_base_node(hi, inv_dx, cubic) + kw - 1;
+        }
+    }
+    for (size_t b = 0; b < nb; b++)
+        c->rbox[b][0] = c->rbox[b][1] = c->rbox[b][2] = 4, c->rbox[b][3] = c->rbox[b][4] = c->rbox[b][5] = -1;
+    for (size_t k = 0; k < no; k++) {
+        const int32_t *ob = c->obox[k];
+        if (ob[0] > ob[3]) continue;
+        for (int e = 0; e < 8; e++) {
+            int32_t blk = g->nb[k][e];
+            if (blk < 0) continue;
+            const int32_t *bc = &g->bcoord[3 * (size_t)blk];
+            int lo[3], hi[3], in = 1;
+            for (int a = 0; a < 3; a++) {
+                int first = KF_BLOCK * bc[a];
+                lo[a] = ob[a] > first ? ob[a] - first : 0;
+                hi[a] = ob[3 + a] < first + KF_BLOCK - 1 ? ob[3 + a] - first : KF_BLOCK - 1;
+                in &= lo[a] <= hi[a];
+            }
+            if (!in) continue;
+            int8_t *rb = c->rbox[blk];
+            for (int a = 0; a < 3; a++) {
+                if (lo[a] < rb[a]) rb[a] = (int8_t)lo[a];
+                if (hi[a] > rb[3 + a]) rb[3 + a] = (int8_t)hi[a];
+            }
+        }
+    }
+    return 0;
+}
+
+/* the part of nodes lo..hi (global) in block blk that particles may read; 0: none */
+static inline int clip_reads(const kf_cpic *c, const kf_grid *g, int32_t blk, int lo[3], int hi[3]) {
+    const int8_t *rb = c->rbox[blk];
+    const int32_t *bc = &g->bcoord[3 * (size_t)blk];
+    int in = 1;
+    for (int a = 0; a < 3; a++) {
+        int first = KF_BLOCK * bc[a];
+        if (first + rb[a] > lo[a]) lo[a] = first + rb[a];
+        if (first + rb[3 + a] < hi[a]) hi[a] = first + rb[3 + a];
+        in &= lo[a] <= hi[a];
+    }
+    return in;
+}
+
+/* does any node of the seed's box lie where particles read? */
+static int box_reads(const kf_cpic *c, const kf_grid *g, const seed_box *sb) {
+    for (int p = 0; p < 3; p++)
+        for (int q = 0; q < 3; q++)
+            for (int w = 0; w < 3; w++) {
+                int32_t blk = sb->blk[p][q][w];
+                if (blk < 0) continue;
+                int lo[3] = {sb->lo[0], sb->lo[1], sb->lo[2]}, hi[3] = {sb->hi[0], sb->hi[1], sb->hi[2]};
+                if (clip_reads(c, g, blk, lo, hi)) return 1;
+            }
+    return 0;
+}
+
 /* the bounding spheres of a body's seeds in runs of `len` (body frame) */
 static int spheres_of(const kf_rigid_body *b, size_t len, double (**out)[4]) {
     size_t nrun = (b->nseed + len - 1) / len;
@@ -315,18 +420,24 @@ static int run_far(const kf_cpic *c, const kf_grid *g, const double xc[3], doubl
     for (int a = 0; a < 3; a++)
         if (xc[a] + rad < slo[a] || xc[a] - rad > shi[a]) return 1;
     if (!c->bmap_on) return 0;
-    int b0[3], b1[3];
+    int n0[3], n1[3], b0[3], b1[3];
     size_t n = 1;
     for (int a = 0; a < 3; a++) {
-        b0[a] = kf_block_of((int)floor((xc[a] - rad) * inv_dx - reach) - 1);
-        b1[a] = kf_block_of((int)ceil((xc[a] + rad) * inv_dx + reach) + 1);
+        n0[a] = (int)floor((xc[a] - rad) * inv_dx - reach) - 1;
+        n1[a] = (int)ceil((xc[a] + rad) * inv_dx + reach) + 1;
+        b0[a] = kf_block_of(n0[a]);
+        b1[a] = kf_block_of(n1[a]);
         n *= (size_t)(b1[a] - b0[a] + 1);
     }
     if (n > 64) return 0;
+    /* a block counts only where particles may read its nodes (read_boxes) */
     for (int p = b0[0]; p <= b1[0]; p++)
         for (int q = b0[1]; q <= b1[1]; q++)
-            for (int w = b0[2]; w <= b1[2]; w++)
-                if (find_block(c, g, p, q, w) >= 0) return 0;
+            for (int w = b0[2]; w <= b1[2]; w++) {
+                int32_t blk = find_block(c, g, p, q, w);
+                int lo[3] = {n0[0], n0[1], n0[2]}, hi[3] = {n1[0], n1[1], n1[2]};
+                if (blk >= 0 && clip_reads(c, g, blk, lo, hi)) return 0;
+            }
     return 1;
 }
 
@@ -386,7 +497,6 @@ __attribute__((noinline)) static void splat_box(const cdf_layer *c, const kf_cpi
             for (int bw = 0; bw < nbk[2]; bw++) {
                 int32_t blk = sb->blk[bp][bq][bw];
                 if (blk < 0) continue;
-                touch_block(c, blk, r);
                 const int b3[3] = {bp, bq, bw};
                 int lo[3], hi[3];
                 for (int a = 0; a < 3; a++) {
@@ -394,6 +504,8 @@ __attribute__((noinline)) static void splat_box(const cdf_layer *c, const kf_cpi
                     lo[a] = sb->lo[a] > first ? sb->lo[a] : first;
                     hi[a] = sb->hi[a] < first + KF_BLOCK - 1 ? sb->hi[a] : first + KF_BLOCK - 1;
                 }
+                if (c->reads && !clip_reads(c->reads, c->g, blk, lo, hi)) continue;
+                touch_block(c, blk, r);
                 splat_nodes(c, t, tid, blk, lo, hi, abit, tbit, r, inv_dx, dx);
             }
 }
@@ -472,7 +584,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
             seed_world(st, o, x);
             for (int a = 0; a < 3; a++) out |= x[a] < slo[a] || x[a] > shi[a];
             seed_box sb;
-            if (out || !seed_box_of(c, g, x, inv_dx, reach, &sb)) continue;
+            if (out || !seed_box_of(c, g, x, inv_dx, reach, &sb) || !box_reads(c, g, &sb)) continue;
             int bin = sb.b0[0] - bin0;
             sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1; /* outside: no block there either */
         }
@@ -499,7 +611,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
      * edge: so a node sees its seeds in an order fixed by where it is, the
      * order the static bodies' store is made in) */
     const int32_t *order = c->seed_order;
-    const cdf_layer L = grid_layer(c);
+    const cdf_layer L = grid_layer(c, g);
 #pragma omp parallel num_threads(m->nthreads) if (bs[nbins] >= 1024)
     for (int round = 0; round < 3; round++) {
         const int first = ((round - bin0) % 3 + 3) % 3;
@@ -684,7 +796,7 @@ static int st_build(const kf_model *m, kf_state *s) {
             world_triangle(c, b, st, r, b->seed_tri[e]);
         }
         qsort(ord, n, sizeof *ord, st_seed_cmp);
-        const cdf_layer L = {S->d, S->best, S->c, S->stamp, S->best_stamp, S->mark, 1};
+        const cdf_layer L = {S->d, S->best, S->c, S->stamp, S->best_stamp, S->mark, 1, NULL, NULL};
         for (size_t k = 0; k < n; k++) {
             const double *x = &sx[3 * (size_t)ord[k].e];
             seed_box sb;
@@ -773,7 +885,7 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     if (s->dist) kf_dist_extent(s, glo, ghi);
     /* the static bodies from their store, then every other body */
     int from_store = st_apply(m, s);
-    if (from_store < 0 || bmap_fill(c, g)) return -1;
+    if (from_store < 0 || bmap_fill(c, g) || read_boxes(m, s)) return -1;
     uint32_t tri_base = 1; /* triangle ids for the splat's visit marks, unique across bodies */
     for (int r = 0; r < m->nrigid; r++) {
         if (!(from_store && is_static(m, r)) && splat_body(m, s, r, tri_base, glo, ghi)) {

@@ -85,6 +85,13 @@ typedef struct kf_cpic {
     double (*sub_sphere[KF_MAX_RIGIDS])[4];
     const float *run_seed[KF_MAX_RIGIDS]; /* the seeds they were made for */
     size_t run_nseed[KF_MAX_RIGIDS];
+    /* per block, the box of its nodes some particle's stencil may read this
+     * substep (local node indices lo[3], hi[3]; lo > hi: none), and per
+     * owner the node box its particles' stencils span: a seed whose box
+     * reaches no such node is not splatted (cdf.c) */
+    int8_t (*rbox)[6];
+    int32_t (*obox)[6];
+    size_t cap_rbox, cap_obox;
     uint8_t *aff; /* per block: some node has affinity this substep */
     size_t cap_aff;
     /* owner blocks in the narrow band and their impulse accumulators */
