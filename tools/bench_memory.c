@@ -15,13 +15,12 @@
  * same call) with its error against the peak. --scale multiplies Δx (and
  * divides the cube's cells) for a quick look. */
 #include "bench_memory.h"
+#include "bench_child.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <kerf/kerf.h>
@@ -36,12 +35,6 @@ typedef struct mem_result {
     double particles, seed_peak_mb, run_peak_mb, estimate_mb, program_mb;
     long substeps;
 } mem_result;
-
-static double peak_mb(void) {
-    struct rusage ru;
-    getrusage(RUSAGE_SELF, &ru);
-    return ru.ru_maxrss / 1024.0;
-}
 
 /* resident bytes now (/proc/self/statm), as kerf info measures kerf itself */
 static double resident_bytes(void) {
@@ -78,7 +71,7 @@ static void run_scene(int which, const bench_memory_opts *o, mem_result *r) {
             return;
         }
     }
-    r->seed_peak_mb = peak_mb();
+    r->seed_peak_mb = bench_peak_mb();
     kf_model *m = sc.model;
     kf_state *s = sc.state;
     size_t n = kf_state_count(s), bad;
@@ -97,38 +90,28 @@ static void run_scene(int which, const bench_memory_opts *o, mem_result *r) {
     if (kf_advance(m, s, o->substeps * dt, &st, msg, sizeof msg)) snprintf(r->msg, sizeof r->msg, "%.150s", msg);
     else r->ok = 1;
     r->substeps = st.substeps;
-    r->run_peak_mb = peak_mb();
+    r->run_peak_mb = bench_peak_mb();
     kf_scene_free(&sc);
     kf_shot_free(shot);
     kf_diag_free(&diag);
 }
 
+/* in a child process of its own (bench_child.h): its peak is its own */
+typedef struct mem_job {
+    int which;
+    const bench_memory_opts *o;
+} mem_job;
+
+static void mem_child(const void *ctx, void *result) {
+    const mem_job *j = ctx;
+    run_scene(j->which, j->o, result);
+}
+
 static void run_child(int which, const bench_memory_opts *o, mem_result *r) {
-    memset(r, 0, sizeof *r);
-    int fd[2];
-    if (pipe(fd)) {
-        snprintf(r->msg, sizeof r->msg, "pipe failed");
-        return;
-    }
-    fflush(NULL);
-    pid_t pid = fork();
-    if (pid == 0) {
-        close(fd[0]);
-        mem_result cr;
-        memset(&cr, 0, sizeof cr);
-        run_scene(which, o, &cr);
-        ssize_t w = write(fd[1], &cr, sizeof cr);
-        _exit(w == (ssize_t)sizeof cr ? 0 : 1);
-    }
-    close(fd[1]);
-    ssize_t got = pid > 0 ? read(fd[0], r, sizeof *r) : -1;
-    close(fd[0]);
-    int status = 0;
-    if (pid > 0) waitpid(pid, &status, 0);
-    if (got != (ssize_t)sizeof *r) {
-        memset(r, 0, sizeof *r);
-        snprintf(r->msg, sizeof r->msg, "the run died (status %d)", status);
-    }
+    const mem_job j = {which, o};
+    int status;
+    if (bench_in_child(mem_child, &j, r, sizeof *r, &status))
+        snprintf(r->msg, sizeof r->msg, status == -1 ? "pipe failed" : "the run died (status %d)", status);
 }
 
 int bench_memory(const bench_memory_opts *o) {

@@ -21,6 +21,7 @@
  * per-core comparison: core-seconds per frame per million particles for kerf
  * (wall × threads) and for the paper (wall × 4). */
 #include "bench_scenes.h"
+#include "bench_child.h"
 
 #include <math.h>
 #include <omp.h>
@@ -28,8 +29,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -164,36 +163,25 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
     kf_diag_free(&diag);
 }
 
-/* a scene in a child process: its peak RSS is its own */
+/* a scene in a child process of its own (bench_child.h): its peak RSS is its own */
+typedef struct scene_job {
+    const char *shot_dir;
+    const paper_scene *ps;
+    const bench_scenes_opts *o;
+} scene_job;
+
+static void scene_child(const void *ctx, void *result) {
+    const scene_job *j = ctx;
+    scene_result *r = result;
+    run_scene(j->shot_dir, j->ps, j->o, r);
+    r->peak_mb = bench_peak_mb();
+}
+
 static void run_child(const char *shot_dir, const paper_scene *ps, const bench_scenes_opts *o, scene_result *r) {
-    memset(r, 0, sizeof *r);
-    int fd[2];
-    if (pipe(fd)) {
-        snprintf(r->msg, sizeof r->msg, "pipe failed");
-        return;
-    }
-    fflush(NULL);
-    pid_t pid = fork();
-    if (pid == 0) {
-        close(fd[0]);
-        scene_result cr;
-        memset(&cr, 0, sizeof cr);
-        run_scene(shot_dir, ps, o, &cr);
-        struct rusage ru;
-        getrusage(RUSAGE_SELF, &ru);
-        cr.peak_mb = ru.ru_maxrss / 1024.0;
-        ssize_t w = write(fd[1], &cr, sizeof cr);
-        _exit(w == (ssize_t)sizeof cr ? 0 : 1);
-    }
-    close(fd[1]);
-    ssize_t got = pid > 0 ? read(fd[0], r, sizeof *r) : -1;
-    close(fd[0]);
-    int status = 0;
-    if (pid > 0) waitpid(pid, &status, 0);
-    if (got != (ssize_t)sizeof *r) {
-        memset(r, 0, sizeof *r);
-        snprintf(r->msg, sizeof r->msg, "the run died (status %d)", status);
-    }
+    const scene_job j = {shot_dir, ps, o};
+    int status;
+    if (bench_in_child(scene_child, &j, r, sizeof *r, &status))
+        snprintf(r->msg, sizeof r->msg, status == -1 ? "pipe failed" : "the run died (status %d)", status);
 }
 
 static int wanted(const char *list, const char *name) {
