@@ -29,6 +29,9 @@ void kf_contact_free(kf_contact *c) {
     free(c->pc_cls);
     free(c->pc_rep);
     free(c->pc_cnt);
+    free(c->pc_occ);
+    free(c->pc_seen);
+    free(c->pc_next);
     free(c);
 }
 

@@ -77,6 +77,9 @@ typedef struct kf_contact {
     /* pieces (contact_pieces.c): scratch, and how many substeps split a field */
     uint32_t *pc_node, *pc_parent, *pc_list, *pc_start, *pc_nrep, *pc_keep, *pc_used, *pc_cls, *pc_rep, *pc_cnt;
     size_t pc_node_cap, pc_parent_cap, pc_list_cap, pc_start_cap, pc_nrep_cap, pc_cls_cap, pc_rep_cap, pc_cnt_cap;
+    uint64_t *pc_occ, *pc_seen; /* per block: the nodes particles are nearest to, and those reached */
+    int32_t (*pc_next)[6];      /* per block: its face neighbours -x +x -y +y -z +z (-1: none) */
+    size_t pc_occ_cap;
     long pieces_made;
 } kf_contact;
 

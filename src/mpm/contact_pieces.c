@@ -52,6 +52,84 @@ static int reserve(void **p, size_t *cap, size_t n, size_t size) {
     return 0;
 }
 
+/* The common case, decided without the per-particle union-find: no particle
+ * has affinity to a body (no blade in the material: every two particles are
+ * compatible) and all share one field. Then the parts are the connected sets
+ * of the nodes particles are nearest to (two particles at one node, or at
+ * nodes next to each other along an axis, are linked), so one flood over
+ * each block's 64-bit mask of such nodes tells whether the field is whole.
+ * Returns 1 when it is (the full pass would find one part and change
+ * nothing), 0 when the full pass must decide, -1 out of memory. */
+static int whole_at_once(const kf_state *s, kf_contact *c, const uint32_t *node_of) {
+    const kf_particles *p = &s->p;
+    const kf_grid *g = &s->g;
+    const size_t n = p->n, nb = g->nblocks;
+    uint32_t aff = 0;
+    int one = 1;
+    const uint16_t f0 = kf_contact_field(p, 0);
+    for (size_t i = 0; i < n; i++) {
+        aff |= p->colour[i];
+        one &= kf_contact_field(p, i) == f0;
+    }
+    if ((aff & 0xAAAAAAAu) || !one) return 0;
+    if (nb > c->pc_occ_cap) {
+        size_t cap = nb + nb / 4 + 64;
+        uint64_t *o = realloc(c->pc_occ, cap * sizeof *o), *r = o ? realloc(c->pc_seen, cap * sizeof *r) : NULL;
+        if (o) c->pc_occ = o;
+        if (r) c->pc_seen = r;
+        int32_t(*x)[6] = r ? realloc(c->pc_next, cap * sizeof *x) : NULL;
+        if (!x) return -1;
+        c->pc_next = x;
+        c->pc_occ_cap = cap;
+    }
+    uint64_t *occ = c->pc_occ, *seen = c->pc_seen;
+    int32_t(*next)[6] = c->pc_next;
+    memset(occ, 0, nb * sizeof *occ);
+    memset(seen, 0, nb * sizeof *seen);
+    for (size_t i = 0; i < n; i++) occ[node_of[i] / KF_BLOCK_NODES] |= 1ull << (node_of[i] % KF_BLOCK_NODES);
+    for (size_t b = 0; b < nb; b++) {
+        const int32_t *bc = &g->bcoord[3 * b];
+        for (int e = 0; e < 6; e++) {
+            int a = e / 2, d = e % 2 ? 1 : -1;
+            next[b][e] =
+                occ[b] ? kf_grid_find(g, bc[0] + d * (a == 0), bc[1] + d * (a == 1), bc[2] + d * (a == 2)) : -1;
+        }
+    }
+    /* a node's bit is x << 4 | y << 2 | z; the faces of a block: X0 (x = 0) .. Z3 (z = 3) */
+    const uint64_t X0 = 0xFFFFull, X3 = X0 << 48, Y0 = 0x000F000F000F000Full, Y3 = Y0 << 12, Z0 = 0x1111111111111111ull,
+                   Z3 = Z0 << 3;
+    size_t b0 = node_of[0] / KF_BLOCK_NODES;
+    seen[b0] = 1ull << (node_of[0] % KF_BLOCK_NODES);
+    /* sweeps up and down the blocks until nothing more is reached */
+    for (int changed = 1, pass = 0; changed; pass++) {
+        changed = 0;
+        for (size_t q = 0; q < nb; q++) {
+            size_t b = pass % 2 ? nb - 1 - q : q;
+            if (!occ[b]) continue;
+            uint64_t r = seen[b];
+            const int32_t *x = next[b];
+            if (x[0] >= 0) r |= (seen[x[0]] & X3) >> 48;
+            if (x[1] >= 0) r |= (seen[x[1]] & X0) << 48;
+            if (x[2] >= 0) r |= (seen[x[2]] & Y3) >> 12;
+            if (x[3] >= 0) r |= (seen[x[3]] & Y0) << 12;
+            if (x[4] >= 0) r |= (seen[x[4]] & Z3) >> 3;
+            if (x[5] >= 0) r |= (seen[x[5]] & Z0) << 3;
+            r &= occ[b];
+            if (!r) continue;
+            for (uint64_t was = 0; was != r;) {
+                was = r;
+                r |= ((r & ~X3) << 16) | ((r & ~X0) >> 16) | ((r & ~Y3) << 4) | ((r & ~Y0) >> 4) | ((r & ~Z3) << 1) |
+                     ((r & ~Z0) >> 1);
+                r &= occ[b];
+            }
+            if (r != seen[b]) seen[b] = r, changed = 1;
+        }
+    }
+    for (size_t b = 0; b < nb; b++)
+        if (seen[b] != occ[b]) return 0;
+    return 1;
+}
+
 int kf_contact_pieces(const kf_model *m, kf_state *s) {
     kf_contact *c = s->contact;
     kf_particles *p = &s->p;
@@ -85,6 +163,10 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
             int blk = g->nb[k][(l[0] >> 2) << 2 | (l[1] >> 2) << 1 | (l[2] >> 2)];
             node_of[i] = (uint32_t)blk * KF_BLOCK_NODES + (uint32_t)((l[0] & 3) << 4 | (l[1] & 3) << 2 | (l[2] & 3));
         }
+    }
+    {
+        int whole = whole_at_once(s, c, node_of);
+        if (whole) return whole < 0 ? -1 : 0;
     }
     memset(start, 0, sizeof(uint32_t) * (nodes + 1));
     for (size_t i = 0; i < n; i++) start[node_of[i] + 1]++;
