@@ -926,9 +926,13 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
             return -1;
         c->cap_slot = cap;
     }
-    memset(c->imp, 0, c->nslot * sizeof c->imp[0]);
-    memset(c->guard_caught, 0, c->nslot * sizeof(long));
-    memset(c->guard_depth, 0, c->nslot * sizeof(double));
+    /* with no owner in the band the arrays may never have been allocated,
+     * and memset of a null pointer is undefined even for 0 bytes */
+    if (c->nslot) {
+        memset(c->imp, 0, c->nslot * sizeof c->imp[0]);
+        memset(c->guard_caught, 0, c->nslot * sizeof(long));
+        memset(c->guard_depth, 0, c->nslot * sizeof(double));
+    }
     /* particles outside the band touch no coloured node: their colour lapses
      * (§5.3.3), all but the scar (cpic.h: the side of the last blade) */
     kf_particles *p = &s->p;
