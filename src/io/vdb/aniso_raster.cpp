@@ -4,6 +4,7 @@
 
 #include "band_distance.h"
 #include "centre_smooth.h"
+#include "cell_neighbours.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -112,11 +113,6 @@ kernel make_kernel(const double c[3], const double a[3], const double V[3][3]) {
     return k;
 }
 
-inline uint64_t cell_key(int64_t i, int64_t j, int64_t k) {
-    const int64_t o = int64_t(1) << 20;
-    return (uint64_t(i + o) & 0x1fffff) | (uint64_t(j + o) & 0x1fffff) << 21 | (uint64_t(k + o) & 0x1fffff) << 42;
-}
-
 // Every particle's kernel (index space, voxel vx). Deep particles (deeper
 // than their ball reaches) get a ball of 2/3 the neighbourhood unexamined
 // (the spheres' radius: no gaps inside, on a lattice or after it deforms); the others a disc from the weighted
@@ -143,53 +139,14 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
             K[i] = make_kernel(c, ax, I3);
         }
     });
-    std::vector<uint64_t> key(n);
-    std::vector<size_t> order(n);
-    for (size_t i = 0; i < n; i++) {
-        key[i] = cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
-                          int64_t(std::floor(pos(i, 2) * invR)));
-        order[i] = i;
-    }
-    std::sort(order.begin(), order.end(),
-              [&](size_t p, size_t q) { return key[p] != key[q] ? key[p] < key[q] : p < q; });
-    std::unordered_map<uint64_t, std::pair<size_t, size_t>> cells;
-    std::vector<std::pair<size_t, size_t>> ranges;
-    cells.reserve(n / 4 + 16);
-    for (size_t s0 = 0; s0 < n;) {
-        size_t e = s0;
-        while (e < n && key[order[e]] == key[order[s0]]) e++;
-        cells.emplace(key[order[s0]], std::make_pair(s0, e));
-        ranges.emplace_back(s0, e);
-        s0 = e;
-    }
     const float fR2 = float(R2), finvR = float(invR);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, ranges.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
-        std::vector<float> bx, by, bz;
-        for (size_t cc = rg.begin(); cc != rg.end(); cc++) {
-            bool any = false; // a cell of deep particles only: nothing to do
-            for (size_t s1 = ranges[cc].first; s1 < ranges[cc].second && !any; s1++) any = !deep[order[s1]];
-            if (!any) continue;
-            // the 27 cells around, relative to the cell's corner (floats keep their precision there)
-            const size_t first = order[ranges[cc].first];
-            const int64_t ci[3] = {int64_t(std::floor(pos(first, 0) * invR)), int64_t(std::floor(pos(first, 1) * invR)),
-                                   int64_t(std::floor(pos(first, 2) * invR))};
-            const double o[3] = {double(ci[0]) * R, double(ci[1]) * R, double(ci[2]) * R};
-            bx.clear(), by.clear(), bz.clear();
-            for (int dz = -1; dz <= 1; dz++)
-                for (int dy = -1; dy <= 1; dy++)
-                    for (int dxc = -1; dxc <= 1; dxc++) {
-                        auto it = cells.find(cell_key(ci[0] + dxc, ci[1] + dy, ci[2] + dz));
-                        if (it == cells.end()) continue;
-                        for (size_t s1 = it->second.first; s1 < it->second.second; s1++) {
-                            const size_t j = order[s1];
-                            bx.push_back(float(pos(j, 0) - o[0]));
-                            by.push_back(float(pos(j, 1) - o[1]));
-                            bz.push_back(float(pos(j, 2) - o[2]));
-                        }
-                    }
+    for_each_cell_neighbourhood(
+        n, R, pos, deep,
+        [&](const size_t *first, const size_t *last, const double *o, const std::vector<float> &bx,
+            const std::vector<float> &by, const std::vector<float> &bz) {
             const size_t nb = bx.size();
-            for (size_t s1 = ranges[cc].first; s1 < ranges[cc].second; s1++) {
-                const size_t i = order[s1];
+            for (const size_t *q = first; q != last; q++) {
+                const size_t i = *q;
                 if (deep[i]) continue;
                 const float x = float(pos(i, 0) - o[0]), y = float(pos(i, 1) - o[1]), z = float(pos(i, 2) - o[2]);
                 // the weighted mean of the neighbours (relative to the particle),
@@ -229,8 +186,7 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
                 ax[2] = t;
                 K[i] = make_kernel(c, ax, V);
             }
-        }
-    });
+        });
     return K;
 }
 

@@ -1,5 +1,6 @@
 // centre_smooth.cpp — see centre_smooth.h.
 #include "centre_smooth.h"
+#include "cell_neighbours.h"
 
 #include "buried_particles.h"
 #include "dense_band.h"
@@ -13,16 +14,6 @@
 #include <unordered_map>
 
 namespace kf_vdb {
-
-namespace {
-
-// a cell key from integer cell coordinates (21 bits each, offset to stay positive)
-inline uint64_t cell_key(int64_t i, int64_t j, int64_t k) {
-    const int64_t o = int64_t(1) << 20;
-    return (uint64_t(i + o) & 0x1fffff) | (uint64_t(j + o) & 0x1fffff) << 21 | (uint64_t(k + o) & 0x1fffff) << 42;
-}
-
-} // namespace
 
 // Particles deeper than `depth` below every face, by occupancy: cells of
 // edge c = 2 spacings each hold a particle of a jittered lattice (every
@@ -83,63 +74,16 @@ std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, d
         for (int a = 0; a < 3; a++) out[3 * i + a] = float(pos(i, a));
     }
     if (n_skipped) *n_skipped = skipped;
-    // particles sorted into cells of edge R (ties by index: deterministic)
-    const double invR = 1 / R, R2 = R * R;
-    std::vector<uint64_t> key(n);
-    std::vector<size_t> order(n);
-    for (size_t i = 0; i < n; i++) {
-        key[i] = cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
-                          int64_t(std::floor(pos(i, 2) * invR)));
-        order[i] = i;
-    }
-    std::sort(order.begin(), order.end(),
-              [&](size_t a, size_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
-    std::unordered_map<uint64_t, std::pair<size_t, size_t>> cells;
-    cells.reserve(n / 4 + 16);
-    for (size_t s0 = 0; s0 < n;) {
-        size_t e = s0;
-        while (e < n && key[order[e]] == key[order[s0]]) e++;
-        cells.emplace(key[order[s0]], std::make_pair(s0, e));
-        s0 = e;
-    }
-    // cell by cell (in parallel): the 27 cells around it gathered once into
-    // a local buffer, relative to the cell's corner (floats keep their
-    // precision there), then each of the cell's centres against the buffer
-    std::vector<std::pair<size_t, size_t>> ranges;
-    ranges.reserve(cells.size());
-    for (size_t s0 = 0; s0 < n;) {
-        size_t e = s0;
-        while (e < n && key[order[e]] == key[order[s0]]) e++;
-        ranges.emplace_back(s0, e);
-        s0 = e;
-    }
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, ranges.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
-        std::vector<float> bx, by, bz;
-        for (size_t c = rg.begin(); c != rg.end(); c++) {
-            bool any = false; // a cell of deep particles only: nothing to do
-            for (size_t s1 = ranges[c].first; s1 < ranges[c].second && !any; s1++) any = !deep[order[s1]];
-            if (!any) continue;
-            const size_t first = order[ranges[c].first];
-            const int64_t ci[3] = {int64_t(std::floor(pos(first, 0) * invR)), int64_t(std::floor(pos(first, 1) * invR)),
-                                   int64_t(std::floor(pos(first, 2) * invR))};
-            const double o[3] = {double(ci[0]) * R, double(ci[1]) * R, double(ci[2]) * R};
-            bx.clear(), by.clear(), bz.clear();
-            for (int dz = -1; dz <= 1; dz++)
-                for (int dy = -1; dy <= 1; dy++)
-                    for (int dxc = -1; dxc <= 1; dxc++) {
-                        auto it = cells.find(cell_key(ci[0] + dxc, ci[1] + dy, ci[2] + dz));
-                        if (it == cells.end()) continue;
-                        for (size_t s1 = it->second.first; s1 < it->second.second; s1++) {
-                            size_t j = order[s1];
-                            bx.push_back(float(pos(j, 0) - o[0]));
-                            by.push_back(float(pos(j, 1) - o[1]));
-                            bz.push_back(float(pos(j, 2) - o[2]));
-                        }
-                    }
+    // cell by cell (cells of edge R): each of the cell's centres against the
+    // neighbourhood gathered once
+    const float fR2 = float(R * R), finvR = float(1 / R);
+    for_each_cell_neighbourhood(
+        n, R, pos, deep,
+        [&](const size_t *first, const size_t *last, const double *o, const std::vector<float> &bx,
+            const std::vector<float> &by, const std::vector<float> &bz) {
             const size_t nb = bx.size();
-            const float fR2 = float(R2), finvR = float(invR);
-            for (size_t s1 = ranges[c].first; s1 < ranges[c].second; s1++) {
-                const size_t i = order[s1];
+            for (const size_t *q = first; q != last; q++) {
+                const size_t i = *q;
                 if (deep[i]) continue;
                 const float x = float(pos(i, 0) - o[0]), y = float(pos(i, 1) - o[1]), z = float(pos(i, 2) - o[2]);
                 float ws = 0, mx = 0, my = 0, mz = 0;
@@ -154,8 +98,7 @@ std::vector<float> smooth_centres(size_t n, const double *xd, const float *xf, d
                 out[3 * i + 1] = float(pos(i, 1) + double(f * my));
                 out[3 * i + 2] = float(pos(i, 2) + double(f * mz));
             }
-        }
-    });
+        });
     return out;
 }
 

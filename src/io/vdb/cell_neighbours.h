@@ -1,0 +1,92 @@
+// cell_neighbours.h — particles binned into cells of edge R, and each cell's
+// 27-cell neighbourhood gathered once (internal to the bridge; C++ only).
+//
+// Why: the centre smoothing and the anisotropic kernels both need, for every
+// particle near a face, its neighbours within R. Gathering the 27 cells
+// around a cell into one local buffer, relative to the cell's corner (floats
+// keep their precision there), lets every particle of the cell loop over a
+// flat array that vectorises. Cells are visited in parallel; what a visit
+// computes depends only on the input, so results are the same for any
+// thread count.
+#ifndef KF_VDB_CELL_NEIGHBOURS_H
+#define KF_VDB_CELL_NEIGHBOURS_H
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace kf_vdb {
+
+inline uint64_t cell_key(int64_t i, int64_t j, int64_t k) {
+    const int64_t o = int64_t(1) << 20;
+    return (uint64_t(i + o) & 0x1fffff) | (uint64_t(j + o) & 0x1fffff) << 21 | (uint64_t(k + o) & 0x1fffff) << 42;
+}
+
+// For each cell that holds a particle not flagged deep, calls
+//   visit(first, last, o, bx, by, bz)
+// where [first, last) are the cell's particle indices (ascending), o is the
+// cell's corner and bx/by/bz the neighbourhood's positions less o, in a fixed
+// order (cells z, y, x from -1 to 1; particles by index within a cell).
+// pos(i, axis) gives particle i's coordinate as a double.
+template <class Pos, class Visit>
+void for_each_cell_neighbourhood(size_t n, double R, const Pos &pos, const std::vector<uint8_t> &deep,
+                                 const Visit &visit) {
+    const double invR = 1 / R;
+    // particles sorted into cells (ties by index: deterministic)
+    std::vector<uint64_t> key(n);
+    std::vector<size_t> order(n);
+    for (size_t i = 0; i < n; i++) {
+        key[i] = cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
+                          int64_t(std::floor(pos(i, 2) * invR)));
+        order[i] = i;
+    }
+    std::sort(order.begin(), order.end(),
+              [&](size_t a, size_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
+    std::unordered_map<uint64_t, std::pair<size_t, size_t>> cells;
+    std::vector<std::pair<size_t, size_t>> ranges;
+    cells.reserve(n / 4 + 16);
+    for (size_t s0 = 0; s0 < n;) {
+        size_t e = s0;
+        while (e < n && key[order[e]] == key[order[s0]]) e++;
+        cells.emplace(key[order[s0]], std::make_pair(s0, e));
+        ranges.emplace_back(s0, e);
+        s0 = e;
+    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, ranges.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
+        std::vector<float> bx, by, bz;
+        for (size_t c = rg.begin(); c != rg.end(); c++) {
+            bool any = false; // a cell of deep particles only: nothing to do
+            for (size_t s1 = ranges[c].first; s1 < ranges[c].second && !any; s1++) any = !deep[order[s1]];
+            if (!any) continue;
+            const size_t first = order[ranges[c].first];
+            const int64_t ci[3] = {int64_t(std::floor(pos(first, 0) * invR)), int64_t(std::floor(pos(first, 1) * invR)),
+                                   int64_t(std::floor(pos(first, 2) * invR))};
+            const double o[3] = {double(ci[0]) * R, double(ci[1]) * R, double(ci[2]) * R};
+            bx.clear(), by.clear(), bz.clear();
+            for (int dz = -1; dz <= 1; dz++)
+                for (int dy = -1; dy <= 1; dy++)
+                    for (int dxc = -1; dxc <= 1; dxc++) {
+                        auto it = cells.find(cell_key(ci[0] + dxc, ci[1] + dy, ci[2] + dz));
+                        if (it == cells.end()) continue;
+                        for (size_t s1 = it->second.first; s1 < it->second.second; s1++) {
+                            const size_t j = order[s1];
+                            bx.push_back(float(pos(j, 0) - o[0]));
+                            by.push_back(float(pos(j, 1) - o[1]));
+                            bz.push_back(float(pos(j, 2) - o[2]));
+                        }
+                    }
+            visit(order.data() + ranges[c].first, order.data() + ranges[c].second, o, bx, by, bz);
+        }
+    });
+}
+
+} // namespace kf_vdb
+
+#endif
