@@ -130,33 +130,54 @@ static inline __m512 row_lanes(const kf_real *v, int KW) {
 static inline __m512 row_v4(kf_v4 a) { return _mm512_broadcast_f32x4((__m128)a); }
 #endif
 
+#ifdef KF_ROWS512
+/* one particle's MLS scatter terms, shared by the one-particle and the
+ * run-in-registers paths so that both round alike: stencil row (a, b) gets
+ * (w_a w_b WK) (h_ab + DQ2) in its z-lanes, h_ab = base + d_a q0 + d_b q1 */
+typedef struct {
+    kf_v4 base, q0, q1;
+    __m512 WK, DQ2;
+} rows512;
+
+KF_INLINE rows512 rows512_of(int KW, const chunk *ck, int j) {
+    rows512 r;
+    r.base = (kf_v4){ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
+    r.q0 = (kf_v4){ck->q[0][j], ck->q[3][j], ck->q[6][j], 0};
+    r.q1 = (kf_v4){ck->q[1][j], ck->q[4][j], ck->q[7][j], 0};
+    const __m512 Q2 = row_v4((kf_v4){ck->q[2][j], ck->q[5][j], ck->q[8][j], 0});
+    kf_real w2[4], d2[4];
+    for (int c = 0; c < 4; c++) w2[c] = c < KW ? ck->w[2][c][j] : 0, d2[c] = c < KW ? ck->d[2][c][j] : 0;
+    /* d_c q2 once per particle, then added, rounded apart as the portable
+     * path compiles (the explicit rounding keeps the compiler from
+     * contracting the pair into one multiply-add) */
+    r.WK = row_lanes(w2, KW);
+    r.DQ2 = _mm512_mul_round_ps(row_lanes(d2, KW), Q2, KF_RN);
+    return r;
+}
+
+/* acc + row (a, b)'s terms; ha = base + d_a q0 */
+KF_INLINE __m512 rows512_add(const rows512 *r, const chunk *ck, int j, int a, int b, kf_v4 ha, __m512 acc) {
+    const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
+    const kf_v4 hab = ha + ck->d[1][b][j] * r->q1;
+    const __m512 t = _mm512_add_round_ps(row_v4(hab), r->DQ2, KF_RN);
+    const __m512 w = _mm512_mul_ps(_mm512_set1_ps(wab), r->WK);
+    return _mm512_fmadd_ps(w, t, acc);
+}
+#endif
+
 /* one particle's P2G contribution to the owner's node cache (edge CD_MAX) */
 KF_INLINE void scatter_one(int KW, int CLASSIC, const chunk *ck, int j, kf_v4 *cache) {
     const int CD = CD_MAX;
 #ifdef KF_ROWS512
     if (!CLASSIC) {
         const __mmask16 mk = KW == 4 ? 0xFFFF : 0x0FFF;
-        const kf_v4 base = {ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
-        const kf_v4 q0 = {ck->q[0][j], ck->q[3][j], ck->q[6][j], 0};
-        const kf_v4 q1 = {ck->q[1][j], ck->q[4][j], ck->q[7][j], 0};
-        const __m512 Q2 = row_v4((kf_v4){ck->q[2][j], ck->q[5][j], ck->q[8][j], 0});
-        kf_real w2[4], d2[4];
-        for (int c = 0; c < 4; c++) w2[c] = c < KW ? ck->w[2][c][j] : 0, d2[c] = c < KW ? ck->d[2][c][j] : 0;
-        /* d_c q2 once per particle, then added, rounded apart as the
-         * portable path compiles (the explicit rounding keeps the compiler
-         * from contracting the pair into one multiply-add) */
-        const __m512 WK = row_lanes(w2, KW), DQ2 = _mm512_mul_round_ps(row_lanes(d2, KW), Q2, KF_RN);
+        const rows512 r = rows512_of(KW, ck, j);
         float *origin = (float *)&cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
         for (int a = 0; a < KW; a++) {
-            const kf_v4 ha = base + ck->d[0][a][j] * q0;
+            const kf_v4 ha = r.base + ck->d[0][a][j] * r.q0;
             for (int b = 0; b < KW; b++) {
-                const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
-                const kf_v4 hab = ha + ck->d[1][b][j] * q1;
                 float *row = origin + 4 * (a * CD + b) * CD;
-                /* (w_a w_b w_c) (h_ab + d_c q2) added to node c */
-                const __m512 t = _mm512_add_round_ps(row_v4(hab), DQ2, KF_RN);
-                const __m512 w = _mm512_mul_ps(_mm512_set1_ps(wab), WK);
-                _mm512_mask_storeu_ps(row, mk, _mm512_fmadd_ps(w, t, _mm512_maskz_loadu_ps(mk, row)));
+                _mm512_mask_storeu_ps(row, mk, rows512_add(&r, ck, j, a, b, ha, _mm512_maskz_loadu_ps(mk, row)));
             }
         }
         return;
@@ -224,23 +245,11 @@ KF_INLINE void scatter_chunk(int KW, int CLASSIC, const chunk *ck, kf_v4 *cache)
                     for (int b = 0; b < KW; b++)
                         acc[a * KW + b] = _mm512_maskz_loadu_ps(mk, origin + 4 * (a * CD + b) * CD);
             }
-            const kf_v4 base = {ck->mv[0][j], ck->mv[1][j], ck->mv[2][j], ck->mv[3][j]};
-            const kf_v4 q0 = {ck->q[0][j], ck->q[3][j], ck->q[6][j], 0};
-            const kf_v4 q1 = {ck->q[1][j], ck->q[4][j], ck->q[7][j], 0};
-            const __m512 Q2 = row_v4((kf_v4){ck->q[2][j], ck->q[5][j], ck->q[8][j], 0});
-            kf_real w2[4], d2[4];
-            for (int c = 0; c < 4; c++) w2[c] = c < KW ? ck->w[2][c][j] : 0, d2[c] = c < KW ? ck->d[2][c][j] : 0;
             /* as scatter_one, rounding for rounding */
-            const __m512 WK = row_lanes(w2, KW), DQ2 = _mm512_mul_round_ps(row_lanes(d2, KW), Q2, KF_RN);
+            const rows512 r = rows512_of(KW, ck, j);
             for (int a = 0; a < KW; a++) {
-                const kf_v4 ha = base + ck->d[0][a][j] * q0;
-                for (int b = 0; b < KW; b++) {
-                    const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j];
-                    const kf_v4 hab = ha + ck->d[1][b][j] * q1;
-                    const __m512 t = _mm512_add_round_ps(row_v4(hab), DQ2, KF_RN);
-                    const __m512 w = _mm512_mul_ps(_mm512_set1_ps(wab), WK);
-                    acc[a * KW + b] = _mm512_fmadd_ps(w, t, acc[a * KW + b]);
-                }
+                const kf_v4 ha = r.base + ck->d[0][a][j] * r.q0;
+                for (int b = 0; b < KW; b++) acc[a * KW + b] = rows512_add(&r, ck, j, a, b, ha, acc[a * KW + b]);
             }
         }
         if (origin)
