@@ -5,11 +5,14 @@
  *   none    a jello slab, no rigid body;
  *   far     the same with a thin blade far from the material (pays the splat only);
  *   cutting the blade moving down through the slab (the narrow band pays CPIC).
- * Prints ms per stage per substep (median of --runs), particle-steps/s and the
+ * Prints ms per stage per substep (median of --runs, the modes interleaved),
+ * process CPU ms per substep, particle-steps/s and the
  * overhead against `none`.
  *
- *   kerf_bench_cpic [--cells N] [--steps N] [--runs N] [--json]
- * N cells across the slab's width (default 128: ~1M particles).
+ *   kerf_bench_cpic [--cells N] [--steps N] [--runs N] [--json] [--mode none|far|cutting] [--hash]
+ * N cells across the slab's width (default 128: 4.2M particles). --mode runs
+ * that mode alone (for a profiler); overheads then read against nothing.
+ * --hash prints each mode's state hash after its last run's substeps.
  *
  *   kerf_bench_cpic --seeding [--runs N]
  * instead times the rigid-particle seeding (§5.2.1) of meshes of different
@@ -32,11 +35,15 @@
 typedef struct result {
     double ms[KF_STAGE_COUNT]; /* per substep */
     double total_ms, mpsteps;
+    double cpu_ms; /* process CPU per substep, all threads together */
     long particles, band_particles;
+    uint64_t hash; /* the state after the last substep */
 } result;
 
+static double cpu_s(void);
+
 /* mode 0 none, 1 far, 2 cutting */
-static int run(int mode, int cells, int steps, result *out) {
+static int run(int mode, int cells, int steps, int hash, result *out) {
     kf_sim_def sd = kf_default_sim_def();
     const double width = 0.5;
     sd.dx = width / cells;
@@ -77,6 +84,7 @@ static int run(int mode, int cells, int steps, result *out) {
     const double dt = 2e-4;
     long band = 0;
     kf_step(m, s, dt, NULL, NULL); /* the first bin builds everything */
+    const double cpu0 = cpu_s();
     for (int k = 0; k < steps; k++) {
         kf_trouble tr;
         if (kf_step(m, s, dt, &st, &tr)) {
@@ -85,12 +93,15 @@ static int run(int mode, int cells, int steps, result *out) {
         }
         if (s->cpic) band += s->cpic->band_particles;
     }
+    const double cpu = cpu_s() - cpu0;
     memset(out, 0, sizeof *out);
+    out->cpu_ms = 1e3 * cpu / steps;
     for (int k = 0; k < KF_STAGE_COUNT; k++) {
         out->ms[k] = st.ms[k] / steps;
         out->total_ms += out->ms[k];
     }
     out->particles = (long)kf_state_count(s);
+    out->hash = hash ? kf_state_hash(s) : 0;
     out->band_particles = band / steps;
     out->mpsteps = out->particles / (out->total_ms * 1e3);
     kf_state_destroy(s);
@@ -189,7 +200,8 @@ static int bench_seeding(int runs) {
 }
 
 int main(int argc, char **argv) {
-    int cells = 128, steps = 20, runs = 3, json = 0;
+    int cells = 128, steps = 20, runs = 3, json = 0, only = -1, hash = 0;
+    static const char *mode_name[3] = {"none", "far", "cutting"};
     for (int i = 1; i < argc; i++)
         if (!strcmp(argv[i], "--seeding")) {
             for (int k = 1; k < argc; k++)
@@ -201,25 +213,42 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--steps") && i + 1 < argc) steps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--json")) json = 1;
-        else {
-            fprintf(stderr, "usage: %s [--cells N] [--steps N] [--runs N] [--json] | --seeding [--runs N]\n", argv[0]);
+        else if (!strcmp(argv[i], "--hash")) hash = 1;
+        else if (!strcmp(argv[i], "--mode") && i + 1 < argc) {
+            ++i;
+            for (int k = 0; k < 3; k++)
+                if (!strcmp(argv[i], mode_name[k])) only = k;
+            if (only < 0) {
+                fprintf(stderr, "--mode: none, far or cutting\n");
+                return 2;
+            }
+        } else {
+            fprintf(
+                stderr,
+                "usage: %s [--cells N] [--steps N] [--runs N] [--json] [--mode M] [--hash] | --seeding [--runs N]\n",
+                argv[0]);
             return 2;
         }
     }
-    static const char *mode_name[3] = {"none", "far", "cutting"};
-    result med[3];
+    /* the modes' runs interleaved (none, far, cutting, none, ...) so that a
+     * shared machine's changing load falls on all three alike */
+    result med[3], rr[3][16];
+    if (runs > 16) runs = 16;
+    for (int k = 0; k < runs; k++)
+        for (int mode = 0; mode < 3; mode++)
+            if (only >= 0 && mode != only) memset(&rr[mode][k], 0, sizeof rr[mode][k]);
+            else if (run(mode, cells, steps, hash, &rr[mode][k])) return 1;
     for (int mode = 0; mode < 3; mode++) {
-        double ms[KF_STAGE_COUNT][16], tot[16];
-        result r = {0};
-        for (int k = 0; k < runs && k < 16; k++) {
-            if (run(mode, cells, steps, &r)) return 1;
-            for (int e = 0; e < KF_STAGE_COUNT; e++) ms[e][k] = r.ms[e];
-            tot[k] = r.total_ms;
+        double ms[KF_STAGE_COUNT][16], tot[16], cpu[16];
+        for (int k = 0; k < runs; k++) {
+            for (int e = 0; e < KF_STAGE_COUNT; e++) ms[e][k] = rr[mode][k].ms[e];
+            tot[k] = rr[mode][k].total_ms, cpu[k] = rr[mode][k].cpu_ms;
         }
-        med[mode] = r;
+        med[mode] = rr[mode][runs - 1];
         for (int e = 0; e < KF_STAGE_COUNT; e++) med[mode].ms[e] = kf_median(ms[e], runs);
         med[mode].total_ms = kf_median(tot, runs);
-        med[mode].mpsteps = r.particles / (med[mode].total_ms * 1e3);
+        med[mode].cpu_ms = kf_median(cpu, runs);
+        med[mode].mpsteps = med[mode].particles / (med[mode].total_ms * 1e3);
     }
     if (json) printf("{\"cells\":%d,\"steps\":%d,\"runs\":%d", cells, steps, runs);
     else
@@ -228,15 +257,18 @@ int main(int argc, char **argv) {
     for (int mode = 0; mode < 3; mode++) {
         const result *r = &med[mode];
         double over = 100 * (r->total_ms / med[0].total_ms - 1);
+        double cpu_over = 100 * (r->cpu_ms / med[0].cpu_ms - 1);
         if (json) {
-            printf(",\"%s\":{\"total_ms\":%.3f,\"mpsteps\":%.3f,\"overhead_pct\":%.2f,\"band_particles\":%ld",
-                   mode_name[mode], r->total_ms, r->mpsteps, over, r->band_particles);
+            printf(",\"%s\":{\"total_ms\":%.3f,\"mpsteps\":%.3f,\"overhead_pct\":%.2f,\"cpu_ms\":%.3f,"
+                   "\"cpu_overhead_pct\":%.2f,\"band_particles\":%ld",
+                   mode_name[mode], r->total_ms, r->mpsteps, over, r->cpu_ms, cpu_over, r->band_particles);
             for (int e = 0; e < KF_STAGE_COUNT; e++) printf(",\"%s\":%.3f", kf_stage_name((kf_stage)e), r->ms[e]);
             printf("}");
         } else {
-            printf("%-8s total %8.2f  %6.2f M p-steps/s  overhead %+6.1f%%  band %ld particles |", mode_name[mode],
-                   r->total_ms, r->mpsteps, over, r->band_particles);
+            printf("%-8s total %8.2f  %6.2f M p-steps/s  overhead %+6.1f%%  cpu %8.2f (%+6.1f%%)  band %ld particles |",
+                   mode_name[mode], r->total_ms, r->mpsteps, over, r->cpu_ms, cpu_over, r->band_particles);
             for (int e = 0; e < KF_STAGE_COUNT; e++) printf(" %s %.2f", kf_stage_name((kf_stage)e), r->ms[e]);
+            if (hash) printf(" | hash %016llx", (unsigned long long)r->hash);
             printf("\n");
         }
     }

@@ -278,8 +278,13 @@ static int seed_box_of(const kf_cpic *c, const kf_grid *g, const double x[3], do
  * whose box holds none is not splatted at all: every node that is read
  * gets the same seeds in the same order, and so the same bits, while a
  * blade above the material, or the part of one far from it, costs nothing.
- * The boxes are per block, from the owners' particle positions. */
-static int read_boxes(const kf_model *m, kf_state *s) {
+ * The boxes are per block, from the owners' particle positions.
+ * An owner whose nodes no seed can reach (its block and the stencil's
+ * width, against reach[0..nreach): every splatted body's node box, below)
+ * gets no box, without a pass over its particles: no seed is kept or
+ * dropped for its nodes, and a block's box (the union of its owners') only
+ * shrinks by nodes nothing reads and no seed reaches. */
+static int read_boxes(const kf_model *m, kf_state *s, int nreach, const int32_t (*reach)[6]) {
     kf_cpic *c = s->cpic;
     const kf_grid *g = &s->g;
     const kf_particles *p = &s->p;
@@ -301,7 +306,16 @@ static int read_boxes(const kf_model *m, kf_state *s) {
 #pragma omp parallel for schedule(static) num_threads(m->nthreads) if (p->n >= 65536)
     for (size_t k = 0; k < no; k++) {
         int32_t *ob = c->obox[k];
-        if (g->pstart[k] == g->pstart[k + 1]) {
+        int near = 0;
+        for (int q = 0; q < nreach && !near; q++) {
+            int in = 1;
+            for (int a = 0; a < 3; a++) {
+                const int first = KF_BLOCK * g->bcoord[3 * k + a];
+                in &= first <= reach[q][3 + a] && first + KF_BLOCK - 1 + kw - 1 >= reach[q][a];
+            }
+            near = in;
+        }
+        if (!near || g->pstart[k] == g->pstart[k + 1]) {
             ob[0] = 1, ob[3] = 0;
             continue;
         }
@@ -409,6 +423,34 @@ static int run_spheres(kf_cpic *c, const kf_rigid_body *b, int r) {
 static inline void sphere_world(const kf_rigid_state *st, const double *sp, double xc[3]) {
     for (int a = 0; a < 3; a++)
         xc[a] = st->R[3 * a] * sp[0] + st->R[3 * a + 1] * sp[1] + st->R[3 * a + 2] * sp[2] + st->t[a];
+}
+
+/* The nodes body r's seeds can splat this substep, pose st: the union of
+ * its short runs' node ranges as run_far bounds them (every seed's box lies
+ * in its run's range), a node wider still. The short runs: a long run's
+ * sphere is as wide across a blade as along it. Returns -1 out of memory. */
+static int body_reach(kf_cpic *c, const kf_rigid_body *b, const kf_rigid_state *st, int r, double inv_dx,
+                      int32_t box[6]) {
+    if (run_spheres(c, b, r)) return -1;
+    const double reach = b->def.thin ? 1.5 : 2.5; /* splat_body's */
+    for (int a = 0; a < 3; a++) box[a] = INT32_MAX, box[3 + a] = INT32_MIN;
+    const size_t len = KF_CPIC_RUN / 8, nrun = (b->nseed + len - 1) / len;
+    for (size_t k = 0; k < nrun; k++) {
+        const double *sp = c->sub_sphere[r][k];
+        double xc[3];
+        sphere_world(st, sp, xc);
+        for (int a = 0; a < 3; a++) {
+            const double lo = floor((xc[a] - sp[3]) * inv_dx - reach) - 2,
+                         hi = ceil((xc[a] + sp[3]) * inv_dx + reach) + 2;
+            /* a body far outside the grid: clamped, it still misses every
+             * owner; a pose that is not finite: everything */
+            const int32_t l = !(lo >= -1e9) ? -1000000000 : lo > 1e9 ? 1000000000 : (int32_t)lo;
+            const int32_t h = !(hi <= 1e9) ? 1000000000 : hi < -1e9 ? -1000000000 : (int32_t)hi;
+            if (l < box[a]) box[a] = l;
+            if (h > box[3 + a]) box[3 + a] = h;
+        }
+    }
+    return 0;
 }
 
 /* Can no seed of this run (sphere centre xc, radius rad, world) have a
@@ -885,7 +927,14 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     if (s->dist) kf_dist_extent(s, glo, ghi);
     /* the static bodies from their store, then every other body */
     int from_store = st_apply(m, s);
-    if (from_store < 0 || bmap_fill(c, g) || read_boxes(m, s)) return -1;
+    int32_t reach[KF_MAX_RIGIDS][6];
+    int nreach = 0;
+    for (int r = 0; r < m->nrigid; r++)
+        if (!(from_store && is_static(m, r)) && m->rigid[r].nseed > 0) {
+            if (body_reach(c, &m->rigid[r], &s->rigid[r], r, 1 / dx, reach[nreach])) return -1;
+            nreach++;
+        }
+    if (from_store < 0 || bmap_fill(c, g) || read_boxes(m, s, nreach, (const int32_t(*)[6])reach)) return -1;
     uint32_t tri_base = 1; /* triangle ids for the splat's visit marks, unique across bodies */
     for (int r = 0; r < m->nrigid; r++) {
         if (!(from_store && is_static(m, r)) && splat_body(m, s, r, tri_base, glo, ghi)) {

@@ -54,6 +54,33 @@ static void kept_velocity(const kf_model *m, const kf_state *s, int r, const dou
     for (int a = 0; a < 3; a++) u[a] = V[a] + w[a];
 }
 
+/* A body that does not turn has one velocity everywhere, bit for bit:
+ * V(x) = v + w × (x − com) rounds to v at every x when every component of w
+ * is zero and none of v is −0 (+0 + −0 rounds to +0, v + ±0 to v otherwise).
+ * Then a particle keeps the same u at each of its incompatible nodes of
+ * that body, and it is made once per particle instead of once per node. */
+static inline int uniform_velocity(const kf_rigid_state *st) {
+    for (int a = 0; a < 3; a++)
+        if (st->w[a] != 0 || (st->v[a] == 0 && signbit(st->v[a]))) return 0;
+    return 1;
+}
+
+/* kept_velocity, reused across a particle's nodes of a uniform body:
+ * bit r of *have says ur[r] holds it for this particle */
+static inline void kept_velocity_at(const kf_model *m, const kf_state *s, int r, const double xi[3], const double vp[3],
+                                    const double n[3], const uint8_t *uniform, uint32_t *have, double (*ur)[3],
+                                    double u[3]) {
+    if (uniform[r] && (*have >> r & 1)) {
+        for (int a = 0; a < 3; a++) u[a] = ur[r][a];
+        return;
+    }
+    kept_velocity(m, s, r, xi, vp, n, u);
+    if (uniform[r]) {
+        for (int a = 0; a < 3; a++) ur[r][a] = u[a];
+        *have |= 1u << r;
+    }
+}
+
 /* APIC's affine velocity C_p d of a particle at a node offset d from it (0
  * under PIC). At an incompatible node the particle keeps it: only v_p is
  * projected against the body and only the removed part is the body's
@@ -261,8 +288,11 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx;
     const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
-    uint8_t thin_body[KF_MAX_RIGIDS];
-    for (int r = 0; r < m->nrigid; r++) thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
+    uint8_t thin_body[KF_MAX_RIGIDS], uniform[KF_MAX_RIGIDS];
+    for (int r = 0; r < m->nrigid; r++) {
+        thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
+        uniform[r] = (uint8_t)uniform_velocity(&s->rigid[r]);
+    }
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
         particle_cdf(c, p, i, ck, j, col, dist, dx, thin_body);
@@ -277,6 +307,8 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
         const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
         const double mass = ck->mv[3][j];
+        double ur[KF_MAX_RIGIDS][3];
+        uint32_t have = 0;
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
                 for (int k = 0; k < 3; k++) {
@@ -307,7 +339,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                     double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
                                     (4 * bc[2] + ck->l[2][j] + k) * dx};
                     double u[3], J[3];
-                    kept_velocity(m, s, r, xi, vp, np, u);
+                    kept_velocity_at(m, s, r, xi, vp, np, uniform, &have, ur, u);
                     double cd[3];
                     affine_velocity(p, i, apic, d, cd);
                     for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (c->gdt[e] - u[e] - cd[e]);
@@ -327,6 +359,8 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx, dt = c->dt;
     const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
+    uint8_t uniform[KF_MAX_RIGIDS];
+    for (int r = 0; r < m->nrigid; r++) uniform[r] = (uint8_t)uniform_velocity(&s->rigid[r]);
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
         const uint32_t cp = p->colour[i];
@@ -339,7 +373,8 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
         const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
         const double mass = p->mass[i];
-        double v[3] = {0}, B[9] = {0}, G[9] = {0};
+        double v[3] = {0}, B[9] = {0}, G[9] = {0}, ur[KF_MAX_RIGIDS][3];
+        uint32_t have = 0;
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
                 for (int k = 0; k < 3; k++) {
@@ -354,7 +389,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                         int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
                         double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
                                         (4 * bc[2] + ck->l[2][j] + k) * dx};
-                        kept_velocity(m, s, r, xi, vp, np, vi);
+                        kept_velocity_at(m, s, r, xi, vp, np, uniform, &have, ur, vi);
                         affine_velocity(p, i, apic, d, cd);
                         double push = m->rigid[r].def.push;
                         if (push == KF_RIGID_AUTO) push = 0;
