@@ -2,7 +2,7 @@
  *
  *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress]
  *              [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--dump DIR] [--set k=v]
- *              [--substeps N] [--cells N] [--force mls|classic]
+ *              [--substeps N] [--cells N] [--force mls|classic] [--unfused]
  *
  * cube:  the paper's Table 2 setup (grid 125³, a 100³-cell cube, 2x2x2
  *        particles per cell = 8M particles, E = 100, ν = 0.3, Δt = 1e-2, no
@@ -38,6 +38,8 @@
  * stress: ns per particle of the stress pass per solid model, batch path
  *        and scalar path, one thread (only with --only stress; bench_stress.c).
  * --cells, --force and --threads pick one cube size, force or thread count.
+ * --unfused runs G2P, the stress pass and P2G as separate passes (cube and
+ *        block), the reference the fused substep end must equal bit for bit.
  * --quick shrinks them (24³ and 16³ cubes, a 100k-particle block) for a smoke run. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -52,6 +54,7 @@
 #include "../src/io/vdb_bridge.h"
 #include "../src/shot/shot.h" /* the preview presets */
 #include <kerf/kerf.h>
+#include "../src/mpm/model.h" /* kf_model_set_unfused */
 #include "../src/scene/builtin.h"
 #include "bench_memory.h"
 #include "bench_scenes.h"
@@ -71,6 +74,9 @@ typedef struct cube_result {
     double p2g_ns, g2p_ns, stress_ns, grid_ms, step_ms, mpsteps;
 } cube_result;
 
+/* --unfused: G2P, stress and P2G as separate passes, the fused step's reference */
+static int unfused;
+
 static int bench_cube(int cells, kf_force force, int threads, int runs, cube_result *out) {
     char err[256];
     kf_scene sc;
@@ -78,7 +84,12 @@ static int bench_cube(int cells, kf_force force, int threads, int runs, cube_res
         fprintf(stderr, "bench: %s\n", err);
         return -1;
     }
+    kf_model_set_unfused(sc.model, unfused);
     size_t n = kf_state_count(sc.state);
+    /* every substep is 1e-2 s and nothing edits the state in between: each
+     * may end with the next one's P2G (fused with its G2P and stress pass;
+     * P2G then reads 0 and G2P holds all three) */
+    kf_state_fuse_next(sc.state, 1e-2);
     /* warm-up: the first step bins the particles and allocates the grid */
     kf_step(sc.model, sc.state, 1e-2, NULL, NULL);
     double p2g[64], g2p[64], stress[64], grid[64], step[64];
@@ -283,6 +294,7 @@ static int bench_block(long n, int frames, block_result *out) {
         fprintf(stderr, "bench: %s\n", err);
         return -1;
     }
+    kf_model_set_unfused(sc.model, unfused);
     kf_step_stats st = {0};
     double t0 = kf_now_ms();
     for (int f = 0; f < frames; f++)
@@ -319,6 +331,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--scale") && i + 1 < argc) so.scale = atof(argv[++i]);
         else if (!strcmp(argv[i], "--threads") && i + 1 < argc) so.threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--quick")) quick = 1;
+        else if (!strcmp(argv[i], "--unfused")) unfused = 1;
         else if (!strcmp(argv[i], "--substeps") && i + 1 < argc) substeps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--cells") && i + 1 < argc) only_cells = atoi(argv[++i]);
@@ -329,7 +342,7 @@ int main(int argc, char **argv) {
                     "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress]\n"
                     "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] "
                     "[--hash] [--dump DIR] [--set k=v] [--substeps N]\n"
-                    "                  [--cells N] [--force mls|classic]\n");
+                    "                  [--cells N] [--force mls|classic] [--unfused]\n");
             return 2;
         }
     }

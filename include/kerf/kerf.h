@@ -380,6 +380,9 @@ typedef struct kf_step_stats {
      * stiffer than the step resolves (compressed water, hardened snow),
      * evaluated at the stiffness it resolves instead */
     long stiff_limited;
+    /* substeps whose P2G the substep before scattered, fused with its G2P
+     * (kf_state_fuse_next) */
+    long fused;
 } kf_step_stats;
 
 typedef struct kf_trouble {
@@ -393,6 +396,15 @@ typedef struct kf_trouble {
 
 /* One substep of length dt. Returns 0, or 1 on numerical trouble (filled). */
 int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *stats, kf_trouble *trouble);
+
+/* Announce the next kf_step's dt (seconds; 0: unknown, the default), when
+ * nothing will edit the state before it but this library's own calls (a
+ * writable particle view or added particles cancel the announcement). The
+ * current kf_step may then end with the next one's P2G, fused with its G2P
+ * and stress pass: the same bits, one sweep over the particles fewer.
+ * kf_advance announces its own substeps whenever it knows the next one's
+ * length (a fixed step, or the sim.dt_max clamp). */
+void kf_state_fuse_next(kf_state *s, double next_dt);
 
 /* Advance by `duration` seconds in CFL-adaptive substeps. On trouble the
  * interval is restarted from its beginning at half the CFL number, up to

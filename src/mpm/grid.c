@@ -10,6 +10,7 @@ void kf_grid_free(kf_grid *g) {
     free(g->bcoord);
     free(g->node);
     free(g->node_old);
+    free(g->node_next);
     free(g->hkey);
     free(g->hval);
     free(g->owner);

@@ -53,6 +53,16 @@ typedef struct kf_grid {
      * (transfer.c); NULL otherwise */
     kf_v4 *node_old;
     size_t node_old_cap;
+    /* the fused step (transfer.c: kf_g2p2g): the next substep's momentum
+     * and mass, scattered at the end of this one while node still holds its
+     * velocities, for the next substep's Δt announced in advance; node and
+     * node_next trade places when that substep uses it */
+    kf_v4 *node_next;
+    size_t node_next_cap;
+    int fused_ready;    /* node_next holds a usable scatter ... */
+    long fused_substep; /* ... for the substep with this number */
+    long fused_rebins;  /* ... made while rebins had this value */
+    kf_real fused_dt;   /* ... with this Δt */
     /* hash: block key -> block index */
     size_t hcap;    /* power of two */
     uint64_t *hkey; /* UINT64_MAX = empty */
@@ -94,7 +104,10 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
  * after loading a checkpoint or restoring an interval's start: writing a
  * checkpoint and starting an interval (kf_advance) call this, so that a run,
  * its resume and its retry group particles alike. */
-static inline void kf_grid_invalidate(kf_grid *g) { g->valid = 0; }
+static inline void kf_grid_invalidate(kf_grid *g) {
+    g->valid = 0;
+    g->fused_ready = 0;
+}
 
 /* The block with this block coordinate, or -1 if there is none. */
 int32_t kf_grid_find(const kf_grid *g, int bx, int by, int bz);

@@ -54,6 +54,12 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
     /* stop when no lane moved more than ~√tol: quadratic convergence then
      * leaves an error far below round-off */
     const kf_real stop2 = sizeof(kf_real) == 4 ? KF_R(1e-11) : KF_R(1e-26);
+    /* a lane stops once its own step was that small, whatever its batch
+     * mates do: a particle's stress depends on its F alone, so any grouping
+     * of particles into batches (the fused transfer's owner blocks, the
+     * stress pass's runs) gives the same bits */
+    int live[BATCH];
+    for (int j = 0; j < n; j++) live[j] = 1;
     for (int sweep = 0; sweep < SWEEPS; sweep++) {
         kf_real step[BATCH];
         for (int j = 0; j < n; j++) {
@@ -77,13 +83,16 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
             for (int k = 0; k < 9; k++) {
                 kf_real xn = a * X[k][j] + b * K[k][j];
                 st += (xn - X[k][j]) * (xn - X[k][j]);
-                X[k][j] = xn;
+                X[k][j] = live[j] ? xn : X[k][j];
             }
             step[j] = st;
         }
         /* a separate pass: float max-reductions would block vectorisation */
         int done = 1;
-        for (int j = 0; j < n; j++) done &= step[j] < stop2;
+        for (int j = 0; j < n; j++) {
+            live[j] &= !(step[j] < stop2);
+            done &= !live[j];
+        }
         if (done) break;
     }
 
@@ -207,20 +216,20 @@ static inline kf_real hb_exp(kf_real x) {
     for (int j = 0; j < n; j++) {                                                                                      \
         kf_real a = app[j], b = aqq[j], g = apq[j];                                                                    \
         kf_real d = b - a, r = kf_sqrt(d * d + 4 * g * g), w = kf_fabs(d) + r, rw = 2 * r * w;                         \
-        int live = rw > KF_R(1e-30);                                                                                   \
+        int live = (rw > KF_R(1e-30)) & act[j];                                                                        \
         kf_real inv = 1 / kf_sqrt(live ? rw : 1);                                                                      \
         kf_real c = live ? w * inv : 1, s = live ? (d >= 0 ? 2 * g : -2 * g) * inv : 0;                                \
         kf_real cs = c * s;                                                                                            \
-        app[j] = c * c * a - 2 * cs * g + s * s * b;                                                                   \
-        aqq[j] = s * s * a + 2 * cs * g + c * c * b;                                                                   \
-        apq[j] = 0;                                                                                                    \
+        app[j] = act[j] ? c * c * a - 2 * cs * g + s * s * b : a;                                                      \
+        aqq[j] = act[j] ? s * s * a + 2 * cs * g + c * c * b : b;                                                      \
+        apq[j] = act[j] ? 0 : g;                                                                                       \
         kf_real xp = arp[j], xq = arq[j];                                                                              \
-        arp[j] = c * xp - s * xq;                                                                                      \
-        arq[j] = s * xp + c * xq;                                                                                      \
+        arp[j] = act[j] ? c * xp - s * xq : xp;                                                                        \
+        arq[j] = act[j] ? s * xp + c * xq : xq;                                                                        \
         for (int i = 0; i < 3; i++) {                                                                                  \
             kf_real vp = V[3 * i + P][j], vq = V[3 * i + Q][j];                                                        \
-            V[3 * i + P][j] = c * vp - s * vq;                                                                         \
-            V[3 * i + Q][j] = s * vp + c * vq;                                                                         \
+            V[3 * i + P][j] = act[j] ? c * vp - s * vq : vp;                                                           \
+            V[3 * i + Q][j] = act[j] ? s * vp + c * vq : vq;                                                           \
         }                                                                                                              \
     }
 
@@ -261,16 +270,18 @@ static inline __attribute__((always_inline)) void hb_svd(int n, kf_real (*F)[BAT
         for (int k = 0; k < 9; k++) V[k][j] = (k % 4 == 0) ? 1 : 0;
     }
     for (int sweep = 0; sweep < HB_SWEEPS; sweep++) {
-        /* every lane diagonal to round-off: stop (a separate pass, so the
-         * rotation loops have no early exit) */
-        kf_real off[BATCH];
+        /* a lane diagonal to round-off rotates no more, whatever its batch
+         * mates do (a particle's result depends on its F alone); every lane
+         * diagonal: stop (a separate pass, so the rotation loops have no
+         * early exit) */
+        int act[BATCH];
         for (int j = 0; j < n; j++) {
             kf_real dg = a00[j] * a00[j] + a11[j] * a11[j] + a22[j] * a22[j];
             kf_real o = a01[j] * a01[j] + a02[j] * a02[j] + a12[j] * a12[j];
-            off[j] = o <= HB_OFF2 * dg ? 0 : 1;
+            act[j] = !(o <= HB_OFF2 * dg);
         }
         int done = 1;
-        for (int j = 0; j < n; j++) done &= off[j] == 0;
+        for (int j = 0; j < n; j++) done &= !act[j];
         if (done) break;
         HB_ROT(a00, a11, a01, a02, a12, 0, 1)
         HB_ROT(a00, a22, a02, a01, a12, 0, 2)
@@ -495,27 +506,51 @@ static int snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *con
     return limited;
 }
 
+/* One batch of c <= BATCH particles from index first, through lanes of a
+ * full BATCH in aligned local planes (the rest padded with F = I at rest):
+ * every particle takes the same machine code whatever its place in a run
+ * and the run's length (a short run would otherwise go through the
+ * compiler's scalar remainder loop, whose roundings differ), so its result
+ * depends on its own F and state alone. */
+static int lanes_batch(const kf_mat *m, int c, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
+                       kf_real *const tau6[6]) {
+    kf_real F[9][BATCH] __attribute__((aligned(64))), P[2][BATCH] __attribute__((aligned(64)));
+    kf_real T[6][BATCH] __attribute__((aligned(64)));
+    for (int k = 0; k < 9; k++)
+        for (int j = 0; j < BATCH; j++) F[k][j] = j < c ? Fp[k][first + (size_t)j] : (kf_real)(k % 4 == 0);
+    /* the pads at rest: snow's Jp 1, the Hencky models' corrections 0 */
+    const kf_real rest = m->model == KF_MAT_SNOW ? 1 : 0;
+    for (int k = 0; k < 2; k++)
+        for (int j = 0; j < BATCH; j++) P[k][j] = j < c ? ps[k][first + (size_t)j] : k == 0 ? rest : 0;
+    kf_real *const Fl[9] = {F[0], F[1], F[2], F[3], F[4], F[5], F[6], F[7], F[8]};
+    kf_real *const Pl[2] = {P[0], P[1]};
+    kf_real *const Tl[6] = {T[0], T[1], T[2], T[3], T[4], T[5]};
+    int limited = 0;
+    if (m->model == KF_MAT_COROTATED) limited = corotated_batch(m, BATCH, Fl, Pl, 0, Tl);
+    else if (m->model == KF_MAT_SNOW) limited = snow_batch(m, BATCH, Fl, Pl, project && m->plastic, 0, Tl);
+    else hencky_batch(m, BATCH, Fl, Pl, project && m->plastic, 0, Tl);
+    for (int k = 0; k < 6; k++)
+        for (int j = 0; j < c; j++) tau6[k][j] = T[k][j];
+    /* the corotated model changes neither (its ps may be an untouched zero array) */
+    if (project && m->plastic && m->model != KF_MAT_COROTATED) {
+        for (int k = 0; k < 9; k++)
+            for (int j = 0; j < c; j++) Fp[k][first + (size_t)j] = F[k][j];
+        for (int k = 0; k < 2; k++)
+            for (int j = 0; j < c; j++) ps[k][first + (size_t)j] = P[k][j];
+    }
+    return limited;
+}
+
 int kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
                         kf_real *const tau6[6]) {
-    if (m->model == KF_MAT_COROTATED) {
+    if (m->model == KF_MAT_COROTATED || m->model == KF_MAT_VON_MISES || m->model == KF_MAT_SAND ||
+        m->model == KF_MAT_SNOW) {
         int limited = 0;
         for (int j0 = 0; j0 < n; j0 += BATCH) {
             int c = n - j0 < BATCH ? n - j0 : BATCH;
             kf_real *out[6];
             for (int k = 0; k < 6; k++) out[k] = tau6[k] + j0;
-            limited += corotated_batch(m, c, F, ps, first + (size_t)j0, out);
-        }
-        return limited;
-    }
-    if (m->model == KF_MAT_VON_MISES || m->model == KF_MAT_SAND || m->model == KF_MAT_SNOW) {
-        int limited = 0;
-        for (int j0 = 0; j0 < n; j0 += BATCH) {
-            int c = n - j0 < BATCH ? n - j0 : BATCH;
-            kf_real *out[6];
-            for (int k = 0; k < 6; k++) out[k] = tau6[k] + j0;
-            if (m->model == KF_MAT_SNOW)
-                limited += snow_batch(m, c, F, ps, project && m->plastic, first + (size_t)j0, out);
-            else hencky_batch(m, c, F, ps, project && m->plastic, first + (size_t)j0, out);
+            limited += lanes_batch(m, c, F, ps, project, first + (size_t)j0, out);
         }
         return limited;
     }

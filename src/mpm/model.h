@@ -31,6 +31,9 @@ struct kf_model {
      * since creation) one particle's velocity becomes NaN, once per state; the
      * step must catch it and kf_advance retry the interval (0 = never) */
     long fault_substep;
+    /* testing and measuring: G2P, stress and P2G always as separate passes
+     * (never kf_g2p2g), the reference the fused substep must equal */
+    int unfused;
 };
 
 struct kf_state {
@@ -46,7 +49,11 @@ struct kf_state {
     int snapshot_in_file;  /* the current interval's start is in the file */
     kf_particles snapshot; /* the memory copy (empty while the file serves) */
     int tau_valid;         /* particle stress planes match F (set by kf_stress) */
-    long stiff_limited;    /* particles the last kf_stress evaluated at the limited stiffness */
+    /* > 0: the next kf_step's Δt, announced (kf_state_fuse_next, kf_advance)
+     * with nothing editing the state in between; kf_step may then end with
+     * the next substep's P2G (kf_g2p2g) */
+    double fuse_next;
+    long stiff_limited; /* particles the last kf_stress evaluated at the limited stiffness */
     int snapshot_tau_valid;
     /* rigid bodies (CPIC): motion state and the solver, created with the
      * state from the model's bodies; copies for retrying an interval */
@@ -109,6 +116,10 @@ static inline double kf_memory_estimate(const kf_model *m, size_t n, long blocks
  * kf_model_create, before the first step. */
 static inline void kf_model_set_fault_substep(kf_model *m, long substep) { m->fault_substep = substep; }
 
+/* The separate passes' reference (kf_model.unfused): set after
+ * kf_model_create, before the first step. */
+static inline void kf_model_set_unfused(kf_model *m, int unfused) { m->unfused = unfused; }
+
 /* MLS inertia-like tensor D_p = d I: d = Δx²/4 (quadratic), Δx²/3 (cubic) */
 static inline double kf_model_dfactor(const kf_model *m) {
     double dx = m->sim.dx;
@@ -152,6 +163,18 @@ void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt);
  * (wall_ghost.c) */
 void kf_wall_ghosts(const kf_model *m, kf_state *s);
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
+/* The fused substep end (transfer.c): G2P, the stress pass and the next
+ * substep's P2G in one sweep over the owner blocks, the P2G at the next
+ * substep's Δt announced by the caller (next_dt), into grid.node_next. It
+ * applies to the explicit integrator on one rank without rigid bodies,
+ * contact fields, FLIP or the testing fault (kf_fuse_applies): each node
+ * then sums the same terms in the same order as the unfused P2G, so the
+ * next substep is the same bit for bit whichever path made its grid.
+ * Returns 1 when the scatter is usable (every particle's stencil still fits
+ * its owner, every stress finite), 0 when the next substep must bin and
+ * scatter as usual. */
+int kf_fuse_applies(const kf_model *m, const kf_state *s);
+int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F */
 void kf_stress(const kf_model *m, kf_state *s, int project);
 
@@ -163,9 +186,9 @@ static inline double kf_model_c_limit(const kf_model *m) {
     return KF_CFL_STIFF * m->sim.dx / m->sim.dt_fixed;
 }
 /* the same over n particles' planes, in runs of one material inside chunks
- * of 64 counted from the first: a particle's stress depends on which
- * particles share its SIMD batch, so the chunks are part of the result.
- * Returns how many were evaluated at the limited stiffness. */
+ * of 64 counted from the first (a particle's stress depends on its own F
+ * and state alone, not on which particles share its SIMD batch). Returns
+ * how many were evaluated at the limited stiffness. */
 long kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2], const uint16_t *mat,
                     kf_real *const tau[6], size_t n, int project);
 

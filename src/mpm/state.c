@@ -57,7 +57,7 @@ void kf_state_copy(kf_state *dst, const kf_state *src) {
     dst->substep = src->substep;
     dst->next_id = src->next_id;
     dst->tau_valid = src->tau_valid;
-    dst->g.valid = 0;
+    kf_grid_invalidate(&dst->g);
     /* rigid bodies: both states come from the same model */
     dst->nrigid = src->nrigid;
     memcpy(dst->rigid, src->rigid, sizeof dst->rigid);
@@ -104,6 +104,8 @@ int kf_state_joint_torque(const kf_state *s, int joint, double *now, double *pea
     return kf_rigid_sim_motor_torque(s->rsim, joint, now, peak);
 }
 void kf_state_joint_peak_reset(kf_state *s) { kf_rigid_sim_peak_reset(s->rsim); }
+
+void kf_state_fuse_next(kf_state *s, double next_dt) { s->fuse_next = next_dt > 0 ? next_dt : 0; }
 
 size_t kf_state_count(const kf_state *s) { return s->p.n; }
 double kf_state_time(const kf_state *s) { return s->time; }

@@ -4,7 +4,14 @@
  * advection) → stress (the return mapping and the stress the next P2G
  * scatters). Each stage is timed into kf_step_stats. P2G and G2P check every
  * particle for numerical trouble; kf_advance answers
- * trouble by restarting the interval at half the CFL number. */
+ * trouble by restarting the interval at half the CFL number.
+ *
+ * Where the scene allows (kf_fuse_applies), G2P and stress run as one sweep
+ * over the owner blocks, and when the next substep's Δt is known in advance
+ * (kf_state_fuse_next; kf_advance knows it under a fixed step or a holding
+ * dt_max clamp) the sweep also makes the next substep's P2G (kf_g2p2g),
+ * which that substep then uses instead of its own: the same bits either
+ * way, one pass over the particles fewer. */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -57,6 +64,15 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     t1 = kf_now_ms();
     if (st) st->ms[KF_STAGE_SORT] += t1 - t0;
 
+    /* the last substep's fused end (kf_g2p2g) scattered this one's P2G
+     * already: usable when it was made for this substep and this Δt, binning
+     * kept every particle where it was, and nothing edited the particles */
+    kf_grid *g = &s->g;
+    const int fusable = kf_fuse_applies(m, s);
+    const int scattered = fusable && g->fused_ready && g->fused_substep == s->substep && g->fused_rebins == g->rebins &&
+                          g->valid && s->tau_valid && g->fused_dt == rdt;
+    g->fused_ready = 0;
+
     /* testing the recovery path: one particle's velocity goes bad, once */
     if (m->fault_substep > 0 && s->substep == m->fault_substep && !s->fault_done && s->p.n &&
         (!s->dist || kf_dist_rank() == 0)) {
@@ -95,15 +111,25 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
             return 1;
         }
     } else {
-        kf_trouble p2g_trouble;
-        /* across ranks: the boundary owners' caches to the ranks that share their nodes */
-        if (s->dist && kf_dist_halo(m, s, rdt)) kf_dist_abort(1);
-        kf_p2g(m, s, rdt, &p2g_trouble);
-        t0 = kf_now_ms();
-        if (st) st->ms[KF_STAGE_P2G] += t0 - t1;
-        if (s->dist ? kf_dist_agree(s, p2g_trouble.found, &p2g_trouble) : p2g_trouble.found) {
-            *trouble = p2g_trouble;
-            return 1;
+        if (scattered) {
+            if (st) st->fused++;
+            /* the scatter's nodes become the grid's */
+            kf_v4 *nodes = g->node;
+            size_t cap = g->node_cap;
+            g->node = g->node_next, g->node_cap = g->node_next_cap;
+            g->node_next = nodes, g->node_next_cap = cap;
+            t0 = t1;
+        } else {
+            kf_trouble p2g_trouble;
+            /* across ranks: the boundary owners' caches to the ranks that share their nodes */
+            if (s->dist && kf_dist_halo(m, s, rdt)) kf_dist_abort(1);
+            kf_p2g(m, s, rdt, &p2g_trouble);
+            t0 = kf_now_ms();
+            if (st) st->ms[KF_STAGE_P2G] += t0 - t1;
+            if (s->dist ? kf_dist_agree(s, p2g_trouble.found, &p2g_trouble) : p2g_trouble.found) {
+                *trouble = p2g_trouble;
+                return 1;
+            }
         }
 
         kf_grid_update(m, s, rdt);
@@ -113,22 +139,37 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     }
 
     kf_g2p_result res;
-    kf_g2p(m, s, rdt, &res);
-    if (s->dist) {
-        /* every rank sees the same trouble and the same fastest particle speed */
-        res.trouble.found = kf_dist_agree(s, res.trouble.found, &res.trouble);
-        res.max_cells = kf_dist_max(s, res.max_cells);
-    }
-    /* implicit midpoint: the particles' velocity ends at v_{n+1} */
-    kf_implicit_g2p_finish(m, s);
-    t0 = kf_now_ms();
-    if (st) st->ms[KF_STAGE_G2P] += t0 - t1;
+    if (fusable) {
+        /* G2P and the stress pass in one sweep, with the next substep's P2G
+         * when its Δt is announced; the whole sweep is timed as G2P */
+        const kf_real next = (kf_real)s->fuse_next;
+        if (kf_g2p2g(m, s, rdt, next, &res)) {
+            g->fused_ready = 1;
+            g->fused_substep = s->substep + 1;
+            g->fused_rebins = g->rebins;
+            g->fused_dt = next;
+        }
+        t0 = kf_now_ms();
+        if (st) st->ms[KF_STAGE_G2P] += t0 - t1;
+        t1 = t0;
+    } else {
+        kf_g2p(m, s, rdt, &res);
+        if (s->dist) {
+            /* every rank sees the same trouble and the same fastest particle speed */
+            res.trouble.found = kf_dist_agree(s, res.trouble.found, &res.trouble);
+            res.max_cells = kf_dist_max(s, res.max_cells);
+        }
+        /* implicit midpoint: the particles' velocity ends at v_{n+1} */
+        kf_implicit_g2p_finish(m, s);
+        t0 = kf_now_ms();
+        if (st) st->ms[KF_STAGE_G2P] += t0 - t1;
 
-    /* plasticity, and the stress the next P2G scatters */
-    kf_stress(m, s, 1);
+        /* plasticity, and the stress the next P2G scatters */
+        kf_stress(m, s, 1);
+        t1 = kf_now_ms();
+        if (st) st->ms[KF_STAGE_STRESS] += t1 - t0;
+    }
     if (st && s->stiff_limited > st->stiff_limited) st->stiff_limited = s->stiff_limited;
-    t1 = kf_now_ms();
-    if (st) st->ms[KF_STAGE_STRESS] += t1 - t0;
 
     /* rigid bodies: the material's impulses, contacts, joints, advection */
     if (m->nrigid) {
@@ -268,6 +309,10 @@ static double clamp_dt(const kf_model *m, double dt) {
 
 double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl) { return clamp_dt(m, cfl * unit_cfl_dt(m, s)); }
 
+/* land exactly on the interval end without a sliver of a step: dt with
+ * `left` of the interval to go */
+static double landed(double dt, double left) { return dt >= left ? left : dt > 0.5 * left ? 0.5 * left : dt; }
+
 int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *st, char *msg, size_t msglen) {
     if (msg && msglen) msg[0] = 0;
     /* the interval starts from a full sort, as its retry after trouble does
@@ -305,9 +350,13 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
             double unit = unit_cfl_dt(m, s), left = duration - t;
             double dt = fixed > 0 ? fixed : clamp_dt(m, cfl * unit);
             if (fixed > 0 && dt / unit > reached) reached = dt / unit;
-            /* land exactly on the interval end without a sliver of a step */
-            if (dt >= left) dt = left;
-            else if (dt > 0.5 * left) dt = 0.5 * left;
+            /* the next substep's length where it is known now (a fixed step)
+             * or likely (the dt_max clamp held): kf_step may scatter its P2G
+             * early (kf_g2p2g); a wrong guess only costs that scatter */
+            double next = fixed > 0 ? fixed : dt < cfl * unit ? dt : 0;
+            double left_next = duration - (t + landed(dt, left)); /* as the next turn computes it */
+            s->fuse_next = next > 0 && left_next > 1e-9 * duration ? landed(next, left_next) : 0;
+            dt = landed(dt, left);
             if (kf_step(m, s, dt, st, &tr)) {
                 ok = 0;
                 break;
@@ -315,6 +364,7 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
             t += dt;
             if (st && dt / unit > st->max_cfl) st->max_cfl = dt / unit; /* CFL number used */
         }
+        s->fuse_next = 0;
         if (ok) return 0;
         /* trouble: back to the interval start, half the step, try again */
         if (kf_snapshot_restore(s, time0, substep0)) {

@@ -62,8 +62,12 @@ _Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like
 
 /* ---- P2G ---------------------------------------------------------------------- */
 
-KF_INLINE void p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, kf_real dt,
-                               kf_v4 *cache, kf_v4 *mcache, chunk *ck, step_acc *acc, int lohi[6]) {
+/* fused (kf_g2p2g, the next substep's scatter made early): a stencil
+ * outside the owner's neighbourhood or a non-finite stress makes the
+ * scatter unusable (returns 1 at once; the next substep bins and scatters
+ * as usual, and reports the trouble then) */
+KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, kf_real dt,
+                              kf_v4 *cache, kf_v4 *mcache, chunk *ck, step_acc *acc, int lohi[6], int fused) {
     const int CD = CD_MAX;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
@@ -97,6 +101,10 @@ KF_INLINE void p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m,
                 lo[a] = ck->l[a][j] < lo[a] ? ck->l[a][j] : lo[a];
                 hi[a] = ck->l[a][j] > hi[a] ? ck->l[a][j] : hi[a];
             }
+        /* binned particles fit by construction; after the fused G2P one
+         * may have drifted out of reach (binning will re-sort it) */
+        if (fused && (lo[0] < 0 || lo[1] < 0 || lo[2] < 0 || hi[0] > CD - KW || hi[1] > CD - KW || hi[2] > CD - KW))
+            return 1;
 
         /* Q = m C − Δt V⁰ D⁻¹ τ (MLS), or m C and the separate force term
          * −Δt V⁰ τ ∇w (classic); PIC drops m C */
@@ -123,6 +131,7 @@ KF_INLINE void p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m,
             for (int j = 0; j < n; j++) ck->mv[a][j] = mass[j] * v[j];
         }
         for (int j = 0; j < n; j++) ck->mv[3][j] = mass[j];
+        if (bad && fused) return 1;
         if (bad) {
             /* catch non-finite state where it starts, before P2G spreads it */
             for (int j = 0; j < n; j++)
@@ -146,6 +155,7 @@ KF_INLINE void p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m,
     }
 
     for (int a = 0; a < 3; a++) lohi[a] = lo[a], lohi[3 + a] = hi[a];
+    return 0;
 }
 
 /* FLIP: the touched part of the momentum cache into the old-velocity nodes */
@@ -162,13 +172,14 @@ KF_INLINE void p2g_flush_old(int KW, kf_grid *g, const int32_t *nb, const kf_v4 
 }
 
 /* the touched part of the cache (lohi: base offsets lo, hi per axis) into
- * the 8 blocks of the neighbourhood nb */
-KF_INLINE void p2g_flush(int KW, kf_grid *g, const int32_t *nb, const kf_v4 *cache, const int lohi[6]) {
+ * the 8 blocks of the neighbourhood nb, in the node array (the grid's
+ * nodes, or the fused step's next ones) */
+KF_INLINE void p2g_flush(int KW, kf_v4 *node, const int32_t *nb, const kf_v4 *cache, const int lohi[6]) {
     const int CD = CD_MAX;
     for (int a = lohi[0]; a < lohi[3] + KW; a++)
         for (int b = lohi[1]; b < lohi[4] + KW; b++) {
             const kf_v4 *row = &cache[(a * CD + b) * CD];
-            for (int c = lohi[2]; c < lohi[5] + KW; c++) *nb_node(g, nb, a, b, c) += row[c];
+            for (int c = lohi[2]; c < lohi[5] + KW; c++) node[nb_index(nb, a, b, c)] += row[c];
         }
 }
 
@@ -177,9 +188,9 @@ KF_INLINE void p2g_flush(int KW, kf_grid *g, const int32_t *nb, const kf_v4 *cac
  * machine code, so their caches agree to the bit (a second inlined copy may
  * contract multiply-adds differently). */
 #define P2G_VARIANT(name, KW, CLASSIC)                                                                                 \
-    __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,     \
-                                               chunk *ck, step_acc *acc, int lohi[6]) {                                \
-        p2g_block_cache(KW, CLASSIC, 0, m, s, r, dt, cache, NULL, ck, acc, lohi);                                      \
+    __attribute__((noinline)) static int name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,      \
+                                              chunk *ck, step_acc *acc, int lohi[6], int fused) {                      \
+        return p2g_block_cache(KW, CLASSIC, 0, m, s, r, dt, cache, NULL, ck, acc, lohi, fused);                        \
     }
 P2G_VARIANT(p2g_q_mls, 3, 0)
 P2G_VARIANT(p2g_q_classic, 3, 1)
@@ -190,7 +201,7 @@ P2G_VARIANT(p2g_c_classic, 4, 1)
 #define P2G_FLIP_VARIANT(name, KW, CLASSIC)                                                                            \
     __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,     \
                                                kf_v4 *mcache, chunk *ck, step_acc *acc, int lohi[6]) {                 \
-        p2g_block_cache(KW, CLASSIC, 1, m, s, r, dt, cache, mcache, ck, acc, lohi);                                    \
+        p2g_block_cache(KW, CLASSIC, 1, m, s, r, dt, cache, mcache, ck, acc, lohi, 0);                                 \
     }
 P2G_FLIP_VARIANT(p2g_q_mls_flip, 3, 0)
 P2G_FLIP_VARIANT(p2g_q_classic_flip, 3, 1)
@@ -231,7 +242,7 @@ static void flip_old_velocity(kf_grid *g, int threads) {
     }
 }
 
-typedef void (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, chunk *, step_acc *, int *);
+typedef int (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, chunk *, step_acc *, int *, int);
 static p2g_fn p2g_variant(const kf_model *m) {
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     return cubic ? (classic ? p2g_c_classic : p2g_c_mls) : (classic ? p2g_q_classic : p2g_q_mls);
@@ -246,13 +257,13 @@ int kf_p2g_cache_edge(const kf_model *m) { return CD_MAX; }
 void kf_p2g_owner_cache(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, int lohi[6]) {
     chunk ck __attribute__((aligned(64)));
     step_acc acc = {0};
-    p2g_variant(m)(m, s, r, dt, cache, &ck, &acc, lohi);
+    p2g_variant(m)(m, s, r, dt, cache, &ck, &acc, lohi, 0);
 }
 
 /* A cache from kf_p2g_owner_cache added into the neighbourhood nb. */
 void kf_p2g_add_cache(const kf_model *m, kf_grid *g, const int32_t nb[8], const kf_v4 *cache, const int lohi[6]) {
-    if (m->sim.kernel == KF_KERNEL_CUBIC) p2g_flush(4, g, nb, cache, lohi);
-    else p2g_flush(3, g, nb, cache, lohi);
+    if (m->sim.kernel == KF_KERNEL_CUBIC) p2g_flush(4, g->node, nb, cache, lohi);
+    else p2g_flush(3, g->node, nb, cache, lohi);
 }
 
 void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
@@ -291,7 +302,7 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
                     if (m->sim.kernel == KF_KERNEL_CUBIC) p2g_flush_old(4, g, g->nb[r], mcache, lohi);
                     else p2g_flush_old(3, g, g->nb[r], mcache, lohi);
                 } else {
-                    fn(m, s, r, dt, cache, &ck, &acc, lohi);
+                    fn(m, s, r, dt, cache, &ck, &acc, lohi, 0);
                 }
                 kf_p2g_add_cache(m, g, g->nb[r], cache, lohi);
             }
@@ -499,8 +510,8 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
 }
 
 #define G2P_VARIANT(name, KW, CLASSIC, FLIP)                                                                           \
-    static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, kf_v4 *ocache, chunk *ck,     \
-                     step_acc *acc) {                                                                                  \
+    __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,     \
+                                               kf_v4 *ocache, chunk *ck, step_acc *acc) {                              \
         g2p_block(KW, CLASSIC, FLIP, m, s, r, dt, cache, ocache, ck, acc);                                             \
     }
 G2P_VARIANT(g2p_q_mls, 3, 0, 0)
@@ -512,12 +523,17 @@ G2P_VARIANT(g2p_q_classic_flip, 3, 1, 1)
 G2P_VARIANT(g2p_c_mls_flip, 4, 0, 1)
 G2P_VARIANT(g2p_c_classic_flip, 4, 1, 1)
 
-void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
-    typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, kf_v4 *, chunk *, step_acc *);
+typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, kf_v4 *, chunk *, step_acc *);
+static g2p_fn g2p_variant(const kf_model *m) {
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
-    g2p_fn fn = cubic ? (classic ? g2p_c_classic : g2p_c_mls) : (classic ? g2p_q_classic : g2p_q_mls);
     if (m->sim.transfer == KF_TRANSFER_FLIP)
-        fn = cubic ? (classic ? g2p_c_classic_flip : g2p_c_mls_flip) : (classic ? g2p_q_classic_flip : g2p_q_mls_flip);
+        return cubic ? (classic ? g2p_c_classic_flip : g2p_c_mls_flip)
+                     : (classic ? g2p_q_classic_flip : g2p_q_mls_flip);
+    return cubic ? (classic ? g2p_c_classic : g2p_c_mls) : (classic ? g2p_q_classic : g2p_q_mls);
+}
+
+void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
+    g2p_fn fn = g2p_variant(m);
     kf_grid *g = &s->g;
     step_acc total = {0};
 #pragma omp parallel num_threads(m->nthreads)
@@ -546,17 +562,20 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
  * serves both (kf_mat_update); runs of one material go through the batch
  * path, SIMD across particles for the corotated model. */
 
+/* the materials the stress pass evaluates: under a fixed step, as the
+ * step resolves them (in buf), else the model's */
+static const kf_mat *stress_mats(const kf_model *m, kf_mat buf[KF_MAX_MATERIALS]) {
+    double c_limit = kf_model_c_limit(m);
+    if (!(c_limit > 0)) return m->mat;
+    for (int k = 0; k < m->nmat; k++) buf[k] = m->mat[k], kf_mat_limit(&buf[k], c_limit);
+    return buf;
+}
+
 long kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2], const uint16_t *mat,
                     kf_real *const tau_all[6], size_t n, int project) {
     size_t nchunks = (n + 63) / 64;
-    /* under a fixed step, the materials as the step resolves them */
-    const kf_mat *mats = m->mat;
     kf_mat limited_mat[KF_MAX_MATERIALS];
-    double c_limit = kf_model_c_limit(m);
-    if (c_limit > 0) {
-        for (int k = 0; k < m->nmat; k++) limited_mat[k] = m->mat[k], kf_mat_limit(&limited_mat[k], c_limit);
-        mats = limited_mat;
-    }
+    const kf_mat *mats = stress_mats(m, limited_mat);
     long limited = 0;
 #pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(+ : limited)
     for (size_t c = 0; c < nchunks; c++) {
@@ -581,4 +600,112 @@ void kf_stress(const kf_model *m, kf_state *s, int project) {
     if (s->dist) kf_dist_stress(m, s, project), s->stiff_limited = 0;
     else s->stiff_limited = kf_stress_span(m, p->F, p->ps, p->mat, p->tau, p->n, project);
     s->tau_valid = 1;
+}
+
+/* ---- the fused substep end -----------------------------------------------------
+ * G2P, the stress pass and (with the next Δt announced) the next substep's
+ * P2G, owner block by owner block: the particle planes the three passes
+ * stream (x, v, C, F, τ, mass, V⁰) are read from memory once instead of
+ * three times, while the owner's particles sit in cache. Every particle
+ * goes through the same compiled functions as in the unfused passes (G2P
+ * and P2G variants, the stress batch, whose lanes do not depend on their
+ * batch mates), and every node receives the same owners' caches in the
+ * same colour order, so the results are the unfused ones bit for bit. */
+
+int kf_fuse_applies(const kf_model *m, const kf_state *s) {
+    return m->sim.integrator == KF_INTEGRATOR_EXPLICIT && !s->dist && !m->nrigid && !m->sim.contact &&
+           m->sim.transfer != KF_TRANSFER_FLIP && m->fault_substep <= 0 && !m->unfused;
+}
+
+/* the return mapping and stress of one owner's particles, in runs of one material */
+static long stress_owner(const kf_mat *mats, kf_particles *p, size_t lo, size_t hi) {
+    long limited = 0;
+    while (lo < hi) {
+        uint16_t mt = p->mat[lo];
+        size_t e = lo + 1;
+        while (e < hi && p->mat[e] == mt) e++;
+        kf_real *tau[6];
+        for (int k = 0; k < 6; k++) tau[k] = p->tau[k] + lo;
+        limited += kf_mat_update_batch(&mats[mt], (int)(e - lo), p->F, p->ps, 1, lo, tau);
+        lo = e;
+    }
+    return limited;
+}
+
+int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p_result *out) {
+    g2p_fn gfn = g2p_variant(m);
+    p2g_fn pfn = p2g_variant(m);
+    kf_grid *g = &s->g;
+    kf_particles *p = &s->p;
+    const int KW = m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3;
+    int scatter = next_dt > 0;
+    /* the next substep's nodes: the same blocks as now (a scatter is usable
+     * only if binning will keep every particle where it is) */
+    if (scatter && g->node_next_cap < g->nblocks) {
+        free(g->node_next);
+        g->node_next = aligned_alloc(64, g->node_cap * KF_BLOCK_NODES * sizeof(kf_v4));
+        g->node_next_cap = g->node_next ? g->node_cap : 0;
+        scatter = g->node_next != NULL;
+    }
+    kf_mat mat_buf[KF_MAX_MATERIALS];
+    const kf_mat *mats = stress_mats(m, mat_buf);
+    step_acc total = {0};
+    long limited = 0;
+    int usable = scatter, give_up = 0;
+    const size_t nblocks = g->nblocks, nowner = g->nowner;
+#pragma omp parallel num_threads(m->nthreads) reduction(+ : limited)
+    {
+        kf_ftz();
+        kf_v4 cache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));  /* this substep's velocities */
+        kf_v4 pcache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64))); /* the next substep's P2G */
+        chunk ck __attribute__((aligned(64)));
+        step_acc acc = {0};
+        int ok = 1;
+        if (scatter) {
+#pragma omp for schedule(static)
+            for (size_t b = 0; b < nblocks; b++)
+                memset(&g->node_next[b * KF_BLOCK_NODES], 0, KF_BLOCK_NODES * sizeof(kf_v4));
+            /* one colour at a time, as kf_p2g: same-colour owners write disjoint nodes */
+            for (int c = 0; c < 8; c++) {
+#pragma omp for schedule(dynamic, 4)
+                for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
+                    size_t r = (size_t)g->owner[k];
+                    gfn(m, s, r, dt, cache, NULL, &ck, &acc);
+                    limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
+                    int stop;
+#pragma omp atomic read
+                    stop = give_up;
+                    if (stop || !ok) continue;
+                    int lohi[6];
+                    if (pfn(m, s, r, next_dt, pcache, &ck, &acc, lohi, 1)) {
+                        /* unusable: the rest of the scatter is skipped */
+                        ok = 0;
+#pragma omp atomic write
+                        give_up = 1;
+                        continue;
+                    }
+                    if (KW == 4) p2g_flush(4, g->node_next, g->nb[r], pcache, lohi);
+                    else p2g_flush(3, g->node_next, g->nb[r], pcache, lohi);
+                }
+            }
+        } else {
+#pragma omp for schedule(dynamic, 4)
+            for (size_t r = 0; r < nowner; r++) {
+                gfn(m, s, r, dt, cache, NULL, &ck, &acc);
+                limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
+            }
+        }
+#pragma omp critical
+        {
+            if (acc.trouble.found && (!total.trouble.found || acc.trouble.particle < total.trouble.particle))
+                total.trouble = acc.trouble;
+            if (acc.max_cells > total.max_cells) total.max_cells = acc.max_cells;
+            usable &= ok;
+        }
+    }
+    s->stiff_limited = limited;
+    s->tau_valid = 1;
+    out->trouble = total.trouble;
+    out->max_cells = total.max_cells;
+    return usable && !give_up && !total.trouble.found;
 }

@@ -76,9 +76,12 @@ KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, 
 
 /* node (a, b, c) of an owner's cache, counted from the owner's first node,
  * in the 2x2x2 block neighbourhood nb */
-static inline kf_v4 *nb_node(const kf_grid *g, const int32_t *nb, int a, int b, int c) {
+static inline size_t nb_index(const int32_t *nb, int a, int b, int c) {
     int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (c >> 2)];
-    return &g->node[(size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3))];
+    return (size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3));
+}
+static inline kf_v4 *nb_node(const kf_grid *g, const int32_t *nb, int a, int b, int c) {
+    return &g->node[nb_index(nb, a, b, c)];
 }
 
 /* ---- prefetching -------------------------------------------------------------
