@@ -91,6 +91,10 @@ void eigen3(const double A0[3][3], double ev[3], double V[3][3]) {
         for (int k = 0; k < 3; k++) V[i][k] = W[i][k];
 }
 
+// the radius of a deep particle's ball (world units): the spheres' radius,
+// at least twice the discs' half thickness
+double deep_ball_radius(const aniso_params &a) { return std::max(2 * a.R / 3, 2 * a.thickness); }
+
 // a kernel with semi-axes a (index space) along the columns of V, centred at c
 kernel make_kernel(const double c[3], const double a[3], const double V[3][3]) {
     kernel k;
@@ -129,7 +133,7 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
     const double I3[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     // deep: a ball of rb, at least rb under every face (which the discs put
     // `thickness` beyond the outermost centres)
-    const double rb = std::max(2 * R / 3, 2 * a.thickness);
+    const double rb = deep_ball_radius(a);
     deep = deep_particles(n, xd, xf, a.spacing, rb);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t i = rg.begin(); i != rg.end(); i++) {
@@ -194,6 +198,8 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
 struct binned {
     std::vector<kernel> k;
     std::vector<uint32_t> src;
+    std::vector<uint8_t> deep; // 1: a deep particle's ball of radius rb (voxels)
+    float core = 0;            // rb - 1, a little less; 0: no culling
     std::vector<uint64_t> key; // distinct bins, ascending
     std::vector<uint32_t> at;  // (nbins + 1)
     int reach = 1;             // leaves a kernel reaches beyond its own
@@ -207,10 +213,79 @@ inline int64_t leaf_of(float c) { return int64_t(std::floor(c)) >> LEAF_LOG2; }
 
 // the union's value over one leaf (the largest kernel value at each voxel,
 // -PAD where none reaches), and the particle it came from
-void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who) {
+// The bits of a row's voxels za..zb (leaf offsets 0..7)
+inline unsigned row_bits(int za, int zb) { return (0xFFu >> (7 - (zb - za))) << za & 0xFFu; }
+
+// The voxels of one leaf within b.core of a deep ball's centre (a bit per
+// voxel, a byte per row): such a voxel's six neighbours lie within the
+// ball, inside the union, so its value is never used, only its sign.
+// Returns whether every voxel of the leaf is such a voxel.
+bool core_rows(const binned &b, Coord lc, uint8_t core[LEAF_DIM * LEAF_DIM]) {
+    std::fill(core, core + LEAF_DIM * LEAF_DIM, uint8_t(0));
+    const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM;
+    const float rc = b.core, rc2 = rc * rc;
+    const int r = b.reach;
+    for (int i = -r; i <= r; i++)
+        for (int j = -r; j <= r; j++)
+            for (int l = -r; l <= r; l++) {
+                const long bi = b.find(leaf_key(lc.x() + i, lc.y() + j, lc.z() + l));
+                if (bi < 0) continue;
+                for (uint32_t q = b.at[size_t(bi)]; q < b.at[size_t(bi) + 1]; q++) {
+                    if (!b.deep[q]) continue;
+                    const float *c = b.k[q].c;
+                    const int x0 = std::max(ox, int(std::ceil(c[0] - rc))),
+                              x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(c[0] + rc)));
+                    const int y0 = std::max(oy, int(std::ceil(c[1] - rc))),
+                              y1 = std::min(oy + LEAF_DIM - 1, int(std::floor(c[1] + rc)));
+                    if (x0 > x1 || y0 > y1 || c[2] + rc < float(oz) || c[2] - rc > float(oz + LEAF_DIM - 1)) continue;
+                    for (int x = x0; x <= x1; x++) {
+                        const float dx = float(x) - c[0];
+                        for (int y = y0; y <= y1; y++) {
+                            const float dy = float(y) - c[1], r2 = rc2 - dx * dx - dy * dy;
+                            if (r2 < 0) continue;
+                            const float sq = std::sqrt(r2);
+                            const int za = std::max(oz, int(std::ceil(c[2] - sq))),
+                                      zb = std::min(oz + LEAF_DIM - 1, int(std::floor(c[2] + sq)));
+                            if (za <= zb)
+                                core[((x - ox) << LEAF_LOG2) + (y - oy)] |= uint8_t(row_bits(za - oz, zb - oz));
+                        }
+                    }
+                }
+            }
+    return std::all_of(core, core + LEAF_DIM * LEAF_DIM, [](uint8_t m) { return m == 0xFF; });
+}
+
+void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open) {
     std::fill(F, F + LEAF_SIZE, -PAD);
     if (who) std::fill(who, who + LEAF_SIZE, -1);
     const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM, r = b.reach;
+    // Without particle tracking only the sign of a voxel whose neighbours
+    // are all inside matters (the distance is made from the crossings):
+    // such voxels (deep balls' cores) read 1, and no kernel is evaluated
+    // on a row of them. The values that are used stay exact. The voxels
+    // on a face of the leaf whose neighbour leaf lies beyond the band (a
+    // bit of `open`: -x, +x, -y, +y, -z, +z) keep their values: their
+    // neighbours there read `outside`, whatever is there.
+    uint8_t core[LEAF_DIM * LEAF_DIM];
+    const bool cull = !who && b.core > 0;
+    if (cull) {
+        const bool all = core_rows(b, lc, core);
+        if (!open && all) {
+            std::fill(F, F + LEAF_SIZE, 1.f);
+            return;
+        }
+        if (open) {
+            const uint8_t zkeep = uint8_t(~((open >> 4 & 1) | (open >> 5 & 1) << 7));
+            for (int xy = 0; xy < LEAF_DIM * LEAF_DIM; xy++) {
+                const int x = xy >> LEAF_LOG2, y = xy & (LEAF_DIM - 1);
+                const bool face = (x == 0 && (open & 1)) || (x == LEAF_DIM - 1 && (open & 2)) ||
+                                  (y == 0 && (open & 4)) || (y == LEAF_DIM - 1 && (open & 8));
+                core[xy] &= face ? 0 : zkeep;
+            }
+        }
+        for (int v = 0; v < LEAF_SIZE; v++)
+            if (core[v >> LEAF_LOG2] >> (v & (LEAF_DIM - 1)) & 1) F[v] = 1.f;
+    }
     for (int i = -r; i <= r; i++)
         for (int j = -r; j <= r; j++)
             for (int l = -r; l <= r; l++) {
@@ -239,15 +314,33 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who) {
                                       zb = std::min(z1, int(std::ceil(K.c[2] + (-pb + sq) * inv2)));
                             const float qa = K.M[0] * dx * dx + 2 * K.M[1] * dx * dy + K.M[3] * dy * dy;
                             const float qb = 2 * (K.M[2] * dx + K.M[4] * dy);
-                            float *row = F + ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2) - oz;
-                            int32_t *wrow =
-                                who ? who + ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2) - oz : nullptr;
-                            for (int z = za; z <= zb; z++) {
-                                const float dz = float(z) - K.c[2];
-                                const float val = K.amin * (1 - std::sqrt(std::max(qa + dz * (qb + K.M[5] * dz), 0.f)));
-                                if (val > row[z]) {
-                                    row[z] = val;
-                                    if (wrow) wrow[z] = int32_t(q);
+                            if (za > zb) continue;
+                            if (cull) {
+                                const unsigned m = row_bits(za - oz, zb - oz),
+                                               cr = core[((x - ox) << LEAF_LOG2) + (y - oy)];
+                                if ((cr & m) == m) continue;
+                            }
+                            // the whole 8-voxel row, branch-free so that it
+                            // vectorises; voxels outside [za, zb] keep theirs
+                            const int row = ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2);
+                            const int ma = za - oz, mb = zb - oz;
+                            float *d = F + row;
+                            const float cz = K.c[2], m5 = K.M[5], am = K.amin;
+                            if (who) {
+                                int32_t *w = who + row;
+                                const int32_t iq = int32_t(q);
+                                for (int z = 0; z < LEAF_DIM; z++) {
+                                    const float dz = float(oz + z) - cz;
+                                    const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
+                                    const bool up = z >= ma && z <= mb && val > d[z];
+                                    d[z] = up ? val : d[z];
+                                    w[z] = up ? iq : w[z];
+                                }
+                            } else {
+                                for (int z = 0; z < LEAF_DIM; z++) {
+                                    const float dz = float(oz + z) - cz;
+                                    const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
+                                    d[z] = z >= ma && z <= mb && val > d[z] ? val : d[z];
                                 }
                             }
                         }
@@ -340,10 +433,14 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
     });
     tbb::parallel_sort(order.begin(), order.end());
     binned b;
-    b.k.resize(n), b.src.resize(n);
+    b.k.resize(n), b.src.resize(n), b.deep.resize(n);
+    // a deep ball's core: within rb - 1 voxels (less a margin far above
+    // rounding) its neighbours are inside the ball
+    const double rbv = deep_ball_radius(a) / vx;
+    b.core = rbv > 1.5 ? float(rbv - 1 - 0.01) : 0.f;
     float emax = 0;
     for (size_t q = 0; q < n; q++) {
-        b.k[q] = K[order[q].second], b.src[q] = order[q].second;
+        b.k[q] = K[order[q].second], b.src[q] = order[q].second, b.deep[q] = deep[order[q].second];
         if (q == 0 || order[q].first != order[q - 1].first)
             b.key.push_back(order[q].first), b.at.push_back(uint32_t(q));
         emax = std::max(emax, std::max(b.k[q].ext[0], std::max(b.k[q].ext[1], b.k[q].ext[2])));
@@ -379,7 +476,7 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
     tbb::parallel_for(tbb::blocked_range<size_t>(0, targets.size(), 4), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t t = rg.begin(); t != rg.end(); t++)
             splat_leaf(b, leaf_coord(targets[t]), F.data() + t * LEAF_SIZE,
-                       track ? who.data() + t * LEAF_SIZE : nullptr);
+                       track ? who.data() + t * LEAF_SIZE : nullptr, 0);
     });
     dense_band band;
     band.key = targets;
@@ -407,7 +504,13 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
                 std::copy(F.data() + t * LEAF_SIZE, F.data() + (t + 1) * LEAF_SIZE, d);
                 if (w) std::copy(who.data() + t * LEAF_SIZE, who.data() + (t + 1) * LEAF_SIZE, w);
             } else {
-                splat_leaf(b, leaf_coord(band.key[i]), d, w);
+                // the faces whose neighbour leaf is not in the band
+                const Coord c = leaf_coord(band.key[i]);
+                const int f[6][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
+                unsigned open = 0;
+                for (int k = 0; k < 6; k++)
+                    if (band.find(leaf_key(c.x() + f[k][0], c.y() + f[k][1], c.z() + f[k][2])) < 0) open |= 1u << k;
+                splat_leaf(b, c, d, w, open);
             }
             if (w)
                 for (int v = 0; v < LEAF_SIZE; v++)
