@@ -38,6 +38,8 @@ constexpr int FEW_NEIGHBOURS = 6;
 // (voxels) along each axis, which holds every voxel beside one inside it
 // (their crossings need the values on both sides); -PAD where none reaches
 constexpr float PAD = 1.01f;
+// the covariance's sums run in this many lanes (a vector's width)
+constexpr int LANES = 16;
 
 // One particle's kernel in index space: the ellipsoid d^T M d <= 1 about c,
 // its value at a voxel amin (1 - sqrt(d^T M d)) (the distance to its
@@ -148,7 +150,14 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
         n, R, pos, deep,
         [&](const size_t *first, const size_t *last, const double *o, const std::vector<float> &bx,
             const std::vector<float> &by, const std::vector<float> &bz) {
-            const size_t nb = bx.size();
+            // the candidates padded to whole blocks of LANES with points far
+            // away (weight 0, squares still finite)
+            const size_t nb = bx.size(), nbp = (nb + LANES - 1) / LANES * LANES;
+            thread_local std::vector<float> px, py, pz;
+            px.assign(nbp, 1e18f), py.assign(nbp, 1e18f), pz.assign(nbp, 1e18f);
+            std::copy(bx.begin(), bx.end(), px.begin());
+            std::copy(by.begin(), by.end(), py.begin());
+            std::copy(bz.begin(), bz.end(), pz.begin());
             for (const size_t *q = first; q != last; q++) {
                 const size_t i = *q;
                 if (deep[i]) continue;
@@ -156,17 +165,27 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
                 // the weighted mean of the neighbours (relative to the particle),
                 // their count, and their weighted covariance about that mean (one
                 // pass: second moments less the mean's; offsets are a few spacings)
-                // (branch-free, in floats, so that it vectorises; sums in
-                // candidate order: the same for any thread count)
+                // (in floats, candidate k summed in lane k % LANES, the lanes
+                // then added in order: it vectorises, and the sums are the
+                // same for any thread count)
+                float A[10][LANES] = {};
+                int cn[LANES] = {};
+                for (size_t k0 = 0; k0 < nbp; k0 += LANES)
+                    for (int j = 0; j < LANES; j++) {
+                        const float dx = px[k0 + j] - x, dy = py[k0 + j] - y, dz = pz[k0 + j] - z,
+                                    d2 = dx * dx + dy * dy + dz * dz;
+                        const float sd = std::sqrt(d2) * finvR, w = d2 < fR2 ? 1 - sd * sd * sd : 0.f;
+                        cn[j] += d2 < fR2;
+                        A[0][j] += w, A[1][j] += w * dx, A[2][j] += w * dy, A[3][j] += w * dz;
+                        A[4][j] += w * dx * dx, A[5][j] += w * dx * dy, A[6][j] += w * dx * dz;
+                        A[7][j] += w * dy * dy, A[8][j] += w * dy * dz, A[9][j] += w * dz * dz;
+                    }
                 float fw = 0, f0 = 0, f1 = 0, f2 = 0, g0 = 0, g1 = 0, g2 = 0, g3 = 0, g4 = 0, g5 = 0;
                 int cnt = 0;
-                for (size_t k = 0; k < nb; k++) {
-                    const float dx = bx[k] - x, dy = by[k] - y, dz = bz[k] - z, d2 = dx * dx + dy * dy + dz * dz;
-                    const float sd = std::sqrt(d2) * finvR, w = d2 < fR2 ? 1 - sd * sd * sd : 0.f;
-                    cnt += d2 < fR2;
-                    fw += w, f0 += w * dx, f1 += w * dy, f2 += w * dz;
-                    g0 += w * dx * dx, g1 += w * dx * dy, g2 += w * dx * dz;
-                    g3 += w * dy * dy, g4 += w * dy * dz, g5 += w * dz * dz;
+                for (int j = 0; j < LANES; j++) {
+                    fw += A[0][j], f0 += A[1][j], f1 += A[2][j], f2 += A[3][j];
+                    g0 += A[4][j], g1 += A[5][j], g2 += A[6][j], g3 += A[7][j], g4 += A[8][j], g5 += A[9][j];
+                    cnt += cn[j];
                 }
                 double ws = fw, m[3] = {f0, f1, f2}, S[6] = {g0, g1, g2, g3, g4, g5};
                 const double c[3] = {pos(i, 0) * inv, pos(i, 1) * inv, pos(i, 2) * inv};
@@ -300,9 +319,13 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
                     const int z0 = std::max(oz, int(std::ceil(K.c[2] - K.ext[2]))),
                               z1 = std::min(oz + LEAF_DIM - 1, int(std::floor(K.c[2] + K.ext[2])));
                     if (x0 > x1 || y0 > y1 || z0 > z1) continue;
+                    const unsigned zmask = row_bits(z0 - oz, z1 - oz);
                     for (int x = x0; x <= x1; x++) {
                         const float dx = float(x) - K.c[0];
                         for (int y = y0; y <= y1; y++) {
+                            // a row whose voxels in reach are all cores: nothing to do
+                            const unsigned cr = cull ? core[((x - ox) << LEAF_LOG2) + (y - oy)] : 0u;
+                            if (cr == 0xFFu || (cr && (cr & zmask) == zmask)) continue;
                             const float dy = float(y) - K.c[1];
                             // the row's span inside the grown ellipsoid: P5 dz^2 + pb dz + pa <= 1
                             const float pa = K.P[0] * dx * dx + 2 * K.P[1] * dx * dy + K.P[3] * dy * dy;
@@ -315,9 +338,8 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
                             const float qa = K.M[0] * dx * dx + 2 * K.M[1] * dx * dy + K.M[3] * dy * dy;
                             const float qb = 2 * (K.M[2] * dx + K.M[4] * dy);
                             if (za > zb) continue;
-                            if (cull) {
-                                const unsigned m = row_bits(za - oz, zb - oz),
-                                               cr = core[((x - ox) << LEAF_LOG2) + (y - oy)];
+                            if (cr) {
+                                const unsigned m = row_bits(za - oz, zb - oz);
                                 if ((cr & m) == m) continue;
                             }
                             // the whole 8-voxel row, branch-free so that it
