@@ -102,8 +102,8 @@ static void compare(const variant *v, int expect_fused) {
          * after which a particle left its owner */
         KT_CHECK(a.fused > 0 && a.fused <= a.substeps - FRAMES,
                  "%s: the fused run used early scatters (%ld of %ld substeps)", v->name, a.fused, a.substeps);
-        KT_CHECK(a.rebins > FRAMES, "%s: particles left their owners too (%ld re-sorts), so fallbacks ran",
-                 v->name, a.rebins);
+        KT_CHECK(a.rebins > FRAMES, "%s: particles left their owners too (%ld re-sorts), so fallbacks ran", v->name,
+                 a.rebins);
     } else if (expect_fused == 0) {
         KT_CHECK(a.fused == 0, "%s: no Δt known in advance, no early scatter (%ld)", v->name, a.fused);
     }

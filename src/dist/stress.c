@@ -1,9 +1,10 @@
 /* stress.c — the stress pass across ranks, batch for batch as on one rank.
  *
  * kf_stress runs the particles in chunks of 64 of the array, and inside a
- * chunk SIMD batches of one material in lock step: the polar iteration stops
- * when every lane of a batch has converged, so a particle's stress depends
- * on its batch mates. The ranks' arrays laid end to end are the one-rank
+ * chunk SIMD batches of one material in lock step. A particle's stress no
+ * longer depends on its batch mates (material_batch.c: full 16-lane batches,
+ * per-lane convergence), so cutting the chunks as one rank does is no longer
+ * needed for the bits; it is kept as it was. The ranks' arrays laid end to end are the one-rank
  * array (dist.h), so a rank's particle at local index i sits at global index
  * g0 + i: chunks are cut at global multiples of 64, and the (at most two)
  * chunks a rank shares with its neighbours are computed whole here, from

@@ -63,6 +63,10 @@ typedef struct kf_grid {
     long fused_substep; /* ... for the substep with this number */
     long fused_rebins;  /* ... made while rebins had this value */
     kf_real fused_dt;   /* ... with this Δt */
+    /* the fused sweep found every particle within its owner's reach
+     * before the substep with this number, while rebins had this value:
+     * that substep's binning has nothing to do */
+    long reach_substep, reach_rebins;
     /* hash: block key -> block index */
     size_t hcap;    /* power of two */
     uint64_t *hkey; /* UINT64_MAX = empty */
@@ -107,6 +111,7 @@ int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int thre
 static inline void kf_grid_invalidate(kf_grid *g) {
     g->valid = 0;
     g->fused_ready = 0;
+    g->reach_substep = -1;
 }
 
 /* The block with this block coordinate, or -1 if there is none. */

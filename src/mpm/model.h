@@ -170,9 +170,13 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
  * contact fields, FLIP or the testing fault (kf_fuse_applies): each node
  * then sums the same terms in the same order as the unfused P2G, so the
  * next substep is the same bit for bit whichever path made its grid.
- * Returns 1 when the scatter is usable (every particle's stencil still fits
- * its owner, every stress finite), 0 when the next substep must bin and
- * scatter as usual. */
+ * Returns KF_FUSED_REACH when every particle's stencil still fits its
+ * owner (binning's test, so the next substep's binning has nothing to do),
+ * and KF_FUSED_SCATTER with it when the scatter is usable too (every
+ * stress finite); without them the next substep bins and scatters as
+ * usual. */
+#define KF_FUSED_REACH 1
+#define KF_FUSED_SCATTER 2
 int kf_fuse_applies(const kf_model *m, const kf_state *s);
 int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F */

@@ -55,9 +55,17 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
 
     /* across ranks: particles first go to the rank that owns their block now */
     if (s->dist && kf_dist_migrate(m, s)) kf_dist_abort(1);
-    /* sort: particles into owner blocks (cheap when nobody changed block) */
+    /* sort: particles into owner blocks (cheap when nobody changed block);
+     * nothing to do when the last substep's fused sweep found every
+     * particle within its owner's reach and nothing edited them since */
+    kf_grid *g = &s->g;
+    const int fusable = kf_fuse_applies(m, s);
+    const int in_reach =
+        fusable && g->valid && s->tau_valid && g->reach_substep == s->substep && g->reach_rebins == g->rebins;
+    g->reach_substep = -1;
     size_t bad = 0;
-    int rc = kf_grid_bin(&s->g, &s->p, kf_model_inv_dx(m), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad);
+    int rc =
+        in_reach ? 0 : kf_grid_bin(g, &s->p, kf_model_inv_dx(m), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad);
     if (rc == -2) set_trouble(trouble, s, bad, "position NaN or out of range", s->p.x[0][bad]);
     if (rc == -1) set_trouble(trouble, s, 0, "out of memory binning particles", 0);
     if (s->dist ? kf_dist_agree(s, rc != 0, trouble) : rc != 0) return 1;
@@ -67,8 +75,6 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     /* the last substep's fused end (kf_g2p2g) scattered this one's P2G
      * already: usable when it was made for this substep and this Δt, binning
      * kept every particle where it was, and nothing edited the particles */
-    kf_grid *g = &s->g;
-    const int fusable = kf_fuse_applies(m, s);
     const int scattered = fusable && g->fused_ready && g->fused_substep == s->substep && g->fused_rebins == g->rebins &&
                           g->valid && s->tau_valid && g->fused_dt == rdt;
     g->fused_ready = 0;
@@ -143,7 +149,12 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
         /* G2P and the stress pass in one sweep, with the next substep's P2G
          * when its Δt is announced; the whole sweep is timed as G2P */
         const kf_real next = (kf_real)s->fuse_next;
-        if (kf_g2p2g(m, s, rdt, next, &res)) {
+        const int got = kf_g2p2g(m, s, rdt, next, &res);
+        if (got & KF_FUSED_REACH) {
+            g->reach_substep = s->substep + 1;
+            g->reach_rebins = g->rebins;
+        }
+        if (got & KF_FUSED_SCATTER) {
             g->fused_ready = 1;
             g->fused_substep = s->substep + 1;
             g->fused_rebins = g->rebins;

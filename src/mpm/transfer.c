@@ -632,6 +632,27 @@ static long stress_owner(const kf_mat *mats, kf_particles *p, size_t lo, size_t 
     return limited;
 }
 
+/* whether every particle of owner r (at its new position) still has its
+ * stencil inside the owner's neighbourhood: binning's test (grid.c), made
+ * while the positions are in cache */
+static int owner_in_reach(const kf_grid *g, const kf_particles *p, size_t r, kf_real inv_dx, int cubic) {
+    const int32_t *bc = &g->bcoord[3 * r];
+    const int lmax = kf_owner_lmax(cubic);
+    int out = 0;
+    for (int a = 0; a < 3; a++) {
+        const kf_real *x = p->x[a];
+        const int origin = KF_BLOCK * bc[a];
+        for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
+            /* NaN and far-away positions fail here too */
+            kf_real xg = x[i] * inv_dx;
+            int ok = kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)(KF_KEY_OFFSET - 2));
+            int l = ok ? kf_base_node(x[i], inv_dx, cubic) - origin : -1;
+            out |= l < 0 || l > lmax;
+        }
+    }
+    return !out;
+}
+
 int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p_result *out) {
     g2p_fn gfn = g2p_variant(m);
     p2g_fn pfn = p2g_variant(m);
@@ -651,7 +672,8 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
     const kf_mat *mats = stress_mats(m, mat_buf);
     step_acc total = {0};
     long limited = 0;
-    int usable = scatter, give_up = 0;
+    int usable = scatter, give_up = 0, reach = 1;
+    const kf_real inv_dx = kf_model_inv_dx(m);
     const size_t nblocks = g->nblocks, nowner = g->nowner;
 #pragma omp parallel num_threads(m->nthreads) reduction(+ : limited)
     {
@@ -660,7 +682,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
         kf_v4 pcache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64))); /* the next substep's P2G */
         chunk ck __attribute__((aligned(64)));
         step_acc acc = {0};
-        int ok = 1;
+        int ok = 1, in_reach = 1;
         if (scatter) {
 #pragma omp for schedule(static)
             for (size_t b = 0; b < nblocks; b++)
@@ -672,6 +694,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
                     size_t r = (size_t)g->owner[k];
                     gfn(m, s, r, dt, cache, NULL, &ck, &acc);
                     limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
+                    in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
                     int stop;
 #pragma omp atomic read
                     stop = give_up;
@@ -693,6 +716,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
             for (size_t r = 0; r < nowner; r++) {
                 gfn(m, s, r, dt, cache, NULL, &ck, &acc);
                 limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
+                in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
             }
         }
 #pragma omp critical
@@ -701,11 +725,13 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
                 total.trouble = acc.trouble;
             if (acc.max_cells > total.max_cells) total.max_cells = acc.max_cells;
             usable &= ok;
+            reach &= in_reach;
         }
     }
     s->stiff_limited = limited;
     s->tau_valid = 1;
     out->trouble = total.trouble;
     out->max_cells = total.max_cells;
-    return usable && !give_up && !total.trouble.found;
+    if (total.trouble.found) return 0;
+    return (reach ? KF_FUSED_REACH : 0) | (usable && !give_up && reach ? KF_FUSED_SCATTER : 0);
 }
