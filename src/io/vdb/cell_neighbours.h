@@ -13,6 +13,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
@@ -40,15 +41,18 @@ void for_each_cell_neighbourhood(size_t n, double R, const Pos &pos, const std::
                                  const Visit &visit) {
     const double invR = 1 / R;
     // particles sorted into cells (ties by index: deterministic)
+    // (in parallel: the order is the one total order of (key, index))
     std::vector<uint64_t> key(n);
     std::vector<size_t> order(n);
-    for (size_t i = 0; i < n; i++) {
-        key[i] = cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
-                          int64_t(std::floor(pos(i, 2) * invR)));
-        order[i] = i;
-    }
-    std::sort(order.begin(), order.end(),
-              [&](size_t a, size_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            key[i] = cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
+                              int64_t(std::floor(pos(i, 2) * invR)));
+            order[i] = i;
+        }
+    });
+    tbb::parallel_sort(order.begin(), order.end(),
+                       [&](size_t a, size_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
     std::unordered_map<uint64_t, std::pair<size_t, size_t>> cells;
     std::vector<std::pair<size_t, size_t>> ranges;
     cells.reserve(n / 4 + 16);
