@@ -342,27 +342,29 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
                                 const unsigned m = row_bits(za - oz, zb - oz);
                                 if ((cr & m) == m) continue;
                             }
-                            // the whole 8-voxel row, branch-free so that it
-                            // vectorises; voxels outside [za, zb] keep theirs
                             const int row = ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2);
                             const int ma = za - oz, mb = zb - oz;
                             float *d = F + row;
                             const float cz = K.c[2], m5 = K.M[5], am = K.amin;
-                            if (who) {
-                                int32_t *w = who + row;
-                                const int32_t iq = int32_t(q);
-                                for (int z = 0; z < LEAF_DIM; z++) {
-                                    const float dz = float(oz + z) - cz;
-                                    const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
-                                    const bool up = z >= ma && z <= mb && val > d[z];
-                                    d[z] = up ? val : d[z];
-                                    w[z] = up ? iq : w[z];
-                                }
-                            } else {
+                            if (cull) {
+                                // the whole 8-voxel row, branch-free so that it
+                                // vectorises; voxels outside [za, zb] keep theirs
                                 for (int z = 0; z < LEAF_DIM; z++) {
                                     const float dz = float(oz + z) - cz;
                                     const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
                                     d[z] = z >= ma && z <= mb && val > d[z] ? val : d[z];
+                                }
+                            } else {
+                                // the span alone (no cores: preview voxels,
+                                // or particles tracked): rows are short there
+                                int32_t *w = who ? who + row : nullptr;
+                                for (int z = ma; z <= mb; z++) {
+                                    const float dz = float(oz + z) - cz;
+                                    const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
+                                    if (val > d[z]) {
+                                        d[z] = val;
+                                        if (w) w[z] = int32_t(q);
+                                    }
                                 }
                             }
                         }
