@@ -96,10 +96,10 @@ echo "ok    a one-node Slurm is up ($SLURM_CONF)"
 if [ "$mode" = wedges ]; then
     # --- --ranks 2: a shot the ranks cannot run is refused before anything is queued;
     # one they can run is one srun step of 2 ranks, equal to a local one-rank run
-    "$kerf" farm submit "${shot[@]}" --ranks 2 > /dev/null 2> ranks.txt
+    "$kerf" farm submit "${shot[@]}" --set sim.integrator=implicit --ranks 2 > /dev/null 2> ranks.txt
     rc=$?
-    check "--ranks 2 on a shot with contact between objects exits 2 (got $rc), names it, submits nothing" \
-        bash -c "test $rc -eq 2 && grep -q 'contact between objects (sim.contact) does not run over several MPI ranks' ranks.txt && test -z \"\$(squeue -h)\""
+    check "--ranks 2 on a shot with the implicit integrator exits 2 (got $rc), names it, submits nothing" \
+        bash -c "test $rc -eq 2 && grep -q 'the implicit integrator (sim.integrator: implicit) does not run over several MPI ranks' ranks.txt && test -z \"\$(squeue -h)\""
     nocontact=(--set sim.contact=off)
     "$kerf" farm submit "${shot[@]}" "${nocontact[@]}" --ranks 2 --out mpi > mpisubmit.txt 2>&1
     rc=$?

@@ -62,10 +62,6 @@ mpi 2 run drop.yaml --out imp --set sim.integrator=implicit > imp.log 2>&1
 rc=$?
 check "implicit over 2 ranks: exit 2 (got $rc), the feature named" bash -c "test $rc -eq 2 && grep -q \
     'the implicit integrator (sim.integrator: implicit) does not run over several MPI ranks yet (2 ranks)' imp.log"
-mpi 2 run drop.yaml --out imp --set sim.contact=on > con.log 2>&1
-rc=$?
-check "contact between objects over 2 ranks: exit 2 (got $rc), the feature named" bash -c "test $rc -eq 2 && grep -q \
-    'contact between objects (sim.contact) does not run over several MPI ranks yet' con.log"
 check "a refused run writes nothing" test ! -e imp
 mpi 2 check drop.yaml > chk.log 2>&1
 check "kerf check under mpirun -np 2 is refused" grep -q "only \`kerf run\` runs over several MPI ranks" chk.log

@@ -1,15 +1,19 @@
 #!/usr/bin/env bash
 # test_mpi_shot.sh — one small shot of tests/mpi/ over MPI ranks:
 #   blade: a thin blade cuts a block (CPIC); ranks cut the block in slabs
-#          along x, so every rank boundary crosses the blade;
+#          along x, so every rank boundary crosses the blade, and the
+#          halves become pieces in contact (sim.contact);
 #   slide: a dynamic box skids across a slab from rank to rank (two-way
 #          rigid coupling);
-#   dam:   a dam break, water surging along x through every rank's slab.
+#   dam:   a dam break, water surging along x through every rank's slab;
+#   contact: two jelly blocks thrown at each other meet where the ranks are
+#          cut and bounce apart (contact between objects: per-object
+#          velocity fields on the nodes they share).
 # On 2, 3 and 4 ranks (oversubscribed) the shot writes the same checkpoints
 # and particle files, bit for bit, as a plain one-rank run, and the same
 # rigid body and crossing lines in the frame log; runs cut short on one
 # rank count resume on another and end the same.
-#   usage: test_mpi_shot.sh <kerf binary> <tests dir> blade|slide|dam
+#   usage: test_mpi_shot.sh <kerf binary> <tests dir> blade|slide|dam|contact
 # The launcher and the helpers: tests/mpi/common.sh (exit 77 without one).
 set -u
 kerf=$1
@@ -38,7 +42,7 @@ for n in 2 3 4; do
     mpi "$n" run $shot.yaml --out np$n > np$n.log 2>&1
     check "$shot on $n ranks: exit 0" test $? -eq 0
     check "$shot on $n ranks: checkpoints and particles equal the one-rank run's, bit for bit" same ref np$n
-    [ $shot = dam ] ||
+    [ $shot = dam ] || [ $shot = contact ] ||
         check "$shot on $n ranks: the rigid body and crossing lines of the frame log are the one-rank run's" \
             bash -c "diff <(log_lines np$n.log) <(log_lines ref.log) > /dev/null && log_lines ref.log | grep -q crossings"
 done
@@ -48,9 +52,19 @@ if [ $shot = slide ]; then
 elif [ $shot = blade ]; then
     check "blade: the blade goes through the block (its edge under 1 cm)" \
         bash -c "grep 'rigid blade' ref.log | tail -1 | grep -qE 'at \[[0-9.]+, 0\.1[45]'"
+elif [ $shot = contact ]; then
+    check "contact: particles cross the cut between the 2 ranks as the blocks meet" \
+        bash -c "grep -E '^frame 100[3-6]: 2 ranks' np2.log | grep -qE ' [1-9][0-9]* particles migrated'"
 else
     check "dam: particles migrate between ranks as the water surges" \
         bash -c "grep -E '^frame $last: 4 ranks' np4.log | grep -qE ' [1-9][0-9]* particles migrated'"
+fi
+
+# the objects' (or pieces') own velocity fields change the result: contact is in play
+if [ $shot = contact ] || [ $shot = blade ]; then
+    "$kerf" run $shot.yaml --out off --set sim.contact=off --quiet
+    check "$shot: contact between objects matters (with sim.contact: off the last frame differs)" \
+        bash -c "! cmp -s ref/checkpoints/$shot.$last.kfc off/checkpoints/$shot.$last.kfc"
 fi
 
 # --- resume across rank counts ----------------------------------------------------

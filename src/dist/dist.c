@@ -55,7 +55,6 @@ double kf_dist_clock(void) { return kf_now_ms(); }
 
 const char *kf_dist_unsupported_def(const kf_sim_def *sim, int nrigid) {
     if (sim->integrator == KF_INTEGRATOR_IMPLICIT) return "the implicit integrator (sim.integrator: implicit)";
-    if (sim->contact) return "contact between objects (sim.contact)";
     if (sim->transfer == KF_TRANSFER_FLIP) return "the flip transfer (sim.transfer: flip)";
     return NULL;
 }
@@ -199,6 +198,12 @@ void kf_dist_free(struct kf_dist *d) {
     free(d->send);
     free(d->pack);
     free(d->unpack);
+    free(d->fsend);
+    free(d->frecv);
+    free(d->ffield);
+    free(d->xsend);
+    free(d->xrecv);
+    free(d->xmsg);
     free(d->colour_save);
     free(d->owner_keys);
     free(d->pbuf[0]);

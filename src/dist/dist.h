@@ -29,6 +29,14 @@
  * each holds the one-rank impulse and steps its own copy of the rigid
  * solver to the same state.
  *
+ * Contact between objects (contact.h). An owner's field slots (momentum,
+ * mass, volume and its gradient per field) ride in its halo record and are
+ * added in its colour turn like its cache. Which fields reach a node comes
+ * first, in two exchanges with the same ranks (kf_dist_owner_exchange): the
+ * boundary owners' fields and boxes, then the candidates' claims per node.
+ * The pieces a thin body cuts are labelled over a table of every rank's
+ * particle classes (kf_dist_allgather), the same on every rank.
+ *
  * Memory. No rank holds the whole state: each seeds only its own range
  * (seed.c; a resume reads the checkpoint whole, then keeps its part),
  * migration rebuilds the part in place, and a frame's files reach rank 0
@@ -154,6 +162,29 @@ void kf_dist_extent(const kf_state *s, double lo[3], double hi[3]);
  * six at 6r (KF_MAX_RIGIDS rows), zeroed here. Collective. */
 void kf_dist_rigid_sum(const kf_state *s, int nrigid, size_t nslot, const double *imp, size_t stride,
                        const long *caught, const double *depth, double *sum, long *caught_sum, double *depth_max);
+/* Contact between objects (contact.c). Each owner block whose nodes
+ * another rank's owners share sends what put(ctx, owner, dst) writes for
+ * it to those ranks: put with dst NULL says how many bytes (at most max;
+ * 0: nothing for this owner), then writes them. *in gets what arrived (in
+ * sender rank order, each sender's in owner order), each record with its
+ * owner's block coordinate and this rank's blocks of the owner's 2x2x2
+ * neighbourhood (made where missing); valid until the next call. The bytes
+ * count as halo traffic. 0 or -1 (out of memory). Collective. */
+typedef struct kf_dist_owner_msg {
+    int32_t bc[3];
+    int32_t nb[8];
+    size_t bytes;
+    const void *data;
+} kf_dist_owner_msg;
+typedef size_t (*kf_dist_owner_put)(void *ctx, size_t owner, void *dst);
+int kf_dist_owner_exchange(const kf_model *m, kf_state *s, kf_dist_owner_put put, size_t max, void *ctx,
+                           kf_dist_owner_msg **in, size_t *nin);
+/* Every rank's bytes, in rank order, to every rank: *all (malloc'd, the
+ * caller frees it) and their sum. 0 or -1. Collective. */
+int kf_dist_allgather(const kf_state *s, const void *mine, size_t bytes, void **all, size_t *all_bytes);
+/* the index in the one-rank particle array of this rank's first particle
+ * (the ranks' parts end to end are the one-rank array). Collective. */
+size_t kf_dist_first_index(const kf_state *s);
 /* the global max of v, and the element-wise min of n values */
 double kf_dist_max(const kf_state *s, double v);
 void kf_dist_min_reals(const kf_state *s, kf_real *v, int n);

@@ -6,6 +6,10 @@
 
 #include "internal.h"
 #include "../cpic/cpic.h"
+#include "../mpm/contact.h"
+
+/* the header's flag: a field cache follows the node cache (contact.h) */
+#define HEAD_FIELDS (1 << 24)
 
 /* the colour of an owner block: the parity of its coordinate (grid.h) */
 static inline int colour_of(const int32_t *c) { return (c[0] & 1) << 2 | (c[1] & 1) << 1 | (c[2] & 1); }
@@ -62,24 +66,17 @@ static int is_owner(const struct kf_dist *d, uint64_t key) {
     return lo < d->nowner_keys && d->owner_keys[lo] == key;
 }
 
-int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
+/* Which owner blocks other ranks need, and which ranks: those with an
+ * owner block within R of it (its neighbourhood's nodes and theirs
+ * overlap, or a wall ghost node reads across). A box whose corner keys lie
+ * in this rank's range lies in it whole: keys are x-major. Pairs (owner,
+ * rank), an owner's pairs adjacent, owners ascending. */
+int kf_dist_pairs(const kf_model *m, kf_state *s, int32_t **pairs, size_t *npairs) {
     struct kf_dist *d = s->dist;
-    kf_grid *g = &s->g;
-    const int CD = kf_p2g_cache_edge(m);
-    const size_t rec = 1 + (size_t)CD * CD * CD; /* kf_v4s per record: header + cache */
-    int *scount = d->counts, *sdispl = d->counts + d->size, *rcount = d->counts + 2 * d->size,
-        *rdispl = d->counts + 3 * d->size;
+    const kf_grid *g = &s->g;
     const uint64_t lo = d->split[d->rank], hi = d->split[d->rank + 1];
-    /* stress first, as kf_p2g (collective, and it uses the count arrays) */
-    if (!s->tau_valid) kf_stress(m, s, 0);
-
     /* every rank's owners, once per re-sort */
     if (d->owners_stale && gather_owners(d, g)) return -1;
-
-    /* which owner blocks other ranks need, and which ranks: those with an
-     * owner block within R of it (its neighbourhood's nodes and theirs
-     * overlap, or a wall ghost node reads across). A box whose corner keys
-     * lie in this rank's range lies in it whole: keys are x-major. */
     size_t npair = 0, pair_cap = 0;
     int32_t *pair = NULL; /* (owner, rank) */
     int *mark = malloc((size_t)d->size * sizeof *mark);
@@ -111,6 +108,24 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
                 }
     }
     free(mark);
+    *pairs = pair;
+    *npairs = npair;
+    return 0;
+}
+
+int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
+    struct kf_dist *d = s->dist;
+    kf_grid *g = &s->g;
+    const int CD = kf_p2g_cache_edge(m);
+    const size_t rec = 1 + (size_t)CD * CD * CD; /* kf_v4s per record: header + cache */
+    int *scount = d->counts, *sdispl = d->counts + d->size, *rcount = d->counts + 2 * d->size,
+        *rdispl = d->counts + 3 * d->size;
+    /* stress first, as kf_p2g (collective, and it uses the count arrays) */
+    if (!s->tau_valid) kf_stress(m, s, 0);
+
+    size_t npair = 0;
+    int32_t *pair = NULL; /* (owner, rank) */
+    if (kf_dist_pairs(m, s, &pair, &npair)) return -1;
 
     /* the records, grouped by destination rank */
     memset(scount, 0, (size_t)d->size * sizeof *scount);
@@ -124,6 +139,15 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
     memcpy(at, sdispl, (size_t)d->size * sizeof *at);
     for (size_t k = 0; k < npair; k++) slot[k] = (size_t)at[pair[2 * k + 1]]++;
     free(at);
+    /* where objects meet, an owner on the field path sends its field cache
+     * too (FR kf_v4s), in the same record: fslot[k] its place, or -1 */
+    const size_t FR = (size_t)KF_CONTACT_CACHE_ROWS * CD * CD * CD;
+    ptrdiff_t *fslot = malloc((npair + 1) * sizeof *fslot);
+    if (!fslot) return free(pair), free(slot), -1;
+    size_t nf = 0;
+    for (size_t k = 0; k < npair; k++) fslot[k] = kf_contact_owner(s, (size_t)pair[2 * k]) ? (ptrdiff_t)nf++ : -1;
+    if (nf && kf_dist_reserve((void **)&d->fsend, &d->fsend_cap, nf * FR * sizeof(kf_v4)))
+        return free(pair), free(slot), free(fslot), -1;
     /* The caches, as the owner's P2G makes them. Near a rigid body an
      * owner's P2G also writes its particles' colours and the bodies'
      * impulses (cpic.h), which the grid's own P2G writes again right after:
@@ -133,7 +157,7 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
      * destinations. */
     kf_cpic *cp = m->nrigid ? s->cpic : NULL;
     if (cp && kf_dist_reserve((void **)&d->colour_save, &d->colour_cap, s->p.n * sizeof(uint32_t) + 4))
-        return free(pair), free(slot), -1;
+        return free(pair), free(slot), free(fslot), -1;
     if (cp) memcpy(d->colour_save, s->p.colour, s->p.n * sizeof(uint32_t));
 #pragma omp parallel for schedule(dynamic, 4) num_threads(m->nthreads)
     for (size_t k = 0; k < npair; k++) {
@@ -143,27 +167,39 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
         /* header: the block coordinate and the touched base offsets (4 bits each) */
         int32_t head[4], lohi[6];
         memcpy(head, &g->bcoord[3 * pair[2 * k]], 3 * sizeof *head);
-        kf_p2g_owner_cache(m, s, (size_t)pair[2 * k], dt, r + 1, lohi);
-        head[3] = 0;
+        kf_p2g_owner_cache(m, s, (size_t)pair[2 * k], dt, r + 1,
+                           fslot[k] >= 0 ? d->fsend + (size_t)fslot[k] * FR : NULL, lohi);
+        head[3] = fslot[k] >= 0 ? HEAD_FIELDS : 0;
         for (int e = 0; e < 6; e++) head[3] |= (lohi[e] & 15) << (4 * e);
         r[0] = (kf_v4){0, 0, 0, 0};
         memcpy(&r[0], head, sizeof head);
     }
     for (size_t k = 1; k < npair; k++)
-        if (pair[2 * k] == pair[2 * (k - 1)])
+        if (pair[2 * k] == pair[2 * (k - 1)]) {
             memcpy(d->send + slot[k] * rec, d->send + slot[k - 1] * rec, rec * sizeof(kf_v4));
+            /* the copy's field cache: the first pair's (the record names no place) */
+            fslot[k] = fslot[k - 1];
+        }
     if (cp) {
         memcpy(s->p.colour, d->colour_save, s->p.n * sizeof(uint32_t));
         if (cp->nslot) memset(cp->imp, 0, cp->nslot * sizeof cp->imp[0]);
     }
+    /* each send slot's field cache, by the slot's place in the records */
+    ptrdiff_t *sfield = malloc((nsend + 1) * sizeof *sfield);
+    if (!sfield) return free(pair), free(slot), free(fslot), -1;
+    for (size_t k = 0; k < npair; k++) sfield[slot[k]] = fslot[k];
+    free(fslot);
     free(slot);
     free(pair);
 
     /* on the wire only the touched part of each cache: the header, then the
      * nodes of the box the owner's stencils reached (at most 6³ of 8³ for
-     * the quadratic kernel), in the cache's order */
+     * the quadratic kernel), in the cache's order; then, for an owner on the
+     * field path, the same nodes' field cache rows */
     const int KW = m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3;
-    if (kf_dist_reserve((void **)&d->pack, &d->pack_cap, (nsend * rec + 1) * sizeof(kf_v4))) return -1;
+    const int FROWS = KF_CONTACT_CACHE_ROWS;
+    if (kf_dist_reserve((void **)&d->pack, &d->pack_cap, (nsend * rec + nf * FR + 1) * sizeof(kf_v4)))
+        return free(sfield), -1;
     size_t packed = 0;
     for (int r = 0; r < d->size; r++) {
         size_t first = packed;
@@ -178,6 +214,13 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
             for (int a = from[0]; a < to[0]; a++)
                 for (int b = from[1]; b < to[1]; b++)
                     for (int c = from[2]; c < to[2]; c++) d->pack[packed++] = rr[1 + (a * CD + b) * CD + c];
+            if (!(head[3] & HEAD_FIELDS)) continue;
+            const kf_v4 *fr = d->fsend + (size_t)sfield[k] * FR;
+            for (int a = from[0]; a < to[0]; a++)
+                for (int b = from[1]; b < to[1]; b++)
+                    for (int c = from[2]; c < to[2]; c++)
+                        for (int e = 0; e < FROWS; e++)
+                            d->pack[packed++] = fr[(size_t)FROWS * (size_t)((a * CD + b) * CD + c) + (size_t)e];
         }
         scount[r] = (int)(packed - first);
         sdispl[r] = (int)first;
@@ -196,11 +239,12 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
     MPI_Alltoallv(d->pack, scount, sdispl, rt, d->unpack, rcount, rdispl, rt, d->comm);
     d->stats.comm_ms += kf_dist_clock() - t0;
     MPI_Type_free(&rt);
+    free(sfield);
     d->stats.halo_bytes += (double)(packed * sizeof(kf_v4));
     d->stats.substeps++;
 
     /* back to whole caches: count the records, then lay each out in full */
-    size_t nrecv = 0;
+    size_t nrecv = 0, nfrecv = 0;
     for (size_t u = 0; u < nunits; nrecv++) {
         int32_t head[4];
         memcpy(head, &d->unpack[u], sizeof head);
@@ -208,9 +252,13 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
         for (int e = 0; e < 3; e++)
             vol *= (size_t)(((head[3] >> (4 * (3 + e))) & 15) + KW - ((head[3] >> (4 * e)) & 15));
         u += 1 + vol;
+        if (head[3] & HEAD_FIELDS) u += vol * (size_t)FROWS, nfrecv++;
     }
-    if (kf_dist_reserve((void **)&d->recv, &d->recv_cap, (nrecv * rec + 1) * sizeof(kf_v4))) MPI_Abort(d->comm, 1);
-    for (size_t u = 0, k = 0; k < nrecv; k++) {
+    if (kf_dist_reserve((void **)&d->recv, &d->recv_cap, (nrecv * rec + 1) * sizeof(kf_v4)) ||
+        kf_dist_reserve((void **)&d->frecv, &d->frecv_cap, (nfrecv * FR + 1) * sizeof(kf_v4)) ||
+        kf_dist_reserve((void **)&d->ffield, &d->ffield_cap, (nrecv + 1) * sizeof *d->ffield))
+        MPI_Abort(d->comm, 1);
+    for (size_t u = 0, k = 0, nfk = 0; k < nrecv; k++) {
         kf_v4 *rr = d->recv + k * rec;
         int32_t head[4];
         memcpy(head, &d->unpack[u], sizeof head);
@@ -220,6 +268,17 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
         for (int a = from[0]; a < to[0]; a++)
             for (int b = from[1]; b < to[1]; b++)
                 for (int c = from[2]; c < to[2]; c++) rr[1 + (a * CD + b) * CD + c] = d->unpack[u++];
+        d->ffield[k] = -1;
+        if (!(head[3] & HEAD_FIELDS)) continue;
+        /* the field cache, whole: zero beyond the touched box, as the sender's */
+        kf_v4 *fr = d->frecv + nfk * FR;
+        d->ffield[k] = (ptrdiff_t)nfk++;
+        memset(fr, 0, FR * sizeof(kf_v4));
+        for (int a = from[0]; a < to[0]; a++)
+            for (int b = from[1]; b < to[1]; b++)
+                for (int c = from[2]; c < to[2]; c++)
+                    for (int e = 0; e < FROWS; e++)
+                        fr[(size_t)FROWS * (size_t)((a * CD + b) * CD + c) + (size_t)e] = d->unpack[u++];
     }
 
     /* blocks for what arrived, and the arrivals by colour */
@@ -256,7 +315,7 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
 void kf_dist_p2g_colour(const kf_model *m, kf_state *s, int c) {
     struct kf_dist *d = s->dist;
     const int CD = kf_p2g_cache_edge(m);
-    const size_t rec = 1 + (size_t)CD * CD * CD;
+    const size_t rec = 1 + (size_t)CD * CD * CD, FR = (size_t)KF_CONTACT_CACHE_ROWS * CD * CD * CD;
     /* same-colour owners write disjoint nodes: any order, any thread */
 #pragma omp for schedule(dynamic, 4)
     for (size_t k = d->fstart[c]; k < d->fstart[c + 1]; k++) {
@@ -265,5 +324,6 @@ void kf_dist_p2g_colour(const kf_model *m, kf_state *s, int c) {
         memcpy(head, &d->recv[f * rec], sizeof head);
         for (int e = 0; e < 6; e++) lohi[e] = (head[3] >> (4 * e)) & 15;
         kf_p2g_add_cache(m, &s->g, d->fnb[f], d->recv + f * rec + 1, lohi);
+        if (head[3] & HEAD_FIELDS) kf_contact_add_cache(m, s, d->fnb[f], d->frecv + (size_t)d->ffield[f] * FR, lohi);
     }
 }

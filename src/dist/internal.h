@@ -23,6 +23,17 @@ struct kf_dist {
     size_t send_cap;
     kf_v4 *pack, *unpack; /* the touched parts of the caches, out and in */
     size_t pack_cap, unpack_cap;
+    /* field caches of owners on contact's field path (contact.h), out and
+     * in; ffield: each received record's, or -1 */
+    kf_v4 *fsend, *frecv;
+    size_t fsend_cap, frecv_cap;
+    ptrdiff_t *ffield;
+    size_t ffield_cap;
+    /* the owner payloads of kf_dist_owner_exchange, out and in */
+    char *xsend, *xrecv;
+    size_t xsend_cap, xrecv_cap;
+    kf_dist_owner_msg *xmsg;
+    size_t xmsg_cap;
     char *pbuf[2]; /* particle records out and in */
     size_t pbuf_cap[2];
     uint32_t *colour_save; /* CPIC colours kept while the halo's caches are made (halo.c) */
@@ -70,6 +81,11 @@ struct kf_dist *kf_dist_new(void);
 void kf_dist_cut(struct kf_dist *d, const uint64_t *key, const int64_t *count, size_t nb);
 /* a particle array's capacity cut to its count */
 void kf_dist_shrink(kf_particles *p);
+
+/* the halo's pairs (owner, rank): each owner block whose nodes another
+ * rank's owners share, and that rank; an owner's pairs adjacent, owners
+ * ascending. *pairs is malloc'd. 0 or -1; collective (once per re-sort). */
+int kf_dist_pairs(const kf_model *m, kf_state *s, int32_t **pairs, size_t *npairs);
 
 /* bytes of one particle's record, and its packing */
 size_t kf_dist_record_bytes(void);

@@ -7,6 +7,7 @@
 
 #include "collider.h"
 #include "contact.h"
+#include "../dist/dist.h"
 
 void kf_contact_free(kf_contact *c) {
     if (!c) return;
@@ -44,7 +45,7 @@ static int grow(void **p, size_t n, size_t size) {
 
 /* room for the grid's blocks and owners */
 static int reserve(kf_contact *c, size_t nblocks, size_t nowner) {
-    if (nblocks > c->cap_blocks) {
+    if (nblocks > c->cap_blocks || !c->blk) {
         size_t n = nblocks + nblocks / 4 + 16;
         if (grow((void **)&c->mv, n * KF_BLOCK_NODES * 2, sizeof(kf_v4)) ||
             grow((void **)&c->vol, n * KF_BLOCK_NODES * 2, sizeof(kf_v4)) ||
@@ -53,7 +54,7 @@ static int reserve(kf_contact *c, size_t nblocks, size_t nowner) {
             return -1;
         c->cap_blocks = n;
     }
-    if (nowner > c->cap_owner) {
+    if (nowner > c->cap_owner || !c->own) {
         size_t n = nowner + nowner / 4 + 16;
         if (grow((void **)&c->own, n, 1) || grow((void **)&c->ofield, n, sizeof(uint16_t)) ||
             grow((void **)&c->obox, n, sizeof *c->obox))
@@ -61,6 +62,109 @@ static int reserve(kf_contact *c, size_t nblocks, size_t nowner) {
         c->cap_owner = n;
     }
     return 0;
+}
+
+/* ---- across ranks ------------------------------------------------------------
+ * Which fields reach a node, and so the slots, depend on every owner that
+ * scatters into it, some of them another rank's (dist.h). Two exchanges
+ * with the ranks that share an owner's nodes make each rank's slots the
+ * one-rank slots at every node its own owners touch: first each boundary
+ * owner's field and box (the candidate test below needs its neighbours'),
+ * then each candidate's claims, the first two fields its particles reach
+ * at each node of its box in particle order (the claim rule keeps the first
+ * two distinct fields a node sees, so a third of one owner never counts),
+ * applied in the owner's colour turn. */
+
+typedef struct {
+    uint16_t field, pad;
+    int32_t box[6];
+} owner_head;
+
+typedef struct {
+    const kf_model *m;
+    const kf_state *s;
+    const kf_contact *c;
+} put_ctx;
+
+static size_t put_head(void *ctx, size_t k, void *dst) {
+    const put_ctx *x = ctx;
+    if (dst) {
+        owner_head h = {x->c->ofield[k], 0, {0}};
+        memcpy(h.box, x->c->obox[k], sizeof h.box);
+        memcpy(dst, &h, sizeof h);
+    }
+    return sizeof(owner_head);
+}
+
+/* a claim payload: the box in neighbourhood nodes (lo, hi inclusive), then
+ * two fields per node of it */
+static size_t claims_bytes(const int32_t *lo, const int32_t *hi) {
+    return 6 * sizeof(int32_t) +
+           2 * sizeof(uint16_t) * (size_t)((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1));
+}
+
+static size_t put_claims(void *ctx, size_t k, void *dst) {
+    const put_ctx *x = ctx;
+    const kf_contact *c = x->c;
+    if (!c->own[k]) return 0;
+    const kf_grid *g = &x->s->g;
+    const kf_particles *p = &x->s->p;
+    const int32_t *bc = &g->bcoord[3 * k];
+    int32_t lohi[6];
+    for (int a = 0; a < 3; a++)
+        lohi[a] = c->obox[k][a] - KF_BLOCK * bc[a], lohi[3 + a] = c->obox[k][3 + a] - KF_BLOCK * bc[a];
+    if (!dst) return claims_bytes(lohi, lohi + 3);
+    const int ex[3] = {lohi[3] - lohi[0] + 1, lohi[4] - lohi[1] + 1, lohi[5] - lohi[2] + 1};
+    memcpy(dst, lohi, sizeof lohi);
+    uint16_t *id = (uint16_t *)((char *)dst + sizeof lohi);
+    memset(id, 0xFF, 2 * sizeof(uint16_t) * (size_t)(ex[0] * ex[1] * ex[2]));
+    const kf_real inv_dx = kf_model_inv_dx(x->m);
+    const int cubic = x->m->sim.kernel == KF_KERNEL_CUBIC, kw = cubic ? 4 : 3;
+    for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
+        const uint16_t f = kf_contact_field(p, i);
+        int l[3];
+        for (int a = 0; a < 3; a++) l[a] = kf_base_node(p->x[a][i], inv_dx, cubic) - KF_BLOCK * bc[a] - lohi[a];
+        for (int a = 0; a < kw; a++)
+            for (int b = 0; b < kw; b++)
+                for (int e = 0; e < kw; e++) {
+                    uint16_t *q = &id[2 * (size_t)(((l[0] + a) * ex[1] + l[1] + b) * ex[2] + l[2] + e)];
+                    if (q[0] == f || q[1] == f) continue;
+                    if (q[0] == KF_FIELD_NONE) q[0] = f;
+                    else if (q[1] == KF_FIELD_NONE) q[1] = f;
+                }
+    }
+    return claims_bytes(lohi, lohi + 3);
+}
+
+/* another rank's owner's claims into the slots' fields */
+static void apply_claims(kf_contact *c, const kf_dist_owner_msg *msg) {
+    int32_t lohi[6];
+    memcpy(lohi, msg->data, sizeof lohi);
+    const uint16_t *id = (const uint16_t *)((const char *)msg->data + sizeof lohi);
+    for (int a = lohi[0]; a <= lohi[3]; a++)
+        for (int b = lohi[1]; b <= lohi[4]; b++)
+            for (int e = lohi[2]; e <= lohi[5]; e++, id += 2) {
+                int blk = msg->nb[(a >> 2) << 2 | (b >> 2) << 1 | (e >> 2)];
+                uint16_t *q =
+                    &c->fid[2 * ((size_t)blk * KF_BLOCK_NODES + (size_t)((a & 3) << 4 | (b & 3) << 2 | (e & 3)))];
+                for (int u = 0; u < 2 && id[u] != KF_FIELD_NONE; u++) {
+                    const uint16_t f = id[u];
+                    if (q[0] == f || q[1] == f) continue;
+                    if (q[0] == KF_FIELD_NONE) q[0] = f;
+                    else if (q[1] == KF_FIELD_NONE) q[1] = f;
+                }
+            }
+}
+
+static int colour_of(const int32_t *c) { return (c[0] & 1) << 2 | (c[1] & 1) << 1 | (c[2] & 1); }
+
+/* two owners' candidate test: they scatter into a common block, are not of
+ * one field, and their boxes overlap */
+static int meet(uint16_t f1, const int32_t *box1, uint16_t f2, const int32_t *box2) {
+    if (f1 == f2 && f1 != KF_FIELD_MANY) return 0;
+    int overlap = 1;
+    for (int a = 0; a < 3; a++) overlap &= box1[a] <= box2[3 + a] && box2[a] <= box1[3 + a];
+    return overlap;
 }
 
 int kf_contact_prepare(const kf_model *m, kf_state *s) {
@@ -74,7 +178,9 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
     const kf_particles *p = &s->p;
     c->active = 0;
     c->owners = c->two_field_nodes = c->touching_nodes = 0;
-    if (!g->nowner || !p->n) return 0;
+    /* across ranks every rank takes each collective step below, particles or not */
+    const int dist = s->dist != NULL;
+    if (!dist && (!g->nowner || !p->n)) return 0;
     if (reserve(c, g->nblocks, g->nowner)) return -1;
     /* pieces a thin body cut apart: fields of their own from now on */
     int thin = 0, solid = 0;
@@ -95,6 +201,15 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
             if (kf_contact_field(p, i) != f0) f = KF_FIELD_MANY;
         c->ofield[k] = f;
         uniform &= f == kf_contact_field(p, g->pstart[0]);
+    }
+    if (dist) {
+        /* one field in all the ranks' particles: the largest and the
+         * smallest of the ranks' own fields agree (a rank without particles
+         * has no say) */
+        const int any = nowner > 0;
+        const double mine = !any ? -1 : uniform ? (double)kf_contact_field(p, g->pstart[0]) : (double)KF_FIELD_MANY;
+        const double hi = kf_dist_max(s, mine), lo = -kf_dist_max(s, any ? -mine : -1e9);
+        uniform = hi < 0 || (hi == lo && hi != (double)KF_FIELD_MANY);
     }
     if (uniform) return 0;
         /* the box of nodes each owner's particles' stencils cover */
@@ -125,23 +240,49 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
         for (int u = 0; u < c->ncontrib[b]; u++)
             for (int v = u + 1; v < c->ncontrib[b]; v++) {
                 int32_t k1 = c->contrib[b][u], k2 = c->contrib[b][v];
-                if (c->ofield[k1] == c->ofield[k2] && c->ofield[k1] != KF_FIELD_MANY) continue;
-                int overlap = 1;
-                for (int a = 0; a < 3; a++)
-                    overlap &= c->obox[k1][a] <= c->obox[k2][3 + a] && c->obox[k2][a] <= c->obox[k1][3 + a];
-                if (overlap) c->own[k1] = c->own[k2] = 1;
+                if (meet(c->ofield[k1], c->obox[k1], c->ofield[k2], c->obox[k2])) c->own[k1] = c->own[k2] = 1;
             }
-    memset(c->blk, 0, nblocks);
+    /* across ranks: other ranks' owners that scatter into a block with
+     * ours (within one block along each axis) are candidates' partners too;
+     * then the candidates' claims travel */
+    kf_dist_owner_msg *claims = NULL;
+    size_t nclaims = 0;
+    if (dist) {
+        put_ctx x = {m, s, c};
+        kf_dist_owner_msg *head = NULL;
+        size_t nhead = 0;
+        if (kf_dist_owner_exchange(m, s, put_head, sizeof(owner_head), &x, &head, &nhead)) kf_dist_abort(1);
+        for (size_t h = 0; h < nhead; h++) {
+            owner_head oh;
+            memcpy(&oh, head[h].data, sizeof oh);
+            for (int d = 0; d < 27; d++) {
+                int32_t k = kf_grid_find(g, head[h].bc[0] + d / 9 - 1, head[h].bc[1] + d / 3 % 3 - 1,
+                                         head[h].bc[2] + d % 3 - 1);
+                if (k < 0 || (size_t)k >= nowner) continue; /* an owner is the block of the same index */
+                if (meet(c->ofield[k], c->obox[k], oh.field, oh.box)) c->own[k] = 1;
+            }
+        }
+        size_t most = claims_bytes((const int32_t[3]){0, 0, 0},
+                                   (const int32_t[3]){KF_CACHE_EDGE - 1, KF_CACHE_EDGE - 1, KF_CACHE_EDGE - 1});
+        if (kf_dist_owner_exchange(m, s, put_claims, most, &x, &claims, &nclaims)) kf_dist_abort(1);
+        /* the exchanges may have made blocks */
+        if (reserve(c, g->nblocks, nowner)) kf_dist_abort(1);
+    }
+    const size_t nblocks_all = g->nblocks;
+    memset(c->blk, 0, nblocks_all);
     long owners = 0;
     for (size_t k = 0; k < nowner; k++) {
         if (!c->own[k]) continue;
         owners++;
         for (int e = 0; e < 8; e++) c->blk[g->nb[k][e]] = 1;
     }
+    for (size_t h = 0; h < nclaims; h++)
+        for (int e = 0; e < 8; e++) c->blk[claims[h].nb[e]] = 1;
+    c->nblocks = nblocks_all;
     if (!owners) return 0;
         /* the slots of every block a candidate owner scatters into, emptied */
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
-    for (size_t b = 0; b < nblocks; b++) {
+    for (size_t b = 0; b < nblocks_all; b++) {
         if (!c->blk[b]) continue;
         size_t n0 = b * KF_BLOCK_NODES * 2;
         memset(&c->mv[n0], 0, sizeof(kf_v4) * KF_BLOCK_NODES * 2);
@@ -177,11 +318,15 @@ int kf_contact_prepare(const kf_model *m, kf_state *s) {
                         }
             }
         }
+        /* other ranks' owners of this colour, in the same turn */
+#pragma omp for schedule(dynamic, 4)
+        for (size_t h = 0; h < nclaims; h++)
+            if (colour_of(claims[h].bc) == col) apply_claims(c, &claims[h]);
     }
     /* only owners that scatter into a block with a node of two fields take
      * the field path (the others' particles reach no such node) */
 #pragma omp parallel for schedule(static) num_threads(m->nthreads)
-    for (size_t b = 0; b < nblocks; b++) {
+    for (size_t b = 0; b < nblocks_all; b++) {
         uint8_t two = 0;
         if (c->blk[b])
             for (int l = 0; l < KF_BLOCK_NODES; l++)
@@ -275,7 +420,7 @@ void kf_contact_grid(const kf_model *m, kf_state *s, kf_real dt) {
     kf_collider_frame frame[KF_MAX_COLLIDERS];
     for (int k = 0; k < m->ncol; k++) kf_collider_frame_at(&m->col[k], t1, &frame[k]);
     long two = 0, touching = 0;
-    const size_t nb = g->nblocks;
+    const size_t nb = c->nblocks; /* the blocks prepared (the halo makes no others) */
 #pragma omp parallel for schedule(dynamic, 16) num_threads(m->nthreads) reduction(+ : two, touching)
     for (size_t b = 0; b < nb; b++) {
         if (!c->blk[b]) continue;

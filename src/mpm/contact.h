@@ -58,7 +58,8 @@
 #define KF_FIELD_MANY 0xFFFEu
 
 typedef struct kf_contact {
-    int active; /* this substep takes the field path somewhere */
+    int active;     /* this substep takes the field path somewhere */
+    size_t nblocks; /* the grid's blocks when prepared */
     /* per grid block (cap_blocks), per node 2 slots */
     size_t cap_blocks;
     kf_v4 *mv;             /* (cap_blocks x 64 x 2) momentum xyz, mass; after kf_contact_grid: velocity xyz, mass */
@@ -111,12 +112,23 @@ static inline int kf_contact_owner(const kf_state *s, size_t r) {
 void kf_contact_grid(const kf_model *m, kf_state *s, kf_real dt);
 
 /* The field scatter of one chunk of an owner on the field path, after its
- * ordinary (or CPIC) scatter; and the gather's correction to its own
- * field's velocities, after the ordinary (or CPIC) gather. col is the
- * owner's CPIC colour cache (kf_cpic_owner.col) in the band, else NULL. */
+ * ordinary (or CPIC) scatter, into the owner's field cache; and the
+ * gather's correction to its own field's velocities, after the ordinary (or
+ * CPIC) gather. col is the owner's CPIC colour cache (kf_cpic_owner.col) in
+ * the band, else NULL. The field cache has KF_CONTACT_CACHE_ROWS rows per
+ * node of the owner's neighbourhood (the node cache's order): the momentum
+ * and mass of slot 0 and 1, then the volume rows of slot 0 and 1. Like the
+ * node cache it is summed per owner and then added to the slots in the
+ * owner's colour turn (kf_contact_add_cache), so another rank can add an
+ * owner's cache in the same turn and get the same sums. */
+#define KF_CONTACT_CACHE_ROWS 4
 struct chunk;
 void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const uint32_t *col, const struct chunk *ck,
-                          size_t i0, int kw, int classic);
+                          size_t i0, int kw, int classic, kf_v4 *fcache);
+/* an owner's field cache (lohi: its particles' base offsets, as
+ * kf_p2g_add_cache) added into the slots of the neighbourhood nb, at nodes
+ * where two fields meet */
+void kf_contact_add_cache(const kf_model *m, kf_state *s, const int32_t nb[8], const kf_v4 *fcache, const int lohi[6]);
 void kf_contact_g2p_chunk(const kf_model *m, const kf_state *s, size_t owner, const uint32_t *col, struct chunk *ck,
                           size_t i0, int kw, int classic);
 

@@ -24,6 +24,7 @@
 
 #include "contact.h"
 #include "../cpic/cpic.h"
+#include "../dist/dist.h"
 
 #define PIECE_SHIFT 12
 /* the fewest particles a part needs to become a piece: four cells at 8 per cell */
@@ -130,12 +131,191 @@ static int whole_at_once(const kf_state *s, kf_contact *c, const uint32_t *node_
     return 1;
 }
 
+/* ---- across ranks -------------------------------------------------------------
+ * A part may span ranks. Each rank makes the classes of its own particles
+ * (nearest node, field, CPIC colour: as below), every rank gathers all of
+ * them, merges the classes several ranks hold at one node, and runs the
+ * same linking, sizing and numbering over the whole table, in orders that
+ * depend on the table alone: every rank finds the one-rank parts and
+ * numbers them alike. The table holds about one entry per occupied node of
+ * the whole scene, on every rank, each substep a thin body may cut a solid:
+ * a union-find over the ranks' boundaries alone would send far less. */
+typedef struct {
+    int32_t node[3]; /* the nearest node */
+    uint16_t field, cuts;
+    uint32_t mcol;  /* the CPIC colour's bits (kf_cpic_compatible reads only them) */
+    uint32_t col;   /* the colour of its first particle */
+    uint32_t count; /* its particles */
+    uint64_t rep;   /* its first particle's index in the one-rank array */
+} gclass;
+
+static int key_cmp(const gclass *a, const gclass *b) {
+    for (int e = 0; e < 3; e++)
+        if (a->node[e] != b->node[e]) return a->node[e] < b->node[e] ? -1 : 1;
+    if (a->field != b->field) return a->field < b->field ? -1 : 1;
+    if (a->mcol != b->mcol) return a->mcol < b->mcol ? -1 : 1;
+    return 0;
+}
+
+static int class_cmp(const void *x, const void *y) {
+    const gclass *a = x, *b = y;
+    int k = key_cmp(a, b);
+    return k ? k : a->rep < b->rep ? -1 : a->rep > b->rep;
+}
+
+/* sorted by key and first particle, entries of one key made one */
+static size_t merge(gclass *g, size_t n) {
+    qsort(g, n, sizeof *g, class_cmp);
+    size_t out = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (out && !key_cmp(&g[out - 1], &g[i])) g[out - 1].count += g[i].count;
+        else g[out++] = g[i];
+    }
+    return out;
+}
+
+/* the first class at or after node (x, y, z) */
+static size_t node_lower(const gclass *g, size_t n, const int32_t *q) {
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        int less = 0;
+        for (int e = 0; e < 3; e++)
+            if (g[mid].node[e] != q[e]) {
+                less = g[mid].node[e] < q[e];
+                break;
+            }
+        if (less) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+static int by_rep(const void *x, const void *y) {
+    const uint64_t a = ((const uint64_t *)x)[0], b = ((const uint64_t *)y)[0];
+    return a < b ? -1 : a > b;
+}
+
+static int pieces_across_ranks(const kf_model *m, kf_state *s, const uint32_t *node_of) {
+    kf_contact *c = s->contact;
+    kf_particles *p = &s->p;
+    const kf_grid *g = &s->g;
+    const size_t n = p->n, first = kf_dist_first_index(s);
+    const uint32_t cmask = KF_CPIC_BITS_MASK;
+    /* this rank's classes */
+    gclass *mine = malloc((n + 1) * sizeof *mine);
+    if (!mine) return -1;
+    for (size_t k = 0; k < g->nowner; k++)
+        for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
+            const uint32_t q = node_of[i], l = q % KF_BLOCK_NODES;
+            const int32_t *bc = &g->bcoord[3 * (q / KF_BLOCK_NODES)];
+            gclass e = {{KF_BLOCK * bc[0] + (int32_t)(l >> 4), KF_BLOCK * bc[1] + (int32_t)((l >> 2) & 3),
+                         KF_BLOCK * bc[2] + (int32_t)(l & 3)},
+                        kf_contact_field(p, i),
+                        (uint16_t)kf_contact_cuts(&m->mat[p->mat[i]]),
+                        p->colour[i] & cmask,
+                        p->colour[i],
+                        1,
+                        first + i};
+            mine[i] = e;
+        }
+    size_t nmine = merge(mine, n), bytes = 0;
+    gclass *all = NULL;
+    if (kf_dist_allgather(s, mine, nmine * sizeof *mine, (void **)&all, &bytes)) return free(mine), -1;
+    const size_t na = merge(all, bytes / sizeof *all);
+    if (na >= UINT32_MAX) return free(mine), free(all), -1;
+    uint32_t *parent = malloc((na + 1) * sizeof *parent);
+    uint64_t *size = calloc(na + 1, sizeof *size), (*roots)[2] = malloc((na + 1) * sizeof *roots);
+    if (!parent || !size || !roots) return free(mine), free(all), free(parent), free(size), free(roots), -1;
+    for (uint32_t k = 0; k < na; k++) parent[k] = k;
+    /* links: same field, no thin body between, same node or the next along an axis */
+    for (size_t i = 0; i < na; i++) {
+        for (int a = -1; a < 3; a++) {
+            int32_t q[3] = {all[i].node[0], all[i].node[1], all[i].node[2]};
+            size_t j = i + 1;
+            if (a >= 0) q[a]++, j = node_lower(all, na, q);
+            for (; j < na && !memcmp(all[j].node, q, sizeof q); j++) {
+                if (all[j].field != all[i].field || !compatible(all[i].col, all[j].col)) continue;
+                uint32_t r1 = find(parent, (uint32_t)i), r2 = find(parent, (uint32_t)j);
+                if (r1 == r2) continue;
+                if (all[r1].rep < all[r2].rep) parent[r2] = r1;
+                else parent[r1] = r2;
+            }
+        }
+    }
+    /* sizes; roots in the order of their first particle; the largest part
+     * of each field keeps its number, the others of a few cells or more
+     * get the next free piece of their object */
+    size_t nroot = 0;
+    for (uint32_t k = 0; k < na; k++) size[find(parent, k)] += all[k].count;
+    for (uint32_t k = 0; k < na; k++)
+        if (parent[k] == k) roots[nroot][0] = all[k].rep, roots[nroot++][1] = k;
+    qsort(roots, nroot, sizeof *roots, by_rep);
+    uint32_t *keep = c->pc_keep, *used = c->pc_used;
+    if (!keep) {
+        keep = c->pc_keep = malloc(sizeof(uint32_t) * 65536);
+        used = c->pc_used = malloc(sizeof(uint32_t) * 4096);
+        if (!keep || !used) return free(mine), free(all), free(parent), free(size), free(roots), -1;
+    }
+    memset(used, 0, sizeof(uint32_t) * 4096);
+    for (uint32_t k = 0; k < na; k++) {
+        keep[all[k].field] = UINT32_MAX;
+        used[all[k].field & KF_OBJECT_MASK] |= 1u << (all[k].field >> PIECE_SHIFT);
+    }
+    for (size_t a = 0; a < nroot; a++) {
+        uint32_t k = (uint32_t)roots[a][1];
+        uint16_t f = all[k].field;
+        if (keep[f] == UINT32_MAX || size[k] > size[keep[f]]) keep[f] = k;
+    }
+    /* by root: its new piece + 1, 0 = keeps its own */
+    uint32_t *newp = calloc(na + 1, sizeof *newp);
+    if (!newp) return free(mine), free(all), free(parent), free(size), free(roots), -1;
+    int split = 0;
+    for (size_t a = 0; a < nroot; a++) {
+        uint32_t k = (uint32_t)roots[a][1];
+        uint16_t f = all[k].field;
+        if (keep[f] == k || size[k] < KF_PIECE_MIN || !all[k].cuts) continue;
+        uint32_t obj = f & KF_OBJECT_MASK, free_mask = ~used[obj] & 0xFFFFu;
+        uint32_t pk = free_mask ? (uint32_t)__builtin_ctz(free_mask) : 15;
+        used[obj] |= 1u << pk;
+        newp[k] = pk + 1;
+        split = 1;
+    }
+    /* this rank's particles: their class in the table, its part's piece */
+    if (split) {
+        for (size_t i = 0; i < n; i++) {
+            const uint32_t q = node_of[i], l = q % KF_BLOCK_NODES;
+            const int32_t *bc = &g->bcoord[3 * (q / KF_BLOCK_NODES)];
+            gclass e = {{KF_BLOCK * bc[0] + (int32_t)(l >> 4), KF_BLOCK * bc[1] + (int32_t)((l >> 2) & 3),
+                         KF_BLOCK * bc[2] + (int32_t)(l & 3)},
+                        kf_contact_field(p, i),
+                        0,
+                        p->colour[i] & cmask,
+                        0,
+                        0,
+                        0};
+            size_t lo = node_lower(all, na, e.node);
+            while (lo < na && key_cmp(&all[lo], &e) < 0) lo++;
+            uint32_t k = newp[find(parent, (uint32_t)lo)];
+            if (k) p->obj[i] = (uint16_t)((p->obj[i] & KF_OBJECT_MASK) | (k - 1) << PIECE_SHIFT);
+        }
+        c->pieces_made++;
+    }
+    free(mine);
+    free(all);
+    free(parent);
+    free(size);
+    free(roots);
+    free(newp);
+    return 0;
+}
+
 int kf_contact_pieces(const kf_model *m, kf_state *s) {
     kf_contact *c = s->contact;
     kf_particles *p = &s->p;
     const kf_grid *g = &s->g;
     const size_t n = p->n, nodes = g->nblocks * KF_BLOCK_NODES;
-    if (!n || n >= UINT32_MAX) return 0;
+    if (!s->dist && (!n || n >= UINT32_MAX)) return 0;
     if (reserve((void **)&c->pc_node, &c->pc_node_cap, n, sizeof(uint32_t)) ||
         reserve((void **)&c->pc_parent, &c->pc_parent_cap, n, sizeof(uint32_t)) ||
         reserve((void **)&c->pc_list, &c->pc_list_cap, n, sizeof(uint32_t)) ||
@@ -164,6 +344,7 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
             node_of[i] = (uint32_t)blk * KF_BLOCK_NODES + (uint32_t)((l[0] & 3) << 4 | (l[1] & 3) << 2 | (l[2] & 3));
         }
     }
+    if (s->dist) return pieces_across_ranks(m, s, node_of);
     {
         int whole = whole_at_once(s, c, node_of);
         if (whole) return whole < 0 ? -1 : 0;

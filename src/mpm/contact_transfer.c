@@ -4,10 +4,11 @@
  * two fields meet, its own field's velocity instead of the total's.
  *
  * Both run particle by particle on the owner's chunk after the ordinary (or
- * CPIC) transfer of the chunk, reading its stencil; they write the slots
- * straight into the grid: owners of one P2G colour write disjoint nodes, so
- * this is race-free and every node sums in the same order for any thread
- * count, as the ordinary scatter does. */
+ * CPIC) transfer of the chunk, reading its stencil. The scatter sums into
+ * the owner's field cache, which is added to the slots as the node cache is
+ * added to the nodes: owners of one P2G colour write disjoint nodes, so this
+ * is race-free and every node sums in the same order of owners for any
+ * thread count and, an owner's cache travelling whole, any rank count. */
 #include "contact.h"
 #include "transfer_chunk.h"
 
@@ -36,7 +37,7 @@ static inline double volume_now(const kf_model *m, const kf_particles *p, size_t
 }
 
 void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const uint32_t *col, const chunk *ck, size_t i0,
-                          int kw, int classic) {
+                          int kw, int classic, kf_v4 *fcache) {
     kf_contact *c = s->contact;
     const kf_particles *p = &s->p;
     const int32_t *nb = s->g.nb[owner];
@@ -73,13 +74,30 @@ void kf_contact_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const ui
                     add[3] = w * ck->mv[3][j];
                     /* the particle's slot; a third field at the node joins the second */
                     const int slot = id[0] == f ? 0 : 1;
-                    c->mv[2 * q + (size_t)slot] += add;
+                    kf_v4 *row = &fcache[KF_CONTACT_CACHE_ROWS * (size_t)(((l0 + a) * NB + l1 + b) * NB + l2 + k)];
+                    row[slot] += add;
                     /* volume, and its gradient at the node: ∂w/∂x_i = -∂w/∂x_p (dw is the latter, in
                      * grid units); it points into the field */
                     const kf_real gs = -V * inv_dx;
-                    c->vol[2 * q + (size_t)slot] += (kf_v4){gs * gw[0], gs * gw[1], gs * gw[2], V * w};
+                    row[2 + slot] += (kf_v4){gs * gw[0], gs * gw[1], gs * gw[2], V * w};
                 }
     }
+}
+
+void kf_contact_add_cache(const kf_model *m, kf_state *s, const int32_t nb[8], const kf_v4 *fcache, const int lohi[6]) {
+    kf_contact *c = s->contact;
+    const int kw = m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3;
+    for (int a = lohi[0]; a < lohi[3] + kw; a++)
+        for (int b = lohi[1]; b < lohi[4] + kw; b++)
+            for (int k = lohi[2]; k < lohi[5] + kw; k++) {
+                size_t q = node_index(nb, a, b, k);
+                if (c->fid[2 * q + 1] == KF_FIELD_NONE) continue; /* the scatter left nothing here */
+                const kf_v4 *row = &fcache[KF_CONTACT_CACHE_ROWS * (size_t)((a * NB + b) * NB + k)];
+                c->mv[2 * q] += row[0];
+                c->mv[2 * q + 1] += row[1];
+                c->vol[2 * q] += row[2];
+                c->vol[2 * q + 1] += row[3];
+            }
 }
 
 void kf_contact_g2p_chunk(const kf_model *m, const kf_state *s, size_t owner, const uint32_t *col, chunk *ck, size_t i0,

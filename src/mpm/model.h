@@ -145,9 +145,11 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble);
 /* one owner block's P2G scatter into cache (edge kf_p2g_cache_edge, CD³
  * nodes; lohi: the base offsets its particles used, lo then hi per axis)
  * without touching the grid, and such a cache added into a 2x2x2 block
- * neighbourhood: P2G across ranks (src/dist) */
+ * neighbourhood: P2G across ranks (src/dist). An owner on contact's field
+ * path (kf_contact_owner) also fills fcache (KF_CONTACT_CACHE_ROWS x CD³,
+ * contact.h: kf_contact_add_cache adds it); else fcache is not touched. */
 int kf_p2g_cache_edge(const kf_model *m);
-void kf_p2g_owner_cache(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, int lohi[6]);
+void kf_p2g_owner_cache(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, kf_v4 *fcache, int lohi[6]);
 void kf_p2g_add_cache(const kf_model *m, kf_grid *g, const int32_t nb[8], const kf_v4 *cache, const int lohi[6]);
 /* implicit integration instead of kf_p2g + kf_grid_update (implicit/solve.c):
  * P2G of mass and momentum, backward Euler by Newton-Krylov on the grid

@@ -67,7 +67,8 @@ _Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like
  * scatter unusable (returns 1 at once; the next substep bins and scatters
  * as usual, and reports the trouble then) */
 KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, kf_real dt,
-                              kf_v4 *cache, kf_v4 *mcache, chunk *ck, step_acc *acc, int lohi[6], int fused) {
+                              kf_v4 *cache, kf_v4 *mcache, kf_v4 *fcache, chunk *ck, step_acc *acc, int lohi[6],
+                              int fused) {
     const int CD = CD_MAX;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
@@ -81,6 +82,7 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     memset(cache, 0, sizeof(kf_v4) * CD * CD * CD);
     if (FLIP) memset(mcache, 0, sizeof(kf_v4) * CD * CD * CD);
+    if (fields) memset(fcache, 0, sizeof(kf_v4) * KF_CONTACT_CACHE_ROWS * CD * CD * CD);
     /* the base offsets the block's particles use: only their nodes are flushed */
     int lo[3] = {CD, CD, CD}, hi[3] = {0, 0, 0};
 
@@ -146,7 +148,7 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
         /* scatter: one node row per vector op, Q d as three column FMAs */
         else scatter_chunk(KW, CLASSIC, ck, cache);
         /* where objects meet: each particle's share into its own field too */
-        if (fields) kf_contact_p2g_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
+        if (fields) kf_contact_p2g_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC, fcache);
         /* FLIP: the momentum alone, on every node the ordinary scatter
          * reaches (in the band too: a particle outside the band reads only
          * nodes no rigid surface colours, where both scatters agree) */
@@ -189,8 +191,8 @@ KF_INLINE void p2g_flush(int KW, kf_v4 *node, const int32_t *nb, const kf_v4 *ca
  * contract multiply-adds differently). */
 #define P2G_VARIANT(name, KW, CLASSIC)                                                                                 \
     __attribute__((noinline)) static int name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,      \
-                                              chunk *ck, step_acc *acc, int lohi[6], int fused) {                      \
-        return p2g_block_cache(KW, CLASSIC, 0, m, s, r, dt, cache, NULL, ck, acc, lohi, fused);                        \
+                                              kf_v4 *fcache, chunk *ck, step_acc *acc, int lohi[6], int fused) {       \
+        return p2g_block_cache(KW, CLASSIC, 0, m, s, r, dt, cache, NULL, fcache, ck, acc, lohi, fused);                \
     }
 P2G_VARIANT(p2g_q_mls, 3, 0)
 P2G_VARIANT(p2g_q_classic, 3, 1)
@@ -200,15 +202,15 @@ P2G_VARIANT(p2g_c_classic, 4, 1)
 /* FLIP: the same with the momentum cache (one rank only: kf_dist_unsupported) */
 #define P2G_FLIP_VARIANT(name, KW, CLASSIC)                                                                            \
     __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,     \
-                                               kf_v4 *mcache, chunk *ck, step_acc *acc, int lohi[6]) {                 \
-        p2g_block_cache(KW, CLASSIC, 1, m, s, r, dt, cache, mcache, ck, acc, lohi, 0);                                 \
+                                               kf_v4 *mcache, kf_v4 *fcache, chunk *ck, step_acc *acc, int lohi[6]) {  \
+        p2g_block_cache(KW, CLASSIC, 1, m, s, r, dt, cache, mcache, fcache, ck, acc, lohi, 0);                         \
     }
 P2G_FLIP_VARIANT(p2g_q_mls_flip, 3, 0)
 P2G_FLIP_VARIANT(p2g_q_classic_flip, 3, 1)
 P2G_FLIP_VARIANT(p2g_c_mls_flip, 4, 0)
 P2G_FLIP_VARIANT(p2g_c_classic_flip, 4, 1)
-typedef void (*p2g_flip_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, kf_v4 *, chunk *, step_acc *,
-                            int *);
+typedef void (*p2g_flip_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, kf_v4 *, kf_v4 *, chunk *,
+                            step_acc *, int *);
 static p2g_flip_fn p2g_flip_variant(const kf_model *m) {
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     return cubic ? (classic ? p2g_c_classic_flip : p2g_c_mls_flip) : (classic ? p2g_q_classic_flip : p2g_q_mls_flip);
@@ -242,7 +244,7 @@ static void flip_old_velocity(kf_grid *g, int threads) {
     }
 }
 
-typedef int (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, chunk *, step_acc *, int *, int);
+typedef int (*p2g_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, kf_v4 *, chunk *, step_acc *, int *, int);
 static p2g_fn p2g_variant(const kf_model *m) {
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     return cubic ? (classic ? p2g_c_classic : p2g_c_mls) : (classic ? p2g_q_classic : p2g_q_mls);
@@ -254,10 +256,11 @@ static p2g_fn p2g_variant(const kf_model *m) {
  * in the same order as on one rank. */
 int kf_p2g_cache_edge(const kf_model *m) { return CD_MAX; }
 
-void kf_p2g_owner_cache(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, int lohi[6]) {
+void kf_p2g_owner_cache(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache, kf_v4 *fcache,
+                        int lohi[6]) {
     chunk ck __attribute__((aligned(64)));
     step_acc acc = {0};
-    p2g_variant(m)(m, s, r, dt, cache, &ck, &acc, lohi, 0);
+    p2g_variant(m)(m, s, r, dt, cache, fcache, &ck, &acc, lohi, 0);
 }
 
 /* A cache from kf_p2g_owner_cache added into the neighbourhood nb. */
@@ -291,6 +294,8 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
         step_acc acc = {0};
         /* FLIP: the momentum without the stress, per owner */
         kf_v4 mcache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));
+        /* where objects meet: the owner's share of each field (contact.h) */
+        kf_v4 fcache[KF_CONTACT_CACHE_ROWS * CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));
         /* one colour at a time: same-colour owners write disjoint nodes */
         for (int c = 0; c < 8; c++) {
 #pragma omp for schedule(dynamic, 4)
@@ -298,13 +303,14 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
                 size_t r = (size_t)g->owner[k];
                 int lohi[6];
                 if (flip) {
-                    ffn(m, s, r, dt, cache, mcache, &ck, &acc, lohi);
+                    ffn(m, s, r, dt, cache, mcache, fcache, &ck, &acc, lohi);
                     if (m->sim.kernel == KF_KERNEL_CUBIC) p2g_flush_old(4, g, g->nb[r], mcache, lohi);
                     else p2g_flush_old(3, g, g->nb[r], mcache, lohi);
                 } else {
-                    fn(m, s, r, dt, cache, &ck, &acc, lohi, 0);
+                    fn(m, s, r, dt, cache, fcache, &ck, &acc, lohi, 0);
                 }
                 kf_p2g_add_cache(m, g, g->nb[r], cache, lohi);
+                if (kf_contact_owner(s, r)) kf_contact_add_cache(m, s, g->nb[r], fcache, lohi);
             }
             /* other ranks' owners of this colour, in the same turn */
             if (s->dist) kf_dist_p2g_colour(m, s, c);
@@ -700,7 +706,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
                     stop = give_up;
                     if (stop || !ok) continue;
                     int lohi[6];
-                    if (pfn(m, s, r, next_dt, pcache, &ck, &acc, lohi, 1)) {
+                    if (pfn(m, s, r, next_dt, pcache, NULL, &ck, &acc, lohi, 1)) {
                         /* unusable: the rest of the scatter is skipped */
                         ok = 0;
 #pragma omp atomic write
