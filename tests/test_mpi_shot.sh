@@ -58,6 +58,13 @@ elif [ $shot = contact ]; then
 else
     check "dam: particles migrate between ranks as the water surges" \
         bash -c "grep -E '^frame $last: 4 ranks' np4.log | grep -qE ' [1-9][0-9]* particles migrated'"
+    # a fixed step too long for the compressed water: the frame log's count of
+    # particles evaluated at the limited stiffness is the sum over the ranks
+    fixed=(--set sim.dt_fixed=0.0015)
+    "$kerf" run $shot.yaml --out fx1 "${fixed[@]}" 2> fx1.log
+    mpi 3 run $shot.yaml --out fx3 "${fixed[@]}" 2> fx3.log
+    check "dam, fixed step: the stiffness-limited counts on 3 ranks are the one-rank run's, and not none" \
+        bash -c "diff <(grep stiffness-limited fx1.log) <(grep stiffness-limited fx3.log) > /dev/null && grep -qE ' [1-9][0-9]* particles stiffness-limited' fx1.log"
 fi
 
 # the objects' (or pieces') own velocity fields change the result: contact is in play

@@ -144,8 +144,9 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt);
 void kf_dist_p2g_colour(const kf_model *m, kf_state *s, int c);
 /* kf_stress over this rank's particles in the one-rank array's batches of
  * 64: a batch cut by a rank boundary is computed whole, from copies of the
- * neighbours' particles in it (collective). */
-void kf_dist_stress(const kf_model *m, kf_state *s, int project);
+ * neighbours' particles in it (collective). Returns the particles evaluated
+ * at the limited stiffness over all ranks (kf_state.stiff_limited). */
+long kf_dist_stress(const kf_model *m, kf_state *s, int project);
 /* Trouble agreed: returns 1 on every rank if any rank found trouble, and t
  * becomes the report of the lowest particle id among them. */
 int kf_dist_agree(const kf_state *s, int found, kf_trouble *t);

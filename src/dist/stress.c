@@ -38,11 +38,14 @@ static void shared_chunks(size_t g0, size_t n, size_t total, span *head, span *t
     if (head->hi > head->lo && head->lo == tail->lo) tail->hi = tail->lo; /* one chunk */
 }
 
-/* compute one shared chunk: copies of the whole chunk, this rank's part back */
-static void one_chunk(const kf_model *m, kf_particles *p, size_t g0, span ch, const kf_real *recv, const size_t *from,
+/* compute one shared chunk: copies of the whole chunk, this rank's part
+ * back; returns the chunk's particles at the limited stiffness when its
+ * first particle is this rank's (each chunk counted once over the ranks),
+ * else 0 */
+static long one_chunk(const kf_model *m, kf_particles *p, size_t g0, span ch, const kf_real *recv, const size_t *from,
                       int project) {
     size_t len = ch.hi - ch.lo;
-    if (!len) return;
+    if (!len) return 0;
     kf_real *buf = malloc(len * 17 * sizeof *buf + 1);
     uint16_t *mat = malloc(len * sizeof *mat + 1);
     if (!buf || !mat) kf_dist_abort(1);
@@ -64,7 +67,7 @@ static void one_chunk(const kf_model *m, kf_particles *p, size_t g0, span ch, co
             mat[j] = (uint16_t)r[11];
         }
     }
-    kf_stress_span(m, F, ps, mat, tau, len, project);
+    long limited = kf_stress_span(m, F, ps, mat, tau, len, project);
     for (size_t j = 0; j < len; j++) {
         size_t gi = ch.lo + j;
         if (gi < g0 || gi >= g0 + p->n) continue;
@@ -75,9 +78,10 @@ static void one_chunk(const kf_model *m, kf_particles *p, size_t g0, span ch, co
     }
     free(buf);
     free(mat);
+    return ch.lo >= g0 && ch.lo < g0 + p->n ? limited : 0;
 }
 
-void kf_dist_stress(const kf_model *m, kf_state *s, int project) {
+long kf_dist_stress(const kf_model *m, kf_state *s, int project) {
     struct kf_dist *d = s->dist;
     kf_particles *p = &s->p;
     const int R = d->size;
@@ -149,8 +153,8 @@ void kf_dist_stress(const kf_model *m, kf_state *s, int project) {
     d->stats.comm_ms += kf_dist_clock() - t0;
 
     /* the shared chunks whole; the chunks in between in place */
-    one_chunk(m, p, g0, head, rbuf, hfrom, project);
-    one_chunk(m, p, g0, tail, rbuf, tfrom, project);
+    long limited = one_chunk(m, p, g0, head, rbuf, hfrom, project);
+    limited += one_chunk(m, p, g0, tail, rbuf, tfrom, project);
     size_t lo = head.hi > head.lo ? head.hi - g0 : 0, hi = tail.hi > tail.lo ? tail.lo - g0 : n;
     if (head.hi > head.lo && tail.hi == tail.lo && head.hi >= g0 + n) hi = lo; /* one shared chunk holds them all */
     if (hi > lo) {
@@ -158,7 +162,15 @@ void kf_dist_stress(const kf_model *m, kf_state *s, int project) {
         for (int k = 0; k < 9; k++) F[k] = p->F[k] + lo;
         for (int k = 0; k < 2; k++) ps[k] = p->ps[k] + lo;
         for (int k = 0; k < 6; k++) tau[k] = p->tau[k] + lo;
-        kf_stress_span(m, F, ps, p->mat + lo, tau, hi - lo, project);
+        limited += kf_stress_span(m, F, ps, p->mat + lo, tau, hi - lo, project);
     }
     free(sbuf), free(rbuf), free(hfrom), free(tfrom), free(all), free(start);
+    /* the particles at the limited stiffness, over all ranks (none without a limit) */
+    long sum = 0;
+    if (kf_model_c_limit(m) > 0) {
+        t0 = kf_dist_clock();
+        MPI_Allreduce(&limited, &sum, 1, MPI_LONG, MPI_SUM, d->comm);
+        d->stats.comm_ms += kf_dist_clock() - t0;
+    }
+    return sum;
 }

@@ -603,7 +603,7 @@ long kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2]
 void kf_stress(const kf_model *m, kf_state *s, int project) {
     kf_particles *p = &s->p;
     /* across ranks: the batches of 64 fall where they fall in the one-rank array */
-    if (s->dist) kf_dist_stress(m, s, project), s->stiff_limited = 0;
+    if (s->dist) s->stiff_limited = kf_dist_stress(m, s, project);
     else s->stiff_limited = kf_stress_span(m, p->F, p->ps, p->mat, p->tau, p->n, project);
     s->tau_valid = 1;
 }
