@@ -45,6 +45,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->seed_bin);
     free(c->seed_order);
     free(c->aff);
+    free(c->near_blk);
     free(c->rbox);
     free(c->obox);
     free(c->bin_start);
@@ -279,12 +280,11 @@ static int seed_box_of(const kf_cpic *c, const kf_grid *g, const double x[3], do
  * gets the same seeds in the same order, and so the same bits, while a
  * blade above the material, or the part of one far from it, costs nothing.
  * The boxes are per block, from the owners' particle positions.
- * An owner whose nodes no seed can reach (its block and the stencil's
- * width, against reach[0..nreach): every splatted body's node box, below)
- * gets no box, without a pass over its particles: no seed is kept or
- * dropped for its nodes, and a block's box (the union of its owners') only
- * shrinks by nodes nothing reads and no seed reaches. */
-static int read_boxes(const kf_model *m, kf_state *s, int nreach, const int32_t (*reach)[6]) {
+ * An owner whose nodes no seed can reach (near[owner] == 0, mark_near;
+ * near NULL: all are near) gets no box, without a pass over its particles:
+ * no seed is kept or dropped for its nodes, and a block's box (the union
+ * of its owners') only shrinks by nodes nothing reads and no seed reaches. */
+static int read_boxes(const kf_model *m, kf_state *s, const uint8_t *near) {
     kf_cpic *c = s->cpic;
     const kf_grid *g = &s->g;
     const kf_particles *p = &s->p;
@@ -306,16 +306,7 @@ static int read_boxes(const kf_model *m, kf_state *s, int nreach, const int32_t 
 #pragma omp parallel for schedule(static) num_threads(m->nthreads) if (p->n >= 65536)
     for (size_t k = 0; k < no; k++) {
         int32_t *ob = c->obox[k];
-        int near = 0;
-        for (int q = 0; q < nreach && !near; q++) {
-            int in = 1;
-            for (int a = 0; a < 3; a++) {
-                const int first = KF_BLOCK * g->bcoord[3 * k + a];
-                in &= first <= reach[q][3 + a] && first + KF_BLOCK - 1 + kw - 1 >= reach[q][a];
-            }
-            near = in;
-        }
-        if (!near || g->pstart[k] == g->pstart[k + 1]) {
+        if ((near && !near[k]) || g->pstart[k] == g->pstart[k + 1]) {
             ob[0] = 1, ob[3] = 0;
             continue;
         }
@@ -425,29 +416,59 @@ static inline void sphere_world(const kf_rigid_state *st, const double *sp, doub
         xc[a] = st->R[3 * a] * sp[0] + st->R[3 * a + 1] * sp[1] + st->R[3 * a + 2] * sp[2] + st->t[a];
 }
 
-/* The nodes body r's seeds can splat this substep, pose st: the union of
- * its short runs' node ranges as run_far bounds them (every seed's box lies
- * in its run's range), a node wider still. The short runs: a long run's
- * sphere is as wide across a blade as along it. Returns -1 out of memory. */
-static int body_reach(kf_cpic *c, const kf_rigid_body *b, const kf_rigid_state *st, int r, double inv_dx,
-                      int32_t box[6]) {
-    if (run_spheres(c, b, r)) return -1;
+static void seed_world(const kf_rigid_state *st, const float *o, double x[3]);
+
+/* Marks in near[] every block whose owner's stencils could read a node
+ * within reach of a seed in the sphere (xc, rad): the node range run_far
+ * bounds such a seed's box by, a node wider. Returns 1 when the blocks
+ * number more than `most` (nothing marked), -1 for a position that is not
+ * finite. */
+static int mark_sphere(const kf_cpic *c, const kf_grid *g, const double xc[3], double rad, double inv_dx, double reach,
+                       int kw, size_t most, uint8_t *near) {
+    int b0[3], b1[3];
+    size_t n = 1;
+    for (int a = 0; a < 3; a++) {
+        const double lo = floor((xc[a] - rad) * inv_dx - reach) - 2, hi = ceil((xc[a] + rad) * inv_dx + reach) + 2;
+        if (!(lo == lo) || !(hi == hi)) return -1;
+        /* an owner's stencils read its block's nodes and kw - 1 beyond;
+         * clamped to the block map's box (a block outside it is none) */
+        const double blo = c->bmap_lo[a], bhi = c->bmap_lo[a] + c->bmap_dim[a] - 1;
+        const double mlo = (blo - 2) * KF_BLOCK, mhi = (bhi + 2) * KF_BLOCK;
+        b0[a] = kf_block_of((int)fmin(fmax(lo - (KF_BLOCK - 1 + kw - 1), mlo), mhi));
+        b1[a] = kf_block_of((int)fmin(fmax(hi, mlo), mhi));
+        b0[a] = b0[a] < (int)blo ? (int)blo : b0[a];
+        b1[a] = b1[a] > (int)bhi ? (int)bhi : b1[a];
+        n *= (size_t)(b1[a] >= b0[a] ? b1[a] - b0[a] + 1 : 0);
+    }
+    if (n > most) return 1;
+    for (int p = b0[0]; p <= b1[0] && n; p++)
+        for (int q = b0[1]; q <= b1[1]; q++)
+            for (int w = b0[2]; w <= b1[2]; w++) {
+                int32_t blk = find_block(c, g, p, q, w);
+                if (blk >= 0) near[blk] = 1;
+            }
+    return 0;
+}
+
+/* The owners some seed of body r (pose st) may reach this substep, marked
+ * in near[] (one byte per block of the grid): per short run of seeds, by
+ * its bounding sphere, or seed by seed where the sphere is wide (a run
+ * that turns a corner of the mesh). Returns 1 when every owner must count
+ * as near (no block map, a pose that is not finite). */
+static int mark_near(const kf_cpic *c, const kf_grid *g, const kf_rigid_body *b, const kf_rigid_state *st, int r,
+                     double inv_dx, int kw, uint8_t *near) {
+    if (!c->bmap_on) return 1;
     const double reach = b->def.thin ? 1.5 : 2.5; /* splat_body's */
-    for (int a = 0; a < 3; a++) box[a] = INT32_MAX, box[3 + a] = INT32_MIN;
     const size_t len = KF_CPIC_RUN / 8, nrun = (b->nseed + len - 1) / len;
     for (size_t k = 0; k < nrun; k++) {
         const double *sp = c->sub_sphere[r][k];
         double xc[3];
         sphere_world(st, sp, xc);
-        for (int a = 0; a < 3; a++) {
-            const double lo = floor((xc[a] - sp[3]) * inv_dx - reach) - 2,
-                         hi = ceil((xc[a] + sp[3]) * inv_dx + reach) + 2;
-            /* a body far outside the grid: clamped, it still misses every
-             * owner; a pose that is not finite: everything */
-            const int32_t l = !(lo >= -1e9) ? -1000000000 : lo > 1e9 ? 1000000000 : (int32_t)lo;
-            const int32_t h = !(hi <= 1e9) ? 1000000000 : hi < -1e9 ? -1000000000 : (int32_t)hi;
-            if (l < box[a]) box[a] = l;
-            if (h > box[3 + a]) box[3 + a] = h;
+        int wide = mark_sphere(c, g, xc, sp[3], inv_dx, reach, kw, 64, near);
+        if (wide < 0) return 1;
+        for (size_t e = k * len; wide && e < (k + 1) * len && e < b->nseed; e++) {
+            seed_world(st, &b->seed[3 * e], xc);
+            if (mark_sphere(c, g, xc, 0, inv_dx, reach, kw, SIZE_MAX, near) < 0) return 1;
         }
     }
     return 0;
@@ -927,14 +948,22 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     if (s->dist) kf_dist_extent(s, glo, ghi);
     /* the static bodies from their store, then every other body */
     int from_store = st_apply(m, s);
-    int32_t reach[KF_MAX_RIGIDS][6];
-    int nreach = 0;
-    for (int r = 0; r < m->nrigid; r++)
+    if (from_store < 0 || bmap_fill(c, g)) return -1;
+    /* the owners the splatted bodies' seeds may reach (mark_near) */
+    if (g->nblocks > c->cap_near) {
+        size_t cap = g->nblocks + g->nblocks / 2 + 16;
+        if (grow((void **)&c->near_blk, 1, cap)) return -1;
+        c->cap_near = cap;
+    }
+    int all_near = 0;
+    memset(c->near_blk, 0, g->nblocks);
+    for (int r = 0; r < m->nrigid && !all_near; r++)
         if (!(from_store && is_static(m, r)) && m->rigid[r].nseed > 0) {
-            if (body_reach(c, &m->rigid[r], &s->rigid[r], r, 1 / dx, reach[nreach])) return -1;
-            nreach++;
+            if (run_spheres(c, &m->rigid[r], r)) return -1;
+            all_near = mark_near(c, g, &m->rigid[r], &s->rigid[r], r, 1 / dx, m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3,
+                                 c->near_blk);
         }
-    if (from_store < 0 || bmap_fill(c, g) || read_boxes(m, s, nreach, (const int32_t(*)[6])reach)) return -1;
+    if (read_boxes(m, s, all_near ? NULL : c->near_blk)) return -1;
     uint32_t tri_base = 1; /* triangle ids for the splat's visit marks, unique across bodies */
     for (int r = 0; r < m->nrigid; r++) {
         if (!(from_store && is_static(m, r)) && splat_body(m, s, r, tri_base, glo, ghi)) {
@@ -983,8 +1012,10 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
         memset(c->guard_depth, 0, c->nslot * sizeof(double));
     }
     /* particles outside the band touch no coloured node: their colour lapses
-     * (§5.3.3), all but the scar (cpic.h: the side of the last blade) */
+     * (§5.3.3), all but the scar (cpic.h: the side of the last blade); each
+     * particle alone, so in parallel */
     kf_particles *p = &s->p;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) if (p->n >= 65536)
     for (size_t k = 0; k < g->nowner; k++)
         if (c->slot[k] < 0)
             for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {

@@ -94,6 +94,8 @@ typedef struct kf_cpic {
     size_t cap_rbox, cap_obox;
     uint8_t *aff; /* per block: some node has affinity this substep */
     size_t cap_aff;
+    uint8_t *near_blk; /* per block: some seed may reach its owner's reads this substep (cdf.c) */
+    size_t cap_near;
     /* owner blocks in the narrow band and their impulse accumulators */
     size_t cap_owner;
     int32_t *slot; /* per owner: index into imp, or -1 outside the band */

@@ -94,11 +94,11 @@ static inline void kept_velocity_at(const kf_model *m, const kf_state *s, int r,
  * cells/m, a quarter cell of draft. Dropping C near bodies (PIC there, as
  * the authors' code does) removed that too, but PIC's damping in the band
  * held a sinking brick up in still water. */
-static inline void affine_velocity(const kf_particles *p, size_t i, int apic, const double d[3], double cd[3]) {
+static inline void affine_velocity_of(const double C[9], int apic, const double d[3], double cd[3]) {
     for (int e = 0; e < 3; e++) {
         cd[e] = 0;
         if (apic)
-            for (int f = 0; f < 3; f++) cd[e] += (double)p->C[3 * e + f][i] * d[f];
+            for (int f = 0; f < 3; f++) cd[e] += C[3 * e + f] * d[f];
     }
 }
 
@@ -309,6 +309,12 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         const double mass = ck->mv[3][j];
         double ur[KF_MAX_RIGIDS][3];
         uint32_t have = 0;
+        /* the particle's terms in locals, once: the cache stores below may
+         * alias the chunk's floats, and the compiler would load them again
+         * at every node (the same values, so the same sums) */
+        double mvj[3], qj[9], Cj[9];
+        for (int e = 0; e < 3; e++) mvj[e] = ck->mv[e][j];
+        for (int e = 0; e < 9; e++) qj[e] = ck->q[e][j], Cj[e] = apic ? p->C[e][i] : 0;
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
                 for (int k = 0; k < 3; k++) {
@@ -317,8 +323,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                     /* what the node receives in ordinary MLS-MPM (or classic MPM) */
                     double add[4];
                     for (int r = 0; r < 3; r++) {
-                        add[r] = w * (ck->mv[r][j] + ck->q[3 * r][j] * d[0] + ck->q[3 * r + 1][j] * d[1] +
-                                      ck->q[3 * r + 2][j] * d[2]);
+                        add[r] = w * (mvj[r] + qj[3 * r] * d[0] + qj[3 * r + 1] * d[1] + qj[3 * r + 2] * d[2]);
                         if (classic) {
                             double gw[3] = {(double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j],
                                             (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j],
@@ -341,7 +346,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                     double u[3], J[3];
                     kept_velocity_at(m, s, r, xi, vp, np, uniform, &have, ur, u);
                     double cd[3];
-                    affine_velocity(p, i, apic, d, cd);
+                    affine_velocity_of(Cj, apic, d, cd);
                     for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (c->gdt[e] - u[e] - cd[e]);
                     kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], xi, J);
                 }
@@ -373,8 +378,9 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
         const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
         const double mass = p->mass[i];
-        double v[3] = {0}, B[9] = {0}, G[9] = {0}, ur[KF_MAX_RIGIDS][3];
+        double v[3] = {0}, B[9] = {0}, G[9] = {0}, ur[KF_MAX_RIGIDS][3], Cj[9];
         uint32_t have = 0;
+        for (int e = 0; e < 9; e++) Cj[e] = apic ? p->C[e][i] : 0;
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
                 for (int k = 0; k < 3; k++) {
@@ -390,7 +396,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                         double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
                                         (4 * bc[2] + ck->l[2][j] + k) * dx};
                         kept_velocity_at(m, s, r, xi, vp, np, uniform, &have, ur, vi);
-                        affine_velocity(p, i, apic, d, cd);
+                        affine_velocity_of(Cj, apic, d, cd);
                         double push = m->rigid[r].def.push;
                         if (push == KF_RIGID_AUTO) push = 0;
                         if (push != 0 && c->near[i]) {
