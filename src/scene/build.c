@@ -151,16 +151,17 @@ static int sample_object(const kf_shot *shot, int i, const kf_sim_def *sd, part_
     return rc;
 }
 
-/* Object i's particles added to the state; with index (this rank's part),
+/* An object's particles added to the state; with index (this rank's part),
  * each with the id a whole build gives it: base + its index in the object.
  * Returns 0 or -1 (out of memory). */
-static int add_object(kf_scene *sc, const kf_shot_object *o, int i, const kf_points *pts, const uint32_t *index,
+static int add_object(kf_scene *sc, const kf_shot_object *o, const kf_points *pts, const uint32_t *index,
                       uint32_t base) {
     long first = kf_state_add_particles(sc->state, sc->model, pts->n, pts->x, pts->v, NULL, o->material, pts->volume);
     if (first < 0) return -1;
-    /* remember the object each particle came from (surface.group: object) */
+    /* remember the object each particle belongs to (contact, surface.group:
+     * object): its own, or the one it is bonded to */
     kf_particles_view view = kf_state_particles(sc->state);
-    for (size_t k = 0; k < pts->n; k++) view.obj[(size_t)first + k] = (uint16_t)i;
+    for (size_t k = 0; k < pts->n; k++) view.obj[(size_t)first + k] = (uint16_t)o->field;
     for (size_t k = 0; k < pts->n && index; k++) view.id[(size_t)first + k] = base + index[k];
     return 0;
 }
@@ -263,7 +264,7 @@ int kf_scene_from_shot_part(const kf_shot *shot, int threads, int part, kf_scene
             if (pts.whole == 0 && report)
                 kf_shot_report(diag, &o->at, KF_DIAG_WARNING,
                                "object '%s' holds no particles at dx %g (thinner than the lattice)", o->name, sd.dx);
-            else if (pass == 1 && add_object(sc, o, i, &pts, ps.index, base)) {
+            else if (pass == 1 && add_object(sc, o, &pts, ps.index, base)) {
                 kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name,
                                pts.n);
                 bad = 1;

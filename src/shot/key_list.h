@@ -217,6 +217,11 @@ KF_KEY(OBJECTS_VELOCITY, "objects[].velocity", KT_VEC3, OBJ(velocity), ANY, NULL
 KF_KEY(OBJECTS_ANGULAR_VELOCITY, "objects[].angular_velocity", KT_VEC3, OBJ(angular_velocity), ANY, NULL, "[0, 0, 0]",
        "rad/s", NULL, 0, "Initial spin about the centroid of the object's particles.")
 
+KF_KEY(OBJECTS_BOND, "objects[].bond", KT_STR, OBJ(bond), ANY, NULL, "(none)", NULL, NULL, KF_IDENT,
+       "Another object, by name, this one is part of: the two are filled separately, each with its own material, "
+       "and then are one object, so sim.contact gives them one velocity and they stay stuck together where they "
+       "touch (a peel round its flesh) instead of sliding on each other; a blade cuts them into shared pieces, and "
+       "surface.group: object surfaces them as one. The named object must not itself name a bond.")
 KF_KEY(OBJECTS_FIT, "objects[].fit", KT_SECTION, KS_OBJECT, NOFIELD, ANY, NULL, NULL, NULL, "shape=mesh", 0,
        "After rotate and scale, fit the mesh's bounding box (else the mesh keeps its file's coordinates).")
 KF_KEY(OBJECTS_FIT_CENTER, "objects[].fit.center", KT_VEC3, OBJ(fit_center), ANY, NULL, NULL, "m", NULL, KF_REQ,

@@ -53,6 +53,8 @@ void kf_resolve_object(loader *L, inst *I, int index, kf_shot *s, kf_shot_object
 void kf_resolve_collider(loader *L, int ii, int index, kf_shot *s, int times_ok, kf_shot_collider *c);
 void kf_resolve_rigid(loader *L, int ii, int index, kf_shot *s, int times_ok, kf_shot_rigid *r);
 void kf_resolve_joint(loader *L, inst *I, int index, kf_shot *s, kf_shot_joint *j);
+/* each object's field (objects[].bond), once every object has its name */
+void kf_resolve_bonds(loader *L, kf_shot *s);
 void kf_check_unique(loader *L, kf_scope scope, kf_key_id key, const char *names, size_t stride, int n);
 void kf_resolve_top(loader *L, inst *T, const char *path, kf_shot *s);
 

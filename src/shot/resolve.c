@@ -334,6 +334,45 @@ void kf_resolve_rigid(loader *L, int ii, int index, kf_shot *s, int times_ok, kf
     r->def.nkeys = r->def.motion == KF_RIGID_KINEMATIC ? nk : 0;
 }
 
+/* An object that names a bond is part of another object: it takes that
+ * object's index as its own for contact and surfacing (kf_shot_object.field).
+ * The named object must exist, be another one, and not be part of a third
+ * (a chain would make "the object" ambiguous). */
+void kf_resolve_bonds(loader *L, kf_shot *s) {
+    char msg[900];
+    const char *names[256] = {0}; /* for the suggestion */
+    int n = 0;
+    for (int i = 0; i < s->nobjects && n < 256; i++) names[n++] = s->objects[i].name;
+    for (int i = 0, o = 0; i < L->n; i++) {
+        if (L->v[i].scope != KS_OBJECT) continue;
+        inst *I = &L->v[i];
+        kf_shot_object *ob = &s->objects[o];
+        ob->field = o++;
+        if (!ob->bond[0] || !I->ok[KK_OBJECTS_BOND]) continue;
+        int found = -1;
+        for (int j = 0; j < s->nobjects; j++)
+            if (!strcmp(s->objects[j].name, ob->bond)) found = j;
+        if (found < 0) {
+            const char *near = kf_suggest(ob->bond, names, n);
+            if (near)
+                snprintf(msg, sizeof msg, "%s: object '%s' is not defined (did you mean '%s'?)", I->label, ob->bond,
+                         near);
+            else snprintf(msg, sizeof msg, "%s: object '%s' is not defined", I->label, ob->bond);
+        } else if (found == ob->field)
+            snprintf(msg, sizeof msg, "%s: an object cannot be bonded to itself ('%s')", I->label, ob->bond);
+        else if (s->objects[found].bond[0])
+            snprintf(msg, sizeof msg,
+                     "%s: object '%s' is itself bonded to '%s' (bond every part to the one object that names no "
+                     "bond)",
+                     I->label, ob->bond, s->objects[found].bond);
+        else {
+            ob->field = found;
+            continue;
+        }
+        kf_report_inst(L, I, KK_OBJECTS_BOND, KF_DIAG_ERROR, msg);
+    }
+}
+
 /* A joint names its bodies: each must be a dynamic rigid body of the shot
  * (or the world for `to`), and not the same one twice. */
 static int joint_body(loader *L, inst *I, const kf_shot *s, kf_key_id key, const char *name, int world_ok) {

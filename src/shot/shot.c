@@ -172,18 +172,20 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
                          L.v[i].label, nr, KF_MAX_RIGIDS);
     if (nj > KF_MAX_JOINTS) kf_report_inst(&L, T, KK_JOINTS, KF_DIAG_ERROR, "too many joints (at most 32)");
     kf_check_unique(&L, KS_OBJECT, KK_OBJECTS_NAME, s->objects[0].name, sizeof *s->objects, no);
+    kf_resolve_bonds(&L, s);
     /* sim.contact auto: on where objects can touch each other, or a thin
      * body can cut a solid into pieces that then touch (sand and water flow
      * together again) */
     const int contact_mode = ((const kf_top *)T->base)->contact;
-    int cutter = 0, solid = 0;
+    int cutter = 0, solid = 0, fields = 0;
     for (int i = 0; i < s->nrigids; i++) cutter |= s->rigids[i].def.thin != 0;
+    for (int i = 0; i < s->nobjects; i++) fields += s->objects[i].field == i; /* bonded objects are one */
     for (int i = 0; i < s->nobjects; i++) {
         int k = s->objects[i].material;
         if (k >= 0 && k < s->nmaterials)
             solid |= s->materials[k].mat.model != KF_MAT_WATER && s->materials[k].mat.model != KF_MAT_SAND;
     }
-    s->sim.contact = contact_mode == 0 || (contact_mode == 2 && (s->nobjects > 1 || (cutter && solid)));
+    s->sim.contact = contact_mode == 0 || (contact_mode == 2 && (fields > 1 || (cutter && solid)));
     kf_check_unique(&L, KS_COLLIDER, KK_COLLIDERS_NAME, s->colliders[0].name, sizeof *s->colliders, nc);
     if (no == 0)
         kf_report_inst(&L, T, KK_OBJECTS, KF_DIAG_ERROR, "the shot has no objects: nothing would be simulated");

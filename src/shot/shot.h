@@ -95,6 +95,8 @@ typedef struct kf_shot_object {
     double translate[3];        /* m */
     double velocity[3];         /* m/s, initial */
     double angular_velocity[3]; /* rad/s, initial, about the centroid of its particles */
+    char bond[64];              /* the object this one is part of, by name ("" = none) */
+    int field;                  /* its object for contact and surface.group: its own index, or the bonded one's */
     kf_placement place;         /* all of the above as the sampler wants it */
     kf_loc at;                  /* the object's entry */
     kf_loc mesh_at;             /* its mesh: value (mesh objects) */
