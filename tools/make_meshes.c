@@ -294,6 +294,35 @@ static void cleg_plane(const sheet *sh, double s, double t, double xy[2]) {
 }
 static double cleg_half(const sheet *sh, double s, double t) { return 0.5 * sh->p[2]; }
 
+/* A rod of radius r along z from z0 to z1 (z1 > z0) through (x, y): a
+ * revolved rectangle, turned from the y axis onto z (a rotation, so it stays
+ * outward). */
+static void rod_z(build *b, double x, double y, double z0, double z1, double r, int ns) {
+    const double prof[4][2] = {{0, z0}, {r, z0}, {r, z1}, {0, z1}};
+    size_t first = b->nv;
+    revolve(b, 4, prof, ns, 0);
+    for (size_t i = first; i < b->nv; i++) { /* (u, w, v) about y -> (u, -v, w) about z */
+        double *p = b->v + 3 * i, u = p[0], w = p[1], v = p[2];
+        p[0] = (float)(x + u) + 0.0f, p[1] = (float)(y - v) + 0.0f, p[2] = (float)w + 0.0f;
+    }
+}
+
+/* The hexapod's body: a box (p[0..2] full sizes, centred on the origin) and
+ * its six hip axles, rods of radius p[3] at height p[4], at x = 0 and ±p[5];
+ * from a tenth of a millimetre off the box's sides (separate closed shells
+ * that never touch) out to z = ±p[6] (front and rear pair) and ±p[7] (the
+ * middle pair, further out). */
+static void robot_body(build *b, const double *p) {
+    const double lo[3] = {-p[0] / 2, -p[1] / 2, -p[2] / 2}, hi[3] = {p[0] / 2, p[1] / 2, p[2] / 2};
+    box(b, lo, hi);
+    const double side = p[2] / 2 + 1e-4;
+    for (int k = -1; k <= 1; k++) {
+        const double x = k * p[5], out = k ? p[6] : p[7];
+        rod_z(b, x, p[4], side, out, p[3], 12);
+        rod_z(b, x, p[4], -out, -side, p[3], 12);
+    }
+}
+
 /* ---- the banana ----------------------------------------------------------------- */
 
 /* Its centre line: an arc of radius BANANA_BEND in the x-z plane, bowed
@@ -603,6 +632,16 @@ static void make_assets(const char *dir) {
     write_obj(dir, "c_leg.obj", &m,
               "C-shaped robot leg: half a ring of radius 35 mm from the hip at the origin round the +x side to the "
               "tip at y = -70 mm, a band 12 mm thick and 14 mm wide (z)");
+    kf_mesh_free(&m);
+
+    /* its hips 5 mm below the box's centre, the legs 14 mm wide centred 55 mm
+     * (75 mm in the middle) from the body's centre line: each axle runs
+     * through its leg's hip and 3 mm past it */
+    robot_body(&b, (const double[]){0.18, 0.03, 0.09, 0.004, -0.005, 0.07, 0.065, 0.085});
+    finish(&b, "robot_body.obj", &m, 1);
+    write_obj(dir, "robot_body.obj", &m,
+              "hexapod body: a box 180 x 30 x 90 mm centred on the origin and six hip axles 8 mm across, 5 mm below "
+              "its centre at x = 0 and +-70 mm, out to z = +-65 mm (+-85 mm in the middle)");
     kf_mesh_free(&m);
 
     banana_tube(&b, 1, 0.14, 0.97, 120, 40);
