@@ -6,15 +6,22 @@
 # into out/contact/<shot>/, and that frame becomes a tile
 # (tools/contact_sheet.c), row by row in the order below.
 #   tools/contact_sheet.sh [shot names...]      # default: all of shots/
+#   tools/contact_sheet.sh --only NAMES...      # remake these tiles, keep the others of the sheet
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 cd "$here"
+only=0
+[ "${1:-}" = --only ] && only=1 && shift
 shots=("$@")
-[ ${#shots[@]} -eq 0 ] && shots=(demo cheese_cut bunny_split sand_paddles water_wheel dam_break goo_blocks goo_sphere
-                               bunny_drop sand_column goo_slump snow mesh_collider buoyancy sand_stir sand_sweep sand_wheel
-                               armadillo_cut banana robot_sand)
+all=(demo cheese_cut bunny_split sand_paddles water_wheel dam_break goo_blocks goo_sphere
+     bunny_drop sand_column goo_slump snow mesh_collider buoyancy sand_stir sand_sweep sand_wheel
+     armadillo_cut banana robot_sand)
+remake=" ${shots[*]} "
+if [ $only -eq 1 ] || [ ${#shots[@]} -eq 0 ]; then shots=("${all[@]}"); fi
 tiles=()
 for n in "${shots[@]}"; do
+  # --only: the other tiles stay as they are in the sheet (kf_contact_sheet's `keep`)
+  if [ $only -eq 1 ] && [[ "$remake" != *" $n "* ]]; then tiles+=(keep); continue; fi
   s=shots/$n.yaml
   st=$(grep -o 'start: *[0-9]*' "$s" | head -1 | grep -o '[0-9]*$')
   en=$(grep -o 'end: *[0-9]*' "$s" | head -1 | grep -o '[0-9]*$')
