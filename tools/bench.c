@@ -168,7 +168,6 @@ typedef struct frame_result {
     frame_post_result q[FQ_COUNT];
 } frame_result;
 
-
 /* surface, write and render n particles x (spacing apart) with quality q:
  * erosion back onto the material, 1920x1080 */
 static int frame_post(size_t n, const float *x, double spacing, double dx, const frame_quality *q,
