@@ -319,6 +319,15 @@ static inline __attribute__((always_inline)) void hb_svd(int n, kf_real (*F)[BAT
     }
 }
 
+/* the new F out, shared by the Hencky models and snow: only lanes that
+ * stayed in the window (the scalar path writes the others) and changed */
+static inline __attribute__((always_inline)) void hb_store_F(int n, kf_real (*G)[BATCH], const int *ok, const int *chg,
+                                                             kf_real *const Fp[9], size_t first) {
+    for (int k = 0; k < 9; k++)
+        for (int j = 0; j < n; j++)
+            if (ok[j] & chg[j]) Fp[k][first + (size_t)j] = G[k][j];
+}
+
 static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
                          kf_real *const tau[6]) {
     kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], E[3][BATCH];
@@ -412,9 +421,7 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
     for (int k = 0; k < 6; k++)
         for (int j = 0; j < n; j++) tau[k][j] = T[k][j];
     if (project) {
-        for (int k = 0; k < 9; k++)
-            for (int j = 0; j < n; j++)
-                if (ok[j] & chg[j]) Fp[k][first + (size_t)j] = G[k][j];
+        hb_store_F(n, G, ok, chg, Fp, first);
         if (m->model == KF_MAT_SAND && m->volume_correction)
             for (int j = 0; j < n; j++)
                 if (ok[j]) ps[0][first + (size_t)j] = ps0[j];
@@ -492,9 +499,7 @@ static int snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *con
     for (int k = 0; k < 6; k++)
         for (int j = 0; j < n; j++) tau[k][j] = T[k][j];
     if (project) {
-        for (int k = 0; k < 9; k++)
-            for (int j = 0; j < n; j++)
-                if (ok[j] & chg[j]) Fp[k][first + (size_t)j] = G[k][j];
+        hb_store_F(n, G, ok, chg, Fp, first);
         for (int j = 0; j < n; j++)
             if (ok[j]) ps[0][first + (size_t)j] = JP[j];
     }
