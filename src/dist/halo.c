@@ -11,6 +11,20 @@
 /* the header's flag: a field cache follows the node cache (contact.h) */
 #define HEAD_FIELDS (1 << 24)
 
+/* A field cache on the wire: a bit per node of the touched box (its
+ * nodes in cache order) saying whether its rows follow, then those rows.
+ * Rows are sent only where they are not all zero: fields meet at few of an
+ * owner's nodes, and a zero row rebuilt is the same zero (a sum started at
+ * +0 is never -0). The mask's kf_v4 units for a box of vol nodes: */
+static size_t mask_units(size_t vol) {
+    return ((vol + 63) / 64 * sizeof(uint64_t) + sizeof(kf_v4) - 1) / sizeof(kf_v4);
+}
+
+static int row_zero(const kf_v4 *row, int n) {
+    static const kf_v4 zero[KF_CONTACT_CACHE_ROWS];
+    return !memcmp(row, zero, (size_t)n * sizeof *row);
+}
+
 /* the colour of an owner block: the parity of its coordinate (grid.h) */
 static inline int colour_of(const int32_t *c) { return (c[0] & 1) << 2 | (c[1] & 1) << 1 | (c[2] & 1); }
 
@@ -195,10 +209,11 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
     /* on the wire only the touched part of each cache: the header, then the
      * nodes of the box the owner's stencils reached (at most 6³ of 8³ for
      * the quadratic kernel), in the cache's order; then, for an owner on the
-     * field path, the same nodes' field cache rows */
+     * field path, the same nodes' field cache rows where not zero */
     const int KW = m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3;
     const int FROWS = KF_CONTACT_CACHE_ROWS;
-    if (kf_dist_reserve((void **)&d->pack, &d->pack_cap, (nsend * rec + nf * FR + 1) * sizeof(kf_v4)))
+    if (kf_dist_reserve((void **)&d->pack, &d->pack_cap,
+                        (nsend * rec + nf * (FR + mask_units(FR)) + 1) * sizeof(kf_v4)))
         return free(sfield), -1;
     size_t packed = 0;
     for (int r = 0; r < d->size; r++) {
@@ -216,11 +231,21 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
                     for (int c = from[2]; c < to[2]; c++) d->pack[packed++] = rr[1 + (a * CD + b) * CD + c];
             if (!(head[3] & HEAD_FIELDS)) continue;
             const kf_v4 *fr = d->fsend + (size_t)sfield[k] * FR;
+            const size_t vol = (size_t)(to[0] - from[0]) * (size_t)(to[1] - from[1]) * (size_t)(to[2] - from[2]);
+            uint64_t mask[(KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE + 63) / 64] = {0};
+            kf_v4 *mslot = &d->pack[packed];
+            memset(mslot, 0, mask_units(vol) * sizeof(kf_v4));
+            packed += mask_units(vol);
+            size_t bit = 0;
             for (int a = from[0]; a < to[0]; a++)
                 for (int b = from[1]; b < to[1]; b++)
-                    for (int c = from[2]; c < to[2]; c++)
-                        for (int e = 0; e < FROWS; e++)
-                            d->pack[packed++] = fr[(size_t)FROWS * (size_t)((a * CD + b) * CD + c) + (size_t)e];
+                    for (int c = from[2]; c < to[2]; c++, bit++) {
+                        const kf_v4 *row = &fr[(size_t)FROWS * (size_t)((a * CD + b) * CD + c)];
+                        if (row_zero(row, FROWS)) continue;
+                        mask[bit / 64] |= 1ull << (bit % 64);
+                        for (int e = 0; e < FROWS; e++) d->pack[packed++] = row[e];
+                    }
+            memcpy(mslot, mask, (vol + 63) / 64 * sizeof *mask);
         }
         scount[r] = (int)(packed - first);
         sdispl[r] = (int)first;
@@ -252,7 +277,13 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
         for (int e = 0; e < 3; e++)
             vol *= (size_t)(((head[3] >> (4 * (3 + e))) & 15) + KW - ((head[3] >> (4 * e)) & 15));
         u += 1 + vol;
-        if (head[3] & HEAD_FIELDS) u += vol * (size_t)FROWS, nfrecv++;
+        if (!(head[3] & HEAD_FIELDS)) continue;
+        uint64_t mask[(KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE + 63) / 64];
+        memcpy(mask, &d->unpack[u], (vol + 63) / 64 * sizeof *mask);
+        size_t rows = 0;
+        for (size_t w = 0; w < (vol + 63) / 64; w++) rows += (size_t)__builtin_popcountll(mask[w]);
+        u += mask_units(vol) + rows * (size_t)FROWS;
+        nfrecv++;
     }
     if (kf_dist_reserve((void **)&d->recv, &d->recv_cap, (nrecv * rec + 1) * sizeof(kf_v4)) ||
         kf_dist_reserve((void **)&d->frecv, &d->frecv_cap, (nfrecv * FR + 1) * sizeof(kf_v4)) ||
@@ -274,11 +305,18 @@ int kf_dist_halo(const kf_model *m, kf_state *s, kf_real dt) {
         kf_v4 *fr = d->frecv + nfk * FR;
         d->ffield[k] = (ptrdiff_t)nfk++;
         memset(fr, 0, FR * sizeof(kf_v4));
+        const size_t vol = (size_t)(to[0] - from[0]) * (size_t)(to[1] - from[1]) * (size_t)(to[2] - from[2]);
+        uint64_t mask[(KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE + 63) / 64];
+        memcpy(mask, &d->unpack[u], (vol + 63) / 64 * sizeof *mask);
+        u += mask_units(vol);
+        size_t bit = 0;
         for (int a = from[0]; a < to[0]; a++)
             for (int b = from[1]; b < to[1]; b++)
-                for (int c = from[2]; c < to[2]; c++)
+                for (int c = from[2]; c < to[2]; c++, bit++) {
+                    if (!(mask[bit / 64] >> (bit % 64) & 1)) continue;
                     for (int e = 0; e < FROWS; e++)
                         fr[(size_t)FROWS * (size_t)((a * CD + b) * CD + c) + (size_t)e] = d->unpack[u++];
+                }
     }
 
     /* blocks for what arrived, and the arrivals by colour */
