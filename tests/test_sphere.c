@@ -46,8 +46,8 @@
 #include "core/timer.h"
 #include <kerf/kerf.h>
 #include "kt.h"
+#include "problems/problems.h"
 
-#define SPH_PI 3.14159265358979323846
 #define SPH_A 1.0 /* rest radius */
 #define SPH_RHO 1.0
 #define SPH_E 1000.0
@@ -55,21 +55,6 @@
 #define SPH_STRETCH 1.01
 #define SPH_CFL 0.3
 #define SPH_Z_REF 2.6702 /* V6, ν = 0.3 */
-
-static double sph_j1(double z) { return z < 1e-4 ? z / 3 : (sin(z) / z - cos(z)) / z; }
-
-/* first root of 1 − z cot z − (λ+2μ)/(4μ) z² in (2, 3.1), by bisection */
-static double breathing_root(double nu) {
-    double r = (1 - nu) / (1 - 2 * nu) * 2 / 4; /* (λ+2μ)/μ = 2(1−ν)/(1−2ν) */
-    double lo = 2.0, hi = 3.1;
-    for (int it = 0; it < 100; it++) {
-        double z = 0.5 * (lo + hi), f = 1 - z * cos(z) / sin(z) - r * z * z;
-        /* f(2) < 0, and f → +∞ as z → π⁻ (cot z → −∞): one sign change */
-        if (f < 0) lo = z;
-        else hi = z;
-    }
-    return 0.5 * (lo + hi);
-}
 
 typedef struct sph_result {
     double period;     /* measured from q(t) */
@@ -79,17 +64,11 @@ typedef struct sph_result {
     long particles;
 } sph_result;
 
-static void fit_line(int n, const double *t, double *slope) {
-    double sk = 0, st = 0, skk = 0, skt = 0;
-    for (int k = 0; k < n; k++) sk += k, st += t[k], skk += (double)k * k, skt += k * t[k];
-    *slope = n >= 2 ? (n * skt - sk * st) / (n * skk - sk * sk) : 0;
-}
-
 static sph_result run_sphere(int res, kf_force force, double periods, double z) {
     sph_result out = {0};
     const double a = SPH_A, dx = a / res, h = dx / 2;
     const double cp = sqrt(SPH_E * (1 - SPH_NU) / ((1 + SPH_NU) * (1 - 2 * SPH_NU)) / SPH_RHO);
-    const double T = 2 * SPH_PI * a / (z * cp);
+    const double T = 2 * EV_PI * a / (z * cp);
     kf_sim_def sd = kf_default_sim_def();
     sd.dx = dx;
     sd.gravity[0] = sd.gravity[1] = sd.gravity[2] = 0;
@@ -111,18 +90,8 @@ static sph_result run_sphere(int res, kf_force force, double periods, double z) 
     kf_state *s = kf_state_create(m);
 
     /* reference lattice about c = 0, stretched by F₀ */
-    const int N = (int)ceil(a / h);
-    size_t cap = (size_t)8 * N * N * N, n = 0;
-    double *X = malloc(3 * cap * sizeof *X), *x = malloc(3 * cap * sizeof *x), *F = malloc(9 * cap * sizeof *F);
-    for (int i = -N; i < N; i++)
-        for (int j = -N; j < N; j++)
-            for (int k = -N; k < N; k++) {
-                double q[3] = {(i + 0.5) * h, (j + 0.5) * h, (k + 0.5) * h};
-                if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] >= a * a) continue;
-                for (int e = 0; e < 3; e++) X[3 * n + e] = q[e], x[3 * n + e] = SPH_STRETCH * q[e];
-                for (int e = 0; e < 9; e++) F[9 * n + e] = e % 4 == 0 ? SPH_STRETCH : 0;
-                n++;
-            }
+    double *X, *x, *F;
+    size_t n = ev_sphere_lattice(a, h, SPH_STRETCH, &X, &x, &F);
     long first = kf_state_add_particles(s, m, n, x, NULL, F, id, h * h * h);
     KT_CHECK(first == 0, "seeding %zu particles", n);
     /* per id: the mode-shape weight m r̂ j₁(z r/a) and the unit radial direction */
@@ -130,7 +99,7 @@ static sph_result run_sphere(int res, kf_force force, double periods, double z) 
     double mtot = 0;
     for (size_t p = 0; p < n; p++) {
         double r = sqrt(X[3 * p] * X[3 * p] + X[3 * p + 1] * X[3 * p + 1] + X[3 * p + 2] * X[3 * p + 2]);
-        double mp = SPH_RHO * h * h * h, phi = sph_j1(z * r / a);
+        double mp = SPH_RHO * h * h * h, phi = ev_sph_j1(z * r / a);
         for (int e = 0; e < 3; e++) rh[3 * p + e] = X[3 * p + e] / r, w[3 * p + e] = mp * phi * X[3 * p + e] / r;
         mtot += mp;
     }
@@ -159,10 +128,8 @@ static sph_result run_sphere(int res, kf_force force, double periods, double z) 
         ur /= mtot;
         double t = kf_state_time(s);
         if (step > 0) {
-            if (((qprev > 0 && q <= 0) || (qprev < 0 && q >= 0)) && nc < 16)
-                tc[nc++] = tprev + (t - tprev) * qprev / (qprev - q);
-            if (((uprev > 0 && ur <= 0) || (uprev < 0 && ur >= 0)) && nr < 16)
-                tr[nr++] = tprev + (t - tprev) * uprev / (uprev - ur);
+            ev_crossing(qprev, tprev, q, t, tc, &nc);
+            ev_crossing(uprev, tprev, ur, t, tr, &nr);
         }
         qprev = q, uprev = ur, tprev = t;
     }
@@ -171,9 +138,9 @@ static sph_result run_sphere(int res, kf_force force, double periods, double z) 
     out.crossings = nc;
     out.crossings_raw = nr;
     double half;
-    fit_line(nc, tc, &half);
+    half = ev_slope(nc, tc);
     out.period = 2 * half;
-    fit_line(nr, tr, &half);
+    half = ev_slope(nr, tr);
     out.period_raw = 2 * half;
     free(X), free(w), free(rh);
     kf_state_destroy(s);
@@ -184,7 +151,7 @@ static sph_result run_sphere(int res, kf_force force, double periods, double z) 
 static double cp_of(void) { return sqrt(SPH_E * (1 - SPH_NU) / ((1 + SPH_NU) * (1 - 2 * SPH_NU)) / SPH_RHO); }
 
 /* ω a / c_p from a measured period */
-static double za_of(double period) { return 2 * SPH_PI / period * SPH_A / cp_of(); }
+static double za_of(double period) { return 2 * EV_PI / period * SPH_A / cp_of(); }
 
 /* each (resolution, force) runs once, for 1.3 periods: q crosses zero at
  * T/4, 3T/4 and 5T/4 */
@@ -193,7 +160,7 @@ static sph_result cached(int res, kf_force force) {
     static int have[2][2];
     int i = res == 16, f = force == KF_FORCE_CLASSIC;
     if (!have[i][f]) {
-        memo[i][f] = run_sphere(res, force, 1.3, breathing_root(SPH_NU));
+        memo[i][f] = run_sphere(res, force, 1.3, ev_breathing_root(SPH_NU));
         have[i][f] = 1;
         const sph_result *r = &memo[i][f];
         double za = za_of(r->period), zr = za_of(r->period_raw);
@@ -208,9 +175,9 @@ static sph_result cached(int res, kf_force force) {
 /* the frequency equation as coded reproduces the V6 table value; the table
  * rounds to 4 decimals, so agreement within 5e-5 */
 static void sphere_root(void) {
-    KT_NEAR(breathing_root(SPH_NU), SPH_Z_REF, 5e-5, "first radial root for nu = 0.3 is 2.6702 (4 decimals)");
-    KT_NEAR(breathing_root(0.2), 2.4605, 5e-5, "first radial root for nu = 0.2 is 2.4605 (4 decimals)");
-    KT_NEAR(breathing_root(0.4), 2.8966, 5e-5, "first radial root for nu = 0.4 is 2.8966 (4 decimals)");
+    KT_NEAR(ev_breathing_root(SPH_NU), SPH_Z_REF, 5e-5, "first radial root for nu = 0.3 is 2.6702 (4 decimals)");
+    KT_NEAR(ev_breathing_root(0.2), 2.4605, 5e-5, "first radial root for nu = 0.2 is 2.4605 (4 decimals)");
+    KT_NEAR(ev_breathing_root(0.4), 2.8966, 5e-5, "first radial root for nu = 0.4 is 2.8966 (4 decimals)");
 }
 
 static void check_sphere(int res, kf_force force, double tight, const char *why, const char *why_tight) {

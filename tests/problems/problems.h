@@ -2,7 +2,8 @@
  * set up for any kernel, force, particles per cell and CFL number, and timed
  * by per-process CPU time. Shared by the evidence sweeps (tools/evidence/)
  * and their regression tests (tests/test_evidence_*.c), so both measure the
- * same thing.
+ * same thing; tests/test_sphere.c builds its sphere and measures its zero
+ * crossings with the same helpers.
  *
  * Every run uses a fixed step Δt = C Δx / (c_p + v_max) with v_max the
  * problem's largest exact speed, no gravity, no walls, and sim.threads from
@@ -109,6 +110,22 @@ static inline double ev_slope(int n, const double *t) {
     return n >= 2 ? (n * skt - sk * st) / (n * skk - sk * sk) : 0;
 }
 
+/* one step, of which only kf_step's CPU time is added to *cpu; nonzero on
+ * numerical trouble */
+static inline int ev_timed_step(const kf_model *m, kf_state *s, double dt, double *cpu) {
+    double c0 = ev_cpu_s();
+    int bad = kf_step(m, s, dt, NULL, NULL);
+    *cpu += ev_cpu_s() - c0;
+    return bad;
+}
+
+/* a zero crossing of y between the samples (tprev, yprev) and (t, y): its
+ * time, linear between the two, appended to tc[*nc] (at most 16 kept) */
+static inline void ev_crossing(double yprev, double tprev, double y, double t, double tc[16], int *nc) {
+    if (((yprev < 0 && y >= 0) || (yprev > 0 && y <= 0)) && *nc < 16)
+        tc[(*nc)++] = tprev + (t - tprev) * yprev / (yprev - y);
+}
+
 /* ---- V4: the free–free axial bar ------------------------------------------
  * Length 2L = 50, E = 100, ν = 0, ρ = 1: c = 10, first period T₁ = 4L/c = 10.
  * Started in its first mode (v₀ = 0.1); a 2 x 2-cell cross-section suffices
@@ -154,22 +171,16 @@ static inline ev_run ev_bar(double res, const ev_variant *v) {
     int nc = 0;
     out.ok = 1;
     for (long st = 0; st <= steps; st++) {
-        if (st > 0) {
-            double c0 = ev_cpu_s();
-            int bad = kf_step(m, s, dt, NULL, NULL);
-            cpu += ev_cpu_s() - c0;
-            if (bad) {
-                out.ok = 0;
-                break;
-            }
+        if (st > 0 && ev_timed_step(m, s, dt, &cpu)) {
+            out.ok = 0;
+            break;
         }
         kf_particles_view r = kf_state_particles_read(s);
         double mv = 0, mm = 0;
         for (size_t p = 0; p < r.n; p++)
             if (left[r.id[p]]) mv += (double)r.mass[p] * r.v[0][p], mm += r.mass[p];
         double V = mv / mm, t = kf_state_time(s);
-        if (st > 0 && ((prev < 0 && V >= 0) || (prev > 0 && V <= 0)) && nc < 16)
-            tc[nc++] = tprev + (t - tprev) * prev / (prev - V);
+        if (st > 0) ev_crossing(prev, tprev, V, t, tc, &nc);
         prev = V, tprev = t;
     }
     free(left);
@@ -195,14 +206,39 @@ static inline ev_run ev_bar(double res, const ev_variant *v) {
 
 static inline double ev_sph_j1(double z) { return z < 1e-4 ? z / 3 : (sin(z) / z - cos(z)) / z; }
 
+/* first root of 1 − z cot z − (λ+2μ)/(4μ) z² in (2, 3.1), by bisection;
+ * (λ+2μ)/μ = 2(1−ν)/(1−2ν) */
 static inline double ev_breathing_root(double nu) {
     double r = (1 - nu) / (1 - 2 * nu) * 2 / 4, lo = 2.0, hi = 3.1;
     for (int it = 0; it < 100; it++) {
         double z = 0.5 * (lo + hi), f = 1 - z * cos(z) / sin(z) - r * z * z;
+        /* f(2) < 0, and f → +∞ as z → π⁻ (cot z → −∞): one sign change */
         if (f < 0) lo = z;
         else hi = z;
     }
     return 0.5 * (lo + hi);
+}
+
+/* The sphere's particles: reference positions X on a lattice of spacing h
+ * inside |X| < a (cell centres, in i, j, k order), placed at x = stretch X
+ * with F = stretch I. The lattice spans one cell more than the sphere needs,
+ * so rounding never drops a particle. Returns the count; X, x, F (3, 3 and 9
+ * per particle) are the caller's to free. */
+static inline size_t ev_sphere_lattice(double a, double h, double stretch, double **Xo, double **xo, double **Fo) {
+    const int N = (int)ceil(a / h) + 1;
+    size_t cap = (size_t)8 * N * N * N, n = 0;
+    double *X = malloc(3 * cap * sizeof *X), *x = malloc(3 * cap * sizeof *x), *F = malloc(9 * cap * sizeof *F);
+    for (int i = -N; i < N; i++)
+        for (int j = -N; j < N; j++)
+            for (int k = -N; k < N; k++) {
+                double q[3] = {(i + 0.5) * h, (j + 0.5) * h, (k + 0.5) * h};
+                if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] >= a * a) continue;
+                for (int e = 0; e < 3; e++) X[3 * n + e] = q[e], x[3 * n + e] = stretch * q[e];
+                for (int e = 0; e < 9; e++) F[9 * n + e] = e % 4 == 0 ? stretch : 0;
+                n++;
+            }
+    *Xo = X, *xo = x, *Fo = F;
+    return n;
 }
 
 static inline ev_run ev_sphere(double res, const ev_variant *v) {
@@ -215,18 +251,8 @@ static inline ev_run ev_sphere(double res, const ev_variant *v) {
     kf_model *m = ev_model(v, dx, dt, &mat, &id);
     if (!m) return out;
     kf_state *s = kf_state_create(m);
-    const int N = (int)ceil(a / h) + 1;
-    size_t cap = (size_t)8 * N * N * N, n = 0;
-    double *X = malloc(3 * cap * sizeof *X), *x = malloc(3 * cap * sizeof *x), *F = malloc(9 * cap * sizeof *F);
-    for (int i = -N; i < N; i++)
-        for (int j = -N; j < N; j++)
-            for (int k = -N; k < N; k++) {
-                double q[3] = {(i + 0.5) * h, (j + 0.5) * h, (k + 0.5) * h};
-                if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] >= a * a) continue;
-                for (int e = 0; e < 3; e++) X[3 * n + e] = q[e], x[3 * n + e] = EV_SPH_STRETCH * q[e];
-                for (int e = 0; e < 9; e++) F[9 * n + e] = e % 4 == 0 ? EV_SPH_STRETCH : 0;
-                n++;
-            }
+    double *X, *x, *F;
+    size_t n = ev_sphere_lattice(a, h, EV_SPH_STRETCH, &X, &x, &F);
     kf_state_add_particles(s, m, n, x, NULL, F, id, h * h * h);
     double *w = malloc(3 * n * sizeof *w);
     for (size_t p = 0; p < n; p++) {
@@ -239,14 +265,9 @@ static inline ev_run ev_sphere(double res, const ev_variant *v) {
     int nc = 0;
     out.ok = 1;
     for (long st = 0; st <= steps; st++) {
-        if (st > 0) {
-            double c0 = ev_cpu_s();
-            int bad = kf_step(m, s, dt, NULL, NULL);
-            cpu += ev_cpu_s() - c0;
-            if (bad) {
-                out.ok = 0;
-                break;
-            }
+        if (st > 0 && ev_timed_step(m, s, dt, &cpu)) {
+            out.ok = 0;
+            break;
         }
         kf_particles_view r = kf_state_particles_read(s);
         double q = 0;
@@ -255,8 +276,7 @@ static inline ev_run ev_sphere(double res, const ev_variant *v) {
             for (int e = 0; e < 3; e++) q += (double)r.mass[p] * w[3 * i + e] * ((double)r.x[e][p] - X[3 * i + e]);
         }
         double t = kf_state_time(s);
-        if (st > 0 && ((qprev > 0 && q <= 0) || (qprev < 0 && q >= 0)) && nc < 16)
-            tc[nc++] = tprev + (t - tprev) * qprev / (qprev - q);
+        if (st > 0) ev_crossing(qprev, tprev, q, t, tc, &nc);
         qprev = q, tprev = t;
     }
     free(X), free(w);
@@ -378,10 +398,7 @@ static inline ev_run ev_mms(double res, const ev_variant *v) {
             ev_mms_body_accel(&X[3 * pv.id[p]], t, k, w, mu, lam, rho, acc);
             for (int a = 0; a < 3; a++) pv.v[a][p] += (kf_real)(dt * acc[a]);
         }
-        double c0 = ev_cpu_s();
-        int bad = kf_step(m, s, dt, NULL, NULL);
-        cpu += ev_cpu_s() - c0;
-        if (bad) {
+        if (ev_timed_step(m, s, dt, &cpu)) {
             out.ok = 0;
             break;
         }
