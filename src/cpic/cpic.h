@@ -24,12 +24,13 @@
  * the sign at the body's closest valid primitive (the paper's rule, not the
  * authors' code's "negative wins"); ties go to the smaller distance, then the
  * smaller body index, so runs are deterministic for any thread count. The
- * body velocity V_r is pinned for the whole substep, and the ghost velocity
- * of G2P is the very projection whose complement P2G gave the body, so
- * momentum is exchanged exactly (the push and the penalty give the body
- * their reactions too). The impulse of an incompatible node includes the
- * node's share of the particle's affine momentum, stress force and gravity,
- * so an isolated system of material and bodies conserves momentum. */
+ * body velocity V_r is pinned for the whole substep. P2G gives the body
+ * everything an incompatible node would have received; G2P takes back the
+ * ghost velocity the particle keeps there, computed once, so momentum is
+ * exchanged exactly (the push and the penalty give the body their
+ * reactions too). The impulse of an incompatible node includes the node's
+ * share of the particle's affine momentum, stress force and gravity, so an
+ * isolated system of material and bodies conserves momentum. */
 #ifndef KF_CPIC_H
 #define KF_CPIC_H
 
