@@ -16,6 +16,18 @@
 
 #include "implicit.h"
 
+/* a pragma that takes macro arguments */
+#define IMP_PRAGMA(x) _Pragma(#x)
+/* The scatters' loop: the statement after it runs for every particle i of
+ * grid g, owner by owner, the 8 owner colours in turn (same-colour owners
+ * write disjoint nodes, as the top of this file says), on `threads` threads. */
+#define IMP_EACH_PARTICLE_BY_COLOUR(g, threads, i)                                                                     \
+    IMP_PRAGMA(omp parallel num_threads(threads))                                                                      \
+    for (int c_ = 0; c_ < 8; c_++)                                                                                     \
+        IMP_PRAGMA(omp for schedule(dynamic, 4))                                                                       \
+    for (size_t k_ = (g)->colour_start[c_]; k_ < (g)->colour_start[c_ + 1]; k_++)                                      \
+        for (size_t i = (g)->pstart[(size_t)(g)->owner[k_]]; i < (g)->pstart[(size_t)(g)->owner[k_] + 1]; i++)
+
 /* flat node of offset (a, b, c) from an owner's first node, in its 2x2x2 neighbourhood */
 static inline int32_t flat_node(const int32_t *nb, int a, int b, int c) {
     int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (c >> 2)];
@@ -270,67 +282,46 @@ static void stencil_gamma(const kf_implicit *w, size_t p, double *ga) {
  * owner colours is race-free (x and out are different vectors). */
 void kf_imp_scatter_product(const kf_implicit *w, const double *x, double *out) {
     const kf_grid *g = &w->s->g;
-#pragma omp parallel num_threads(w->m->nthreads)
-    for (int c = 0; c < 8; c++) {
-#pragma omp for schedule(dynamic, 4)
-        for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
-            size_t r = (size_t)g->owner[k];
-            for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
-                double G[9], Y[9];
-                const double *Kp = w->Kp + 81 * i;
-                gather(w, x, i, G);
-                /* Y = Kp G (Kp is exactly symmetric) */
-                kf_v4d ylo, yhi;
-                double y8;
-                kf_imp_block9(Kp, G, &ylo, &yhi, &y8);
-                for (int j = 0; j < 4; j++) Y[j] = ylo[j], Y[4 + j] = yhi[j];
-                Y[8] = y8;
-                scatter_one(w, Y, i, out);
-            }
-        }
+    IMP_EACH_PARTICLE_BY_COLOUR(g, w->m->nthreads, i) {
+        double G[9], Y[9];
+        const double *Kp = w->Kp + 81 * i;
+        gather(w, x, i, G);
+        /* Y = Kp G (Kp is exactly symmetric) */
+        kf_v4d ylo, yhi;
+        double y8;
+        kf_imp_block9(Kp, G, &ylo, &yhi, &y8);
+        for (int j = 0; j < 4; j++) Y[j] = ylo[j], Y[4 + j] = yhi[j];
+        Y[8] = y8;
+        scatter_one(w, Y, i, out);
     }
 }
 
 void kf_imp_scatter(const kf_implicit *w, const double *Y, double *out) {
     const kf_grid *g = &w->s->g;
-#pragma omp parallel num_threads(w->m->nthreads)
-    for (int c = 0; c < 8; c++) {
-#pragma omp for schedule(dynamic, 4)
-        for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
-            size_t r = (size_t)g->owner[k];
-            for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) scatter_one(w, Y + 9 * i, i, out);
-        }
-    }
+    IMP_EACH_PARTICLE_BY_COLOUR(g, w->m->nthreads, i) scatter_one(w, Y + 9 * i, i, out);
 }
 
 void kf_imp_scatter_diag(const kf_implicit *w, double *out) {
     const kf_grid *g = &w->s->g;
     const int K = w->K;
-#pragma omp parallel num_threads(w->m->nthreads)
-    for (int c = 0; c < 8; c++) {
-#pragma omp for schedule(dynamic, 4)
-        for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
-            size_t r = (size_t)g->owner[k];
-            for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
-                const double *Kp = w->Kp + 81 * i;
-                double ga[3 * 64];
-                stencil_gamma(w, i, ga);
-                const int32_t *id = w->idx + (size_t)K * i;
-                /* the diagonal entry (a, a) of node e is γᵀ K_a γ, K_a[b][c] =
-                 * Kp[(a,b),(a,c)]: with the three a in the lanes of one vector
-                 * (kbc) and the symmetric pairs summed, 6 vector FMAs a node */
-                kf_v4d kbc[3][3];
-                for (int b = 0; b < 3; b++)
-                    for (int bc = 0; bc < 3; bc++)
-                        kbc[b][bc] = (kf_v4d){Kp[9 * b + bc], Kp[9 * (3 + b) + 3 + bc], Kp[9 * (6 + b) + 6 + bc], 0};
-                const kf_v4d k01 = kbc[0][1] + kbc[1][0], k02 = kbc[0][2] + kbc[2][0], k12 = kbc[1][2] + kbc[2][1];
-                for (int e = 0; e < K; e++) {
-                    kf_v4d *o = (kf_v4d *)(out + KF_IMP_NV * (size_t)id[e]);
-                    const double *ge = ga + 3 * e;
-                    *o += kbc[0][0] * (ge[0] * ge[0]) + kbc[1][1] * (ge[1] * ge[1]) + kbc[2][2] * (ge[2] * ge[2]) +
-                          k01 * (ge[0] * ge[1]) + k02 * (ge[0] * ge[2]) + k12 * (ge[1] * ge[2]);
-                }
-            }
+    IMP_EACH_PARTICLE_BY_COLOUR(g, w->m->nthreads, i) {
+        const double *Kp = w->Kp + 81 * i;
+        double ga[3 * 64];
+        stencil_gamma(w, i, ga);
+        const int32_t *id = w->idx + (size_t)K * i;
+        /* the diagonal entry (a, a) of node e is γᵀ K_a γ, K_a[b][c] =
+         * Kp[(a,b),(a,c)]: with the three a in the lanes of one vector
+         * (kbc) and the symmetric pairs summed, 6 vector FMAs a node */
+        kf_v4d kbc[3][3];
+        for (int b = 0; b < 3; b++)
+            for (int bc = 0; bc < 3; bc++)
+                kbc[b][bc] = (kf_v4d){Kp[9 * b + bc], Kp[9 * (3 + b) + 3 + bc], Kp[9 * (6 + b) + 6 + bc], 0};
+        const kf_v4d k01 = kbc[0][1] + kbc[1][0], k02 = kbc[0][2] + kbc[2][0], k12 = kbc[1][2] + kbc[2][1];
+        for (int e = 0; e < K; e++) {
+            kf_v4d *o = (kf_v4d *)(out + KF_IMP_NV * (size_t)id[e]);
+            const double *ge = ga + 3 * e;
+            *o += kbc[0][0] * (ge[0] * ge[0]) + kbc[1][1] * (ge[1] * ge[1]) + kbc[2][2] * (ge[2] * ge[2]) +
+                  k01 * (ge[0] * ge[1]) + k02 * (ge[0] * ge[2]) + k12 * (ge[1] * ge[2]);
         }
     }
 }
