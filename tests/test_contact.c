@@ -256,6 +256,31 @@ static void incline(void) {
     KT_NEAR(a / want, 1, 0.05, "issue 19: slides above tan(phi) with g (sin - mu cos) within 5%");
 }
 
+/* ---- the pull-apart cases' set-up and measure (the two sections below) */
+#define PULL_DX 0.02
+
+/* the goo of the pull-apart cases: Δx = PULL_DX, no gravity, contact on or off */
+static kf_model *pull_model(int contact, int *mat) {
+    kf_sim_def sd = kf_default_sim_def();
+    sd.dx = PULL_DX;
+    sd.gravity[1] = 0;
+    sd.contact = contact;
+    return tu_model(&sd, "goo", 0, -1, 0, mat);
+}
+
+/* the pull-apart cases' end: 0.2 s more, then the particles in the middle
+ * 10 cm (|x − 0.5| < 5 cm); frees s and m */
+static long pulled_between(kf_model *m, kf_state *s) {
+    char msg[256];
+    if (kf_advance(m, s, 0.2, NULL, msg, sizeof msg)) fprintf(stderr, "advance: %s\n", msg);
+    kf_particles_view pv = kf_state_particles(s);
+    long between = 0;
+    for (size_t i = 0; i < pv.n; i++) between += fabs(pv.x[0][i] - 0.5) < 0.05;
+    kf_state_destroy(s);
+    kf_model_destroy(m);
+    return between;
+}
+
 /* ---- pulled apart: no bridge ---------------------------------------------------
  * Two goo blocks (von Mises: what is stretched stays stretched) touch face to
  * face and are pulled apart at 0.5 m/s each. Sharing one velocity field, the
@@ -263,12 +288,8 @@ static void incline(void) {
  * with contact, the faces part cleanly: after 0.2 s (the faces 20 cm apart)
  * no particle is in the middle 10 cm. Returns the particles there. */
 static long pulled_apart(int contact) {
-    kf_sim_def sd = kf_default_sim_def();
-    sd.dx = 0.02;
-    sd.gravity[1] = 0;
-    sd.contact = contact;
     int mat;
-    kf_model *m = tu_model(&sd, "goo", 0, -1, 0, &mat);
+    kf_model *m = pull_model(contact, &mat);
     kf_state *s = kf_state_create(m);
     double alo[3] = {0.3, 0.4, 0.4}, ahi[3] = {0.5, 0.6, 0.6}, blo[3] = {0.5, 0.4, 0.4}, bhi[3] = {0.7, 0.6, 0.6};
     double va[3] = {-0.5, 0, 0}, vb[3] = {0.5, 0, 0};
@@ -276,14 +297,7 @@ static long pulled_apart(int contact) {
     long first = kf_state_fill_box(s, m, blo, bhi, mat, vb, 2, 5);
     kf_particles_view pv = kf_state_particles(s);
     for (size_t i = (size_t)first; i < pv.n; i++) pv.obj[i] = 1;
-    char msg[256];
-    if (kf_advance(m, s, 0.2, NULL, msg, sizeof msg)) fprintf(stderr, "advance: %s\n", msg);
-    pv = kf_state_particles(s);
-    long between = 0;
-    for (size_t i = 0; i < pv.n; i++) between += fabs(pv.x[0][i] - 0.5) < 0.05;
-    kf_state_destroy(s);
-    kf_model_destroy(m);
-    return between;
+    return pulled_between(m, s);
 }
 
 static void no_bridge(void) {
@@ -301,14 +315,10 @@ static void no_bridge(void) {
  * bridge; with contact the cut made two pieces (two fields) and they part
  * cleanly: no particle in the middle 10 cm after 0.2 s. */
 static long cut_and_pulled(int contact, int *pieces) {
-    kf_sim_def sd = kf_default_sim_def();
-    sd.dx = 0.02;
-    sd.gravity[1] = 0;
-    sd.contact = contact;
     int mat;
-    kf_model *m = tu_model(&sd, "goo", 0, -1, 0, &mat);
+    kf_model *m = pull_model(contact, &mat);
     /* the blade: a 0.4 x 0.2 m sheet in x = x0, its centre from y = 0.65 to 0.15 in 0.25 s */
-    const double x0 = 0.5 + 0.37 * sd.dx;
+    const double x0 = 0.5 + 0.37 * PULL_DX;
     static const int tri[6] = {0, 1, 2, 0, 2, 3};
     double vert[12] = {x0, -0.1, 0.3, x0, -0.1, 0.7, x0, 0.1, 0.7, x0, 0.1, 0.3};
     kf_rigid_def d;
@@ -340,13 +350,7 @@ static long cut_and_pulled(int contact, int *pieces) {
         seen |= 1u << (pv.obj[i] >> 12);
     }
     *pieces = __builtin_popcount(seen);
-    if (kf_advance(m, s, 0.2, NULL, msg, sizeof msg)) fprintf(stderr, "advance: %s\n", msg);
-    pv = kf_state_particles(s);
-    long between = 0;
-    for (size_t i = 0; i < pv.n; i++) between += fabs(pv.x[0][i] - 0.5) < 0.05;
-    kf_state_destroy(s);
-    kf_model_destroy(m);
-    return between;
+    return pulled_between(m, s);
 }
 
 static void cut_no_bridge(void) {
