@@ -59,18 +59,21 @@ static inline kf_real kf_m3_ddot(const kf_real A[9], const kf_real B[9]) {
     return s;
 }
 
-/* cofactor matrix: cof(A) = det(A) A⁻ᵀ, defined for singular A too */
-static inline void kf_m3_cofactor(kf_real K[9], const kf_real A[9]) {
-    K[0] = A[4] * A[8] - A[5] * A[7];
-    K[1] = A[5] * A[6] - A[3] * A[8];
-    K[2] = A[3] * A[7] - A[4] * A[6];
-    K[3] = A[2] * A[7] - A[1] * A[8];
-    K[4] = A[0] * A[8] - A[2] * A[6];
-    K[5] = A[1] * A[6] - A[0] * A[7];
-    K[6] = A[1] * A[5] - A[2] * A[4];
-    K[7] = A[2] * A[3] - A[0] * A[5];
-    K[8] = A[0] * A[4] - A[1] * A[3];
-}
+/* cofactor matrix: cof(A) = det(A) A⁻ᵀ, defined for singular A too; one
+ * body for the kf_real and the double version */
+#define KF_M3_COFACTOR(K, A)                                                                                           \
+    do {                                                                                                               \
+        K[0] = A[4] * A[8] - A[5] * A[7];                                                                              \
+        K[1] = A[5] * A[6] - A[3] * A[8];                                                                              \
+        K[2] = A[3] * A[7] - A[4] * A[6];                                                                              \
+        K[3] = A[2] * A[7] - A[1] * A[8];                                                                              \
+        K[4] = A[0] * A[8] - A[2] * A[6];                                                                              \
+        K[5] = A[1] * A[6] - A[0] * A[7];                                                                              \
+        K[6] = A[1] * A[5] - A[2] * A[4];                                                                              \
+        K[7] = A[2] * A[3] - A[0] * A[5];                                                                              \
+        K[8] = A[0] * A[4] - A[1] * A[3];                                                                              \
+    } while (0)
+static inline void kf_m3_cofactor(kf_real K[9], const kf_real A[9]) { KF_M3_COFACTOR(K, A); }
 
 /* U diag(s) Vᵀ */
 static inline void kf_m3_usvt(kf_real A[9], const kf_real U[9], const kf_real s[3], const kf_real V[9]) {
@@ -88,18 +91,8 @@ static inline double kf_m3d_det(const double A[9]) {
     return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) + A[2] * (A[3] * A[7] - A[4] * A[6]);
 }
 
-/* cofactor matrix: cof(A) = det(A) A⁻ᵀ, defined for singular A too */
-static inline void kf_m3d_cofactor(double K[9], const double A[9]) {
-    K[0] = A[4] * A[8] - A[5] * A[7];
-    K[1] = A[5] * A[6] - A[3] * A[8];
-    K[2] = A[3] * A[7] - A[4] * A[6];
-    K[3] = A[2] * A[7] - A[1] * A[8];
-    K[4] = A[0] * A[8] - A[2] * A[6];
-    K[5] = A[1] * A[6] - A[0] * A[7];
-    K[6] = A[1] * A[5] - A[2] * A[4];
-    K[7] = A[2] * A[3] - A[0] * A[5];
-    K[8] = A[0] * A[4] - A[1] * A[3];
-}
+/* cofactor matrix (KF_M3_COFACTOR above) */
+static inline void kf_m3d_cofactor(double K[9], const double A[9]) { KF_M3_COFACTOR(K, A); }
 
 /* y = A x */
 static inline void kf_m3d_mv(double y[3], const double A[9], const double x[3]) {
