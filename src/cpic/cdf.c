@@ -422,7 +422,8 @@ static void seed_world(const kf_rigid_state *st, const float *o, double x[3]);
  * within reach of a seed in the sphere (xc, rad): the node range run_far
  * bounds such a seed's box by, a node wider. Returns 1 when the blocks
  * number more than `most` (nothing marked), -1 for a position that is not
- * finite. */
+ * finite. With near NULL it only looks: 1 when some such block exists (or
+ * they number more than `most`), 0 when none does. */
 static int mark_sphere(const kf_cpic *c, const kf_grid *g, const double xc[3], double rad, double inv_dx, double reach,
                        int kw, size_t most, uint8_t *near) {
     int b0[3], b1[3];
@@ -445,7 +446,9 @@ static int mark_sphere(const kf_cpic *c, const kf_grid *g, const double xc[3], d
         for (int q = b0[1]; q <= b1[1]; q++)
             for (int w = b0[2]; w <= b1[2]; w++) {
                 int32_t blk = find_block(c, g, p, q, w);
-                if (blk >= 0) near[blk] = 1;
+                if (blk < 0) continue;
+                if (!near) return 1;
+                near[blk] = 1;
             }
     return 0;
 }
@@ -461,8 +464,19 @@ static int mark_near(const kf_cpic *c, const kf_grid *g, const kf_rigid_body *b,
     const double reach = b->def.thin ? 1.5 : 2.5; /* splat_body's */
     const size_t len = KF_CPIC_RUN / 8, nrun = (b->nseed + len - 1) / len;
     for (size_t k = 0; k < nrun; k++) {
-        const double *sp = c->sub_sphere[r][k];
         double xc[3];
+        /* a long run with no block within reach: its eight short runs pass */
+        if (k % 8 == 0) {
+            const double *lp = c->run_sphere[r][k / 8];
+            sphere_world(st, lp, xc);
+            int any = mark_sphere(c, g, xc, lp[3], inv_dx, reach, kw, 64, NULL);
+            if (any < 0) return 1;
+            if (!any) {
+                k += 7;
+                continue;
+            }
+        }
+        const double *sp = c->sub_sphere[r][k];
         sphere_world(st, sp, xc);
         int wide = mark_sphere(c, g, xc, sp[3], inv_dx, reach, kw, 64, near);
         if (wide < 0) return 1;
