@@ -217,8 +217,10 @@ typedef enum kf_force { KF_FORCE_MLS = 0, KF_FORCE_CLASSIC } kf_force;
  * APIC's affine part and also the rest of the particle's velocity, which
  * APIC drops at every transfer: the particle's velocity is the grid's new
  * velocity plus flip_ratio times what the grid's old velocity missed of it
- * (mpm/transfer.c). */
-typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC, KF_TRANSFER_FLIP } kf_transfer;
+ * (mpm/transfer.c). POLYPIC keeps, beyond APIC's velocity and affine part,
+ * every other velocity mode the quadratic kernel's 3x3x3 stencil can hold
+ * (23 more, mpm/polypic.h), so one particle's G2P then P2G loses nothing. */
+typedef enum kf_transfer { KF_TRANSFER_APIC = 0, KF_TRANSFER_PIC, KF_TRANSFER_FLIP, KF_TRANSFER_POLYPIC } kf_transfer;
 /* How the grid velocities advance: explicit symplectic Euler, or
  * backward Euler solved by Newton-Krylov on the incremental potential. */
 typedef enum kf_integrator { KF_INTEGRATOR_EXPLICIT = 0, KF_INTEGRATOR_IMPLICIT } kf_integrator;
@@ -437,6 +439,11 @@ typedef struct kf_energy {
 kf_energy kf_state_energy(const kf_model *m, const kf_state *s);
 /* FNV-1a hash of every particle field, in stable id order. */
 uint64_t kf_state_hash(const kf_state *s);
+/* The kinetic energy the polypic transfer's higher velocity modes carry
+ * beyond kf_energy's ½ m |v|²: Σ_p ½ m_p Σ_i w_ip |u_p(x_i)|², u_p the
+ * particle's higher-mode field at its stencil's nodes (0 under other
+ * transfers). J. */
+double kf_state_mode_energy(const kf_model *m, const kf_state *s);
 
 #ifdef __cplusplus
 }

@@ -55,7 +55,11 @@ int kf_cmd_info(int argc, char **argv) {
            shot->frame_end, shot->fps, shot->quality == KF_QUALITY_PREVIEW ? "preview" : "final");
     char transfer[32];
     if (shot->sim.transfer == KF_TRANSFER_FLIP) snprintf(transfer, sizeof transfer, "FLIP %g", shot->sim.flip_ratio);
-    else snprintf(transfer, sizeof transfer, "%s", shot->sim.transfer == KF_TRANSFER_PIC ? "PIC" : "APIC");
+    else
+        snprintf(transfer, sizeof transfer, "%s",
+                 shot->sim.transfer == KF_TRANSFER_PIC       ? "PIC"
+                 : shot->sim.transfer == KF_TRANSFER_POLYPIC ? "PolyPIC"
+                                                             : "APIC");
     printf("grid      dx %.5g m, %s kernel, %s force, %s, cfl %g, %s\n", shot->sim.dx,
            shot->sim.kernel == KF_KERNEL_CUBIC ? "cubic" : "quadratic",
            shot->sim.force == KF_FORCE_CLASSIC ? "classic" : "MLS", transfer, shot->sim.cfl,

@@ -56,6 +56,7 @@ double kf_dist_clock(void) { return kf_now_ms(); }
 const char *kf_dist_unsupported_def(const kf_sim_def *sim, int nrigid) {
     if (sim->integrator == KF_INTEGRATOR_IMPLICIT) return "the implicit integrator (sim.integrator: implicit)";
     if (sim->transfer == KF_TRANSFER_FLIP) return "the flip transfer (sim.transfer: flip)";
+    if (sim->transfer == KF_TRANSFER_POLYPIC) return "the polypic transfer (sim.transfer: polypic)";
     return NULL;
 }
 

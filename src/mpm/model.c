@@ -53,9 +53,14 @@ kf_model *kf_model_create(const kf_sim_def *def, char *err, size_t errlen) {
         bad = "integrator must be explicit or implicit";
     if (!bad && !(def->implicit_scheme == KF_SCHEME_BACKWARD_EULER || def->implicit_scheme == KF_SCHEME_MIDPOINT))
         bad = "implicit_scheme must be backward_euler or midpoint";
-    if (!bad &&
-        !(def->transfer == KF_TRANSFER_APIC || def->transfer == KF_TRANSFER_PIC || def->transfer == KF_TRANSFER_FLIP))
-        bad = "transfer must be apic, pic or flip";
+    if (!bad && !(def->transfer == KF_TRANSFER_APIC || def->transfer == KF_TRANSFER_PIC ||
+                  def->transfer == KF_TRANSFER_FLIP || def->transfer == KF_TRANSFER_POLYPIC))
+        bad = "transfer must be apic, pic, flip or polypic";
+    /* the modes are those of the quadratic kernel's 3x3x3 stencil */
+    if (!bad && def->transfer == KF_TRANSFER_POLYPIC && def->kernel != KF_KERNEL_QUADRATIC)
+        bad = "the polypic transfer needs the quadratic kernel (sim.kernel: quadratic)";
+    if (!bad && def->transfer == KF_TRANSFER_POLYPIC && def->integrator == KF_INTEGRATOR_IMPLICIT)
+        bad = "the polypic transfer needs the explicit integrator (sim.integrator: explicit)";
     if (!bad && def->transfer == KF_TRANSFER_FLIP && !(def->flip_ratio >= 0 && def->flip_ratio <= 1))
         bad = "flip_ratio must be in [0, 1]";
     /* the implicit solve makes its own grid velocities and keeps no old ones */

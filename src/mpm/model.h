@@ -36,6 +36,10 @@ struct kf_model {
     int unfused;
 };
 
+/* polypic transfer: reals per particle id, 23 modes x 3, 3 α and the modes' energy (polypic.h) */
+#define KF_POLY_MODES 23
+#define KF_POLY_REALS (3 * KF_POLY_MODES + 4)
+
 struct kf_state {
     kf_particles p;
     kf_grid g;
@@ -72,6 +76,11 @@ struct kf_state {
     kf_real *mid_dv;
     size_t mid_cap;
     int mid_pending;
+    /* polypic transfer: each particle's higher velocity modes, KF_POLY_REALS
+     * per stable id (polypic.h), for ids below poly_cap; the copy for
+     * retrying an interval */
+    kf_real *poly, *snapshot_poly;
+    size_t poly_cap, snapshot_poly_cap;
     /* one simulation over MPI ranks (src/dist): this rank's part; NULL on one rank */
     struct kf_dist *dist;
 };
@@ -142,6 +151,8 @@ typedef struct kf_g2p_result {
 
 /* P2G; trouble (may be NULL) receives the first particle with non-finite stress */
 void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble);
+/* polypic: the mode table grown to every particle id (0, or -1 out of memory) */
+int kf_poly_reserve(kf_state *s);
 /* one owner block's P2G scatter into cache (edge kf_p2g_cache_edge, CD³
  * nodes; lohi: the base offsets its particles used, lo then hi per axis)
  * without touching the grid, and such a cache added into a 2x2x2 block

@@ -72,6 +72,16 @@ static int spill_read(FILE *f, kf_particles *p) {
 
 int kf_snapshot_save(kf_state *s) {
     s->snapshot_tau_valid = s->tau_valid;
+    /* polypic's modes, per id: a memory copy */
+    if (s->poly_cap) {
+        if (s->poly_cap > s->snapshot_poly_cap) {
+            kf_real *t = realloc(s->snapshot_poly, s->poly_cap * KF_POLY_REALS * sizeof *t);
+            if (!t) return -1;
+            s->snapshot_poly = t;
+        }
+        s->snapshot_poly_cap = s->poly_cap;
+        memcpy(s->snapshot_poly, s->poly, s->poly_cap * KF_POLY_REALS * sizeof *s->poly);
+    }
     memcpy(s->snapshot_rigid, s->rigid, sizeof s->rigid);
     if (s->rsim) {
         size_t n = kf_rigid_sim_state_size(s->rsim);
@@ -104,5 +114,11 @@ int kf_snapshot_restore(kf_state *s, double time0, long substep0) {
     s->substep = substep0;
     s->tau_valid = s->snapshot_tau_valid;
     s->g.valid = 0;
+    /* polypic's modes as they were (ids past the copy: none yet) */
+    if (s->snapshot_poly_cap) {
+        memcpy(s->poly, s->snapshot_poly, s->snapshot_poly_cap * KF_POLY_REALS * sizeof *s->poly);
+        memset(s->poly + s->snapshot_poly_cap * KF_POLY_REALS, 0,
+               (s->poly_cap - s->snapshot_poly_cap) * KF_POLY_REALS * sizeof *s->poly);
+    }
     return rc;
 }

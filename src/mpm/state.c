@@ -43,6 +43,8 @@ void kf_state_destroy(kf_state *s) {
     kf_cpic_free(s->cpic);
     kf_contact_free(s->contact);
     free(s->mid_dv);
+    free(s->poly);
+    free(s->snapshot_poly);
     kf_particles_free(&s->p);
     kf_particles_free(&s->snapshot);
     if (s->spill) fclose(s->spill);
@@ -58,6 +60,11 @@ void kf_state_copy(kf_state *dst, const kf_state *src) {
     dst->next_id = src->next_id;
     dst->tau_valid = src->tau_valid;
     kf_grid_invalidate(&dst->g);
+    /* polypic's modes, per id */
+    if (src->poly_cap && kf_poly_reserve(dst) == 0) {
+        size_t n = src->poly_cap < dst->poly_cap ? src->poly_cap : dst->poly_cap;
+        memcpy(dst->poly, src->poly, n * KF_POLY_REALS * sizeof *src->poly);
+    }
     /* rigid bodies: both states come from the same model */
     dst->nrigid = src->nrigid;
     memcpy(dst->rigid, src->rigid, sizeof dst->rigid);
@@ -315,4 +322,45 @@ uint64_t kf_state_hash(const kf_state *s) {
 #undef FNV
     free(where);
     return h;
+}
+
+/* polypic: ½ m Σ_i w_i |u(x_i)|² per particle, u its higher-mode field
+ * (polypic.h) at its stencil's nodes, in double */
+double kf_state_mode_energy(const kf_model *m, const kf_state *s) {
+    if (m->sim.transfer != KF_TRANSFER_POLYPIC || !s->poly_cap) return 0;
+    static const unsigned char mode[KF_POLY_MODES][3] = {
+        {0, 0, 2}, {0, 1, 1}, {0, 1, 2}, {0, 2, 0}, {0, 2, 1}, {0, 2, 2}, {1, 0, 1}, {1, 0, 2},
+        {1, 1, 0}, {1, 1, 1}, {1, 1, 2}, {1, 2, 0}, {1, 2, 1}, {1, 2, 2}, {2, 0, 0}, {2, 0, 1},
+        {2, 0, 2}, {2, 1, 0}, {2, 1, 1}, {2, 1, 2}, {2, 2, 0}, {2, 2, 1}, {2, 2, 2}};
+    const kf_particles *p = &s->p;
+    const kf_real inv_dx = kf_model_inv_dx(m);
+    double total = 0;
+    for (size_t i = 0; i < p->n; i++) {
+        if (p->id[i] >= s->poly_cap) continue;
+        const kf_real *md = &s->poly[(size_t)p->id[i] * KF_POLY_REALS];
+        double w[3][3], e[3][3][3];
+        for (int a = 0; a < 3; a++) {
+            double fx = (double)p->x[a][i] * inv_dx - kf_base_node(p->x[a][i], inv_dx, 0);
+            w[a][0] = 0.5 * (1.5 - fx) * (1.5 - fx);
+            w[a][1] = 0.75 - (fx - 1) * (fx - 1);
+            w[a][2] = 0.5 * (fx - 0.5) * (fx - 0.5);
+            for (int k = 0; k < 3; k++) {
+                double d = k - fx;
+                e[a][0][k] = 1, e[a][1][k] = d, e[a][2][k] = d * d - md[3 * KF_POLY_MODES + a] * d - 0.25;
+            }
+        }
+        double sum = 0;
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++)
+                for (int c = 0; c < 3; c++) {
+                    double u[3] = {0, 0, 0};
+                    for (int q = 0; q < KF_POLY_MODES; q++) {
+                        double f = e[0][mode[q][0]][a] * e[1][mode[q][1]][b] * e[2][mode[q][2]][c];
+                        for (int k = 0; k < 3; k++) u[k] += f * md[3 * q + k];
+                    }
+                    sum += w[0][a] * w[1][b] * w[2][c] * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+                }
+        total += 0.5 * p->mass[i] * sum;
+    }
+    return total;
 }

@@ -56,13 +56,17 @@ KF_KEY(SIM_KERNEL, "sim.kernel", KT_ENUM, TOP(s.sim.kernel), ANY, "quadratic|cub
        "B-spline interpolation kernel.")
 KF_KEY(SIM_FORCE, "sim.force", KT_ENUM, TOP(s.sim.force), ANY, "mls|classic", "mls", NULL, NULL, 0,
        "Force discretisation: MLS-MPM, or classic MPM with kernel gradients.")
-KF_KEY(SIM_TRANSFER, "sim.transfer", KT_ENUM, TOP(s.sim.transfer), ANY, "apic|pic|flip", "apic", NULL, NULL, 0,
+KF_KEY(SIM_TRANSFER, "sim.transfer", KT_ENUM, TOP(s.sim.transfer), ANY, "apic|pic|flip|polypic", "apic", NULL, NULL, 0,
        "Particle-grid transfer: APIC keeps rotation, PIC damps it. Both lose, at every substep, the part of the motion "
        "finer than the kernel, so a wobbling body comes to rest sooner at a smaller CFL number. flip keeps APIC's "
        "rotation and adds back sim.flip_ratio of what the grid missed of each particle's velocity. Measured on a "
        "jelly bar 4 cells thick ringing for 10 periods: flip keeps 60% of its energy at CFL 0.4 and 54% at 0.1, "
        "APIC 31% and 4% (tools/evidence/flip_results.md); flip costs one more scatter and gather per substep. "
-       "Explicit integration on one rank only.")
+       "polypic keeps every velocity mode the quadratic kernel's 3x3x3 stencil holds (23 beyond APIC's), so a "
+       "transfer loses only what particles moving between nodes blur: a stretched jelly cube 16 cells across keeps "
+       "65% of its energy over 10 periods at CFL 0.4, where APIC keeps 31% and flip 49% "
+       "(tools/evidence/flip_results.md); it costs about 4x APIC per substep and 288 bytes a particle. flip and "
+       "polypic: explicit integration on one rank only; polypic needs the quadratic kernel.")
 KF_KEY(SIM_FLIP_RATIO, "sim.flip_ratio", KT_NUM, TOP(s.sim.flip_ratio), CC(0, 1), NULL, "0.95", NULL, "transfer=flip",
        KF_SOFT,
        "Under sim.transfer: flip, the share of each particle's velocity beyond the grid's kept per substep (1 = "

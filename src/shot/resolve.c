@@ -578,6 +578,18 @@ void kf_resolve_top(loader *L, inst *T, const char *path, kf_shot *s) {
                  "to take the particles' increment from); use apic with the implicit integrator");
         kf_report_inst(L, T, T->at[KK_SIM_TRANSFER] ? KK_SIM_TRANSFER : KK_SIM_INTEGRATOR, KF_DIAG_ERROR, msg);
     }
+    /* polypic's modes are those of the quadratic kernel's stencil, carried by the explicit step's transfers */
+    if (s->sim.transfer == KF_TRANSFER_POLYPIC && s->sim.integrator == KF_INTEGRATOR_IMPLICIT) {
+        snprintf(msg, sizeof msg,
+                 "sim.transfer: polypic needs sim.integrator: explicit (the implicit solve has its own transfers); "
+                 "use apic with the implicit integrator");
+        kf_report_inst(L, T, T->at[KK_SIM_TRANSFER] ? KK_SIM_TRANSFER : KK_SIM_INTEGRATOR, KF_DIAG_ERROR, msg);
+    }
+    if (s->sim.transfer == KF_TRANSFER_POLYPIC && s->sim.kernel != KF_KERNEL_QUADRATIC) {
+        snprintf(msg, sizeof msg,
+                 "sim.transfer: polypic needs sim.kernel: quadratic (its modes are those of the 3x3x3 stencil)");
+        kf_report_inst(L, T, T->at[KK_SIM_TRANSFER] ? KK_SIM_TRANSFER : KK_SIM_KERNEL, KF_DIAG_ERROR, msg);
+    }
     s->dx_at = loc_of(L, s, kf_node_for(T, KK_SIM_DX));
     s->cfl_at = loc_of(L, s, kf_node_for(T, KK_SIM_CFL));
     s->dt_fixed_at = loc_of(L, s, kf_node_for(T, KK_SIM_DT_FIXED));

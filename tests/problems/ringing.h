@@ -136,6 +136,7 @@ static inline ev_series ev_energy_series(const kf_model *m, kf_state *s, double 
             ka += 0.5 * pv.mass[i] * d * c2;
         }
         out.t[st] = kf_state_time(s), out.e[st] = (e.kinetic + e.elastic) / E0;
+        ka += kf_state_mode_energy(m, s); /* polypic's higher modes (0 otherwise) */
         out.s[st] = st == 0 ? 1 : (e.kinetic + ka + 0.5 * (elastic_prev + e.elastic)) / E0;
         elastic_prev = e.elastic;
         out.n = st + 1;

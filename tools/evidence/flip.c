@@ -2,8 +2,11 @@
  * a ringing jelly cube keeps, the cost per substep, and the work–precision
  * points of the accuracy problems.
  *
- *   kf_evid_flip --out DIR [--quick] [--repeat N] [--no-sweep] [--no-energy] [--bar]
+ *   kf_evid_flip --out DIR [--quick] [--repeat N] [--no-sweep] [--no-energy] [--bar] [--polypic]
  *
+ * --polypic: the polypic transfer instead (sim.transfer: polypic): the
+ * energy runs for APIC, polypic and flip 0.95, cost and sweep for APIC and
+ * polypic, into DIR/polypic*.dat and DIR/polypic.md.
  * --no-energy skips the energy runs (cost and sweep only), --bar runs the
  * bar's energy alone.
  *
@@ -38,12 +41,17 @@ typedef struct variant {
     double ratio;
 } variant;
 
-static const variant VARIANTS[] = {{"APIC", KF_TRANSFER_APIC, 0},
-                                   {"flip 0.95", KF_TRANSFER_FLIP, 0.95},
-                                   {"flip 0.99", KF_TRANSFER_FLIP, 0.99},
-                                   {"flip 1", KF_TRANSFER_FLIP, 1.0},
-                                   {"PIC", KF_TRANSFER_PIC, 0}};
-#define NVAR ((int)(sizeof VARIANTS / sizeof *VARIANTS))
+static const variant FLIP_VARIANTS[] = {{"APIC", KF_TRANSFER_APIC, 0},
+                                        {"flip 0.95", KF_TRANSFER_FLIP, 0.95},
+                                        {"flip 0.99", KF_TRANSFER_FLIP, 0.99},
+                                        {"flip 1", KF_TRANSFER_FLIP, 1.0},
+                                        {"PIC", KF_TRANSFER_PIC, 0}};
+/* --polypic: polypic against APIC and the default flip */
+static const variant POLY_VARIANTS[] = {
+    {"APIC", KF_TRANSFER_APIC, 0}, {"polypic", KF_TRANSFER_POLYPIC, 0}, {"flip 0.95", KF_TRANSFER_FLIP, 0.95}};
+static const variant *VARIANTS = FLIP_VARIANTS;
+static int NVAR = 5;
+#define MAXVAR 5
 
 typedef ev_series series;
 
@@ -79,7 +87,7 @@ static series bar(const variant *var, double cfl, double tend) {
 
 /* energy at CFL cfl for every variant: the .dat file and the table rows */
 static void energy(FILE *md, const char *dir, const char *file, int is_bar, double cfl, int quick) {
-    series r[NVAR];
+    series r[MAXVAR];
     for (int v = 0; v < NVAR; v++) {
         r[v] = is_bar ? bar(&VARIANTS[v], cfl, 10 * BAR_T) : cube(&VARIANTS[v], cfl, quick, -1);
         fprintf(stderr, "  %s cfl %.2f %-9s %ld steps: E(10T)/E0 %.4f, S(10T)/E0 %.4f, %.2f s CPU%s\n",
@@ -114,13 +122,14 @@ static void energy(FILE *md, const char *dir, const char *file, int is_bar, doub
 
 int main(int argc, char **argv) {
     const char *dir = ".";
-    int quick = 0, repeat = 5, sweep = 1, only_bar = 0, no_energy = 0;
+    int quick = 0, repeat = 5, sweep = 1, only_bar = 0, no_energy = 0, poly = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--out") && i + 1 < argc) dir = argv[++i];
         else if (!strcmp(argv[i], "--quick")) quick = 1;
         else if (!strcmp(argv[i], "--no-sweep")) sweep = 0;
         else if (!strcmp(argv[i], "--bar")) only_bar = 1;
         else if (!strcmp(argv[i], "--no-energy")) no_energy = 1;
+        else if (!strcmp(argv[i], "--polypic")) VARIANTS = POLY_VARIANTS, NVAR = 3, poly = 1;
         else if (!strcmp(argv[i], "--repeat") && i + 1 < argc) repeat = atoi(argv[++i]);
         else {
             fprintf(stderr, "usage: kf_evid_flip --out DIR [--quick] [--repeat N] [--no-sweep]\n");
@@ -129,7 +138,8 @@ int main(int argc, char **argv) {
     }
     if (repeat < 1 || repeat > 99) repeat = 5;
     char path[1024];
-    snprintf(path, sizeof path, "%s/flip.md", dir);
+    const char *pre = poly ? "polypic" : "flip";
+    snprintf(path, sizeof path, "%s/%s.md", dir, pre);
     FILE *md = fopen(path, "w");
     if (!md) return 1;
 
@@ -144,11 +154,16 @@ int main(int argc, char **argv) {
     if (!no_energy) {
         fprintf(md, "| body | CFL | transfer | steps | E(10T)/E0 | S(10T)/E0 | E(T)/E0 | E(5T)/E0 |\n"
                     "|---|---|---|---|---|---|---|---|\n");
-        energy(md, dir, "flip_bar.dat", 1, 0.4, quick);
-        energy(md, dir, "flip_bar_cfl01.dat", 1, 0.1, quick);
+        char name[64];
+        snprintf(name, sizeof name, "%s_bar.dat", pre);
+        energy(md, dir, name, 1, 0.4, quick);
+        snprintf(name, sizeof name, "%s_bar_cfl01.dat", pre);
+        energy(md, dir, name, 1, 0.1, quick);
         if (only_bar) return 0;
-        energy(md, dir, "flip_energy.dat", 0, 0.4, quick);
-        energy(md, dir, "flip_energy_cfl01.dat", 0, 0.1, quick);
+        snprintf(name, sizeof name, "%s_energy.dat", pre);
+        energy(md, dir, name, 0, 0.4, quick);
+        snprintf(name, sizeof name, "%s_energy_cfl01.dat", pre);
+        energy(md, dir, name, 0, 0.1, quick);
     }
 
     /* cost per substep, A/B alternating */
@@ -171,8 +186,8 @@ int main(int argc, char **argv) {
         for (int k = 1; k < repeat; k++) lo = cost[v][k] < lo ? cost[v][k] : lo, hi = cost[v][k] > hi ? cost[v][k] : hi;
         fprintf(md, "| %s | %.3f | %.3f | %.3f |\n", ab[v]->name, 1e3 * med[v], 1e3 * lo, 1e3 * hi);
     }
-    fprintf(md, "\nflip / APIC: %.3f\n", med[1] / med[0]);
-    fprintf(stderr, "  cost per substep: APIC %.3f ms, flip %.3f ms (x%.3f)\n", 1e3 * med[0], 1e3 * med[1],
+    fprintf(md, "\n%s / APIC: %.3f\n", ab[1]->name, med[1] / med[0]);
+    fprintf(stderr, "  cost per substep: APIC %.3f ms, %s %.3f ms (x%.3f)\n", 1e3 * med[0], ab[1]->name, 1e3 * med[1],
             med[1] / med[0]);
 
     /* the work–precision points */
@@ -189,7 +204,7 @@ int main(int argc, char **argv) {
                     "kf_step, median of 3 where under 1 s):\n\n| problem | res | transfer | CPU s | error |\n"
                     "|---|---|---|---|---|\n");
         for (int p = 0; p < 3; p++) {
-            snprintf(path, sizeof path, "%s/flip_wp_%s.dat", dir, probs[p].name);
+            snprintf(path, sizeof path, "%s/%s_wp_%s.dat", dir, pre, probs[p].name);
             FILE *f = fopen(path, "w");
             if (!f) return 1;
             for (int v = 0; v < 2; v++) {
