@@ -53,9 +53,10 @@ static inline double ev_cpu_s(void) {
 static inline const char *ev_variant_name(const ev_variant *v, char *buf, size_t len) {
     snprintf(buf, len, "%s-%s-%d%s", v->kernel == KF_KERNEL_CUBIC ? "cubic" : "quad",
              v->force == KF_FORCE_CLASSIC ? "classic" : "mls", v->ppc * v->ppc * v->ppc,
-             v->transfer == KF_TRANSFER_FLIP  ? "-flip"
-             : v->transfer == KF_TRANSFER_PIC ? "-pic"
-                                              : "");
+             v->transfer == KF_TRANSFER_FLIP      ? "-flip"
+             : v->transfer == KF_TRANSFER_PIC     ? "-pic"
+             : v->transfer == KF_TRANSFER_POLYPIC ? "-polypic"
+                                                  : "");
     return buf;
 }
 
