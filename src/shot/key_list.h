@@ -65,7 +65,7 @@ KF_KEY(SIM_TRANSFER, "sim.transfer", KT_ENUM, TOP(s.sim.transfer), ANY, "apic|pi
        "polypic keeps every velocity mode the quadratic kernel's 3x3x3 stencil holds (23 beyond APIC's), so a "
        "transfer loses only what particles moving between nodes blur: a stretched jelly cube 16 cells across keeps "
        "65% of its energy over 10 periods at CFL 0.4, where APIC keeps 31% and flip 49% "
-       "(tools/evidence/flip_results.md); it costs about 4x APIC per substep and 288 bytes a particle. flip and "
+       "(tools/evidence/flip_results.md); it costs 4.4x APIC per substep and 292 bytes a particle. flip and "
        "polypic: explicit integration on one rank only; polypic needs the quadratic kernel.")
 KF_KEY(SIM_FLIP_RATIO, "sim.flip_ratio", KT_NUM, TOP(s.sim.flip_ratio), CC(0, 1), NULL, "0.95", NULL, "transfer=flip",
        KF_SOFT,
