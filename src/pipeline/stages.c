@@ -50,6 +50,18 @@ int kf_output_current(const char *output, const char *input) {
     return so.st_mtim.tv_nsec >= si.st_mtim.tv_nsec;
 }
 
+/* the metadata every .vdb a stage writes carries: the shot, the frame, this
+ * kerf and the grid spacing */
+static kf_vdb_meta vdb_meta(const kf_shot *shot, int frame) {
+    kf_vdb_meta meta;
+    memset(&meta, 0, sizeof meta);
+    snprintf(meta.shot, sizeof meta.shot, "%s", shot->name);
+    meta.frame = frame;
+    snprintf(meta.kerf_version, sizeof meta.kerf_version, "%s", KERF_VERSION);
+    meta.dx = shot->sim.dx;
+    return meta;
+}
+
 /* ---- surface ------------------------------------------------------------ */
 
 /* the settings every material's level set uses (the shot's surface keys):
@@ -174,12 +186,7 @@ int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_
         }
         if (grids[ngrids]) ngrids++;
     }
-    kf_vdb_meta meta;
-    memset(&meta, 0, sizeof meta);
-    snprintf(meta.shot, sizeof meta.shot, "%s", shot->name);
-    meta.frame = frame;
-    snprintf(meta.kerf_version, sizeof meta.kerf_version, "%s", KERF_VERSION);
-    meta.dx = shot->sim.dx;
+    kf_vdb_meta meta = vdb_meta(shot, frame);
     if (kf_ensure_parent(fp->surface)) {
         snprintf(err, errlen, "%s: cannot create directory: %s", fp->surface, strerror(errno));
         goto done;
@@ -222,12 +229,7 @@ int kf_pipeline_points(const kf_shot *shot, const kf_model *m, const kf_state *s
             fl[KF_VDB_PT_PLASTIC][i] = (float)pf.plastic;
             mat[i] = p.mat[i];
         }
-        kf_vdb_meta meta;
-        memset(&meta, 0, sizeof meta);
-        snprintf(meta.shot, sizeof meta.shot, "%s", shot->name);
-        meta.frame = frame;
-        snprintf(meta.kerf_version, sizeof meta.kerf_version, "%s", KERF_VERSION);
-        meta.dx = shot->sim.dx;
+        kf_vdb_meta meta = vdb_meta(shot, frame);
         if (kf_ensure_parent(path)) snprintf(err, errlen, "%s: cannot create directory: %s", path, strerror(errno));
         else rc = kf_vdb_points_write(path, p.n, x, v, mat, (const float *const *)fl, 0, &meta, err, errlen);
     }
