@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include "io/checkpoint.h"
+#include "mpm/model.h"
 #include "kt.h"
 #include "scene/builtin.h"
 
@@ -26,12 +27,14 @@ static int advance_frames(kf_scene *sc, int frames) {
     return 0;
 }
 
-/* run 3 frames straight; run 1, checkpoint, resume in a fresh state, run 2 */
-static void resume_is_exact(void) {
+/* run 3 frames straight; run 1, checkpoint, resume in a fresh state, run 2
+ * (under the given transfer: polypic's per-particle modes are state too) */
+static void resume_exact_under(kf_transfer transfer, const char *name) {
     char err[256], path[320];
-    snprintf(path, sizeof path, "%s/demo.0001.kfc", dir);
+    snprintf(path, sizeof path, "%s/demo_%s.0001.kfc", dir, name);
     kf_scene a, b;
     KT_CHECK(kf_scene_demo(&a, 20, err, sizeof err) == 0, "%s", err);
+    a.model->sim.transfer = transfer;
     KT_CHECK(advance_frames(&a, 1) == 0, "frame 1");
     KT_CHECK(kf_checkpoint_write(path, a.state, 1, 42, err, sizeof err) == 0, "%s", err);
     KT_CHECK(advance_frames(&a, 2) == 0, "frames 2-3");
@@ -39,6 +42,7 @@ static void resume_is_exact(void) {
 
     /* a fresh model and an empty state: everything comes from the file */
     KT_CHECK(kf_scene_demo(&b, 20, err, sizeof err) == 0, "%s", err);
+    b.model->sim.transfer = transfer;
     kf_state_destroy(b.state);
     b.state = kf_state_create(b.model);
     kf_checkpoint_info info;
@@ -57,6 +61,9 @@ static void resume_is_exact(void) {
     kf_scene_free(&a);
     kf_scene_free(&b);
 }
+
+static void resume_is_exact(void) { resume_exact_under(KF_TRANSFER_APIC, "apic"); }
+static void resume_is_exact_polypic(void) { resume_exact_under(KF_TRANSFER_POLYPIC, "polypic"); }
 
 static void expect_refused(const char *path, const char *needle) {
     char err[512];
@@ -218,6 +225,7 @@ static void forged_headers_are_refused(void) {
 int main(int argc, char **argv) {
     make_dir();
     KT_RUN(resume_is_exact, argc, argv);
+    KT_RUN(resume_is_exact_polypic, argc, argv);
     KT_RUN(damage_is_refused, argc, argv);
     KT_RUN(forged_headers_are_refused, argc, argv);
     char cmd[300];

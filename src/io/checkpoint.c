@@ -23,8 +23,8 @@ typedef struct header {
     int64_t substep;
     uint64_t next_id;
     uint64_t inputs_hash;
-    uint32_t nrigid; /* kf_rigid_state records after the particles */
-    uint32_t pad;
+    uint32_t nrigid;     /* kf_rigid_state records after the particles */
+    uint32_t poly_ids;   /* last: polypic's modes (KF_POLY_REALS reals) for ids 0..poly_ids-1, or none */
     uint64_t rsim_bytes; /* then the rigid solver's own state */
 } header;
 
@@ -62,6 +62,9 @@ int kf_checkpoint_write(const char *path, kf_state *s, int frame, uint64_t input
     h.next_id = s->next_id;
     h.inputs_hash = inputs_hash;
     h.nrigid = (uint32_t)s->nrigid;
+    /* polypic's higher modes are state too: without them a resume would
+     * restart every particle's modes at zero and differ from the run */
+    if (s->poly_cap && kf_poly_reserve(s) == 0) h.poly_ids = s->next_id;
     void *rsim = NULL;
     if (s->rsim) {
         h.rsim_bytes = kf_rigid_sim_state_size(s->rsim);
@@ -82,6 +85,7 @@ int kf_checkpoint_write(const char *path, kf_state *s, int frame, uint64_t input
     put(&w, p->colour, p->n * sizeof *p->colour);
     put(&w, s->rigid, (size_t)s->nrigid * sizeof s->rigid[0]);
     put(&w, rsim, h.rsim_bytes);
+    put(&w, s->poly, (size_t)h.poly_ids * KF_POLY_REALS * sizeof(kf_real));
     free(rsim);
     uint64_t sum = w.h;
     if (!w.failed && fwrite(&sum, sizeof sum, 1, af.f) != 1) w.failed = 1;
@@ -211,11 +215,13 @@ static size_t particle_bytes(void) {
  * states, solver state, checksum. 0 when a count is so large that the size
  * overflows 64 bits (no real file holds it). */
 static uint64_t expected_size(const header *h) {
-    uint64_t parts, rig, total;
+    uint64_t parts, rig, poly, total;
     if (__builtin_mul_overflow(h->particles, (uint64_t)particle_bytes(), &parts) ||
+        __builtin_mul_overflow((uint64_t)h->poly_ids, (uint64_t)(KF_POLY_REALS * sizeof(kf_real)), &poly) ||
         __builtin_mul_overflow((uint64_t)h->nrigid, (uint64_t)sizeof(kf_rigid_state), &rig) ||
         __builtin_add_overflow(parts, (uint64_t)sizeof *h + sizeof(uint64_t), &total) ||
-        __builtin_add_overflow(total, rig, &total) || __builtin_add_overflow(total, h->rsim_bytes, &total))
+        __builtin_add_overflow(total, rig, &total) || __builtin_add_overflow(total, h->rsim_bytes, &total) ||
+        __builtin_add_overflow(total, poly, &total))
         return 0;
     return total;
 }
@@ -400,16 +406,20 @@ int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_chec
     size_t n = (size_t)h.particles;
     kf_rigid_state rigid[KF_MAX_RIGIDS];
     void *rsim = h.rsim_bytes ? malloc((size_t)h.rsim_bytes) : NULL;
+    const size_t poly_reals = (size_t)h.poly_ids * KF_POLY_REALS;
+    kf_real *poly = poly_reals ? malloc(poly_reals * sizeof *poly) : NULL;
     int ok = fseek(c.f, (long)sizeof h, SEEK_SET) == 0 && kf_particles_reserve(&p, n ? n : 1) == 0 &&
-             (rsim || !h.rsim_bytes);
+             (rsim || !h.rsim_bytes) && (poly || !poly_reals);
     for (int k = 0; ok && k < KF_PARTICLE_REAL_PLANES; k++) ok = get(c.f, p.plane[k], sizeof(kf_real), n);
     ok = ok && get(c.f, p.mat, sizeof *p.mat, n) && get(c.f, p.id, sizeof *p.id, n) &&
          get(c.f, p.obj, sizeof *p.obj, n) && get(c.f, p.colour, sizeof *p.colour, n) &&
-         get(c.f, rigid, sizeof rigid[0], h.nrigid) && get(c.f, rsim, 1, (size_t)h.rsim_bytes);
+         get(c.f, rigid, sizeof rigid[0], h.nrigid) && get(c.f, rsim, 1, (size_t)h.rsim_bytes) &&
+         get(c.f, poly, sizeof *poly, poly_reals);
     fclose(c.f);
     if (!ok) {
         kf_particles_free(&p);
         free(rsim);
+        free(poly);
         snprintf(err, errlen, "%s: cannot read checkpoint of %zu particles: %s", path, n,
                  errno ? strerror(errno) : "out of memory");
         return -1;
@@ -420,6 +430,7 @@ int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_chec
             unsigned mat = p.mat[i];
             kf_particles_free(&p);
             free(rsim);
+            free(poly);
             snprintf(err, errlen, "%s: particle %zu uses material %u but the shot defines %d", path, i, mat, m->nmat);
             return -1;
         }
@@ -432,6 +443,11 @@ int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_chec
     s->time = h.time;
     s->substep = (long)h.substep;
     s->next_id = (uint32_t)h.next_id;
+    /* polypic's modes as the file has them; none in the file means none yet */
+    if (s->poly_cap) memset(s->poly, 0, s->poly_cap * KF_POLY_REALS * sizeof *s->poly);
+    if (poly_reals && s->next_id >= h.poly_ids && kf_poly_reserve(s) == 0)
+        memcpy(s->poly, poly, poly_reals * sizeof *poly);
+    free(poly);
     s->tau_valid = 1; /* the stress planes are in the file, bit for bit */
     s->g.valid = 0;
     fill_info(info, &h);
