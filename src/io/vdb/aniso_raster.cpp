@@ -235,6 +235,19 @@ inline int64_t leaf_of(float c) { return int64_t(std::floor(c)) >> LEAF_LOG2; }
 // The bits of a row's voxels za..zb (leaf offsets 0..7)
 inline unsigned row_bits(int za, int zb) { return (0xFFu >> (7 - (zb - za))) << za & 0xFFu; }
 
+// Calls fn(q) for every kernel binned in the leaves within the bins' reach
+// of leaf lc, leaf by leaf in a fixed order (x, then y, then z offsets).
+template <class Fn> void for_each_kernel_near(const binned &b, Coord lc, Fn &&fn) {
+    const int r = b.reach;
+    for (int i = -r; i <= r; i++)
+        for (int j = -r; j <= r; j++)
+            for (int l = -r; l <= r; l++) {
+                const long bi = b.find(leaf_key(lc.x() + i, lc.y() + j, lc.z() + l));
+                if (bi < 0) continue;
+                for (uint32_t q = b.at[size_t(bi)]; q < b.at[size_t(bi) + 1]; q++) fn(q);
+            }
+}
+
 // The voxels of one leaf within b.core of a deep ball's centre (a bit per
 // voxel, a byte per row): such a voxel's six neighbours lie within the
 // ball, inside the union, so its value is never used, only its sign.
@@ -243,41 +256,33 @@ bool core_rows(const binned &b, Coord lc, uint8_t core[LEAF_DIM * LEAF_DIM]) {
     std::fill(core, core + LEAF_DIM * LEAF_DIM, uint8_t(0));
     const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM;
     const float rc = b.core, rc2 = rc * rc;
-    const int r = b.reach;
-    for (int i = -r; i <= r; i++)
-        for (int j = -r; j <= r; j++)
-            for (int l = -r; l <= r; l++) {
-                const long bi = b.find(leaf_key(lc.x() + i, lc.y() + j, lc.z() + l));
-                if (bi < 0) continue;
-                for (uint32_t q = b.at[size_t(bi)]; q < b.at[size_t(bi) + 1]; q++) {
-                    if (!b.deep[q]) continue;
-                    const float *c = b.k[q].c;
-                    const int x0 = std::max(ox, int(std::ceil(c[0] - rc))),
-                              x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(c[0] + rc)));
-                    const int y0 = std::max(oy, int(std::ceil(c[1] - rc))),
-                              y1 = std::min(oy + LEAF_DIM - 1, int(std::floor(c[1] + rc)));
-                    if (x0 > x1 || y0 > y1 || c[2] + rc < float(oz) || c[2] - rc > float(oz + LEAF_DIM - 1)) continue;
-                    for (int x = x0; x <= x1; x++) {
-                        const float dx = float(x) - c[0];
-                        for (int y = y0; y <= y1; y++) {
-                            const float dy = float(y) - c[1], r2 = rc2 - dx * dx - dy * dy;
-                            if (r2 < 0) continue;
-                            const float sq = std::sqrt(r2);
-                            const int za = std::max(oz, int(std::ceil(c[2] - sq))),
-                                      zb = std::min(oz + LEAF_DIM - 1, int(std::floor(c[2] + sq)));
-                            if (za <= zb)
-                                core[((x - ox) << LEAF_LOG2) + (y - oy)] |= uint8_t(row_bits(za - oz, zb - oz));
-                        }
-                    }
-                }
+    for_each_kernel_near(b, lc, [&](uint32_t q) {
+        if (!b.deep[q]) return;
+        const float *c = b.k[q].c;
+        const int x0 = std::max(ox, int(std::ceil(c[0] - rc))),
+                  x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(c[0] + rc)));
+        const int y0 = std::max(oy, int(std::ceil(c[1] - rc))),
+                  y1 = std::min(oy + LEAF_DIM - 1, int(std::floor(c[1] + rc)));
+        if (x0 > x1 || y0 > y1 || c[2] + rc < float(oz) || c[2] - rc > float(oz + LEAF_DIM - 1)) return;
+        for (int x = x0; x <= x1; x++) {
+            const float dx = float(x) - c[0];
+            for (int y = y0; y <= y1; y++) {
+                const float dy = float(y) - c[1], r2 = rc2 - dx * dx - dy * dy;
+                if (r2 < 0) continue;
+                const float sq = std::sqrt(r2);
+                const int za = std::max(oz, int(std::ceil(c[2] - sq))),
+                          zb = std::min(oz + LEAF_DIM - 1, int(std::floor(c[2] + sq)));
+                if (za <= zb) core[((x - ox) << LEAF_LOG2) + (y - oy)] |= uint8_t(row_bits(za - oz, zb - oz));
             }
+        }
+    });
     return std::all_of(core, core + LEAF_DIM * LEAF_DIM, [](uint8_t m) { return m == 0xFF; });
 }
 
 void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open) {
     std::fill(F, F + LEAF_SIZE, -PAD);
     if (who) std::fill(who, who + LEAF_SIZE, -1);
-    const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM, r = b.reach;
+    const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM;
     // Without particle tracking only the sign of a voxel whose neighbours
     // are all inside matters (the distance is made from the crossings):
     // such voxels (deep balls' cores) read 1, and no kernel is evaluated
@@ -305,72 +310,66 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
         for (int v = 0; v < LEAF_SIZE; v++)
             if (core[v >> LEAF_LOG2] >> (v & (LEAF_DIM - 1)) & 1) F[v] = 1.f;
     }
-    for (int i = -r; i <= r; i++)
-        for (int j = -r; j <= r; j++)
-            for (int l = -r; l <= r; l++) {
-                const long bi = b.find(leaf_key(lc.x() + i, lc.y() + j, lc.z() + l));
-                if (bi < 0) continue;
-                for (uint32_t q = b.at[size_t(bi)]; q < b.at[size_t(bi) + 1]; q++) {
-                    const kernel &K = b.k[q];
-                    const int x0 = std::max(ox, int(std::ceil(K.c[0] - K.ext[0]))),
-                              x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(K.c[0] + K.ext[0])));
-                    const int y0 = std::max(oy, int(std::ceil(K.c[1] - K.ext[1]))),
-                              y1 = std::min(oy + LEAF_DIM - 1, int(std::floor(K.c[1] + K.ext[1])));
-                    const int z0 = std::max(oz, int(std::ceil(K.c[2] - K.ext[2]))),
-                              z1 = std::min(oz + LEAF_DIM - 1, int(std::floor(K.c[2] + K.ext[2])));
-                    if (x0 > x1 || y0 > y1 || z0 > z1) continue;
-                    const unsigned zmask = row_bits(z0 - oz, z1 - oz);
-                    for (int x = x0; x <= x1; x++) {
-                        const float dx = float(x) - K.c[0];
-                        for (int y = y0; y <= y1; y++) {
-                            // a row whose voxels in reach are all cores: nothing to do
-                            const unsigned cr = cull ? core[((x - ox) << LEAF_LOG2) + (y - oy)] : 0u;
-                            if (cr == 0xFFu || (cr && (cr & zmask) == zmask)) continue;
-                            const float dy = float(y) - K.c[1];
-                            // the row's span inside the grown ellipsoid: P5 dz^2 + pb dz + pa <= 1
-                            const float pa = K.P[0] * dx * dx + 2 * K.P[1] * dx * dy + K.P[3] * dy * dy;
-                            const float pb = 2 * (K.P[2] * dx + K.P[4] * dy);
-                            const float disc = pb * pb - 4 * K.P[5] * (pa - 1);
-                            if (disc < 0) continue;
-                            const float sq = std::sqrt(disc), inv2 = 0.5f / K.P[5];
-                            const int za = std::max(z0, int(std::floor(K.c[2] + (-pb - sq) * inv2))),
-                                      zb = std::min(z1, int(std::ceil(K.c[2] + (-pb + sq) * inv2)));
-                            const float qa = K.M[0] * dx * dx + 2 * K.M[1] * dx * dy + K.M[3] * dy * dy;
-                            const float qb = 2 * (K.M[2] * dx + K.M[4] * dy);
-                            if (za > zb) continue;
-                            if (cr) {
-                                const unsigned m = row_bits(za - oz, zb - oz);
-                                if ((cr & m) == m) continue;
-                            }
-                            const int row = ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2);
-                            const int ma = za - oz, mb = zb - oz;
-                            float *d = F + row;
-                            const float cz = K.c[2], m5 = K.M[5], am = K.amin;
-                            if (cull) {
-                                // the whole 8-voxel row, branch-free so that it
-                                // vectorises; voxels outside [za, zb] keep theirs
-                                for (int z = 0; z < LEAF_DIM; z++) {
-                                    const float dz = float(oz + z) - cz;
-                                    const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
-                                    d[z] = z >= ma && z <= mb && val > d[z] ? val : d[z];
-                                }
-                            } else {
-                                // the span alone (no cores: preview voxels,
-                                // or particles tracked): rows are short there
-                                int32_t *w = who ? who + row : nullptr;
-                                for (int z = ma; z <= mb; z++) {
-                                    const float dz = float(oz + z) - cz;
-                                    const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
-                                    if (val > d[z]) {
-                                        d[z] = val;
-                                        if (w) w[z] = int32_t(q);
-                                    }
-                                }
-                            }
+    for_each_kernel_near(b, lc, [&](uint32_t q) {
+        const kernel &K = b.k[q];
+        const int x0 = std::max(ox, int(std::ceil(K.c[0] - K.ext[0]))),
+                  x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(K.c[0] + K.ext[0])));
+        const int y0 = std::max(oy, int(std::ceil(K.c[1] - K.ext[1]))),
+                  y1 = std::min(oy + LEAF_DIM - 1, int(std::floor(K.c[1] + K.ext[1])));
+        const int z0 = std::max(oz, int(std::ceil(K.c[2] - K.ext[2]))),
+                  z1 = std::min(oz + LEAF_DIM - 1, int(std::floor(K.c[2] + K.ext[2])));
+        if (x0 > x1 || y0 > y1 || z0 > z1) return;
+        const unsigned zmask = row_bits(z0 - oz, z1 - oz);
+        for (int x = x0; x <= x1; x++) {
+            const float dx = float(x) - K.c[0];
+            for (int y = y0; y <= y1; y++) {
+                // a row whose voxels in reach are all cores: nothing to do
+                const unsigned cr = cull ? core[((x - ox) << LEAF_LOG2) + (y - oy)] : 0u;
+                if (cr == 0xFFu || (cr && (cr & zmask) == zmask)) continue;
+                const float dy = float(y) - K.c[1];
+                // the row's span inside the grown ellipsoid: P5 dz^2 + pb dz + pa <= 1
+                const float pa = K.P[0] * dx * dx + 2 * K.P[1] * dx * dy + K.P[3] * dy * dy;
+                const float pb = 2 * (K.P[2] * dx + K.P[4] * dy);
+                const float disc = pb * pb - 4 * K.P[5] * (pa - 1);
+                if (disc < 0) continue;
+                const float sq = std::sqrt(disc), inv2 = 0.5f / K.P[5];
+                const int za = std::max(z0, int(std::floor(K.c[2] + (-pb - sq) * inv2))),
+                          zb = std::min(z1, int(std::ceil(K.c[2] + (-pb + sq) * inv2)));
+                const float qa = K.M[0] * dx * dx + 2 * K.M[1] * dx * dy + K.M[3] * dy * dy;
+                const float qb = 2 * (K.M[2] * dx + K.M[4] * dy);
+                if (za > zb) continue;
+                if (cr) {
+                    const unsigned m = row_bits(za - oz, zb - oz);
+                    if ((cr & m) == m) continue;
+                }
+                const int row = ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2);
+                const int ma = za - oz, mb = zb - oz;
+                float *d = F + row;
+                const float cz = K.c[2], m5 = K.M[5], am = K.amin;
+                if (cull) {
+                    // the whole 8-voxel row, branch-free so that it
+                    // vectorises; voxels outside [za, zb] keep theirs
+                    for (int z = 0; z < LEAF_DIM; z++) {
+                        const float dz = float(oz + z) - cz;
+                        const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
+                        d[z] = z >= ma && z <= mb && val > d[z] ? val : d[z];
+                    }
+                } else {
+                    // the span alone (no cores: preview voxels,
+                    // or particles tracked): rows are short there
+                    int32_t *w = who ? who + row : nullptr;
+                    for (int z = ma; z <= mb; z++) {
+                        const float dz = float(oz + z) - cz;
+                        const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
+                        if (val > d[z]) {
+                            d[z] = val;
+                            if (w) w[z] = int32_t(q);
                         }
                     }
                 }
             }
+        }
+    });
 }
 
 // Where the union's value D (one per band voxel; a missing leaf reads
