@@ -8,12 +8,14 @@
 #   dam:   a dam break, water surging along x through every rank's slab;
 #   contact: two jelly blocks thrown at each other meet where the ranks are
 #          cut and bounce apart (contact between objects: per-object
-#          velocity fields on the nodes they share).
+#          velocity fields on the nodes they share);
+#   apart: a blade cuts the left of two blocks far from where 2 ranks are
+#          cut: labelling its pieces sends a few records, not the blocks.
 # On 2, 3 and 4 ranks (oversubscribed) the shot writes the same checkpoints
 # and particle files, bit for bit, as a plain one-rank run, and the same
 # rigid body and crossing lines in the frame log; runs cut short on one
 # rank count resume on another and end the same.
-#   usage: test_mpi_shot.sh <kerf binary> <tests dir> blade|slide|dam|contact
+#   usage: test_mpi_shot.sh <kerf binary> <tests dir> blade|slide|dam|contact|apart
 # The launcher and the helpers: tests/mpi/common.sh (exit 77 without one).
 set -u
 kerf=$1
@@ -52,6 +54,18 @@ if [ $shot = slide ]; then
 elif [ $shot = blade ]; then
     check "blade: the blade goes through the block (its edge under 1 cm)" \
         bash -c "grep 'rigid blade' ref.log | tail -1 | grep -qE 'at \[[0-9.]+, 0\.1[45]'"
+    check "blade: on 2 ranks a part the blade cut off became a piece" \
+        grep -qE '^frame [0-9]+: pieces: .* [1-9][0-9]* substeps made pieces' np2.log
+elif [ $shot = apart ]; then
+    # Gathering every rank's particle classes to every other rank (a node,
+    # a field, a colour, a count and a first particle: 32 bytes or more a
+    # class) would send the blocks; what links across the cut, plus a
+    # record per part, must stay under half a byte per class labelled on 2
+    # ranks, in every frame: under 1/64 of such a table
+    check "apart: on 2 ranks a part the blade cut off became a piece" \
+        grep -qE '^frame [0-9]+: pieces: .* [1-9][0-9]* substeps made pieces' np2.log
+    check "apart: on 2 ranks the pieces' bytes per substep are under half a byte per class labelled" \
+        bash -c "grep -E '^frame [0-9]+: pieces:' np2.log | awk '{n++; if (!(\$4 < 0.5 * \$11)) bad++} END {exit !(n >= 4 && !bad)}'"
 elif [ $shot = contact ]; then
     check "contact: particles cross the cut between the 2 ranks as the blocks meet" \
         bash -c "grep -E '^frame 100[3-6]: 2 ranks' np2.log | grep -qE ' [1-9][0-9]* particles migrated'"

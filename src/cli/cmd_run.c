@@ -593,6 +593,13 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                         frame, ranks(), ds.particles_min, ds.particles_max, ds.halo_bytes,
                         ds.substeps ? ds.halo_bytes / (double)ds.substeps : 0.0, ds.migrated, ds.comm_ms,
                         ds.rebalances ? ", re-cut" : "");
+            /* the labelling of pieces a thin body cut: what it sent, against what it labelled */
+            if (ranks() > 1 && ds.pieces_classes > 0)
+                fprintf(stderr,
+                        "frame %d: pieces: %.0f bytes per substep sent to label %.0f particle classes per substep; "
+                        "%ld substeps made pieces\n",
+                        frame, ds.substeps ? ds.pieces_bytes / (double)ds.substeps : 0.0,
+                        ds.substeps ? ds.pieces_classes / (double)ds.substeps : 0.0, ds.pieces_splits);
             /* implicit integration: how hard the solves worked this frame */
             if (kf_model_sim(sc.model)->integrator == KF_INTEGRATOR_IMPLICIT)
                 fprintf(stderr, "frame %d: implicit (%s): %ld Newton, %ld Krylov iterations, last residual %.2g\n",

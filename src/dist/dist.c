@@ -384,10 +384,12 @@ void kf_dist_stats_get(const kf_state *s, kf_dist_stats *out) {
     MPI_Allreduce(&n, &hi, 1, MPI_UNSIGNED_LONG, MPI_MAX, d->comm);
     out->particles_min = lo;
     out->particles_max = hi;
-    double sums[2] = {d->stats.halo_bytes, d->stats.migrated};
-    MPI_Allreduce(MPI_IN_PLACE, sums, 2, MPI_DOUBLE, MPI_SUM, d->comm);
+    double sums[4] = {d->stats.halo_bytes, d->stats.migrated, d->stats.pieces_bytes, d->stats.pieces_classes};
+    MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, d->comm);
     out->halo_bytes = sums[0];
     out->migrated = sums[1];
+    out->pieces_bytes = sums[2];
+    out->pieces_classes = sums[3];
     MPI_Allreduce(&d->stats.comm_ms, &out->comm_ms, 1, MPI_DOUBLE, MPI_MAX, d->comm);
 }
 

@@ -34,8 +34,10 @@
  * added in its colour turn like its cache. Which fields reach a node comes
  * first, in two exchanges with the same ranks (kf_dist_owner_exchange): the
  * boundary owners' fields and boxes, then the candidates' claims per node.
- * The pieces a thin body cuts are labelled over a table of every rank's
- * particle classes (kf_dist_allgather), the same on every rank.
+ * The pieces a thin body cuts are labelled on each rank over its own
+ * particles; only the classes near another rank's owners travel, to that
+ * rank, and a small table of the parts that span ranks or are large
+ * enough to matter reaches every rank (pieces.c, contact_pieces.c).
  *
  * Memory. No rank holds the whole state: each seeds only its own range
  * (seed.c; a resume reads the checkpoint whole, then keeps its part),
@@ -63,6 +65,9 @@ struct kf_dist;
 typedef struct kf_dist_stats {
     size_t particles_min, particles_max; /* per rank, at the last substep */
     double halo_bytes;                   /* P2G cache bytes sent by all ranks, summed over substeps */
+    double pieces_bytes;                 /* the pieces' labelling: bytes sent by all ranks (pieces.c) */
+    double pieces_classes;               /* the particle classes it labelled, over all ranks */
+    long pieces_splits;                  /* substeps in which a part became a piece */
     double migrated;                     /* particles that changed rank */
     long substeps;
     double comm_ms; /* this rank's wall time in communication */
@@ -180,6 +185,19 @@ typedef struct kf_dist_owner_msg {
 typedef size_t (*kf_dist_owner_put)(void *ctx, size_t owner, void *dst);
 int kf_dist_owner_exchange(const kf_model *m, kf_state *s, kf_dist_owner_put put, size_t max, void *ctx,
                            kf_dist_owner_msg **in, size_t *nin);
+/* The pieces a thin body cuts (contact_pieces.c). _node_exchange: n
+ * records of `size` bytes, each starting with a node's coordinate
+ * (int32_t[3]), to the other ranks with an owner block whose particles'
+ * nearest nodes (4o to 4o + 7 along each axis, o the owner's coordinate)
+ * may lie within one node of it along each axis; *in (malloc'd) gets what
+ * arrived, *nin records. _gather: as kf_dist_allgather. Both count their
+ * bytes as the pieces' traffic (nclass: the classes labelled here, for the
+ * log). 0 or -1. Collective. */
+int kf_dist_node_exchange(const kf_model *m, kf_state *s, const void *rec, size_t n, size_t size, void **in,
+                          size_t *nin);
+int kf_dist_pieces_gather(kf_state *s, const void *mine, size_t bytes, size_t nclass, void **all, size_t *all_bytes);
+/* a substep in which a part became a piece (every rank alike), for the log */
+void kf_dist_pieces_split(kf_state *s);
 /* Every rank's bytes, in rank order, to every rank: *all (malloc'd, the
  * caller frees it) and their sum. 0 or -1. Collective. */
 int kf_dist_allgather(const kf_state *s, const void *mine, size_t bytes, void **all, size_t *all_bytes);

@@ -133,21 +133,42 @@ static int whole_at_once(const kf_state *s, kf_contact *c, const uint32_t *node_
 
 /* ---- across ranks -------------------------------------------------------------
  * A part may span ranks. Each rank makes the classes of its own particles
- * (nearest node, field, CPIC colour: as below), every rank gathers all of
- * them, merges the classes several ranks hold at one node, and runs the
- * same linking, sizing and numbering over the whole table, in orders that
- * depend on the table alone: every rank finds the one-rank parts and
- * numbers them alike. The table holds about one entry per occupied node of
- * the whole scene, on every rank, each substep a thin body may cut a solid:
- * a union-find over the ranks' boundaries alone would send far less. */
+ * (nearest node, field, CPIC colour: as below) and links them as one rank
+ * does; a part found so is labelled by its smallest particle index in the
+ * one-rank array, a label no other rank's part has. The classes near
+ * another rank's owners travel to that rank with their labels
+ * (kf_dist_node_exchange): a class received that links with one of this
+ * rank's joins the two labels. Every rank then gets a small table
+ * (kf_dist_pieces_gather): the joins, the fields each rank holds, and the
+ * parts that were joined or have KF_PIECE_MIN particles or more (a smaller
+ * part on one rank alone neither keeps its field's number, as the largest
+ * part does, nor becomes a piece). Merging joined labels gives every part
+ * of the one-rank run that matters, with its smallest particle index,
+ * size and field, in an order that depends on the table alone: every rank
+ * numbers them as one rank does. What travels is the classes near rank
+ * boundaries and a record per part, not the scene. */
 typedef struct {
     int32_t node[3]; /* the nearest node */
     uint16_t field, cuts;
     uint32_t mcol;  /* the CPIC colour's bits (kf_cpic_compatible reads only them) */
-    uint32_t col;   /* the colour of its first particle */
     uint32_t count; /* its particles */
     uint64_t rep;   /* its first particle's index in the one-rank array */
 } gclass;
+
+/* a class on the wire to a neighbouring rank: its node first, and its part's label */
+typedef struct {
+    int32_t node[3];
+    uint32_t mcol;
+    uint32_t label[2]; /* low and high words */
+    uint16_t field, pad;
+} wclass;
+
+/* a part in the table every rank gets */
+typedef struct {
+    uint64_t label, size;
+    uint16_t field, cuts;
+    uint32_t pad;
+} gpart;
 
 static int key_cmp(const gclass *a, const gclass *b) {
     for (int e = 0; e < 3; e++)
@@ -191,9 +212,187 @@ static size_t node_lower(const gclass *g, size_t n, const int32_t *q) {
     return lo;
 }
 
-static int by_rep(const void *x, const void *y) {
-    const uint64_t a = ((const uint64_t *)x)[0], b = ((const uint64_t *)y)[0];
-    return a < b ? -1 : a > b;
+/* orders of pairs of labels, and of parts by label */
+static int by_pair(const void *x, const void *y) {
+    const uint64_t *a = x, *b = y;
+    if (a[0] != b[0]) return a[0] < b[0] ? -1 : 1;
+    return a[1] < b[1] ? -1 : a[1] > b[1];
+}
+
+static int by_label(const void *x, const void *y) {
+    const gpart *a = x, *b = y;
+    return a->label < b->label ? -1 : a->label > b->label;
+}
+
+/* the part with this label in parts sorted by label, or SIZE_MAX */
+static size_t part_of(const gpart *pt, size_t n, uint64_t label) {
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (pt[mid].label < label) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < n && pt[lo].label == label ? lo : SIZE_MAX;
+}
+
+/* whether a join (sorted pairs) names label first */
+static int joined(const uint64_t (*e)[2], size_t n, uint64_t label) {
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (e[mid][0] < label) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < n && e[lo][0] == label;
+}
+
+/* the table's head from each rank: its parts, joins and fields */
+typedef struct {
+    uint64_t nparts, njoins, nfields, pad;
+} ghead;
+
+static size_t pad8(size_t b) { return (b + 7) / 8 * 8; }
+
+/* the links of one rank's classes (same field, no thin body between, same
+ * node or the next along an axis), roots the classes of smallest first
+ * particle; parent has nc entries */
+static void link_classes(const gclass *cl, size_t nc, uint32_t *parent) {
+    for (uint32_t k = 0; k < nc; k++) parent[k] = k;
+    for (size_t i = 0; i < nc; i++) {
+        for (int a = -1; a < 3; a++) {
+            int32_t q[3] = {cl[i].node[0], cl[i].node[1], cl[i].node[2]};
+            size_t j = i + 1;
+            if (a >= 0) q[a]++, j = node_lower(cl, nc, q);
+            for (; j < nc && !memcmp(cl[j].node, q, sizeof q); j++) {
+                if (cl[j].field != cl[i].field || !compatible(cl[i].mcol, cl[j].mcol)) continue;
+                uint32_t r1 = find(parent, (uint32_t)i), r2 = find(parent, (uint32_t)j);
+                if (r1 == r2) continue;
+                if (cl[r1].rep < cl[r2].rep) parent[r2] = r1;
+                else parent[r1] = r2;
+            }
+        }
+    }
+}
+
+/* The joins: each received class that links with a class of this rank
+ * (same field, compatible colours, same node or next along an axis either
+ * way), as pairs (this rank's label, the received one), sorted, unique.
+ * *out is malloc'd. 0 or -1. */
+static int joins(const gclass *cl, size_t nc, uint32_t *parent, const wclass *in, size_t nin, uint64_t (**out)[2],
+                 size_t *nout) {
+    size_t n = 0, cap = 64;
+    uint64_t(*e)[2] = malloc(cap * sizeof *e);
+    if (!e) return -1;
+    for (size_t u = 0; u < nin; u++) {
+        wclass w;
+        memcpy(&w, &in[u], sizeof w);
+        const uint64_t label = (uint64_t)w.label[1] << 32 | w.label[0];
+        for (int a = -1; a < 6; a++) {
+            int32_t q[3] = {w.node[0], w.node[1], w.node[2]};
+            if (a >= 0) q[a / 2] += a % 2 ? 1 : -1;
+            for (size_t j = node_lower(cl, nc, q); j < nc && !memcmp(cl[j].node, q, sizeof q); j++) {
+                if (cl[j].field != w.field || !compatible(cl[j].mcol, w.mcol)) continue;
+                if (n == cap) {
+                    cap *= 2;
+                    uint64_t(*ne)[2] = realloc(e, cap * sizeof *e);
+                    if (!ne) return free(e), -1;
+                    e = ne;
+                }
+                e[n][0] = cl[find(parent, (uint32_t)j)].rep;
+                e[n++][1] = label;
+            }
+        }
+    }
+    qsort(e, n, sizeof *e, by_pair);
+    size_t m = 0;
+    for (size_t k = 0; k < n; k++)
+        if (!m || e[k][0] != e[m - 1][0] || e[k][1] != e[m - 1][1]) e[m][0] = e[k][0], e[m++][1] = e[k][1];
+    *out = e;
+    *nout = m;
+    return 0;
+}
+
+/* The numbering over the table every rank got (all, bytes): the parts of
+ * the one-rank run that matter, each with its new piece + 1 (0: keeps its
+ * own) into *newp, by index in *parts (malloc'd, sorted by label: a
+ * part's root is its smallest label), roots in *par. Returns 1 when some
+ * part became a piece, 0 when none, -1 out of memory. */
+static int number_parts(kf_contact *c, const char *all, size_t bytes, gpart **parts, size_t *nparts, uint32_t **par,
+                        uint32_t **newp) {
+    size_t np = 0, nj = 0;
+    for (size_t u = 0; u < bytes;) {
+        ghead h;
+        memcpy(&h, all + u, sizeof h);
+        np += h.nparts, nj += h.njoins;
+        u += sizeof h + h.nparts * sizeof(gpart) + h.njoins * 2 * sizeof(uint64_t) + pad8(h.nfields * 2);
+    }
+    if (np >= UINT32_MAX) return -1;
+    gpart *pt = malloc((np + 1) * sizeof *pt);
+    uint64_t(*jn)[2] = malloc((nj + 1) * sizeof *jn), *size = calloc(np + 1, sizeof *size);
+    uint32_t *parent = malloc((np + 1) * sizeof *parent), *piece = calloc(np + 1, sizeof *piece);
+    uint32_t *keep = c->pc_keep, *used = c->pc_used;
+    if (!keep) {
+        keep = c->pc_keep = malloc(sizeof(uint32_t) * 65536);
+        used = c->pc_used = malloc(sizeof(uint32_t) * 4096);
+    }
+    if (!pt || !jn || !size || !parent || !piece || !keep || !used)
+        return free(pt), free(jn), free(size), free(parent), free(piece), -1;
+    /* every field some rank holds: no part of it keeps its number yet; its piece is in use */
+    memset(used, 0, sizeof(uint32_t) * 4096);
+    size_t ip = 0, ij = 0;
+    for (size_t u = 0; u < bytes;) {
+        ghead h;
+        memcpy(&h, all + u, sizeof h);
+        u += sizeof h;
+        memcpy(pt + ip, all + u, h.nparts * sizeof *pt);
+        ip += h.nparts, u += h.nparts * sizeof *pt;
+        memcpy(jn + ij, all + u, h.njoins * sizeof *jn);
+        ij += h.njoins, u += h.njoins * sizeof *jn;
+        for (size_t k = 0; k < h.nfields; k++) {
+            uint16_t f;
+            memcpy(&f, all + u + 2 * k, sizeof f);
+            keep[f] = UINT32_MAX;
+            used[f & KF_OBJECT_MASK] |= 1u << (f >> PIECE_SHIFT);
+        }
+        u += pad8(h.nfields * 2);
+    }
+    /* joined parts are one; the root of each is its smallest label, the
+     * first of its parts by label */
+    qsort(pt, np, sizeof *pt, by_label);
+    for (uint32_t k = 0; k < np; k++) parent[k] = k;
+    for (size_t k = 0; k < nj; k++) {
+        size_t a = part_of(pt, np, jn[k][0]), b = part_of(pt, np, jn[k][1]);
+        if (a == SIZE_MAX || b == SIZE_MAX) continue; /* (every rank sends the parts it joins) */
+        uint32_t r1 = find(parent, (uint32_t)a), r2 = find(parent, (uint32_t)b);
+        if (r1 < r2) parent[r2] = r1;
+        else if (r2 < r1) parent[r1] = r2;
+    }
+    for (uint32_t k = 0; k < np; k++) size[find(parent, k)] += pt[k].size;
+    /* the largest part of each field keeps its number (the first by label
+     * among equals); every other of a few cells or more, in label order,
+     * takes the next free piece of its object */
+    for (uint32_t k = 0; k < np; k++) {
+        if (parent[k] != k) continue;
+        uint16_t f = pt[k].field;
+        if (keep[f] == UINT32_MAX || size[k] > size[keep[f]]) keep[f] = k;
+    }
+    int split = 0;
+    for (uint32_t k = 0; k < np; k++) {
+        uint16_t f = pt[k].field;
+        if (parent[k] != k || keep[f] == k || size[k] < KF_PIECE_MIN || !pt[k].cuts) continue;
+        uint32_t obj = f & KF_OBJECT_MASK, free_mask = ~used[obj] & 0xFFFFu;
+        uint32_t pk = free_mask ? (uint32_t)__builtin_ctz(free_mask) : 15;
+        used[obj] |= 1u << pk;
+        piece[k] = pk + 1;
+        split = 1;
+    }
+    free(jn);
+    free(size);
+    *parts = pt;
+    *nparts = np;
+    *par = parent;
+    *newp = piece;
+    return split;
 }
 
 static int pieces_across_ranks(const kf_model *m, kf_state *s, const uint32_t *node_of) {
@@ -202,9 +401,9 @@ static int pieces_across_ranks(const kf_model *m, kf_state *s, const uint32_t *n
     const kf_grid *g = &s->g;
     const size_t n = p->n, first = kf_dist_first_index(s);
     const uint32_t cmask = KF_CPIC_BITS_MASK;
-    /* this rank's classes */
-    gclass *mine = malloc((n + 1) * sizeof *mine);
-    if (!mine) return -1;
+    /* this rank's classes, linked */
+    gclass *cl = malloc((n + 1) * sizeof *cl);
+    if (!cl) return -1;
     for (size_t k = 0; k < g->nowner; k++)
         for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
             const uint32_t q = node_of[i], l = q % KF_BLOCK_NODES;
@@ -214,75 +413,88 @@ static int pieces_across_ranks(const kf_model *m, kf_state *s, const uint32_t *n
                         kf_contact_field(p, i),
                         (uint16_t)kf_contact_cuts(&m->mat[p->mat[i]]),
                         p->colour[i] & cmask,
-                        p->colour[i],
                         1,
                         first + i};
-            mine[i] = e;
+            cl[i] = e;
         }
-    size_t nmine = merge(mine, n), bytes = 0;
-    gclass *all = NULL;
-    if (kf_dist_allgather(s, mine, nmine * sizeof *mine, (void **)&all, &bytes)) return free(mine), -1;
-    const size_t na = merge(all, bytes / sizeof *all);
-    if (na >= UINT32_MAX) return free(mine), free(all), -1;
-    uint32_t *parent = malloc((na + 1) * sizeof *parent);
-    uint64_t *size = calloc(na + 1, sizeof *size), (*roots)[2] = malloc((na + 1) * sizeof *roots);
-    if (!parent || !size || !roots) return free(mine), free(all), free(parent), free(size), free(roots), -1;
-    for (uint32_t k = 0; k < na; k++) parent[k] = k;
-    /* links: same field, no thin body between, same node or the next along an axis */
-    for (size_t i = 0; i < na; i++) {
-        for (int a = -1; a < 3; a++) {
-            int32_t q[3] = {all[i].node[0], all[i].node[1], all[i].node[2]};
-            size_t j = i + 1;
-            if (a >= 0) q[a]++, j = node_lower(all, na, q);
-            for (; j < na && !memcmp(all[j].node, q, sizeof q); j++) {
-                if (all[j].field != all[i].field || !compatible(all[i].col, all[j].col)) continue;
-                uint32_t r1 = find(parent, (uint32_t)i), r2 = find(parent, (uint32_t)j);
-                if (r1 == r2) continue;
-                if (all[r1].rep < all[r2].rep) parent[r2] = r1;
-                else parent[r1] = r2;
-            }
+    const size_t nc = merge(cl, n);
+    uint32_t *parent = nc < UINT32_MAX ? malloc((nc + 1) * sizeof *parent) : NULL;
+    uint64_t *size = calloc(nc + 1, sizeof *size);
+    wclass *w = malloc((nc + 1) * sizeof *w);
+    if (!parent || !size || !w) return free(cl), free(parent), free(size), free(w), -1;
+    link_classes(cl, nc, parent);
+    for (uint32_t k = 0; k < nc; k++) size[find(parent, k)] += cl[k].count;
+
+    /* each class with its part's label to the ranks whose classes it may link with */
+    for (size_t k = 0; k < nc; k++) {
+        const uint64_t label = cl[find(parent, (uint32_t)k)].rep;
+        wclass e = {{cl[k].node[0], cl[k].node[1], cl[k].node[2]},
+                    cl[k].mcol,
+                    {(uint32_t)label, (uint32_t)(label >> 32)},
+                    cl[k].field,
+                    0};
+        w[k] = e;
+    }
+    void *in = NULL;
+    size_t nin = 0, nj = 0;
+    uint64_t(*jn)[2] = NULL;
+    if (kf_dist_node_exchange(m, s, w, nc, sizeof *w, &in, &nin) || joins(cl, nc, parent, in, nin, &jn, &nj))
+        return free(cl), free(parent), free(size), free(w), free(in), -1;
+    free(in);
+    free(w);
+
+    /* the table's share of this rank: its parts joined or large, the joins, its fields */
+    uint32_t *fseen = calloc(65536 / 32, sizeof *fseen);
+    size_t npart = 0, nfield = 0;
+    if (!fseen) return free(cl), free(parent), free(size), free(jn), -1;
+    for (uint32_t k = 0; k < nc; k++) {
+        const uint16_t f = cl[k].field;
+        if (!(fseen[f / 32] >> (f % 32) & 1)) fseen[f / 32] |= 1u << (f % 32), nfield++;
+        if (parent[k] == k && (size[k] >= KF_PIECE_MIN || joined((const uint64_t(*)[2])jn, nj, cl[k].rep))) npart++;
+    }
+    const size_t out_bytes = sizeof(ghead) + npart * sizeof(gpart) + nj * sizeof *jn + pad8(nfield * 2);
+    char *out = calloc(1, out_bytes);
+    if (!out) return free(cl), free(parent), free(size), free(jn), free(fseen), -1;
+    ghead h = {npart, nj, nfield, 0};
+    memcpy(out, &h, sizeof h);
+    size_t u = sizeof h;
+    for (uint32_t k = 0; k < nc; k++)
+        if (parent[k] == k && (size[k] >= KF_PIECE_MIN || joined((const uint64_t(*)[2])jn, nj, cl[k].rep))) {
+            gpart e = {cl[k].rep, size[k], cl[k].field, cl[k].cuts, 0};
+            memcpy(out + u, &e, sizeof e);
+            u += sizeof e;
         }
-    }
-    /* sizes; roots in the order of their first particle; the largest part
-     * of each field keeps its number, the others of a few cells or more
-     * get the next free piece of their object */
-    size_t nroot = 0;
-    for (uint32_t k = 0; k < na; k++) size[find(parent, k)] += all[k].count;
-    for (uint32_t k = 0; k < na; k++)
-        if (parent[k] == k) roots[nroot][0] = all[k].rep, roots[nroot++][1] = k;
-    qsort(roots, nroot, sizeof *roots, by_rep);
-    uint32_t *keep = c->pc_keep, *used = c->pc_used;
-    if (!keep) {
-        keep = c->pc_keep = malloc(sizeof(uint32_t) * 65536);
-        used = c->pc_used = malloc(sizeof(uint32_t) * 4096);
-        if (!keep || !used) return free(mine), free(all), free(parent), free(size), free(roots), -1;
-    }
-    memset(used, 0, sizeof(uint32_t) * 4096);
-    for (uint32_t k = 0; k < na; k++) {
-        keep[all[k].field] = UINT32_MAX;
-        used[all[k].field & KF_OBJECT_MASK] |= 1u << (all[k].field >> PIECE_SHIFT);
-    }
-    for (size_t a = 0; a < nroot; a++) {
-        uint32_t k = (uint32_t)roots[a][1];
-        uint16_t f = all[k].field;
-        if (keep[f] == UINT32_MAX || size[k] > size[keep[f]]) keep[f] = k;
-    }
-    /* by root: its new piece + 1, 0 = keeps its own */
-    uint32_t *newp = calloc(na + 1, sizeof *newp);
-    if (!newp) return free(mine), free(all), free(parent), free(size), free(roots), -1;
-    int split = 0;
-    for (size_t a = 0; a < nroot; a++) {
-        uint32_t k = (uint32_t)roots[a][1];
-        uint16_t f = all[k].field;
-        if (keep[f] == k || size[k] < KF_PIECE_MIN || !all[k].cuts) continue;
-        uint32_t obj = f & KF_OBJECT_MASK, free_mask = ~used[obj] & 0xFFFFu;
-        uint32_t pk = free_mask ? (uint32_t)__builtin_ctz(free_mask) : 15;
-        used[obj] |= 1u << pk;
-        newp[k] = pk + 1;
-        split = 1;
-    }
-    /* this rank's particles: their class in the table, its part's piece */
+    if (nj) memcpy(out + u, jn, nj * sizeof *jn);
+    u += nj * sizeof *jn;
+    for (uint32_t f = 0; f < 65536; f++)
+        if (fseen[f / 32] >> (f % 32) & 1) {
+            const uint16_t v = (uint16_t)f;
+            memcpy(out + u, &v, sizeof v);
+            u += sizeof v;
+        }
+    free(fseen);
+    free(jn);
+    void *all = NULL;
+    size_t all_bytes = 0;
+    if (kf_dist_pieces_gather(s, out, out_bytes, nc, &all, &all_bytes))
+        return free(cl), free(parent), free(size), free(out), -1;
+    free(out);
+
+    /* the numbering, the same on every rank; then this rank's particles:
+     * their class, its part, the part's root in the table, its piece */
+    gpart *pt = NULL;
+    size_t np = 0;
+    uint32_t *gparent = NULL, *newp = NULL;
+    const int split = number_parts(c, all, all_bytes, &pt, &np, &gparent, &newp);
+    free(all);
+    if (split < 0) return free(cl), free(parent), free(size), -1;
     if (split) {
+        /* by root class: its part's piece + 1, 0 = keeps its own (size reused) */
+        for (uint32_t k = 0; k < nc; k++) {
+            if (parent[k] != k) continue;
+            size_t a = part_of(pt, np, cl[k].rep);
+            size[k] = a == SIZE_MAX ? 0 : newp[find(gparent, (uint32_t)a)];
+        }
         for (size_t i = 0; i < n; i++) {
             const uint32_t q = node_of[i], l = q % KF_BLOCK_NODES;
             const int32_t *bc = &g->bcoord[3 * (q / KF_BLOCK_NODES)];
@@ -292,20 +504,20 @@ static int pieces_across_ranks(const kf_model *m, kf_state *s, const uint32_t *n
                         0,
                         p->colour[i] & cmask,
                         0,
-                        0,
                         0};
-            size_t lo = node_lower(all, na, e.node);
-            while (lo < na && key_cmp(&all[lo], &e) < 0) lo++;
-            uint32_t k = newp[find(parent, (uint32_t)lo)];
+            size_t lo = node_lower(cl, nc, e.node);
+            while (lo < nc && key_cmp(&cl[lo], &e) < 0) lo++;
+            uint64_t k = size[find(parent, (uint32_t)lo)];
             if (k) p->obj[i] = (uint16_t)((p->obj[i] & KF_OBJECT_MASK) | (k - 1) << PIECE_SHIFT);
         }
         c->pieces_made++;
+        kf_dist_pieces_split(s);
     }
-    free(mine);
-    free(all);
+    free(cl);
     free(parent);
     free(size);
-    free(roots);
+    free(pt);
+    free(gparent);
     free(newp);
     return 0;
 }
