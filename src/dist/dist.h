@@ -187,12 +187,12 @@ int kf_dist_owner_exchange(const kf_model *m, kf_state *s, kf_dist_owner_put put
                            kf_dist_owner_msg **in, size_t *nin);
 /* The pieces a thin body cuts (contact_pieces.c). _node_exchange: n
  * records of `size` bytes, each starting with a node's coordinate
- * (int32_t[3]), to the other ranks with an owner block whose particles'
- * nearest nodes (4o to 4o + 7 along each axis, o the owner's coordinate)
- * may lie within one node of it along each axis; *in (malloc'd) gets what
- * arrived, *nin records. _gather: as kf_dist_allgather. Both count their
- * bytes as the pieces' traffic (nclass: the classes labelled here, for the
- * log). 0 or -1. Collective. */
+ * (int32_t[3]), about nodes particles are nearest to (4o to 4o + 7 along
+ * each axis, o the coordinate of their owner block); each goes to every
+ * other rank holding a record at its node or the next along an axis;
+ * *in (malloc'd) gets what arrived, *nin records. _gather: as
+ * kf_dist_allgather. Both count their bytes as the pieces' traffic
+ * (nclass: the classes labelled here, for the log). 0 or -1. Collective. */
 int kf_dist_node_exchange(const kf_model *m, kf_state *s, const void *rec, size_t n, size_t size, void **in,
                           size_t *nin);
 int kf_dist_pieces_gather(kf_state *s, const void *mine, size_t bytes, size_t nclass, void **all, size_t *all_bytes);

@@ -135,18 +135,18 @@ static int whole_at_once(const kf_state *s, kf_contact *c, const uint32_t *node_
  * A part may span ranks. Each rank makes the classes of its own particles
  * (nearest node, field, CPIC colour: as below) and links them as one rank
  * does; a part found so is labelled by its smallest particle index in the
- * one-rank array, a label no other rank's part has. The classes near
- * another rank's owners travel to that rank with their labels
- * (kf_dist_node_exchange): a class received that links with one of this
- * rank's joins the two labels. Every rank then gets a small table
+ * one-rank array, a label no other rank's part has. The classes at or
+ * next to another rank's classes' nodes travel to that rank with their
+ * labels (kf_dist_node_exchange): a class received that links with one of
+ * this rank's joins the two labels. Every rank then gets a small table
  * (kf_dist_pieces_gather): the joins, the fields each rank holds, and the
  * parts that were joined or have KF_PIECE_MIN particles or more (a smaller
- * part on one rank alone neither keeps its field's number, as the largest
- * part does, nor becomes a piece). Merging joined labels gives every part
- * of the one-rank run that matters, with its smallest particle index,
- * size and field, in an order that depends on the table alone: every rank
- * numbers them as one rank does. What travels is the classes near rank
- * boundaries and a record per part, not the scene. */
+ * part on one rank alone cannot become a piece, and where it is its
+ * field's largest part no part of the field can). Merging joined labels
+ * gives every part of the one-rank run that matters, with its smallest
+ * particle index, size and field, in an order that depends on the table
+ * alone: every rank numbers them as one rank does. What travels is the
+ * classes near rank boundaries and a record per part, not the scene. */
 typedef struct {
     int32_t node[3]; /* the nearest node */
     uint16_t field, cuts;
