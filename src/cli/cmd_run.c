@@ -25,11 +25,77 @@
 #include "run_record.h"
 
 /* Over several MPI ranks every rank walks this same path: each seeds only
- * its own part of the scene (or splits a checkpoint it resumes from), rank
+ * its own part of the scene (or reads its own part of a checkpoint it resumes from), rank
  * 0 alone speaks, holds the directory and writes files, from the whole
  * state gathered to it when a frame has files to write (dist.h). */
 static int ranks(void) { return kf_dist_size(); }
 static int root(void) { return kf_dist_rank() == 0; }
+
+/* Over several ranks a resume reads only this rank's part of a checkpoint:
+ * the positions counted per block give every rank the same cut (as seeding
+ * does), then each keeps the particles in its range (dist.h). */
+static int part_see(void *ctx, kf_real *const x[3], size_t n) { return kf_dist_seed_count_reals(ctx, x, n); }
+static long part_settle(void *ctx) { return kf_dist_seed_cut(ctx) ? -1 : (long)kf_dist_seed_mine(ctx); }
+static int part_keep(void *ctx, const kf_real x[3]) { return kf_dist_seed_owns_real(ctx, x); }
+
+static int read_checkpoint(const char *path, kf_scene *sc, kf_checkpoint_info *info, char *err, size_t errlen) {
+    if (ranks() == 1) return kf_checkpoint_read(path, sc->model, sc->state, info, err, errlen);
+    kf_dist_seed *sd = kf_dist_seed_new(sc->model);
+    kf_checkpoint_filter f = {part_see, part_settle, part_keep, sd};
+    if (!sd) snprintf(err, errlen, "%s: out of memory reading checkpoint", path);
+    if (!sd || kf_checkpoint_read_part(path, sc->model, sc->state, &f, info, err, errlen)) {
+        kf_dist_seed_free(sd);
+        return -1;
+    }
+    kf_dist_seed_adopt_read(sd, sc->state);
+    return 0;
+}
+
+/* Rank 0 writes a particle file from a checkpoint a window at a time (no
+ * rank holds the whole state over several ranks): the header when the
+ * file's clock is known, then each window's records. */
+typedef struct ply_copy {
+    const kf_model *m;
+    const char *path;
+    size_t n;
+    kf_ply_out out;
+    int open;
+    char *err;
+    size_t errlen;
+} ply_copy;
+
+static int ply_open(ply_copy *pc, const kf_state *clock) {
+    if (!pc->open && kf_ply_begin(&pc->out, pc->path, clock, pc->n, pc->err, pc->errlen)) return -1;
+    pc->open = 1;
+    return 0;
+}
+
+static int ply_window(void *ctx, const kf_state *win, size_t at) {
+    ply_copy *pc = ctx;
+    (void)at; /* the windows come in order */
+    if (ply_open(pc, win)) return -1;
+    kf_ply_records(&pc->out, pc->m, win);
+    return 0;
+}
+
+static int ply_from_checkpoint(const char *ck, const char *ply, const kf_model *m, char *err, size_t errlen) {
+    kf_checkpoint_info info;
+    if (kf_checkpoint_peek(ck, &info, err, errlen)) return -1;
+    kf_state *win = kf_state_create(m);
+    if (!win) {
+        snprintf(err, errlen, "out of memory writing %s", ply);
+        return -1;
+    }
+    ply_copy pc = {m, ply, info.particles, {0}, 0, err, errlen};
+    /* (a file without particles has no window: its header after the read) */
+    int rc = kf_checkpoint_windows(ck, m, win, ply_window, &pc, err, errlen) || ply_open(&pc, win) ? -1 : 0;
+    if (rc && pc.open) {
+        kf_atomic_abort(pc.out.af);
+        free(pc.out.af);
+    } else if (pc.open && kf_ply_end(&pc.out, err, errlen)) rc = -1;
+    kf_state_destroy(win);
+    return rc;
+}
 
 /* the last frame up to `from` with a readable checkpoint made from the same inputs */
 static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint64_t hash, int from, int *frame) {
@@ -47,7 +113,7 @@ static int find_resume(const kf_shot *shot, const char *out, kf_scene *sc, uint6
                     rp.checkpoint);
             return -1;
         }
-        if (kf_checkpoint_read(rp.checkpoint, sc->model, sc->state, &info, err, sizeof err)) {
+        if (read_checkpoint(rp.checkpoint, sc, &info, err, sizeof err)) {
             fprintf(stderr, "kerf: resume: skipping %s\n", err);
             continue;
         }
@@ -484,16 +550,13 @@ static int run_claimed(const kf_cli_opts *opts, kf_shot *shot, kf_scene *scp) {
                 kf_frame_paths_make(shot, o.out, frame, &fp) == 0 && !ply_complete(fp.particles)) {
                 fprintf(stderr, "kerf: frame %d: %s is missing or cut short; writing it again from %s\n", frame,
                         fp.particles, fp.checkpoint);
+                /* over several ranks this rank holds its part only: from the file */
                 if (kf_ensure_parent(fp.particles) ||
-                    kf_write_points_ply(fp.particles, sc.model, sc.state, err, sizeof err)) {
+                    (ranks() > 1 ? ply_from_checkpoint(fp.checkpoint, fp.particles, sc.model, err, sizeof err)
+                                 : kf_write_points_ply(fp.particles, sc.model, sc.state, err, sizeof err))) {
                     fprintf(stderr, "kerf: %s\n", err);
                     rc = KF_EXIT_FAIL;
                 }
-            }
-            /* over several ranks: every rank read the whole state; each keeps its part */
-            if (ranks() > 1 && kf_dist_attach(sc.model, sc.state)) {
-                fprintf(stderr, "kerf: out of memory splitting the state over %d ranks\n", ranks());
-                kf_dist_abort(KF_EXIT_FAIL);
             }
         } else {
             if (!o.quiet) fprintf(stderr, "kerf: nothing to resume; starting at frame %d\n", shot->frame_start);

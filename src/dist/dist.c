@@ -1,6 +1,6 @@
-/* dist.c — MPI start, the ranks' key ranges (cut by particle count),
- * splitting a whole state, gathering it back, and the global reductions the
- * step agrees through. See dist.h for the scheme. */
+/* dist.c — MPI start and stop, the ranks' key ranges (cut by particle
+ * count), gathering the whole state, and the global reductions the step
+ * agrees through. See dist.h for the scheme. */
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,25 +12,51 @@
 
 static int g_size = 1, g_rank = 0, g_started = 0;
 
-/* The launcher ends the other ranks (SIGTERM) when one dies: rank 0 says
- * why before it goes, then ends by the same signal. */
+/* The launcher ends the other ranks when one dies: Open MPI by SIGTERM
+ * (also what its Ctrl-C sends), MPICH's Hydra by SIGKILL, which the
+ * watchdog answers for (watch.c); Hydra passes Ctrl-C on as SIGINT. Rank 0
+ * says why before it goes, tells the watchdog it did, then ends by the
+ * same signal. */
 static void stopped(int sig) {
-    static const char msg[] = "kerf: stopped: another MPI rank of this run ended; `kerf run --resume` continues "
-                              "after the last checkpoint written\n";
-    ssize_t w = write(2, msg, sizeof msg - 1);
-    (void)w;
+    static const char intr[] = "kerf: interrupted; `kerf run --resume` continues after the last checkpoint written\n";
+    if (sig == SIGINT) {
+        ssize_t w = write(2, intr, sizeof intr - 1);
+        (void)w;
+    } else kf_dist_say_stopped();
+    kf_dist_watch_say(KF_DIST_WATCH_SAID);
     signal(sig, SIG_DFL);
     raise(sig);
+}
+
+/* rank 0 exits: what it had to say is said */
+static void exiting(void) { kf_dist_watch_say(KF_DIST_WATCH_DONE); }
+
+/* rank 0 of several, as the launcher's environment says before MPI starts
+ * (a launcher that gives no size counts as several) */
+static int first_of_several(void) {
+    const char *rank = getenv("OMPI_COMM_WORLD_RANK"), *size = getenv("OMPI_COMM_WORLD_SIZE");
+    if (!rank) rank = getenv("PMI_RANK");
+    if (!rank) rank = getenv("PMIX_RANK");
+    if (!size) size = getenv("PMI_SIZE");
+    return rank && !strcmp(rank, "0") && (!size || atoi(size) > 1);
 }
 
 int kf_dist_init(int *argc, char ***argv) {
     /* only under a launcher: a plain `kerf` never touches MPI */
     if (!getenv("OMPI_COMM_WORLD_SIZE") && !getenv("PMI_SIZE") && !getenv("PMIX_RANK")) return 1;
+    /* the watchdog is forked before MPI starts, so it shares none of MPI's state */
+    if (first_of_several()) {
+        kf_dist_watch_start();
+        atexit(exiting);
+    }
     if (MPI_Init(argc, argv) != MPI_SUCCESS) return 1;
     g_started = 1;
     MPI_Comm_size(MPI_COMM_WORLD, &g_size);
     MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
-    if (g_size > 1 && g_rank == 0) signal(SIGTERM, stopped);
+    if (g_size > 1 && g_rank == 0) {
+        signal(SIGTERM, stopped);
+        signal(SIGINT, stopped);
+    } else exiting(); /* the environment guessed wrong: no watchdog */
     return g_size;
 }
 
@@ -48,6 +74,8 @@ int kf_dist_bcast_int(int v) {
 }
 
 void kf_dist_abort(int code) {
+    /* rank 0 has printed its error */
+    if (g_rank == 0) exiting();
     if (g_started && g_size > 1) MPI_Abort(MPI_COMM_WORLD, code);
 }
 
@@ -144,49 +172,6 @@ struct kf_dist *kf_dist_new(void) {
     d->counts = calloc(4 * (size_t)d->size, sizeof *d->counts);
     if (!d->split || !d->counts) return kf_dist_free(d), NULL;
     return d;
-}
-
-int kf_dist_attach(const kf_model *m, kf_state *s) {
-    /* a part seeded for this rank that a checkpoint read replaced: split anew */
-    kf_dist_free(s->dist);
-    s->dist = NULL;
-    struct kf_dist *d = kf_dist_new();
-    if (!d) return -1;
-    /* every rank holds the same whole state: the same bin, the same cut */
-    size_t bad = 0;
-    kf_grid *g = &s->g;
-    if (kf_grid_bin(g, &s->p, kf_model_inv_dx(m), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad))
-        return kf_dist_free(d), -1;
-    uint64_t *key = malloc((g->nowner + 1) * sizeof *key);
-    int64_t *count = malloc((g->nowner + 1) * sizeof *count);
-    if (!key || !count) return free(key), free(count), kf_dist_free(d), -1;
-    for (size_t r = 0; r < g->nowner; r++) {
-        const int32_t *c = &g->bcoord[3 * r];
-        key[r] = kf_block_key(c[0], c[1], c[2]);
-        count[r] = (int64_t)(g->pstart[r + 1] - g->pstart[r]);
-    }
-    kf_dist_cut(d, key, count, g->nowner);
-    /* keep this rank's range: particles are in key order, so one slice */
-    size_t lo = 0, hi = 0;
-    for (size_t r = 0; r < g->nowner; r++) {
-        if (key[r] < d->split[d->rank]) lo = g->pstart[r + 1];
-        if (key[r] < d->split[d->rank + 1]) hi = g->pstart[r + 1];
-    }
-    if (hi < lo) hi = lo;
-    free(key);
-    free(count);
-    kf_particles *p = &s->p;
-    size_t n = hi - lo;
-    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) memmove(p->plane[k], p->plane[k] + lo, n * sizeof(kf_real));
-    memmove(p->mat, p->mat + lo, n * sizeof *p->mat);
-    memmove(p->obj, p->obj + lo, n * sizeof *p->obj);
-    memmove(p->colour, p->colour + lo, n * sizeof *p->colour);
-    memmove(p->id, p->id + lo, n * sizeof *p->id);
-    p->n = n;
-    kf_dist_shrink(p);
-    g->valid = 0;
-    s->dist = d;
-    return 0;
 }
 
 void kf_dist_free(struct kf_dist *d) {

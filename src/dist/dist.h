@@ -39,8 +39,8 @@
  * rank, and a small table of the parts that span ranks or are large
  * enough to matter reaches every rank (pieces.c, contact_pieces.c).
  *
- * Memory. No rank holds the whole state: each seeds only its own range
- * (seed.c; a resume reads the checkpoint whole, then keeps its part),
+ * Memory. No rank holds the whole state: each seeds only its own range,
+ * and a resume reads only its own part of the checkpoint (seed.c),
  * migration rebuilds the part in place, and a frame's files reach rank 0
  * a window of particles at a time (stream.c), only when the frame has a
  * file to write.
@@ -91,10 +91,6 @@ void kf_dist_abort(int code);
 const char *kf_dist_unsupported(const kf_model *m);
 const char *kf_dist_unsupported_def(const kf_sim_def *sim, int nrigid);
 
-/* Split a state every rank holds whole (read from a checkpoint) into this
- * rank's part; s->dist is set (a former one freed). Returns 0 or -1 (out
- * of memory). */
-int kf_dist_attach(const kf_model *m, kf_state *s);
 void kf_dist_free(struct kf_dist *d);
 
 /* Seeding only this rank's part (the scene build). Every rank samples every
@@ -109,6 +105,14 @@ int kf_dist_seed_count(kf_dist_seed *sd, const double *x3, size_t n);
 int kf_dist_seed_cut(kf_dist_seed *sd);
 int kf_dist_seed_owns(const kf_dist_seed *sd, const double x[3]);
 void kf_dist_seed_adopt(kf_dist_seed *sd, kf_state *s);
+/* The same for the particles of a checkpoint (a resume reads only this
+ * rank's part): positions as the state holds them, window by window;
+ * _mine, after the cut, how many _owns_real will accept. */
+int kf_dist_seed_count_reals(kf_dist_seed *sd, kf_real *const x[3], size_t n);
+int kf_dist_seed_owns_real(const kf_dist_seed *sd, const kf_real x[3]);
+size_t kf_dist_seed_mine(const kf_dist_seed *sd);
+/* _adopt for a checkpoint's part: the state keeps the file's next id */
+void kf_dist_seed_adopt_read(kf_dist_seed *sd, kf_state *s);
 void kf_dist_seed_free(kf_dist_seed *sd);
 
 /* Rank 0 receives every rank's particles, in the one-rank order, into

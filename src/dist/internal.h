@@ -96,4 +96,14 @@ int kf_dist_reserve(void **buf, size_t *cap, size_t want);
 /* MPI with its wall time counted */
 double kf_dist_clock(void);
 
+/* Rank 0's watchdog (watch.c): _start forks it before MPI starts; _say
+ * tells it DONE (rank 0 exits and has said its piece; the pipe closes) or
+ * SAID (a signal handler printed why the run stopped). Safe in a signal
+ * handler; nothing without a watchdog. */
+enum { KF_DIST_WATCH_DONE = 'D', KF_DIST_WATCH_SAID = 'S' };
+void kf_dist_watch_start(void);
+void kf_dist_watch_say(char c);
+/* the line a run that stopped early ends with (async-signal-safe) */
+void kf_dist_say_stopped(void);
+
 #endif

@@ -389,8 +389,114 @@ int kf_checkpoint_peek(const char *path, kf_checkpoint_info *info, char *err, si
 /* n items of `size` bytes into dst; the sizes were checked against the file */
 static int get(FILE *f, void *dst, size_t size, size_t n) { return n == 0 || fread(dst, size, n, f) == n; }
 
-int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_checkpoint_info *info, char *err,
-                       size_t errlen) {
+/* ---- reading a part, a window of particles at a time ---- */
+
+/* particles in one window of a part's read: the reader holds this many
+ * besides its part */
+enum { PART_WINDOW = 1 << 15 };
+
+/* where each particle array begins in a file of n particles: the real
+ * planes, then material, id, object and colour (the order of the writer) */
+typedef struct ck_layout {
+    off_t plane[KF_PARTICLE_REAL_PLANES], mat, id, obj, colour, after;
+} ck_layout;
+
+static void layout_of(ck_layout *l, size_t n) {
+    off_t at = (off_t)sizeof(header);
+    kf_particles p;
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) l->plane[k] = at, at += (off_t)(n * sizeof(kf_real));
+    l->mat = at, at += (off_t)(n * sizeof *p.mat);
+    l->id = at, at += (off_t)(n * sizeof *p.id);
+    l->obj = at, at += (off_t)(n * sizeof *p.obj);
+    l->colour = at, at += (off_t)(n * sizeof *p.colour);
+    l->after = at;
+}
+
+/* m items of `size` bytes at item `first` of the array that begins at `base` */
+static int get_at(FILE *f, off_t base, size_t first, void *dst, size_t size, size_t m) {
+    return m == 0 || (fseeko(f, base + (off_t)(first * size), SEEK_SET) == 0 && fread(dst, size, m, f) == m);
+}
+
+/* particles [a, a + w->n) into the window: positions only, or everything */
+static int get_window(FILE *f, const ck_layout *l, size_t a, kf_particles *w, int positions_only) {
+    const size_t m = w->n;
+    int ok = 1;
+    for (int k = 0; ok && k < (positions_only ? 3 : KF_PARTICLE_REAL_PLANES); k++)
+        ok = get_at(f, l->plane[k], a, w->plane[k], sizeof(kf_real), m);
+    if (positions_only) return ok;
+    return ok && get_at(f, l->mat, a, w->mat, sizeof *w->mat, m) && get_at(f, l->id, a, w->id, sizeof *w->id, m) &&
+           get_at(f, l->obj, a, w->obj, sizeof *w->obj, m) && get_at(f, l->colour, a, w->colour, sizeof *w->colour, m);
+}
+
+/* window particle i to the end of p (reserved) */
+static void append(kf_particles *p, const kf_particles *w, size_t i) {
+    const size_t j = p->n++;
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) p->plane[k][j] = w->plane[k][i];
+    p->mat[j] = w->mat[i], p->id[j] = w->id[i], p->obj[j] = w->obj[i], p->colour[j] = w->colour[i];
+}
+
+/* The particles of the file into p: all of them, or those the filter keeps
+ * (two passes of windows). Returns 0, -1 (read or memory; errno says), or
+ * -2 with a material the model lacks (*bad: the particle, *bad_mat its
+ * material). */
+static int read_particles(FILE *f, size_t n, const kf_model *m, const kf_checkpoint_filter *filter, kf_particles *p,
+                          size_t *bad, unsigned *bad_mat) {
+    if (!filter) {
+        /* the whole file: each array in one read */
+        int ok = fseeko(f, (off_t)sizeof(header), SEEK_SET) == 0 && kf_particles_reserve(p, n ? n : 1) == 0;
+        for (int k = 0; ok && k < KF_PARTICLE_REAL_PLANES; k++) ok = get(f, p->plane[k], sizeof(kf_real), n);
+        ok = ok && get(f, p->mat, sizeof *p->mat, n) && get(f, p->id, sizeof *p->id, n) &&
+             get(f, p->obj, sizeof *p->obj, n) && get(f, p->colour, sizeof *p->colour, n);
+        if (!ok) return -1;
+        p->n = n;
+        for (size_t i = 0; i < n; i++)
+            if (p->mat[i] >= m->nmat) return *bad = i, *bad_mat = p->mat[i], -2;
+        return 0;
+    }
+    ck_layout l;
+    layout_of(&l, n);
+    kf_particles w;
+    memset(&w, 0, sizeof w);
+    if (kf_particles_reserve(&w, PART_WINDOW)) return kf_particles_free(&w), -1;
+    /* first pass: every position, for the filter to count */
+    int rc = 0;
+    for (size_t a = 0; rc == 0 && a < n; a += PART_WINDOW) {
+        w.n = n - a < PART_WINDOW ? n - a : PART_WINDOW;
+        if (!get_window(f, &l, a, &w, 1) || filter->see(filter->ctx, w.x, w.n)) rc = -1;
+    }
+    long want = rc ? -1 : filter->settle(filter->ctx);
+    if (want < 0 || kf_particles_reserve(p, (size_t)want + 1)) rc = -1;
+    /* second pass: the kept particles, in file order; every material checked */
+    for (size_t a = 0; rc == 0 && a < n; a += PART_WINDOW) {
+        w.n = n - a < PART_WINDOW ? n - a : PART_WINDOW;
+        if (!get_window(f, &l, a, &w, 0)) {
+            rc = -1;
+            break;
+        }
+        for (size_t i = 0; rc == 0 && i < w.n; i++) {
+            if (w.mat[i] >= m->nmat) {
+                *bad = a + i, *bad_mat = w.mat[i], rc = -2;
+                break;
+            }
+            const kf_real x[3] = {w.x[0][i], w.x[1][i], w.x[2][i]};
+            if (!filter->keep(filter->ctx, x)) continue;
+            /* more than settle said: the filter contradicts itself */
+            if (p->n == (size_t)want) {
+                errno = EINVAL;
+                rc = -1;
+                break;
+            }
+            append(p, &w, i);
+        }
+    }
+    kf_particles_free(&w);
+    if (rc == 0 && p->n != (size_t)want) errno = EINVAL, rc = -1;
+    if (rc == 0 && fseeko(f, l.after, SEEK_SET) != 0) rc = -1;
+    return rc;
+}
+
+int kf_checkpoint_read_part(const char *path, const kf_model *m, kf_state *s, const kf_checkpoint_filter *filter,
+                            kf_checkpoint_info *info, char *err, size_t errlen) {
     ck_file c;
     if (ck_open(&c, path, 1, err, errlen)) return -1;
     const header h = c.h; /* verified: checksum, version, precision, and sizes against the file length */
@@ -403,38 +509,31 @@ int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_chec
     /* read into a fresh particle set; the state changes only if all is well */
     kf_particles p;
     memset(&p, 0, sizeof p);
-    size_t n = (size_t)h.particles;
+    size_t n = (size_t)h.particles, bad = 0;
+    unsigned bad_mat = 0;
     kf_rigid_state rigid[KF_MAX_RIGIDS];
     void *rsim = h.rsim_bytes ? malloc((size_t)h.rsim_bytes) : NULL;
     const size_t poly_reals = (size_t)h.poly_ids * KF_POLY_REALS;
     kf_real *poly = poly_reals ? malloc(poly_reals * sizeof *poly) : NULL;
-    int ok = fseek(c.f, (long)sizeof h, SEEK_SET) == 0 && kf_particles_reserve(&p, n ? n : 1) == 0 &&
-             (rsim || !h.rsim_bytes) && (poly || !poly_reals);
-    for (int k = 0; ok && k < KF_PARTICLE_REAL_PLANES; k++) ok = get(c.f, p.plane[k], sizeof(kf_real), n);
-    ok = ok && get(c.f, p.mat, sizeof *p.mat, n) && get(c.f, p.id, sizeof *p.id, n) &&
-         get(c.f, p.obj, sizeof *p.obj, n) && get(c.f, p.colour, sizeof *p.colour, n) &&
-         get(c.f, rigid, sizeof rigid[0], h.nrigid) && get(c.f, rsim, 1, (size_t)h.rsim_bytes) &&
-         get(c.f, poly, sizeof *poly, poly_reals);
+    errno = 0;
+    int rc =
+        (rsim || !h.rsim_bytes) && (poly || !poly_reals) ? read_particles(c.f, n, m, filter, &p, &bad, &bad_mat) : -1;
+    if (rc == 0 && !(get(c.f, rigid, sizeof rigid[0], h.nrigid) && get(c.f, rsim, 1, (size_t)h.rsim_bytes) &&
+                     get(c.f, poly, sizeof *poly, poly_reals)))
+        rc = -1;
     fclose(c.f);
-    if (!ok) {
+    if (rc) {
         kf_particles_free(&p);
         free(rsim);
         free(poly);
-        snprintf(err, errlen, "%s: cannot read checkpoint of %zu particles: %s", path, n,
-                 errno ? strerror(errno) : "out of memory");
+        if (rc == -2)
+            snprintf(err, errlen, "%s: particle %zu uses material %u but the shot defines %d", path, bad, bad_mat,
+                     m->nmat);
+        else
+            snprintf(err, errlen, "%s: cannot read checkpoint of %zu particles: %s", path, n,
+                     errno ? strerror(errno) : "out of memory");
         return -1;
     }
-    for (size_t i = 0; i < n; i++)
-        if (p.mat[i] >= m->nmat) {
-            /* the material read before the arrays are freed (fuzz_checkpoint found the read after) */
-            unsigned mat = p.mat[i];
-            kf_particles_free(&p);
-            free(rsim);
-            free(poly);
-            snprintf(err, errlen, "%s: particle %zu uses material %u but the shot defines %d", path, i, mat, m->nmat);
-            return -1;
-        }
-    p.n = n;
     kf_particles_free(&s->p);
     s->p = p;
     memcpy(s->rigid, rigid, h.nrigid * sizeof rigid[0]);
@@ -452,4 +551,50 @@ int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_chec
     s->g.valid = 0;
     fill_info(info, &h);
     return 0;
+}
+
+int kf_checkpoint_windows(const char *path, const kf_model *m, kf_state *win,
+                          int (*visit)(void *ctx, const kf_state *win, size_t at), void *ctx, char *err,
+                          size_t errlen) {
+    ck_file c;
+    if (ck_open(&c, path, 1, err, errlen)) return -1;
+    const header h = c.h; /* verified as kf_checkpoint_read has it */
+    const size_t n = (size_t)h.particles;
+    ck_layout l;
+    layout_of(&l, n);
+    win->time = h.time;
+    win->substep = (long)h.substep;
+    win->next_id = (uint32_t)h.next_id;
+    win->tau_valid = 1;
+    win->g.valid = 0;
+    win->p.n = 0;
+    int rc = 0;
+    errno = 0;
+    if (kf_particles_reserve(&win->p, PART_WINDOW)) {
+        snprintf(err, errlen, "%s: out of memory reading checkpoint", path);
+        rc = -1;
+    }
+    for (size_t a = 0; rc == 0 && a < n; a += PART_WINDOW) {
+        win->p.n = n - a < PART_WINDOW ? n - a : PART_WINDOW;
+        if (!get_window(c.f, &l, a, &win->p, 0)) {
+            snprintf(err, errlen, "%s: cannot read checkpoint of %zu particles: %s", path, n,
+                     strerror(errno ? errno : EIO));
+            rc = -1;
+            break;
+        }
+        for (size_t i = 0; rc == 0 && i < win->p.n; i++)
+            if (win->p.mat[i] >= m->nmat) {
+                snprintf(err, errlen, "%s: particle %zu uses material %u but the shot defines %d", path, a + i,
+                         (unsigned)win->p.mat[i], m->nmat);
+                rc = -1;
+            }
+        if (rc == 0 && visit(ctx, win, a)) rc = -1; /* visit says why, err is left to it */
+    }
+    fclose(c.f);
+    return rc;
+}
+
+int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_checkpoint_info *info, char *err,
+                       size_t errlen) {
+    return kf_checkpoint_read_part(path, m, s, NULL, info, err, errlen);
 }

@@ -64,6 +64,31 @@ int kf_checkpoint_end(kf_checkpoint_out *o, const kf_state *s, char *err, size_t
 int kf_checkpoint_read(const char *path, const kf_model *m, kf_state *s, kf_checkpoint_info *info, char *err,
                        size_t errlen);
 
+/* Only some of the particles, without the whole state in memory (one MPI
+ * rank's part): the file is verified as kf_checkpoint_read does, then read
+ * a window of particles at a time, twice. The first pass shows `see` every
+ * particle's position, in file order; then `settle` says how many `keep`
+ * will accept; the second pass keeps those `keep` accepts, in file order.
+ * Every particle's material is checked, kept or not, so each reader of one
+ * file comes to the same answer. The state's clock, rigid bodies and next
+ * id are the file's. Returns 0, or -1 with a message in err. */
+typedef struct kf_checkpoint_filter {
+    int (*see)(void *ctx, kf_real *const x[3], size_t n); /* 0, or -1 (out of memory) */
+    long (*settle)(void *ctx);                            /* particles keep will accept, or -1 */
+    int (*keep)(void *ctx, const kf_real x[3]);
+    void *ctx;
+} kf_checkpoint_filter;
+int kf_checkpoint_read_part(const char *path, const kf_model *m, kf_state *s, const kf_checkpoint_filter *filter,
+                            kf_checkpoint_info *info, char *err, size_t errlen);
+
+/* The file's particles a window at a time into win (particles [at, at +
+ * win's count), in file order), for a writer that needs no whole state:
+ * visit is called for each, and a visit that returns nonzero ends the read.
+ * win's clock is the file's before the first window. Returns 0, or -1 with
+ * a message in err (after a failed visit, err is as visit left it). */
+int kf_checkpoint_windows(const char *path, const kf_model *m, kf_state *win,
+                          int (*visit)(void *ctx, const kf_state *win, size_t at), void *ctx, char *err, size_t errlen);
+
 /* Only the header, checked against the file's length: for finding where to
  * resume. The checksum is verified only when the header looks foreign (another
  * version or precision, counts the length does not match), so that damage is
