@@ -12,10 +12,12 @@ struct kf_render_ctx {
     kf_gl_context *glc;
     kf_gl gl;
     int w, h, samples, shadow_size;
+    int aa;           /* KF_RENDER_AA_MSAA or KF_RENDER_AA_EDGES */
+    int draw_samples; /* the picture's target: samples, or 1 with edge anti-aliasing */
     char renderer_name[128];
     GLuint prog_main, prog_depth, prog_bg;
     GLuint vao;
-    GLuint fbo_draw, rb_color, rb_depth; /* multisampled when samples > 1 */
+    GLuint fbo_draw, rb_color, rb_depth; /* multisampled when draw_samples > 1 */
     GLuint fbo_resolve, rb_resolve;      /* single-sample; only when samples > 1 */
     GLuint fbo_shadow, tex_shadow;
     GLuint ground_vbo[2], ground_ebo;
@@ -31,6 +33,10 @@ struct kf_render_ctx {
     GLuint fbo_f, rb_f_color, rb_f_depth, fbo_f_res, rb_f_res;
     GLuint fbo_aov, rb_aov[2], rb_aov_depth;
     float *readback_f; /* (h x w x 4) bottom-up */
+    /* edge anti-aliasing (edge_aa.c), made on first use: the lines' program,
+     * a copy of the picture's colour and depth they read, their vertices */
+    int edge_ready;
+    GLuint prog_edge, fbo_edge, tex_edge[2], vbo_edge;
 };
 
 /* What every pass of one frame shares: the subject, the camera and the lights. */
@@ -56,7 +62,13 @@ void kf_frame_shadow(kf_render_ctx *r, const kf_render_scene *sc, kf_frame *f, f
  * image's), vertices moved by t x their motion; linear = 1 writes linear
  * light (the same picture before its 2.2 encoding), 0 the PNG's values. */
 void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame *f, GLuint fbo, int linear, float t);
-/* Resolve the multisampled fbo into resolve (when samples > 1) and read
+/* Edge anti-aliasing (edge_aa.c): blend the single-sample picture in fbo
+ * across the scene's silhouettes, boundaries, flat-shaded creases and ground
+ * crossings, meshes moved by t x their motion. -1 + err on failure. */
+int kf_edge_aa_apply(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame *f, GLuint fbo, float t, char *err,
+                     size_t errlen);
+void kf_edge_aa_destroy(kf_render_ctx *r);
+/* Resolve the multisampled fbo into resolve (when draw_samples > 1) and read
  * RGBA8 rows top-down into out. */
 int kf_frame_read8(kf_render_ctx *r, GLuint fbo, GLuint resolve, uint8_t *out, char *err, size_t errlen);
 /* Bind mesh buffers: position, normal (or a constant up), motion (or none), indices. */

@@ -353,6 +353,7 @@ int kf_render_frame_ex(kf_render_ctx *r, const kf_render_scene *sc, const kf_cam
         kf_frame_shadow(r, sc, &f, t);
         if (rgba_out) {
             kf_frame_beauty(r, sc, &f, r->fbo_draw, 0, t);
+            if (r->aa == KF_RENDER_AA_EDGES && kf_edge_aa_apply(r, sc, &f, r->fbo_draw, t, err, errlen)) goto out;
             if (kf_frame_read8(r, r->fbo_draw, r->fbo_resolve, n > 1 ? tmp8 : rgba_out, err, errlen)) goto out;
             if (n > 1)
                 for (size_t i = 0; i < npx * 4; i++) acc8[i] += tmp8[i];

@@ -7,8 +7,11 @@
  * gradient with distance; (5) MSAA resolve by blit and a read-back, rows
  * flipped to top-down.
  *
- * Anti-aliasing is MSAA (llvmpipe supports 4x): it costs far less than
- * rendering 2x larger, and the resolve is a plain blit. */
+ * Anti-aliasing is MSAA (llvmpipe supports 4x; it costs far less than
+ * rendering 2x larger, and the resolve is a plain blit) or, by
+ * kf_render_set_antialias, one sample a pixel with the edges blended after
+ * (edge_aa.c): on llvmpipe MSAA's cost follows the triangles, and surfaces
+ * meshed from level sets have many under a pixel. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -202,6 +205,7 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
         return NULL;
     }
     r->samples = samples <= 1 ? 1 : (samples > max_samples ? max_samples : samples);
+    r->draw_samples = r->samples;
     /* shadow map: about the image's long side, 512..2048 texels (PCF softens the rest;
      * 4096 doubled the 1080p frame time on llvmpipe for no visible gain) */
     int longest = w > h ? w : h;
@@ -289,6 +293,7 @@ void kf_render_destroy(kf_render_ctx *r) {
                 gl->DeleteBuffers(r->nbuf, r->vbo_mot);
             }
             kf_aov_destroy(r);
+            kf_edge_aa_destroy(r);
             gl->DeleteBuffers(2, r->ground_vbo);
             gl->DeleteBuffers(1, &r->ground_ebo);
             gl->DeleteFramebuffers(1, &r->fbo_draw);
@@ -336,6 +341,32 @@ int kf_render_set_shadow_size(kf_render_ctx *r, int texels, char *err, size_t er
 
 int kf_render_shadow_size(const kf_render_ctx *r) { return r->shadow_size; }
 int kf_render_samples(const kf_render_ctx *r) { return r->samples; }
+
+/* the picture's target re-made with one sample (edges) or the context's samples (MSAA) */
+int kf_render_set_antialias(kf_render_ctx *r, int mode, char *err, size_t errlen) {
+    if (mode != KF_RENDER_AA_MSAA && mode != KF_RENDER_AA_EDGES) {
+        snprintf(err, errlen, "render: unknown anti-aliasing mode %d", mode);
+        return -1;
+    }
+    if (kf_gl_context_make_current(r->glc, err, errlen) != 0) return -1;
+    kf_gl *gl = &r->gl;
+    int samples = mode == KF_RENDER_AA_EDGES ? 1 : r->samples;
+    r->aa = mode;
+    if (samples == r->draw_samples) return 0;
+    gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_color);
+    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, samples > 1 ? samples : 0, GL_RGBA8, r->w, r->h);
+    gl->BindRenderbuffer(GL_RENDERBUFFER, r->rb_depth);
+    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, samples > 1 ? samples : 0, GL_DEPTH_COMPONENT24, r->w, r->h);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_draw);
+    if (kf_fbo_complete(gl, "image", err, errlen) != 0) return -1;
+    r->draw_samples = samples;
+    GLenum e = gl->GetError();
+    if (e != GL_NO_ERROR) {
+        snprintf(err, errlen, "render: GL error 0x%x while re-making the %dx%d image", e, r->w, r->h);
+        return -1;
+    }
+    return 0;
+}
 const char *kf_render_backend(const kf_render_ctx *r) { return r ? kf_gl_context_backend(r->glc) : ""; }
 
 const char *kf_render_gl_renderer(const kf_render_ctx *r) { return r->renderer_name; }
@@ -605,7 +636,7 @@ void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame
     /* background gradient */
     gl->BindFramebuffer(GL_FRAMEBUFFER, fbo);
     gl->Viewport(0, 0, r->w, r->h);
-    if (r->samples > 1) gl->Enable(GL_MULTISAMPLE);
+    gl->Enable(GL_MULTISAMPLE);
     gl->ClearColor(0, 0, 0, 1);
     gl->Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     gl->Disable(GL_DEPTH_TEST);
@@ -675,7 +706,7 @@ int kf_frame_read8(kf_render_ctx *r, GLuint fbo, GLuint resolve, uint8_t *out, c
     kf_gl *gl = &r->gl;
     /* resolve and read back (GL rows are bottom-up) */
     GLuint src = fbo;
-    if (r->samples > 1) {
+    if (r->draw_samples > 1) {
         gl->BindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
         gl->BindFramebuffer(GL_DRAW_FRAMEBUFFER, resolve);
         gl->BlitFramebuffer(0, 0, r->w, r->h, 0, 0, r->w, r->h, GL_COLOR_BUFFER_BIT, GL_NEAREST);

@@ -513,6 +513,86 @@ static void test_preview_and_timing(void) {
     }
 }
 
+/* Edge anti-aliasing (render.antialias: edges, render/edge_aa.c) of the
+ * golden scene: it meets the 4x MSAA golden's own tolerances (whole-image
+ * mean |diff| <= 1.0 per channel, every 8x8 tile <= GOLDEN_TILE_TOL), and at
+ * 256x192 against a 4x MSAA render of the same scene, on the pixels where
+ * one sample and MSAA differ by more than 8 (the edges: silhouettes, the
+ * flat-shaded creases, the objects' contact with the ground), it takes away
+ * at least half of the one-sample picture's error. */
+static void test_edge_antialias(void) {
+    char err[256] = "", path[1024];
+    two_objects t;
+    two_objects_init(&t);
+    float lo[3], hi[3], dir[3] = {-0.4f, -0.35f, -1};
+    kf_render_scene_bounds(&t.sc, lo, hi);
+    kf_camera cam = kf_camera_frame_bounds(lo, hi, dir, 35);
+    {
+        const int W = 64, H = 48;
+        kf_render_ctx *r = kf_render_create(W, H, 4, err, sizeof err);
+        KT_CHECK(r != NULL, "%s", err);
+        if (!r) goto done;
+        KT_CHECK(kf_render_set_antialias(r, KF_RENDER_AA_EDGES, err, sizeof err) == 0, "%s", err);
+        uint8_t *img = malloc((size_t)W * H * 4), *gold = NULL;
+        KT_CHECK(kf_render_frame(r, &t.sc, &cam, img, err, sizeof err) == 0, "%s", err);
+        save("golden_edges.png", img, W, H);
+        golden_path(path, sizeof path, "two_objects_64x48.png");
+        int gw = 0, gh = 0;
+        KT_CHECK(kf_png_read(path, &gold, &gw, &gh, NULL, NULL, err, sizeof err) == 0, "%s", err);
+        if (gold && gw == W && gh == H) {
+            for (int ch = 0; ch < 3; ch++) {
+                double s = 0;
+                for (int i = 0; i < W * H; i++) s += abs((int)img[4 * i + ch] - (int)gold[4 * i + ch]);
+                printf("  edges vs golden, channel %d: mean |diff| %.3f\n", ch, s / (W * H));
+                KT_NEAR(s / (W * H), 0.0, 1.0, "per-channel mean |diff| vs the MSAA golden");
+            }
+            int tx = 0, ty = 0;
+            double worst = max_tile_diff(img, gold, W, H, 8, &tx, &ty);
+            printf("  edges vs golden: largest 8x8 tile %.3f (tile %d,%d)\n", worst, tx, ty);
+            KT_NEAR(worst, 0.0, GOLDEN_TILE_TOL, "per-tile mean |diff| vs the MSAA golden");
+        }
+        free(gold);
+        free(img);
+        kf_render_destroy(r);
+    }
+    {
+        const int W = 256, H = 192;
+        const size_t n = (size_t)W * H * 4;
+        uint8_t *img[3] = {malloc(n), malloc(n), malloc(n)}; /* MSAA, one sample, edges */
+        kf_render_ctx *rm = kf_render_create(W, H, 4, err, sizeof err),
+                      *r1 = kf_render_create(W, H, 1, err, sizeof err);
+        KT_CHECK(rm && r1, "%s", err);
+        if (rm && r1) {
+            KT_CHECK(kf_render_frame(rm, &t.sc, &cam, img[0], err, sizeof err) == 0, "%s", err);
+            KT_CHECK(kf_render_frame(r1, &t.sc, &cam, img[1], err, sizeof err) == 0, "%s", err);
+            KT_CHECK(kf_render_set_antialias(rm, KF_RENDER_AA_EDGES, err, sizeof err) == 0, "%s", err);
+            KT_CHECK(kf_render_frame(rm, &t.sc, &cam, img[2], err, sizeof err) == 0, "%s", err);
+            save("edges_256.png", img[2], W, H);
+            double e1 = 0, ee = 0;
+            long edge = 0;
+            for (size_t i = 0; i < n; i += 4) {
+                int d1 = 0, de = 0;
+                for (int ch = 0; ch < 3; ch++) {
+                    int a = abs((int)img[1][i + ch] - (int)img[0][i + ch]),
+                        b = abs((int)img[2][i + ch] - (int)img[0][i + ch]);
+                    d1 = a > d1 ? a : d1, de = b > de ? b : de;
+                }
+                if (d1 > 8) edge++, e1 += d1, ee += de;
+            }
+            printf("  256x192, %ld edge pixels: mean max-channel |diff| from 4x MSAA: one sample %.2f, edges %.2f\n",
+                   edge, edge ? e1 / edge : 0, edge ? ee / edge : 0);
+            KT_CHECK(edge > 200, "the scene has edges (%ld pixels)", edge);
+            KT_CHECK(ee <= 0.5 * e1, "edges take away at least half of the aliasing (%.2f against %.2f a pixel)",
+                     edge ? ee / edge : 0, edge ? e1 / edge : 0);
+        }
+        for (int k = 0; k < 3; k++) free(img[k]);
+        kf_render_destroy(rm);
+        kf_render_destroy(r1);
+    }
+done:
+    two_objects_free(&t);
+}
+
 /* The two context backends (render/context.c): KERF_GL=osmesa and
  * KERF_GL=egl (surfaceless) each render the golden scene, on the backend
  * asked for, to the same picture (both are Mesa's llvmpipe here: within the
@@ -600,6 +680,7 @@ static void test_shadow_size(void) {
 int main(int argc, char **argv) {
     KT_RUN(test_silhouette_and_upright, argc, argv);
     KT_RUN(test_golden, argc, argv);
+    KT_RUN(test_edge_antialias, argc, argv);
     KT_RUN(test_backends, argc, argv);
     KT_RUN(test_png_round_trip, argc, argv);
     KT_RUN(test_turntable_loop, argc, argv);

@@ -19,7 +19,7 @@
  *        set: centre averaging, sort, splat, re-distance, filters; mesh; .vdb
  *        write) and rendered (OSMesa, 1920x1080) at final quality (the shot's
  *        defaults: centres averaged over 3 spacings, spheres of 2 spacings on
- *        voxels of 0.75, one mean-curvature pass, 4x MSAA) and at preview
+ *        voxels of 0.75, one mean-curvature pass, edge anti-aliasing) and at preview
  *        quality (surface.quality and render.quality preview: voxel 1.5
  *        spacings, spheres of 2.4, the same averaging, one pass, no MSAA, a
  *        1024-texel shadow map), seconds
@@ -143,7 +143,7 @@ typedef struct frame_quality {
     double voxel, radius, reach;    /* particle spacings */
     int iterations;                 /* mean-curvature passes */
     double average, average_radius; /* spheres' centre averaging: weight, neighbourhood in spacings */
-    int samples, shadow;            /* MSAA samples; shadow map texels (0: automatic) */
+    int samples, shadow;            /* anti-aliasing samples; shadow map texels (0: automatic) */
 } frame_quality;
 enum { FQ_FINAL, FQ_PREVIEW, FQ_FINAL_SPHERES, FQ_PREVIEW_SPHERES, FQ_COUNT };
 static const frame_quality frame_qualities[FQ_COUNT] = {
@@ -219,6 +219,8 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
         /* the context is made outside the timing: a sequence renders many frames with one */
         kf_render_ctx *ctx = kf_render_create(1920, 1080, q->samples, err, sizeof err);
         if (ctx && q->shadow && kf_render_set_shadow_size(ctx, q->shadow, err, sizeof err)) rc = -1;
+        /* render.antialias' default: edges when there are samples (src/pipeline/stages.c) */
+        if (ctx && q->samples > 1 && kf_render_set_antialias(ctx, KF_RENDER_AA_EDGES, err, sizeof err)) rc = -1;
         uint8_t *rgba = malloc((size_t)1920 * 1080 * 4);
         kf_render_mesh rm = {
             mesh.verts, mesh.normals, mesh.nverts, mesh.tris, mesh.ntris, {{0.8f, 0.3f, 0.3f}, 0.3f, 0.5f}, NULL, 0};

@@ -35,11 +35,11 @@ static kf_render_opts framing(const kf_cli_opts *o, const kf_shot *shot, kf_scen
 /* The render settings as text: images made under other settings are stale
  * even when newer than their surfaces. Stored in <dir>/images/.settings. */
 static void render_settings(const kf_shot *shot, char *buf, size_t n) {
-    int len = snprintf(buf, n, "%d %d %d %d %d %.9g %.9g %.9g %.9g %.9g %.9g %.9g %d s%d", shot->render_width,
+    int len = snprintf(buf, n, "%d %d %d %d %d %.9g %.9g %.9g %.9g %.9g %.9g %.9g %d s%d a%d", shot->render_width,
                        shot->render_height, shot->render_samples, shot->render_eye_set, shot->render_target_set,
                        shot->render_eye[0], shot->render_eye[1], shot->render_eye[2], shot->render_target[0],
                        shot->render_target[1], shot->render_target[2], shot->render_fov, shot->render_ground,
-                       shot->render_shadow);
+                       shot->render_shadow, shot->render_antialias);
     /* the camera's keys and the lights */
     for (int i = 0; i < shot->ncamera_keys && len > 0 && (size_t)len < n; i++)
         len += snprintf(buf + len, n - (size_t)len, " k%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d",

@@ -265,8 +265,8 @@ void kf_particle_bounds_add(const kf_scene *sc, float lo[3], float hi[3]) {
 
 kf_render_opts kf_render_opts_for(const kf_shot *shot, const float blo[3], const float bhi[3]) {
     /* the shot's size and sampling, with --quality already applied */
-    kf_render_opts o = {shot->render_width, shot->render_height, shot->render_samples, 0, 0, {0, 0, 0},
-                        {1, 1, 1},          shot->render_ground, shot->render_shadow};
+    kf_render_opts o = {shot->render_width,  shot->render_height, shot->render_samples,  0, 0, {0, 0, 0}, {1, 1, 1},
+                        shot->render_ground, shot->render_shadow, shot->render_antialias};
     if (!(bhi[0] >= blo[0])) return o; /* no particles */
     float lo[3], hi[3];
     for (int a = 0; a < 3; a++) lo[a] = blo[a], hi[a] = bhi[a];
@@ -705,6 +705,11 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
     kf_camera cam = shot_camera(shot, ro, frame), cam_next = shot_camera(shot, ro, frame + 1.0);
     kf_render_ctx *ctx = kf_render_create(ro->width, ro->height, ro->samples, err, errlen);
     if (!ctx) goto done;
+    /* the PNG's anti-aliasing: edges unless the shot asks for MSAA (without samples, none) */
+    if (ro->samples > 1 && ro->antialias == 0 && kf_render_set_antialias(ctx, KF_RENDER_AA_EDGES, err, errlen)) {
+        kf_render_destroy(ctx);
+        goto done;
+    }
     /* the preview's shadow map is at most ro->shadow (small images already have smaller ones) */
     if (ro->shadow > 0 && ro->shadow < kf_render_shadow_size(ctx) &&
         kf_render_set_shadow_size(ctx, ro->shadow, err, errlen)) {

@@ -43,7 +43,8 @@ typedef struct kf_render_opts {
     int turntable_k, turntable_n; /* n > 0: orbit camera, view k of n */
     float lo[3], hi[3];           /* what the camera frames, the same for every frame */
     int ground;
-    int shadow; /* shadow map texels a side, 0: automatic */
+    int shadow;    /* shadow map texels a side, 0: automatic */
+    int antialias; /* render.antialias: 0 edges, 1 msaa */
 } kf_render_opts;
 
 /* particles as OpenVDB points (output.points): P, v, material, Jp and the

@@ -215,6 +215,7 @@ typedef struct kf_shot {
 
     int render_width, render_height;        /* pixels, quality applied */
     int render_samples;                     /* anti-aliasing samples (1 in preview) */
+    int render_antialias;                   /* 0 edges, 1 msaa */
     int render_quality;                     /* 0 final, 1 preview (preset applied) */
     int render_shadow;                      /* shadow map texels a side; 0: automatic */
     double render_eye[3], render_target[3]; /* m, when render_eye_set / render_target_set */
