@@ -11,6 +11,7 @@
  * G2P, per particle: incompatible nodes contribute the ghost velocity
  * u + Δt c n_p (Eq. 27–28); the push's reaction goes to the body. */
 #include <math.h>
+#include <string.h>
 
 #include "../mpm/transfer_chunk.h"
 #include "../mpm/collider.h"
@@ -32,6 +33,24 @@ void kf_cpic_owner_cdf(const kf_state *s, size_t owner, kf_cpic_owner *oc) {
                 oc->col[(a * NB + b) * NB + k] = valid ? c->node_c[node] : 0;
                 oc->dist[(a * NB + b) * NB + k] = valid ? c->node_d[node] : 0;
             }
+    /* the stencils' affinity, one axis at a time (the quadratic stencil's
+     * base nodes lie in 0..NB-3 along each axis) */
+    uint32_t t[NB * NB * NB];
+    for (int q = 0; q < NB * NB * NB; q++) t[q] = oc->col[q] & AFF;
+    for (int a = 0; a < NB; a++)
+        for (int b = 0; b < NB; b++)
+            for (int k = 0; k + 2 < NB; k++) {
+                const int q = (a * NB + b) * NB + k;
+                t[q] |= t[q + 1] | t[q + 2];
+            }
+    for (int a = 0; a < NB; a++)
+        for (int b = 0; b + 2 < NB; b++)
+            for (int k = 0; k < NB; k++) {
+                const int q = (a * NB + b) * NB + k;
+                t[q] |= t[q + NB] | t[q + 2 * NB];
+            }
+    for (int q = 0; q < NB * NB * NB; q++)
+        oc->aff[q] = q < (NB - 2) * NB * NB ? t[q] | t[q + NB * NB] | t[q + 2 * NB * NB] : t[q];
 }
 
 #define compatible kf_cpic_compatible
@@ -242,32 +261,46 @@ static int acquire_side(const chunk *ck, int j, const uint32_t *col, const float
  * distance and normal. Writes the colour, pd, pn and near (r*+1 of the
  * fit's closest node, 0 when the fit failed). */
 static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck, int j, const uint32_t *col,
-                         const float *dist, double dx, const uint8_t *thin_body) {
+                         const float *dist, const uint32_t *oc_aff, double dx, const uint8_t *thin_body) {
     const double inv_dx = 1 / dx;
     const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-    uint32_t B = 0;
+    /* no node of the stencil near a body: only the scar stays */
+    if (!oc_aff[o]) {
+        p->colour[i] = kf_cpic_scar(0, p->colour[i], thin_body);
+        c->near[i] = 0;
+        c->pd[i] = 0;
+        c->pn[3 * i] = c->pn[3 * i + 1] = c->pn[3 * i + 2] = 0;
+        return;
+    }
+    /* one pass over the stencil's colours: B, the bodies some node is close
+     * to, and per body (at its A bit) whether some close node is on the
+     * particle's recorded side (agree) and some on the other (across) */
+    const uint32_t old = p->colour[i];
+    uint32_t B = 0, agree = 0, across = 0;
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++)
-            for (int k = 0; k < 3; k++) B |= col[o + (a * NB + b) * NB + k] & AFF;
+            for (int k = 0; k < 3; k++) {
+                const uint32_t cn = col[o + (a * NB + b) * NB + k], other = (cn ^ old) << 1;
+                B |= cn;
+                across |= cn & other;
+                agree |= cn & ~other;
+            }
+    B &= AFF;
     /* drop bodies no kernel node is close to; keep the rest as they are */
-    uint32_t cp = p->colour[i] & ((B | B >> 1));
+    uint32_t cp = old & ((B | B >> 1));
     /* ... unless every node near body r says the particle is on its other
      * side: with the crossing guard (guard.c) nothing passes through a
      * surface, so such a tag is stale, kept by a particle that went around
      * an edge (a blade's tip) and drifted away from it, too far for the
-     * distance fit below to notice; the particle takes its nodes' side */
+     * distance fit below to notice; the particle takes its nodes' side. A
+     * solid has no edge to go around. (A body cp holds has its side bit as
+     * in old, so agree and across read it as cp.) */
+    uint32_t thin_mask = 0;
     for (uint32_t held = cp & AFF; held; held &= held - 1) {
-        int bit = __builtin_ctz(held);     /* 2r + 1 */
-        if (!thin_body[bit / 2]) continue; /* a solid has no edge to go around */
-        int agree = 0, differ = 0;
-        for (int a = 0; a < 27; a++) {
-            uint32_t cn = col[o + (a / 9 * NB + a / 3 % 3) * NB + a % 3];
-            if (!(cn >> bit & 1)) continue;
-            if ((cn ^ cp) >> (bit - 1) & 1) differ++;
-            else agree++;
-        }
-        if (differ && !agree) cp ^= 1u << (bit - 1);
+        int bit = __builtin_ctz(held); /* 2r + 1 */
+        if (thin_body[bit / 2]) thin_mask |= 1u << bit;
     }
+    cp ^= (thin_mask & across & ~agree) >> 1;
     /* acquire: the side of the distance-weighted majority (Eq. 21); a side
      * bit kept from before (the scar below) is replaced */
     for (uint32_t need = B & ~cp; need; need &= need - 1) {
@@ -351,7 +384,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     for (int r = 0; r < m->nrigid; r++) thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
-        particle_cdf(c, p, i, ck, j, col, dist, dx, thin_body);
+        particle_cdf(c, p, i, ck, j, col, dist, oc->aff, dx, thin_body);
         const uint32_t cp = p->colour[i];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
         /* no affinity to any body, or no node across a surface: the ordinary scatter */

@@ -208,10 +208,7 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
     for (int j = 0; j < ck->n; j++) {
         /* the bodies the particle's stencil (at its start) had affinity to */
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        uint32_t B = 0;
-        for (int a = 0; a < 3; a++)
-            for (int b = 0; b < 3; b++)
-                for (int k = 0; k < 3; k++) B |= oc->col[o + (a * NB + b) * NB + k] & KF_CPIC_AFFINITY;
+        uint32_t B = oc->aff[o];
         if (!B) continue;
         const double x0[3] = {xold[j], xold[KF_CHUNK + j], xold[2 * KF_CHUNK + j]};
         for (; B; B &= B - 1) {

@@ -29,6 +29,10 @@ struct chunk;
 typedef struct kf_cpic_owner {
     uint32_t col[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
     float dist[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
+    /* per base node (a particle's first stencil node), the affinity bits of
+     * its 3x3x3 stencil's colours together: 0 where no node of it is near
+     * a body, and the particle's transfers are the ordinary ones */
+    uint32_t aff[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
 } kf_cpic_owner;
 
 void kf_cpic_free(struct kf_cpic *c);
