@@ -49,6 +49,19 @@ mpi 3 run drop.yaml --out r13 --frames 1001-1002 --quiet
 "$kerf" run drop.yaml --out r13 --resume > r13.log 2>&1
 check "3 ranks cut short, resumed plain: equal to the one-rank run" \
     bash -c "grep -q 'resuming after frame 1002' r13.log && cmp -s ref/checkpoints/drop.$last.kfc r13/checkpoints/drop.$last.kfc"
+# from the first frame's checkpoint (the state as seeded, in id order; that
+# frame's files are written again from it, windows of 32k particles by id):
+# 40768 particles, so more than one window, and each rank's part must keep
+# the file's order
+first=(--set sim.dx=0.025 --frames 1001-1002)
+"$kerf" run drop.yaml --out f1ref "${first[@]}" --quiet
+"$kerf" run drop.yaml --out f1 --set sim.dx=0.025 --frames 1001-1001 --quiet
+mpi 2 run drop.yaml --out f1 "${first[@]}" --resume > f1.log 2>&1
+resumed_first() {
+    grep -q 'resuming after frame 1001' f1.log || return 1
+    for f in f1ref/checkpoints/*.kfc f1ref/particles/*.ply; do cmp -s "$f" "f1/${f#f1ref/}" || return 1; done
+}
+check "1 rank cut short at the first frame, resumed on 2 (40768 particles): every file the one-rank run's" resumed_first
 
 # --- a sand column (Drucker-Prager return mapping, walls with friction) -------------
 sand="--set sim.dx=0.04 --frames 1001-1004 --set output.surface=false --set output.images=false"
