@@ -10,6 +10,7 @@
 #include "../io/checkpoint.h"
 #include "../io/vdb_bridge.h"
 #include "cli.h"
+#include "../../render/render.h"
 #include "../pipeline/exr.h"
 #include "../pipeline/progress.h"
 #include "../pipeline/stages.h"
@@ -179,14 +180,16 @@ static int render_frame(const kf_shot *shot, kf_scene *sc, const kf_frame_paths 
     return 0;
 }
 
-/* surface and render frames first..last, skipping current outputs */
-int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render) {
+/* kf_cli_post's frames, rendered through the context kept in *keep */
+static int post_frames(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render,
+                       kf_render_ctx **keep) {
     do_surface &= shot->output_surface;
     do_render &= shot->output_images;
     /* the camera only for rendering: it reads whole checkpoints */
     kf_render_opts ro;
     memset(&ro, 0, sizeof ro);
     if (do_render) ro = framing(o, shot, sc);
+    ro.keep = keep;
     char settings[4096], stamp[2200];
     kf_frame_paths first;
     kf_frame_paths_make(shot, o->out, shot->first, &first);
@@ -272,6 +275,15 @@ int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_
     return KF_EXIT_OK;
 }
 
+/* surface and render frames first..last, skipping current outputs; one
+ * render context for all the frames */
+int kf_cli_post(const kf_cli_opts *o, const kf_shot *shot, kf_scene *sc, int do_surface, int do_render) {
+    kf_render_ctx *kept = NULL;
+    int rc = post_frames(o, shot, sc, do_surface, do_render, &kept);
+    kf_render_destroy(kept);
+    return rc;
+}
+
 static int stage_command(const char *cmd, int argc, char **argv, int do_surface, int do_render) {
     kf_cli_opts o;
     kf_shot *shot;
@@ -333,7 +345,9 @@ int kf_cmd_turntable(int argc, char **argv) {
         rc = KF_EXIT_FAIL;
     } else if ((rc = kf_cli_claim_output(&o, shot, &lock)) == KF_EXIT_OK) {
         kf_render_opts ro = framing(&o, shot, &sc);
+        kf_render_ctx *kept = NULL;
         ro.turntable_n = count;
+        ro.keep = &kept;
         for (int k = 0; k < count && rc == KF_EXIT_OK; k++) {
             char png[4200];
             /* views are numbered like shot frames, from 1001, so compositing and
@@ -346,6 +360,7 @@ int kf_cmd_turntable(int argc, char **argv) {
                 rc = KF_EXIT_FAIL;
             }
         }
+        kf_render_destroy(kept);
         if (rc == KF_EXIT_OK && !o.quiet)
             fprintf(stderr, "kerf: turntable of frame %d: %d views in %s/turntable/\n", frame, count, fp.dir);
     }

@@ -265,8 +265,8 @@ void kf_particle_bounds_add(const kf_scene *sc, float lo[3], float hi[3]) {
 
 kf_render_opts kf_render_opts_for(const kf_shot *shot, const float blo[3], const float bhi[3]) {
     /* the shot's size and sampling, with --quality already applied */
-    kf_render_opts o = {shot->render_width,  shot->render_height, shot->render_samples,  0, 0, {0, 0, 0}, {1, 1, 1},
-                        shot->render_ground, shot->render_shadow, shot->render_antialias};
+    kf_render_opts o = {shot->render_width,  shot->render_height, shot->render_samples,   0,   0, {0, 0, 0}, {1, 1, 1},
+                        shot->render_ground, shot->render_shadow, shot->render_antialias, NULL};
     if (!(bhi[0] >= blo[0])) return o; /* no particles */
     float lo[3], hi[3];
     for (int a = 0; a < 3; a++) lo[a] = blo[a], hi[a] = bhi[a];
@@ -703,18 +703,23 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
     if (shot->sim.walls) scene.ground_y = (float)shot->sim.domain_min[1];
     /* a steady camera on what the options frame; a keyed one moves between frames */
     kf_camera cam = shot_camera(shot, ro, frame), cam_next = shot_camera(shot, ro, frame + 1.0);
-    kf_render_ctx *ctx = kf_render_create(ro->width, ro->height, ro->samples, err, errlen);
-    if (!ctx) goto done;
-    /* the PNG's anti-aliasing: edges unless the shot asks for MSAA (without samples, none) */
-    if (ro->samples > 1 && ro->antialias == 0 && kf_render_set_antialias(ctx, KF_RENDER_AA_EDGES, err, errlen)) {
-        kf_render_destroy(ctx);
-        goto done;
-    }
-    /* the preview's shadow map is at most ro->shadow (small images already have smaller ones) */
-    if (ro->shadow > 0 && ro->shadow < kf_render_shadow_size(ctx) &&
-        kf_render_set_shadow_size(ctx, ro->shadow, err, errlen)) {
-        kf_render_destroy(ctx);
-        goto done;
+    /* the context kept from the last frame, if any: making one and compiling
+     * its shaders at the first draw cost about 0.13 CPU s a 1080p frame */
+    kf_render_ctx *ctx = ro->keep ? *ro->keep : NULL;
+    if (ro->keep) *ro->keep = NULL;
+    if (!ctx) {
+        if (!(ctx = kf_render_create(ro->width, ro->height, ro->samples, err, errlen))) goto done;
+        /* the PNG's anti-aliasing: edges unless the shot asks for MSAA (without samples, none) */
+        if (ro->samples > 1 && ro->antialias == 0 && kf_render_set_antialias(ctx, KF_RENDER_AA_EDGES, err, errlen)) {
+            kf_render_destroy(ctx);
+            goto done;
+        }
+        /* the preview's shadow map is at most ro->shadow (small images already have smaller ones) */
+        if (ro->shadow > 0 && ro->shadow < kf_render_shadow_size(ctx) &&
+            kf_render_set_shadow_size(ctx, ro->shadow, err, errlen)) {
+            kf_render_destroy(ctx);
+            goto done;
+        }
     }
     const size_t npx = (size_t)ro->width * ro->height;
     uint8_t *rgba = want_png ? malloc(npx * 4) : NULL;
@@ -746,7 +751,9 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
     }
     if (want_exr) kf_pipeline_aovs_free(&pa);
     free(rgba);
-    kf_render_destroy(ctx);
+    /* kept for the next frame only after a frame that went well */
+    if (ro->keep && rc == 0) *ro->keep = ctx;
+    else kf_render_destroy(ctx);
 done:
     for (int i = 0; i < nm; i++) kf_vdb_mesh_free(&meshes[i]);
     for (int i = 0; i < KF_VDB_MAX_GRIDS + 2; i++) free(motion[i]);

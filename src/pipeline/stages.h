@@ -45,6 +45,10 @@ typedef struct kf_render_opts {
     int ground;
     int shadow;    /* shadow map texels a side, 0: automatic */
     int antialias; /* render.antialias: 0 edges, 1 msaa */
+    /* NULL, or where the render context is kept from one frame to the next
+     * (every frame rendered through it with the same options; the caller
+     * destroys what is left there with kf_render_destroy) */
+    struct kf_render_ctx **keep;
 } kf_render_opts;
 
 /* particles as OpenVDB points (output.points): P, v, material, Jp and the
