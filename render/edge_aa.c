@@ -115,6 +115,19 @@ static int push_edge(edge_buf *b, const kf_render_ctx *r, const float vp[16], co
     return 0;
 }
 
+/* append the part of edge a-b above the ground (when it is drawn): the
+ * ground hides the rest, but only by a little near where the mesh passes
+ * through it, too little for the depth test of the lines */
+static int push_above(edge_buf *b, const kf_render_ctx *r, const kf_frame *f, const float a[3], const float c[3]) {
+    if (!f->draw_ground) return push_edge(b, r, f->viewproj, a, c);
+    float da = a[1] - f->ground_y, dc = c[1] - f->ground_y;
+    if (da < 0 && dc < 0) return 0;
+    if (da >= 0 && dc >= 0) return push_edge(b, r, f->viewproj, a, c);
+    float m[3], u = da / (da - dc);
+    for (int i = 0; i < 3; i++) m[i] = a[i] + u * (c[i] - a[i]);
+    return push_edge(b, r, f->viewproj, da >= 0 ? a : c, m);
+}
+
 /* the edges of one mesh that can show a jump in colour, vertices at time t */
 static int mesh_edges(edge_buf *b, const kf_render_ctx *r, const kf_frame *f, const kf_render_mesh *me, float t) {
     const size_t nt = me->ntris, nv = me->nverts;
@@ -162,7 +175,7 @@ static int mesh_edges(edge_buf *b, const kf_render_ctx *r, const kf_frame *f, co
                                 ((double)n1[0] * n1[0] + (double)n1[1] * n1[1] + (double)n1[2] * n1[2]));
                 show = d < 0.99985 * l;
             }
-            if (show && push_edge(b, r, f->viewproj, p + 3 * a, p + 3 * c)) goto out;
+            if (show && push_above(b, r, f, p + 3 * a, p + 3 * c)) goto out;
         }
     /* where the mesh passes through the ground: the segment across each triangle it cuts */
     if (f->draw_ground)
