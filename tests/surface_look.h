@@ -34,18 +34,18 @@
 typedef struct look_settings {
     int kernel;
     double voxel, radius, average, average_radius, reach;
-    int iterations;
+    int iterations, flatten;
 } look_settings;
 
 /* kerf's settings before the anisotropic discs: spheres on averaged centres
  * (the comparison in the evidence) */
-static const look_settings look_spheres = {1, 0.75, 2, 1, 3, 3, 1};
+static const look_settings look_spheres = {1, 0.75, 2, 1, 3, 3, 1, 0};
 
 /* a loaded shot's surface settings */
 static inline look_settings look_of_shot(const kf_shot *shot) {
-    return (look_settings){shot->surface_kernel,    shot->surface_voxel,          shot->surface_radius,
-                           shot->surface_average,   shot->surface_average_radius, shot->surface_reach,
-                           shot->surface_iterations};
+    return (look_settings){shot->surface_kernel,     shot->surface_voxel,          shot->surface_radius,
+                           shot->surface_average,    shot->surface_average_radius, shot->surface_reach,
+                           shot->surface_iterations, shot->surface_flatten};
 }
 
 static inline void look_params(kf_vdb_surface_params *p, double h, look_settings s) {
@@ -54,6 +54,7 @@ static inline void look_params(kf_vdb_surface_params *p, double h, look_settings
     p->voxel = s.voxel * h;
     p->smooth = KF_VDB_OP_MEAN_CURVATURE;
     p->smooth_iterations = s.iterations;
+    p->flatten = s.flatten;
     if (s.kernel == 0) {
         p->kernel = KF_VDB_KERNEL_ANISOTROPIC;
         p->radius = p->average_radius = s.reach * h;
@@ -81,6 +82,46 @@ static inline int look_seed(const double lo[3], const double hi[3], double h, ui
         return -1;
     }
     return 0;
+}
+
+/* signed volume enclosed by a closed, outward-wound mesh */
+static inline double look_mesh_volume(const kf_vdb_trimesh *m) {
+    double v = 0;
+    for (size_t t = 0; t < m->ntris; t++) {
+        const float *a = m->verts + 3 * m->tris[3 * t], *b = m->verts + 3 * m->tris[3 * t + 1],
+                    *c = m->verts + 3 * m->tris[3 * t + 2];
+        v += (double)a[0] * (b[1] * c[2] - b[2] * c[1]) - (double)a[1] * (b[0] * c[2] - b[2] * c[0]) +
+             (double)a[2] * (b[0] * c[1] - b[1] * c[0]);
+    }
+    return v / 6;
+}
+
+/* jittered particles in a ball of radius r about c (ppc 8 on a grid of dx = 2 h) */
+static inline int look_seed_ball(const double c[3], double r, double h, uint32_t seed, kf_points *pts) {
+    kf_sample_def d = kf_default_sample_def();
+    d.kind = KF_SOURCE_SPHERE;
+    d.radius = r;
+    for (int a = 0; a < 3; a++) d.place.translate[a] = c[a];
+    d.dx = 2 * h;
+    d.ppc = 8;
+    d.seed = seed;
+    d.threads = 1;
+    char err[256];
+    if (kf_sample_shape(&d, pts, err, sizeof err)) {
+        fprintf(stderr, "seed: %s\n", err);
+        return -1;
+    }
+    return 0;
+}
+
+/* enclosed volume of a level set's mesh over vol, minus 1 */
+static inline double look_volume_error(const kf_vdb_grid *g, double vol) {
+    kf_vdb_trimesh mesh;
+    char err[256];
+    if (kf_vdb_mesh(g, 0, 0, &mesh, err, sizeof err)) return NAN;
+    const double e = look_mesh_volume(&mesh) / vol - 1;
+    kf_vdb_mesh_free(&mesh);
+    return e;
 }
 
 static inline double look_phi(const kf_vdb_grid *g, double x, double y, double z) {
@@ -136,18 +177,6 @@ static inline double look_plane_rms(const double *p, int m, double *mean) {
     }
     *mean = sum / m;
     return sqrt(ss / m);
-}
-
-/* signed volume enclosed by a closed, outward-wound mesh */
-static inline double look_mesh_volume(const kf_vdb_trimesh *m) {
-    double v = 0;
-    for (size_t t = 0; t < m->ntris; t++) {
-        const float *a = m->verts + 3 * m->tris[3 * t], *b = m->verts + 3 * m->tris[3 * t + 1],
-                    *c = m->verts + 3 * m->tris[3 * t + 2];
-        v += (double)a[0] * (b[1] * c[2] - b[2] * c[1]) - (double)a[1] * (b[0] * c[2] - b[2] * c[0]) +
-             (double)a[2] * (b[0] * c[1] - b[1] * c[0]);
-    }
-    return v / 6;
 }
 
 /* Probe a block's level set g (box lo..hi, spacing h). */

@@ -144,15 +144,16 @@ typedef struct frame_quality {
     int iterations;                 /* mean-curvature passes */
     double average, average_radius; /* spheres' centre averaging: weight, neighbourhood in spacings */
     int samples, shadow;            /* anti-aliasing samples; shadow map texels (0: automatic) */
+    int flatten;                    /* passes of the faces' flattening (surface.flatten) */
 } frame_quality;
 enum { FQ_FINAL, FQ_PREVIEW, FQ_FINAL_SPHERES, FQ_PREVIEW_SPHERES, FQ_COUNT };
 static const frame_quality frame_qualities[FQ_COUNT] = {
-    {"final", 0, 0.75, 2, 3, 2, 1, 3, 4, 0},
+    {"final", 0, 0.75, 2, 3, 2, 1, 3, 4, 0, 3},
     {"preview", 0, KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, 3, KF_VDB_PREVIEW_ITERATIONS, 1, 3, 1,
-     KF_RENDER_PREVIEW_SHADOW},
-    {"final_spheres", 1, 0.75, 2, 3, 1, 1, 3, 4, 0},
+     KF_RENDER_PREVIEW_SHADOW, 0},
+    {"final_spheres", 1, 0.75, 2, 3, 1, 1, 3, 4, 0, 0},
     {"preview_spheres", 1, KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, 3, KF_VDB_PREVIEW_ITERATIONS, 1, 3, 1,
-     KF_RENDER_PREVIEW_SHADOW},
+     KF_RENDER_PREVIEW_SHADOW, 0},
 };
 
 typedef struct frame_post_result {
@@ -179,6 +180,7 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
     sp.voxel = q->voxel * spacing;
     sp.smooth = KF_VDB_OP_MEAN_CURVATURE;
     sp.smooth_iterations = q->iterations;
+    sp.flatten = q->flatten;
     if (q->kernel == 0) {
         sp.kernel = KF_VDB_KERNEL_ANISOTROPIC;
         sp.radius = sp.average_radius = q->reach * spacing;

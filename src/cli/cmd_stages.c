@@ -89,10 +89,10 @@ static void write_stamp(const char *stamp, const char *now) {
 
 /* the surface settings as text, for <dir>/surface/.settings */
 static void surface_settings(const kf_shot *shot, char *buf, size_t n) {
-    snprintf(buf, n, "%.9g %.9g %d %d %.9g %.9g %d %.9g %.9g %d %.9g\n", shot->surface_voxel, shot->surface_radius,
+    snprintf(buf, n, "%.9g %.9g %d %d %.9g %.9g %d %.9g %.9g %d %.9g %d\n", shot->surface_voxel, shot->surface_radius,
              shot->surface_smooth, shot->surface_iterations, shot->surface_dilate, shot->surface_erode,
              shot->surface_group, shot->surface_average, shot->surface_average_radius, shot->surface_kernel,
-             shot->surface_reach);
+             shot->surface_reach, shot->surface_flatten);
 }
 
 /* A PNG ends with its IEND chunk; one cut short (a full disk under an old

@@ -104,6 +104,10 @@ typedef struct kf_vdb_surface_params {
     kf_vdb_kernel kernel;  /* KF_VDB_KERNEL_SPHERES (the union above) or _ANISOTROPIC (below) */
     double thickness;      /* anisotropic: a disc's half thickness, m (default spacing / 2) */
     double anisotropy;     /* anisotropic: a disc's radius at least 1/anisotropy of its longest (default 8) */
+    int flatten;           /* passes of a bilateral filter of the zero set after smoothing and erosion:
+                              faces flattened, edges kept (0: none; needs smooth NONE or
+                              MEAN_CURVATURE and the shifts within the band) */
+    double flatten_radius; /* m, its neighbourhood (default 3.75 x spacing, at most 7.5 voxels) */
 } kf_vdb_surface_params;
 
 typedef struct kf_vdb_surface_stats {

@@ -77,6 +77,7 @@ static void surface_params(const kf_shot *shot, kf_vdb_surface_params *p, const 
     p->voxel = shot->surface_voxel * spacing;
     p->smooth = ops[shot->surface_smooth & 3];
     p->smooth_iterations = shot->surface_iterations;
+    p->flatten = shot->surface_flatten;
     p->dilate = shot->surface_dilate;
     if (shot->surface_kernel == 0) {
         p->kernel = KF_VDB_KERNEL_ANISOTROPIC;

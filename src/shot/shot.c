@@ -211,12 +211,15 @@ kf_shot *kf_shot_load(const char *path, const char *const *overrides, int n_over
         s->render_height = s->render_height / 2 > 16 ? s->render_height / 2 : 16;
         s->render_samples = 1;
         s->render_quality = 1;
+        if (!T->at[KK_SURFACE_FLATTEN]) s->surface_flatten = 0; /* a quick look: the faces' flattening off */
     }
     /* the preview presets (surface.quality, render.quality): what the shot
      * sets itself wins; the numbers live beside the code they drive */
     /* the spheres' own look had one smoothing pass */
     if (s->surface_kernel == 1 && !T->at[KK_SURFACE_ITERATIONS]) s->surface_iterations = 1;
+    if (s->surface_kernel == 1 && !T->at[KK_SURFACE_FLATTEN]) s->surface_flatten = 0;
     if (s->surface_quality == 1) {
+        if (!T->at[KK_SURFACE_FLATTEN]) s->surface_flatten = 0; /* most of a preview's surfacing time otherwise */
         if (!T->at[KK_SURFACE_VOXEL]) s->surface_voxel = KF_VDB_PREVIEW_VOXEL;
         if (!T->at[KK_SURFACE_RADIUS]) s->surface_radius = KF_VDB_PREVIEW_RADIUS;
         if (!T->at[KK_SURFACE_ITERATIONS]) s->surface_iterations = KF_VDB_PREVIEW_ITERATIONS;

@@ -207,6 +207,7 @@ typedef struct kf_shot {
     double surface_radius; /* particle spacings */
     int surface_smooth;    /* 0 none, 1 mean curvature, 2 gaussian, 3 laplacian */
     int surface_iterations;
+    int surface_flatten;
     double surface_average;               /* 0..1: centre smoothing weight (Yu & Turk) */
     double surface_average_radius;        /* particle spacings */
     double surface_dilate, surface_erode; /* m; erode < 0: automatic */

@@ -105,6 +105,20 @@ int main(int argc, char **argv) {
             kf_points_free(&sheet);
         }
     }
+    /* balls of 4 and 8 spacings: a curved face keeps its volume */
+    printf("\n| settings | ball radius (h) | seed | volume error |\n|---|---|---|---|\n");
+    for (int v = reps == 0 ? 1 : 0; v < 2; v++)
+        for (int rr = 4; rr <= 8; rr += 4)
+            for (uint32_t seed = 1; seed <= 3; seed++) {
+                const double c[3] = {0.5, 0.5, 0.5}, rad = rr * h;
+                kf_points pts;
+                if (look_seed_ball(c, rad, h, seed, &pts)) return 1;
+                kf_vdb_grid *g = surface(&pts, h, v ? after : look_spheres, NULL);
+                printf("| %s | %d | %u | %+.4f |\n", v ? "now" : "spheres", rr, seed,
+                       look_volume_error(g, 4.0 / 3.0 * 3.14159265358979323846 * rad * rad * rad));
+                kf_vdb_free(g);
+                kf_points_free(&pts);
+            }
     char err[256];
     if (kf_png_write(argv[1], img, W, n, NULL, 0, err, sizeof err)) fprintf(stderr, "%s\n", err);
     free(img);

@@ -2,6 +2,7 @@
 #include "sphere_raster.h"
 
 #include "band_distance.h"
+#include "band_flatten.h"
 #include "band_smooth.h"
 #include "buried_particles.h"
 
@@ -284,6 +285,10 @@ struct splat_leaf_out {
 FloatGrid::Ptr band_to_grid(dense_band &band, double h, double hw, float W, const band_filter *f,
                             const std::vector<int32_t> *who, const float *vel, Vec3SGrid::Ptr *velgrid) {
     if (f) band_smooth(band, W, float(f->dilate / h), f->mc_iterations, float(f->erode / h));
+    // the neighbourhoods within the 27 leaves around (8 voxels)
+    for (int k = 0; f && k < f->flatten; k++)
+        band_flatten(band, W, float(std::min(f->flatten_radius / h, 7.5)), FLATTEN_SIGMA,
+                     float(std::min(f->flatten_normal_radius / h, 7.5)));
     const bool track = who && vel && velgrid;
     const size_t nl = band.size();
     const float bg = float(hw * h), hwv = float(hw);

@@ -40,11 +40,15 @@ struct raster_timing {
 };
 
 // the filters applied on the band before it becomes a tree (world units):
-// dilate, mean-curvature steps, erode; (dilate + erode) / h + half width
-// must stay within 6 voxels
+// dilate, mean-curvature steps, erode, then passes of the zero set's
+// bilateral filter (band_flatten.h; radii in world units); (dilate +
+// erode) / h + half width must stay within 6 voxels
 struct band_filter {
     double dilate, erode;
     int mc_iterations;
+    int flatten;                  // passes (0: none)
+    double flatten_radius;        // the neighbourhood of each voxel's mean
+    double flatten_normal_radius; // the neighbourhood of each point's mean normal
 };
 
 // The union of the spheres as a level set of voxel size h and half width hw

@@ -1,0 +1,282 @@
+// band_flatten.cpp — a bilateral filter of a band's zero set (see band_flatten.h).
+#include "band_flatten.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace kf_vdb {
+
+namespace {
+
+constexpr int P = LEAF_DIM + 2; // a leaf with a one-voxel apron
+constexpr int SB = 4;           // sub-blocks of SB^3 voxels, 8 to a leaf
+// the weighted sums run in this many lanes (a vector's width), added in
+// order after: it vectorises, and the sums are the same for any thread count
+constexpr int LANES = 16;
+// a flat face's points (one each side of the zero set per voxel column)
+// weigh 2 pi / 3 r^2 in all about a voxel; one with under SUPPORT r^2 (a
+// quarter of that) is moved only in proportion
+constexpr float SUPPORT = 0.5f;
+
+// the leaf and its apron from the 26 neighbours (missing ones: +W)
+void gather(const dense_band &b, size_t i, float W, float *pad) {
+    for (int px = 0; px < P; px++) {
+        const int lx = px - 1, dx = lx < 0 ? -1 : (lx >= LEAF_DIM ? 1 : 0), x = lx - dx * LEAF_DIM;
+        for (int py = 0; py < P; py++) {
+            const int ly = py - 1, dy = ly < 0 ? -1 : (ly >= LEAF_DIM ? 1 : 0), y = ly - dy * LEAF_DIM;
+            float *row = pad + (px * P + py) * P;
+            for (int pz = 0; pz < P; pz++) {
+                const int lz = pz - 1, dz = lz < 0 ? -1 : (lz >= LEAF_DIM ? 1 : 0), z = lz - dz * LEAF_DIM;
+                const int32_t j = b.nbr[27 * i + dense_band::nbr_slot(dx, dy, dz)];
+                row[pz] = j < 0 ? W : b.leaf(size_t(j))[(x << 6) + (y << 3) + z];
+            }
+        }
+    }
+}
+
+// the unit gradient at padded voxel q (central differences); false if flat
+inline bool normal_at(const float *q, float n[3]) {
+    const int sx = P * P, sy = P;
+    n[0] = 0.5f * (q[sx] - q[-sx]), n[1] = 0.5f * (q[sy] - q[-sy]), n[2] = 0.5f * (q[1] - q[-1]);
+    const float g = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(g > 1e-4f)) return false;
+    for (int k = 0; k < 3; k++) n[k] /= g;
+    return true;
+}
+
+// surface points (index space) and their normals, leaf by leaf, each
+// leaf's sorted by sub-block: leaf i's sub-block s holds [at[9 i + s], at[9 i + s + 1])
+struct samples {
+    std::vector<float> x, y, z, nx, ny, nz;
+    std::vector<uint32_t> at;
+};
+
+// a sub-block's voxel box (index space) of leaf lc, sub-block s
+inline void sub_box(const openvdb::Coord &lc, int s, float lo[3]) {
+    lo[0] = float(lc.x() * LEAF_DIM + (s >> 2 & 1) * SB), lo[1] = float(lc.y() * LEAF_DIM + (s >> 1 & 1) * SB),
+    lo[2] = float(lc.z() * LEAF_DIM + (s & 1) * SB);
+}
+
+// the samples within r of sub-block box lo..lo+SB-1 (box distance), copied
+// relative to o into the candidate arrays
+struct cands {
+    std::vector<float> x, y, z, nx, ny, nz;
+    void gather(const dense_band &b, const samples &S, size_t i, const float lo[3], float r, const float o[3]) {
+        x.clear(), y.clear(), z.clear(), nx.clear(), ny.clear(), nz.clear();
+        const float r2 = r * r;
+        for (int k = 0; k < 27; k++) {
+            const int32_t j = b.nbr[27 * i + size_t(k)];
+            if (j < 0) continue;
+            const openvdb::Coord lc = leaf_coord(b.key[size_t(j)]);
+            for (int s = 0; s < 8; s++) {
+                const uint32_t a0 = S.at[9 * size_t(j) + size_t(s)], a1 = S.at[9 * size_t(j) + size_t(s) + 1];
+                if (a0 == a1) continue;
+                float bl[3];
+                sub_box(lc, s, bl);
+                float d2 = 0;
+                for (int c = 0; c < 3; c++) {
+                    // gap between [lo, lo + SB - 1] and the sub-block's points (within half a voxel of its box)
+                    const float g =
+                        std::max(0.f, std::max(bl[c] - 0.5f - (lo[c] + SB - 1), lo[c] - (bl[c] + SB - 0.5f)));
+                    d2 += g * g;
+                }
+                if (d2 >= r2) continue;
+                for (uint32_t m = a0; m < a1; m++) {
+                    x.push_back(S.x[m] - o[0]), y.push_back(S.y[m] - o[1]), z.push_back(S.z[m] - o[2]);
+                    nx.push_back(S.nx[m]), ny.push_back(S.ny[m]), nz.push_back(S.nz[m]);
+                }
+            }
+        }
+        // padded to whole blocks of LANES with points far away (weight 0)
+        while (x.size() % LANES) {
+            x.push_back(1e17f), y.push_back(1e17f), z.push_back(1e17f);
+            nx.push_back(0.f), ny.push_back(0.f), nz.push_back(0.f);
+        }
+    }
+};
+
+// the weight of a candidate at squared distance d2 whose normal has dot
+// product dot with the point's: (1 - d2 / r2)^2 (1 - ((1 - dot) / sc)^2)^2
+inline float weight(float d2, float ir2, float dot, float isc) {
+    const float ws = std::max(0.f, 1 - d2 * ir2), t = std::min(1.f, (1 - dot) * isc), wn = 1 - t * t;
+    return ws * ws * wn * wn;
+}
+
+samples collect(const dense_band &b, float W) {
+    const size_t nl = b.size();
+    std::vector<std::vector<float>> per(nl);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 4), [&](const tbb::blocked_range<size_t> &rg) {
+        float pad[P * P * P];
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            const float *phi = b.leaf(i);
+            bool any = false;
+            for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < 1.f;
+            if (!any) continue;
+            gather(b, i, W, pad);
+            const openvdb::Coord lc = leaf_coord(b.key[i]);
+            std::vector<float> &o = per[i];
+            // sub-block by sub-block, so that each one's points are contiguous
+            for (int s = 0; s < 8; s++) {
+                const int x0 = (s >> 2 & 1) * SB, y0 = (s >> 1 & 1) * SB, z0 = (s & 1) * SB;
+                for (int x = x0; x < x0 + SB; x++)
+                    for (int y = y0; y < y0 + SB; y++)
+                        for (int z = z0; z < z0 + SB; z++) {
+                            const float *q = pad + ((x + 1) * P + (y + 1)) * P + (z + 1);
+                            const float c = q[0];
+                            // a voxel beside a crossing, on either side: its closest
+                            // point (the inside ones' and the outside ones' lie a few
+                            // hundredths of a voxel either side of the zero set)
+                            const bool in = c < 0;
+                            bool cross = false;
+                            const int st[6] = {P * P, -P * P, P, -P, 1, -1};
+                            for (int k = 0; k < 6 && !cross; k++) cross = (q[st[k]] < 0) != in;
+                            if (!cross) continue;
+                            float n[3];
+                            if (!normal_at(q, n)) continue;
+                            const float rec[7] = {float(s),
+                                                  float(lc.x() * LEAF_DIM + x) - c * n[0],
+                                                  float(lc.y() * LEAF_DIM + y) - c * n[1],
+                                                  float(lc.z() * LEAF_DIM + z) - c * n[2],
+                                                  n[0],
+                                                  n[1],
+                                                  n[2]};
+                            o.insert(o.end(), rec, rec + 7);
+                        }
+            }
+        }
+    });
+    samples S;
+    S.at.assign(9 * nl + 1, 0);
+    size_t tot = 0;
+    for (size_t i = 0; i < nl; i++) tot += per[i].size() / 7;
+    S.x.resize(tot), S.y.resize(tot), S.z.resize(tot), S.nx.resize(tot), S.ny.resize(tot), S.nz.resize(tot);
+    uint32_t m = 0;
+    for (size_t i = 0; i < nl; i++) {
+        const std::vector<float> &o = per[i];
+        size_t q = 0;
+        for (int s = 0; s < 8; s++) {
+            S.at[9 * i + size_t(s)] = m;
+            for (; q < o.size() / 7 && int(o[7 * q]) == s; q++, m++)
+                S.x[m] = o[7 * q + 1], S.y[m] = o[7 * q + 2], S.z[m] = o[7 * q + 3], S.nx[m] = o[7 * q + 4],
+                S.ny[m] = o[7 * q + 5], S.nz[m] = o[7 * q + 6];
+        }
+        S.at[9 * i + 8] = m;
+    }
+    return S;
+}
+
+} // namespace
+
+void band_flatten(dense_band &b, float W, float radius, float sigma, float ns) {
+    const size_t nl = b.size();
+    // the voxels within B0 of the zero set get the filtered value, those
+    // out to B1 a blend down to their own (a continuous band)
+    const float B0 = 0.75f, B1 = 1.5f;
+    samples S = collect(b, W);
+    const float isc = 1 / sigma;
+    // the samples' normals averaged over their neighbourhood (the same
+    // weights): a face's normals then tilt with its long waves, not its bumps
+    if (ns > 0) {
+        samples T = S;
+        const float ir2 = 1 / (ns * ns);
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 4), [&](const tbb::blocked_range<size_t> &rg) {
+            cands C;
+            for (size_t i = rg.begin(); i != rg.end(); i++) {
+                const openvdb::Coord lc = leaf_coord(b.key[i]);
+                for (int s = 0; s < 8; s++) {
+                    const uint32_t a0 = S.at[9 * i + size_t(s)], a1 = S.at[9 * i + size_t(s) + 1];
+                    if (a0 == a1) continue;
+                    float lo[3];
+                    sub_box(lc, s, lo);
+                    C.gather(b, S, i, lo, ns + 0.5f, lo);
+                    const size_t nc = C.x.size();
+                    for (uint32_t q = a0; q < a1; q++) {
+                        const float X = S.x[q] - lo[0], Y = S.y[q] - lo[1], Z = S.z[q] - lo[2];
+                        const float n0 = S.nx[q], n1 = S.ny[q], n2 = S.nz[q];
+                        float A[3][LANES] = {};
+                        for (size_t m0 = 0; m0 < nc; m0 += LANES)
+                            for (int j = 0; j < LANES; j++) {
+                                const size_t m = m0 + size_t(j);
+                                const float dx = X - C.x[m], dy = Y - C.y[m], dz = Z - C.z[m];
+                                const float w = weight(dx * dx + dy * dy + dz * dz, ir2,
+                                                       n0 * C.nx[m] + n1 * C.ny[m] + n2 * C.nz[m], isc);
+                                A[0][j] += w * C.nx[m], A[1][j] += w * C.ny[m], A[2][j] += w * C.nz[m];
+                            }
+                        float a[3] = {0, 0, 0};
+                        for (int j = 0; j < LANES; j++) a[0] += A[0][j], a[1] += A[1][j], a[2] += A[2][j];
+                        const float g = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+                        if (g > 0) T.nx[q] = a[0] / g, T.ny[q] = a[1] / g, T.nz[q] = a[2] / g;
+                    }
+                }
+            }
+        });
+        S.nx.swap(T.nx), S.ny.swap(T.ny), S.nz.swap(T.nz);
+    }
+    std::vector<float> out(b.phi);
+    const float ir2 = 1 / (radius * radius);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 4), [&](const tbb::blocked_range<size_t> &rg) {
+        float pad[P * P * P];
+        cands C;
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            const float *phi = b.leaf(i);
+            bool any = false;
+            for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < B1;
+            if (!any) continue;
+            gather(b, i, W, pad);
+            const openvdb::Coord lc = leaf_coord(b.key[i]);
+            float *o = out.data() + i * LEAF_SIZE;
+            for (int s = 0; s < 8; s++) {
+                const int x0 = (s >> 2 & 1) * SB, y0 = (s >> 1 & 1) * SB, z0 = (s & 1) * SB;
+                bool near = false;
+                for (int x = x0; x < x0 + SB && !near; x++)
+                    for (int y = y0; y < y0 + SB && !near; y++)
+                        for (int z = z0; z < z0 + SB && !near; z++) near = std::fabs(phi[(x << 6) + (y << 3) + z]) < B1;
+                if (!near) continue;
+                float lo[3];
+                sub_box(lc, s, lo);
+                C.gather(b, S, i, lo, radius, lo);
+                const size_t nc = C.x.size();
+                if (!nc) continue;
+                for (int x = x0; x < x0 + SB; x++)
+                    for (int y = y0; y < y0 + SB; y++)
+                        for (int z = z0; z < z0 + SB; z++) {
+                            const int v = (x << 6) + (y << 3) + z;
+                            const float c = phi[v];
+                            if (!(std::fabs(c) < B1)) continue;
+                            float n[3];
+                            if (!normal_at(pad + ((x + 1) * P + (y + 1)) * P + (z + 1), n)) continue;
+                            const float X = float(x - x0), Y = float(y - y0), Z = float(z - z0);
+                            float SW[LANES] = {}, SF[LANES] = {};
+                            for (size_t m0 = 0; m0 < nc; m0 += LANES)
+                                for (int j = 0; j < LANES; j++) {
+                                    const size_t m = m0 + size_t(j);
+                                    const float dx = X - C.x[m], dy = Y - C.y[m], dz = Z - C.z[m];
+                                    const float w = weight(dx * dx + dy * dy + dz * dz, ir2,
+                                                           n[0] * C.nx[m] + n[1] * C.ny[m] + n[2] * C.nz[m], isc);
+                                    // the mean of the two tangent planes' distances (own normal and the
+                                    // sample's): a sphere's bias cancels to second order
+                                    const float f =
+                                        0.5f * ((n[0] + C.nx[m]) * dx + (n[1] + C.ny[m]) * dy + (n[2] + C.nz[m]) * dz);
+                                    SW[j] += w, SF[j] += w * f;
+                                }
+                            float sw = 0, sf = 0;
+                            for (int j = 0; j < LANES; j++) sw += SW[j], sf += SF[j];
+                            if (!(sw > 1e-3f)) continue;
+                            const float f = sf / sw;
+                            // a voxel few points agree with (a crevice, a bridge across
+                            // a crack) moves only as far as they weigh against SUPPORT
+                            const float t = (std::fabs(c) <= B0 ? 1.f : (B1 - std::fabs(c)) / (B1 - B0)) *
+                                            std::min(1.f, sw * ir2 / SUPPORT);
+                            o[v] = c + t * (f - c);
+                        }
+            }
+        }
+    });
+    b.phi.swap(out);
+}
+
+} // namespace kf_vdb
