@@ -79,7 +79,7 @@ static void run_scene(int which, const bench_memory_opts *o, mem_result *r) {
     long blocks = 0;
     if (kf_grid_bin(&s->g, &s->p, kf_model_inv_dx(m), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad) == 0)
         blocks = (long)s->g.nblocks;
-    r->estimate_mb = kf_memory_estimate(m, n, blocks, program) / (1 << 20);
+    r->estimate_mb = kf_memory_estimate(m, s, blocks, program) / (1 << 20);
     r->program_mb = program / (1 << 20);
     r->particles = (double)n;
     /* about N substeps: at a fixed step N of them, else N at today's CFL step */

@@ -93,7 +93,7 @@ int kf_cmd_info(int argc, char **argv) {
     if (n && kf_grid_bin(&s->g, &s->p, (kf_real)(1 / shot->sim.dx), cubic, m->nthreads, &bad) == 0)
         blocks = (long)s->g.nblocks;
     double dt = n ? kf_stable_dt(m, s, shot->sim.cfl) : 0;
-    double mb = kf_memory_estimate(m, n, blocks, program) / (1 << 20);
+    double mb = kf_memory_estimate(m, s, blocks, program) / (1 << 20);
     printf("grid      %ld active blocks of 4^3 nodes at the start\n", blocks);
     printf("memory    about %.0f MB (particles, grid, rigid seeds, kerf itself %.0f MB; a frame's start for retries is "
            "kept in "

@@ -525,7 +525,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         for (int e = 0; e < 9; e++) Cj[e] = apic ? p->C[e][i] : 0;
         /* the particle's stress as P2G scatters it: −Δt V⁰ τ */
         double T[9];
-        for (int e = 0; e < 9; e++) T[e] = -dt * (double)p->vol0[i] * (double)p->tau[SYM[e]][i];
+        for (int e = 0; e < 9; e++) T[e] = -dt * (double)p->vol0[i] * (double)ck->tau[SYM[e]][j];
         const uint32_t held = pressed_bodies(m, s, ck, j, col, o, cp, bc, vp, np, T, mass, classic);
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)

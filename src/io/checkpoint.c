@@ -42,6 +42,20 @@ static void put(hashed_writer *w, const void *p, size_t n) {
     if (fwrite(p, 1, n, w->f) != n) w->failed = 1;
 }
 
+/* a stress plane the state does not keep (KF_ZERO_TAU): the values kf_stress
+ * would have left in it, evaluated from F a chunk at a time (the file is the
+ * same either way) */
+static void put_stress(hashed_writer *w, kf_state *s, int k) {
+    enum { CHUNK = 4096 };
+    static _Thread_local kf_real buf[6][CHUNK];
+    kf_real *const out[6] = {buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]};
+    for (size_t i = 0; i < s->p.n; i += CHUNK) {
+        int n = s->p.n - i < CHUNK ? (int)(s->p.n - i) : CHUNK;
+        kf_stress_eval(s->stress_model, &s->p, i, n, out);
+        put(w, buf[k], (size_t)n * sizeof(kf_real));
+    }
+}
+
 int kf_checkpoint_write(const char *path, kf_state *s, int frame, uint64_t inputs_hash, char *err, size_t errlen) {
     const kf_particles *p = &s->p;
     kf_grid_invalidate(&s->g); /* a resume sorts from scratch: so does the run from here */
@@ -78,7 +92,11 @@ int kf_checkpoint_write(const char *path, kf_state *s, int frame, uint64_t input
     }
     hashed_writer w = {af.f, KF_FNV_BASIS, 0};
     put(&w, &h, sizeof h);
-    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) put(&w, p->plane[k], p->n * sizeof(kf_real));
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) {
+        if (kf_particles_plane_zero(p, k) && k >= KF_PLANE_TAU && s->tau_valid && s->stress_model)
+            put_stress(&w, s, k - KF_PLANE_TAU);
+        else put(&w, p->plane[k], p->n * sizeof(kf_real));
+    }
     put(&w, p->mat, p->n * sizeof *p->mat);
     put(&w, p->id, p->n * sizeof *p->id);
     put(&w, p->obj, p->n * sizeof *p->obj);

@@ -46,7 +46,8 @@ int kf_cpic_band(const kf_state *s, size_t owner);
 
 /* CPIC transfers of one owner block in the band (cpic_transfer.c). The
  * chunk's stencil, q, mv (and t for classic) are computed by the caller as
- * in the ordinary path; these replace the scatter and the gather. */
+ * in the ordinary path, and for the gather the chunk's stress (ck->tau);
+ * these replace the scatter and the gather. */
 void kf_cpic_owner_cdf(const kf_state *s, size_t owner, kf_cpic_owner *oc);
 void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, struct chunk *ck,
                        size_t i0, void *cache, int classic);

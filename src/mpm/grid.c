@@ -1,10 +1,14 @@
 /* grid.c — sparse block grid: hashing, binning particles into owner blocks,
  * colouring for race-free P2G. See grid.h for the scheme. */
+#define _DEFAULT_SOURCE /* madvise */
 #include "grid.h"
 
 #include <omp.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 void kf_grid_free(kf_grid *g) {
     free(g->bcoord);
@@ -143,7 +147,31 @@ static int ensure_particle_scratch(kf_grid *g, size_t n) {
     return g->dest && g->scratch ? 0 : -1;
 }
 
+/* Hand the pages of a large scratch array back to the system (they read
+ * as zeros afterwards and are backed again when next written): memory a
+ * pass needs only while it runs is then not resident beside the rest of
+ * the substep. Where madvise fails they stay as they are. */
+static void release_pages(void *a, size_t bytes) {
+    if (!a || bytes < ((size_t)256 << 10)) return;
+    long page = sysconf(_SC_PAGESIZE);
+    uintptr_t ps = page > 0 ? (uintptr_t)page : 4096, lo = ((uintptr_t)a + ps - 1) / ps * ps,
+              hi = ((uintptr_t)a + bytes) / ps * ps;
+    if (lo < hi) madvise((void *)lo, hi - lo, MADV_DONTNEED);
+}
+
+static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle);
+
+/* The binning's per-particle scratch (dest and the permutation plane, 8
+ * bytes a particle) is needed only while it bins: its pages go back
+ * afterwards, so the substep's other passes run without them resident. */
 int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle) {
+    int rc = bin(g, p, inv_dx, cubic, threads, bad_particle);
+    release_pages(g->dest, g->scratch_n * sizeof *g->dest);
+    release_pages(g->scratch, kf_particles_permute_bytes(g->scratch_n));
+    return rc;
+}
+
+static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle) {
     size_t n = p->n;
     if (threads < 1) threads = 1;
     if (ensure_particle_scratch(g, n)) return -1;

@@ -53,6 +53,9 @@ struct kf_state {
     int snapshot_in_file;  /* the current interval's start is in the file */
     kf_particles snapshot; /* the memory copy (empty while the file serves) */
     int tau_valid;         /* particle stress planes match F (set by kf_stress) */
+    /* the model the stress was last made for (kf_stress, kf_g2p2g): where
+     * it is not kept (KF_ZERO_TAU), the hash and checkpoints evaluate it */
+    const struct kf_model *stress_model;
     /* > 0: the next kf_step's Δt, announced (kf_state_fuse_next, kf_advance)
      * with nothing editing the state in between; kf_step may then end with
      * the next substep's P2G (kf_g2p2g) */
@@ -95,20 +98,50 @@ static inline double kf_snapshot_bytes(size_t n) {
     return sizeof(size_t) + (double)n * (KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + 2 + 2 + 4 + 4);
 }
 
+/* The fastest wave a fixed explicit step resolves, KF_CFL_STIFF Δx/Δt
+ * (material.h: kf_mat_limit); 0 under the CFL rule or the implicit
+ * integrator, which leave every material as it is. */
+static inline double kf_model_c_limit(const kf_model *m) {
+    if (!(m->sim.dt_fixed > 0) || m->sim.integrator == KF_INTEGRATOR_IMPLICIT) return 0;
+    return KF_CFL_STIFF * m->sim.dx / m->sim.dt_fixed;
+}
+
 /* the particle arrays (KF_ZERO_*) this model never writes: colour without
  * rigid bodies (only CPIC writes it), ps when every material is fixed
- * corotated (the only model with no plastic state and no water J) */
+ * corotated (the only model with no plastic state and no water J), and
+ * then the stress planes too under the explicit integrator at the model's
+ * own stiffness: a corotated particle's τ is a function of its F alone, bit
+ * for bit whichever SIMD batch evaluates it (material_batch.c), so the
+ * transfers evaluate it where they read it instead of keeping 24 bytes a
+ * particle (the implicit solver reads the planes; a fixed step's limited
+ * stiffness counts its particles in the stress pass). Across MPI ranks the
+ * planes are kept (kf_state_zero_arrays). */
 static inline unsigned kf_model_zero_arrays(const kf_model *m) {
     unsigned z = m->nrigid ? 0 : KF_ZERO_COLOUR;
+    /* mat with one material; obj unless contact cuts pieces (it writes their
+     * bits), while the scene puts every particle in object 0 (build.c) */
+    if (m->nmat <= 1) z |= KF_ZERO_MAT;
+    if (!m->sim.contact) z |= KF_ZERO_OBJ;
     for (int k = 0; k < m->nmat; k++)
         if (m->mat[k].model != KF_MAT_COROTATED) return z;
-    return z | KF_ZERO_PS;
+    z |= KF_ZERO_PS;
+    if (m->sim.integrator == KF_INTEGRATOR_EXPLICIT && !(kf_model_c_limit(m) > 0)) z |= KF_ZERO_TAU;
+    return z;
+}
+
+/* the same for a state: across MPI ranks the stress planes are kept (the
+ * ranks' stress pass and halo write them), and obj (particles arriving from
+ * another rank bring their objects) */
+static inline unsigned kf_state_zero_arrays(const kf_model *m, const kf_state *s) {
+    unsigned z = kf_model_zero_arrays(m);
+    return s->dist ? z & ~(KF_ZERO_TAU | KF_ZERO_OBJ) : z;
 }
 
 /* kerf info's memory figure, bytes: n particles as they run (particles.h), rigid bodies' seeds,
  * the grid's blocks (grid.h), and what the process held before the scene
  * (program). kerf_bench --only memory prints it beside the measured peak. */
-static inline double kf_memory_estimate(const kf_model *m, size_t n, long blocks, double program) {
+static inline double kf_memory_estimate(const kf_model *m, const kf_state *s, long blocks, double program) {
+    const size_t n = s->p.n;
     /* rigid bodies' surface seeds: position 12 + triangle 4 each (rigid.h),
      * and CPIC's splat scratch for the largest body's: world position 24,
      * bin 4, order 4 (cpic.h) */
@@ -117,7 +150,9 @@ static inline double kf_memory_estimate(const kf_model *m, size_t n, long blocks
         seeds += (double)m->rigid[r].nseed;
         if ((double)m->rigid[r].nseed > most) most = (double)m->rigid[r].nseed;
     }
-    return kf_particle_bytes_running(m->nrigid > 0, !(kf_model_zero_arrays(m) & KF_ZERO_PS)) * (double)n +
+    /* the arrays that stay untouched zeros once the shot runs (kf_advance) */
+    const unsigned zero = kf_state_zero_arrays(m, s) & (s->p.zero | ~(KF_ZERO_OBJ | KF_ZERO_MAT));
+    return kf_particle_bytes_running(m->nrigid > 0, zero) * (double)n +
            (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + seeds * 16 + most * 32 + program;
 }
 
@@ -193,16 +228,16 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 #define KF_FUSED_SCATTER 2
 int kf_fuse_applies(const kf_model *m, const kf_state *s);
 int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p_result *out);
-/* return mapping (when project) and the stress of every particle's F */
+/* return mapping (when project) and the stress of every particle's F
+ * (nothing to do where the stress is not kept: KF_ZERO_TAU) */
 void kf_stress(const kf_model *m, kf_state *s, int project);
 
-/* The fastest wave a fixed explicit step resolves, KF_CFL_STIFF Δx/Δt
- * (material.h: kf_mat_limit); 0 under the CFL rule or the implicit
- * integrator, which leave every material as it is. */
-static inline double kf_model_c_limit(const kf_model *m) {
-    if (!(m->sim.dt_fixed > 0) || m->sim.integrator == KF_INTEGRATOR_IMPLICIT) return 0;
-    return KF_CFL_STIFF * m->sim.dx / m->sim.dt_fixed;
-}
+/* The stress τ of particles [first, first + n) evaluated from F into out
+ * (xx yy zz xy xz yz planes, out[k][0] for particle first), without the
+ * return mapping: the planes' contents where the stress is not kept
+ * (KF_ZERO_TAU), bit for bit. */
+void kf_stress_eval(const kf_model *m, kf_particles *p, size_t first, int n, kf_real *const out[6]);
+
 /* the same over n particles' planes, in runs of one material inside chunks
  * of 64 counted from the first (a particle's stress depends on its own F
  * and state alone, not on which particles share its SIMD batch). Returns

@@ -70,8 +70,9 @@ int kf_particles_reserve(kf_particles *p, size_t cap) {
     while (c < cap) c *= 2;
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
         if ((plane_zero(p, k) ? grow_zero : grow)((void **)&p->plane[k], sizeof(kf_real), c)) return -1;
-    if (grow((void **)&p->mat, sizeof *p->mat, c) || grow((void **)&p->id, sizeof *p->id, c) ||
-        grow((void **)&p->obj, sizeof *p->obj, c) ||
+    if (((p->zero & KF_ZERO_MAT) ? grow_zero : grow)((void **)&p->mat, sizeof *p->mat, c) ||
+        grow((void **)&p->id, sizeof *p->id, c) ||
+        ((p->zero & KF_ZERO_OBJ) ? grow_zero : grow)((void **)&p->obj, sizeof *p->obj, c) ||
         ((p->zero & KF_ZERO_COLOUR) ? grow_zero : grow)((void **)&p->colour, sizeof *p->colour, c))
         return -1;
     p->cap = c;
@@ -100,6 +101,21 @@ int kf_particles_zero(kf_particles *p, unsigned which) {
         if (grow_zero((void **)&p->colour, sizeof *p->colour, p->cap)) return -1;
         p->zero |= KF_ZERO_COLOUR;
     }
+    if ((which & KF_ZERO_MAT) && !(p->zero & KF_ZERO_MAT) && p->cap && all_zero(p->mat, n * sizeof *p->mat)) {
+        if (grow_zero((void **)&p->mat, sizeof *p->mat, p->cap)) return -1;
+        p->zero |= KF_ZERO_MAT;
+    }
+    if ((which & KF_ZERO_OBJ) && !(p->zero & KF_ZERO_OBJ) && p->cap && all_zero(p->obj, n * sizeof *p->obj)) {
+        if (grow_zero((void **)&p->obj, sizeof *p->obj, p->cap)) return -1;
+        p->zero |= KF_ZERO_OBJ;
+    }
+    /* the stress planes hold a cache of F's stress, not state: whatever they
+     * hold goes, and the transfers evaluate the stress from F from now on */
+    if ((which & KF_ZERO_TAU) && !(p->zero & KF_ZERO_TAU) && p->cap) {
+        for (int k = 0; k < 6; k++)
+            if (grow_zero((void **)&p->tau[k], sizeof(kf_real), p->cap)) return -1;
+        p->zero |= KF_ZERO_TAU;
+    }
     /* an empty set: the arrays come zeroed when reserved */
     if (!p->cap) p->zero |= which;
     return 0;
@@ -115,14 +131,24 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
     if ((z & KF_ZERO_COLOUR) && !(dst->zero & KF_ZERO_COLOUR) && dst->cap &&
         grow_zero((void **)&dst->colour, sizeof *dst->colour, dst->cap))
         return -1;
+    for (int k = 0; k < 6; k++)
+        if ((z & KF_ZERO_TAU) && !(dst->zero & KF_ZERO_TAU) && dst->cap &&
+            grow_zero((void **)&dst->tau[k], sizeof(kf_real), dst->cap))
+            return -1;
+    if ((z & KF_ZERO_MAT) && !(dst->zero & KF_ZERO_MAT) && dst->cap &&
+        grow_zero((void **)&dst->mat, sizeof *dst->mat, dst->cap))
+        return -1;
+    if ((z & KF_ZERO_OBJ) && !(dst->zero & KF_ZERO_OBJ) && dst->cap &&
+        grow_zero((void **)&dst->obj, sizeof *dst->obj, dst->cap))
+        return -1;
     dst->zero = z;
     if (kf_particles_reserve(dst, src->n)) return -1;
     size_t n = src->n;
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
         if (!plane_zero(src, k)) memcpy(dst->plane[k], src->plane[k], n * sizeof(kf_real));
-    memcpy(dst->mat, src->mat, n * sizeof *src->mat);
+    if (!(z & KF_ZERO_MAT)) memcpy(dst->mat, src->mat, n * sizeof *src->mat);
     memcpy(dst->id, src->id, n * sizeof *src->id);
-    memcpy(dst->obj, src->obj, n * sizeof *src->obj);
+    if (!(z & KF_ZERO_OBJ)) memcpy(dst->obj, src->obj, n * sizeof *src->obj);
     if (!(z & KF_ZERO_COLOUR)) memcpy(dst->colour, src->colour, n * sizeof *src->colour);
     dst->n = n;
     return 0;
@@ -145,9 +171,9 @@ void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, 
         /* zero arrays stay as they are: every slot holds +0 */
         for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
             if (!plane_zero(p, k)) PERMUTE_PLANE(kf_real, p->plane[k]);
-        PERMUTE_PLANE(uint16_t, p->mat);
+        if (!(p->zero & KF_ZERO_MAT)) PERMUTE_PLANE(uint16_t, p->mat);
         PERMUTE_PLANE(uint32_t, p->id);
-        PERMUTE_PLANE(uint16_t, p->obj);
+        if (!(p->zero & KF_ZERO_OBJ)) PERMUTE_PLANE(uint16_t, p->obj);
         if (!(p->zero & KF_ZERO_COLOUR)) PERMUTE_PLANE(uint32_t, p->colour);
     }
 }

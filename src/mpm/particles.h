@@ -44,14 +44,23 @@ typedef struct kf_particles {
 /* Arrays a model never writes (ps without a plastic or water material,
  * colour without rigid bodies) are kept as zeroed allocations nobody
  * touches, so their pages are never resident: permute, copy and adding
- * particles skip them. Whoever may write one clears its bit first. */
+ * particles skip them. Whoever may write one clears its bit first.
+ * KF_ZERO_TAU is the same for the stress planes where the stress is not
+ * kept at all: the transfers evaluate each particle's τ from its F where
+ * they need it (model.h: kf_model_zero_arrays says when), so nothing reads
+ * the planes and they stay untouched zeros. */
 #define KF_ZERO_PS 1u     /* ps[0], ps[1] */
 #define KF_ZERO_COLOUR 2u /* colour */
+#define KF_ZERO_TAU 4u    /* tau[0..5]: the stress is evaluated from F, not stored */
+#define KF_ZERO_MAT 8u    /* mat: one material */
+#define KF_ZERO_OBJ 16u   /* obj: every particle in object 0, no pieces */
 #define KF_PLANE_PS 26    /* ps[0], ps[1] are planes 26 and 27 (x3 v3 C9 F9 mass vol0 ps2 tau6) */
+#define KF_PLANE_TAU 28   /* tau[0..5] are planes 28 to 33 */
 
 /* whether real plane k is a zero array now */
 static inline int kf_particles_plane_zero(const kf_particles *p, int k) {
-    return (p->zero & KF_ZERO_PS) && (k == KF_PLANE_PS || k == KF_PLANE_PS + 1);
+    return ((p->zero & KF_ZERO_PS) && (k == KF_PLANE_PS || k == KF_PLANE_PS + 1)) ||
+           ((p->zero & KF_ZERO_TAU) && k >= KF_PLANE_TAU && k < KF_PLANE_TAU + 6);
 }
 
 /* Mark those of the `which` arrays that hold only +0 (bit for bit) in
@@ -68,16 +77,22 @@ static inline size_t kf_particles_permute_bytes(size_t n) { return n * (sizeof(k
  *                tau 24 (34 kf_real planes: 136), mat 2, obj 2, colour 4,
  *                id 4                                               148
  *                less ps 8 without plastic or water materials, less
- *                colour 4 without rigid bodies (KF_ZERO_*)
+ *                tau 24 where the stress is evaluated, not kept, less
+ *                mat 2 with one material, obj 2 with one object and no
+ *                pieces, colour 4 without rigid bodies (KF_ZERO_*: zero
+ *                the arrays that are untouched zeros)
  *   binning      dest 4, one shared permutation plane 4                8
  *   CPIC         with rigid bodies: distance 4, normal 12, flag 1     17
  * kf_advance's interval start lives in a temporary file (snapshot.c), not
  * here; grid nodes come on top (kf_grid_bytes_per_block). */
-static inline double kf_particle_bytes_running(int rigid_bodies, int plastic_state) {
+static inline double kf_particle_bytes_running(int rigid_bodies, unsigned zero) {
     kf_particles p;
     double state = KF_PARTICLE_REAL_PLANES * sizeof(kf_real) + sizeof *p.mat + sizeof *p.obj + sizeof *p.id;
-    if (!plastic_state) state -= 2 * sizeof(kf_real);
-    if (rigid_bodies) state += sizeof *p.colour;
+    if (zero & KF_ZERO_PS) state -= 2 * sizeof(kf_real);
+    if (zero & KF_ZERO_TAU) state -= 6 * sizeof(kf_real);
+    if (zero & KF_ZERO_MAT) state -= sizeof *p.mat;
+    if (zero & KF_ZERO_OBJ) state -= sizeof *p.obj;
+    if (rigid_bodies && !(zero & KF_ZERO_COLOUR)) state += sizeof *p.colour;
     double bin = sizeof(uint32_t) + (double)kf_particles_permute_bytes(1);
     return state + bin + (rigid_bodies ? 4 + 12 + 1 : 0);
 }

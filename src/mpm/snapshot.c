@@ -49,7 +49,10 @@ static int spill_fields(FILE *f, kf_particles *p, size_t n, int write) {
         ok = kf_particles_plane_zero(p, k) ? skip(f, sizeof(kf_real), n, write, p->plane[k])
                                            : io(f, p->plane[k], sizeof(kf_real), n, write);
     }
-    ok = ok && io(f, p->mat, sizeof *p->mat, n, write) && io(f, p->obj, sizeof *p->obj, n, write);
+    ok = ok && ((p->zero & KF_ZERO_MAT) ? skip(f, sizeof *p->mat, n, write, p->mat)
+                                        : io(f, p->mat, sizeof *p->mat, n, write));
+    ok = ok && ((p->zero & KF_ZERO_OBJ) ? skip(f, sizeof *p->obj, n, write, p->obj)
+                                        : io(f, p->obj, sizeof *p->obj, n, write));
     ok = ok && ((p->zero & KF_ZERO_COLOUR) ? skip(f, sizeof *p->colour, n, write, p->colour)
                                            : io(f, p->colour, sizeof *p->colour, n, write));
     return ok && io(f, p->id, sizeof *p->id, n, write);

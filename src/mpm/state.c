@@ -59,6 +59,7 @@ void kf_state_copy(kf_state *dst, const kf_state *src) {
     dst->substep = src->substep;
     dst->next_id = src->next_id;
     dst->tau_valid = src->tau_valid;
+    dst->stress_model = src->stress_model;
     kf_grid_invalidate(&dst->g);
     /* polypic's modes, per id */
     if (src->poly_cap && kf_poly_reserve(dst) == 0) {
@@ -174,13 +175,15 @@ long kf_state_add_particles(kf_state *s, const kf_model *m, size_t n, const doub
         }
         if (ps0 != 0) p->zero &= ~KF_ZERO_PS; /* water's J, snow's Jp: not zero any more */
         if (!(p->zero & KF_ZERO_PS)) p->ps[0][i] = ps0, p->ps[1][i] = 0;
-        p->mat[i] = (uint16_t)material;
-        p->obj[i] = 0;
+        if (material) p->zero &= ~KF_ZERO_MAT; /* a second material (the model's table allows it) */
+        if (!(p->zero & KF_ZERO_MAT)) p->mat[i] = (uint16_t)material;
+        if (!(p->zero & KF_ZERO_OBJ)) p->obj[i] = 0;
         if (!(p->zero & KF_ZERO_COLOUR)) p->colour[i] = 0;
         p->id[i] = s->next_id++;
         /* the stress planes until kf_stress fills them: the first frame's
-         * checkpoint holds them and must not depend on the heap */
-        for (int e = 0; e < 6; e++) p->tau[e][i] = 0;
+         * checkpoint holds them and must not depend on the heap (zero arrays
+         * where the stress is not kept) */
+        for (int e = 0; e < 6 && !(p->zero & KF_ZERO_TAU); e++) p->tau[e][i] = 0;
     }
     p->n += n;
     s->g.valid = 0;
@@ -312,7 +315,15 @@ uint64_t kf_state_hash(const kf_state *s) {
     for (size_t k = 0; k <= maxid; k++) {
         if (where[k] < 0) continue;
         size_t i = (size_t)where[k];
-        for (int f = 0; f < KF_PARTICLE_REAL_PLANES; f++) FNV(&p->plane[f][i], sizeof(kf_real));
+        /* stress not kept: the planes' contents as kf_stress would have left them */
+        kf_real tau[6];
+        const int eval = (p->zero & KF_ZERO_TAU) && s->tau_valid && s->stress_model;
+        if (eval) {
+            kf_real *const out[6] = {&tau[0], &tau[1], &tau[2], &tau[3], &tau[4], &tau[5]};
+            kf_stress_eval(s->stress_model, (kf_particles *)p, i, 1, out);
+        }
+        for (int f = 0; f < KF_PARTICLE_REAL_PLANES; f++)
+            FNV(eval && f >= KF_PLANE_TAU ? &tau[f - KF_PLANE_TAU] : &p->plane[f][i], sizeof(kf_real));
         FNV(&p->mat[i], sizeof p->mat[i]);
         FNV(&p->obj[i], sizeof p->obj[i]);
         FNV(&p->colour[i], sizeof p->colour[i]);

@@ -13,6 +13,9 @@
  * which that substep then uses instead of its own: the same bits either
  * way, one pass over the particles fewer. */
 #include <math.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <omp.h>
 #include <stdio.h>
 #include <string.h>
@@ -43,8 +46,11 @@ static double rigid_max_speed(const kf_model *m, const kf_state *s);
 int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_trouble *trouble) {
     kf_trouble none;
     /* arrays the model writes are not zero arrays (a material or body added
-     * after the state was made) */
-    s->p.zero &= kf_model_zero_arrays(m);
+     * after the state was made); stress planes kept from now on are filled
+     * before the next P2G reads them */
+    const unsigned zero = s->p.zero & kf_state_zero_arrays(m, s);
+    if ((s->p.zero & KF_ZERO_TAU) && !(zero & KF_ZERO_TAU)) s->tau_valid = 0;
+    s->p.zero = zero;
     /* the fastest rigid surface over the substep (start and end), cells: the
      * material it drives moves as fast, and its elastic rebound twice as fast */
     double body_cells = m->nrigid ? rigid_max_speed(m, s) * dt / m->sim.dx : 0;
@@ -320,6 +326,15 @@ static double clamp_dt(const kf_model *m, double dt) {
 
 double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl) { return clamp_dt(m, cfl * unit_cfl_dt(m, s)); }
 
+/* the allocator's free memory handed back to the system (glibc keeps
+ * freed blocks below its mmap threshold, which rises to 32 MB as large
+ * blocks are freed) */
+static void release_heap(void) {
+#ifdef __GLIBC__
+    malloc_trim(0);
+#endif
+}
+
 /* land exactly on the interval end without a sliver of a step: dt with
  * `left` of the interval to go */
 static double landed(double dt, double left) { return dt >= left ? left : dt > 0.5 * left ? 0.5 * left : dt; }
@@ -334,7 +349,7 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
     /* arrays the model never writes that hold only zeros (after a
      * checkpoint load or a caller's view) go back to untouched pages; out of
      * memory here only leaves them as they are */
-    kf_particles_zero(&s->p, kf_model_zero_arrays(m) & ~s->p.zero);
+    kf_particles_zero(&s->p, kf_state_zero_arrays(m, s) & ~s->p.zero);
     if (kf_snapshot_save(s)) {
         if (msg) snprintf(msg, msglen, "out of memory saving the interval start");
         return 1;
@@ -372,6 +387,10 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
                 ok = 0;
                 break;
             }
+            /* scratch freed by the interval's first substep (a static body's
+             * distance store is built once, at its first splat) goes back to
+             * the system, not kept by the allocator beside the grid */
+            if (t == 0) release_heap();
             t += dt;
             if (st && dt / unit > st->max_cfl) st->max_cfl = dt / unit; /* CFL number used */
         }

@@ -98,6 +98,10 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
     if (fields) memset(fcache, 0, sizeof(kf_v4) * KF_CONTACT_CACHE_ROWS * CD * CD * CD);
     /* the base offsets the block's particles use: only their nodes are flushed */
     int lo[3] = {CD, CD, CD}, hi[3] = {0, 0, 0};
+    /* the stress not kept (KF_ZERO_TAU): each chunk's evaluated from F here */
+    const int eval = (p->zero & KF_ZERO_TAU) != 0;
+    kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
+    kf_real *const tout[6] = {tbuf[0], tbuf[1], tbuf[2], tbuf[3], tbuf[4], tbuf[5]};
 
     for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
         size_t left = g->pstart[r + 1] - i0;
@@ -107,7 +111,7 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
         prefetch_planes(p->x, 3, i0, 0);
         prefetch_planes(p->v, 3, i0, 0);
         prefetch_planes(p->C, 9, i0, 0);
-        prefetch_planes(p->tau, 6, i0, 0);
+        if (!eval) prefetch_planes(p->tau, 6, i0, 0);
         prefetch_planes(&p->mass, 1, i0, 0);
         prefetch_planes(&p->vol0, 1, i0, 0);
         stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
@@ -126,8 +130,11 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
         const kf_real *restrict mass = p->mass + i0, *restrict vol = p->vol0 + i0;
         int bad = 0;
         static const int sym[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ij in the xx yy zz xy xz yz planes */
+        const kf_real *tc[6];
+        if (eval) kf_stress_eval(m, p, i0, n, tout);
+        for (int k = 0; k < 6; k++) tc[k] = eval ? tbuf[k] : p->tau[k] + i0;
         for (int k = 0; k < 9; k++) {
-            const kf_real *restrict C = p->C[k] + i0, *restrict tau = p->tau[sym[k]] + i0;
+            const kf_real *restrict C = p->C[k] + i0, *restrict tau = tc[sym[k]];
             for (int j = 0; j < n; j++) {
                 kf_real mc = apic ? mass[j] * C[j] : 0;
                 kf_real st = -dt * vol[j] * tau[j];
@@ -151,9 +158,8 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
             /* catch non-finite state where it starts, before P2G spreads it */
             for (int j = 0; j < n; j++)
                 for (int k = 0; k < 6; k++)
-                    if (!(kf_fabs(p->tau[k][i0 + (size_t)j]) < (kf_real)1e30))
-                        note_trouble(acc, p, i0 + (size_t)j, "NaN or Inf stress", (double)p->tau[k][i0 + (size_t)j],
-                                     s->substep);
+                    if (!(kf_fabs(tc[k][j]) < (kf_real)1e30))
+                        note_trouble(acc, p, i0 + (size_t)j, "NaN or Inf stress", (double)tc[k][j], s->substep);
         }
 
         /* near a rigid surface: compatible nodes only, impulses on the bodies */
@@ -377,6 +383,9 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     kf_real max_v2 = 0;
+    /* near a rigid surface with the stress not kept: a chunk's, evaluated */
+    kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
+    kf_real *const tout[6] = {tbuf[0], tbuf[1], tbuf[2], tbuf[3], tbuf[4], tbuf[5]};
 
     /* gather the neighbourhood's velocities */
     const int32_t *nb = g->nb[r];
@@ -409,8 +418,13 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
         stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
 
         /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
-         * near a rigid surface, ghost velocities on incompatible nodes */
-        if (band) kf_cpic_g2p_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
+         * near a rigid surface, ghost velocities on incompatible nodes (CPIC
+         * reads the stress P2G scattered: F's before this chunk updates it) */
+        if (band) {
+            if (p->zero & KF_ZERO_TAU) kf_stress_eval(m, p, i0, n, tout);
+            for (int k = 0; k < 6; k++) ck->tau[k] = (p->zero & KF_ZERO_TAU) ? tbuf[k] : p->tau[k] + i0;
+            kf_cpic_g2p_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
+        }
         for (int j = 0; j < (band ? 0 : n); j++) gather_one(KW, CLASSIC, ck, j, cache);
         /* where objects meet: each particle's own field's velocity */
         if (fields) kf_contact_g2p_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
@@ -642,8 +656,30 @@ long kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2]
     return limited;
 }
 
+void kf_stress_eval(const kf_model *m, kf_particles *p, size_t first, int n, kf_real *const out[6]) {
+    kf_mat limited_mat[KF_MAX_MATERIALS];
+    const kf_mat *mats = stress_mats(m, limited_mat);
+    for (int j = 0; j < n;) {
+        uint16_t mt = p->mat[first + (size_t)j];
+        int e = j + 1;
+        while (e < n && p->mat[first + (size_t)e] == mt) e++;
+        kf_real *o[6];
+        for (int k = 0; k < 6; k++) o[k] = out[k] + j;
+        kf_mat_update_batch(&mats[mt], e - j, p->F, p->ps, 0, first + (size_t)j, o);
+        j = e;
+    }
+}
+
 void kf_stress(const kf_model *m, kf_state *s, int project) {
     kf_particles *p = &s->p;
+    s->stress_model = m;
+    /* not kept: the transfers evaluate it (no return mapping to make: every
+     * material is corotated, at its own stiffness) */
+    if (p->zero & KF_ZERO_TAU) {
+        s->stiff_limited = 0;
+        s->tau_valid = 1;
+        return;
+    }
     /* across ranks: the batches of 64 fall where they fall in the one-rank array */
     if (s->dist) s->stiff_limited = kf_dist_stress(m, s, project);
     else s->stiff_limited = kf_stress_span(m, p->F, p->ps, p->mat, p->tau, p->n, project);
@@ -721,6 +757,8 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
     }
     kf_mat mat_buf[KF_MAX_MATERIALS];
     const kf_mat *mats = stress_mats(m, mat_buf);
+    /* the stress kept in the planes, or (KF_ZERO_TAU) evaluated by the next P2G */
+    const int keep = !(p->zero & KF_ZERO_TAU);
     step_acc total = {0};
     long limited = 0;
     int usable = scatter, give_up = 0, reach = 1;
@@ -744,7 +782,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
                 for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
                     size_t r = (size_t)g->owner[k];
                     gfn(m, s, r, dt, cache, NULL, &ck, &acc);
-                    limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
+                    if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
                     in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
                     int stop;
 #pragma omp atomic read
@@ -766,7 +804,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
 #pragma omp for schedule(dynamic, 4)
             for (size_t r = 0; r < nowner; r++) {
                 gfn(m, s, r, dt, cache, NULL, &ck, &acc);
-                limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
+                if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
                 in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
             }
         }
@@ -781,6 +819,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
     }
     s->stiff_limited = limited;
     s->tau_valid = 1;
+    s->stress_model = m;
     out->trouble = total.trouble;
     out->max_cells = total.max_cells;
     if (total.trouble.found) return 0;

@@ -30,6 +30,7 @@ typedef struct chunk {
     kf_real v[3][KF_CHUNK];     /* G2P: Σ w v_i */
     kf_real b[9][KF_CHUNK];     /* G2P: Σ w v_i dᵀ */
     kf_real g[9][KF_CHUNK];     /* G2P classic: Σ v_i ∇wᵀ (grid units) */
+    const kf_real *tau[6];      /* G2P near a rigid surface: the chunk's stress τ (xx yy zz xy xz yz), from 0 */
 } chunk;
 
 /* ---- kernels ----------------------------------------------------------------

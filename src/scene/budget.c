@@ -100,7 +100,8 @@ int kf_budget_estimate(const kf_shot *shot, kf_budget *b, char *err, size_t errl
      * scratch, CPIC's), the grid blocks they fill (twice the full ones:
      * partial blocks at the surface), and the seeding buffers of the largest
      * object */
-    double per = kf_particle_bytes_running(shot->nrigids > 0, 1); /* ps counted: the model is not compiled yet */
+    double per =
+        kf_particle_bytes_running(shot->nrigids > 0, 0); /* every array counted: the model is not compiled yet */
     double blocks = 2 * b->particles / (KF_BLOCK_NODES * (double)shot->ppc);
     b->bytes = per * b->particles + blocks * KF_BLOCK_NODES * 4 * sizeof(kf_v4) + largest;
     b->memory = machine_memory();

@@ -8,6 +8,7 @@
 #include "../core/fnv.h"
 #include "../core/timer.h"
 #include "../dist/dist.h"
+#include "../mpm/model.h"
 #include "build_rigid.h"
 #include "mesh_isect.h"
 #include "mesh_sdf.h"
@@ -123,10 +124,42 @@ static int part_keep(void *ctx, const double x[3]) {
     return 1;
 }
 
+/* Where one rank holds the whole scene, an object's points go into the
+ * state as the sampler makes them, a chunk at a time (the same order, ids
+ * and values as all at once), so its candidates in doubles (24 bytes a
+ * particle, 48 with velocities) never sit beside the whole state. */
+typedef struct state_sink {
+    kf_scene *sc;
+    const kf_shot_object *o;
+    const kf_sim_def *sd;
+    size_t outside; /* particles outside the domain */
+    int reserved;
+} state_sink;
+
+static int state_emit(void *ctx, const double *x, const double *v, size_t n, double volume, size_t most) {
+    state_sink *t = ctx;
+    /* room for the whole shape at once: untouched beyond what is written */
+    if (!t->reserved && kf_particles_reserve(&t->sc->state->p, t->sc->state->p.n + most)) return -1;
+    t->reserved = 1;
+    const double *lo = t->sd->domain_min, *hi = t->sd->domain_max;
+    for (size_t k = 0; k < n; k++) {
+        int in = 1;
+        for (int a = 0; a < 3; a++) in &= x[3 * k + a] >= lo[a] && x[3 * k + a] <= hi[a];
+        t->outside += !in;
+    }
+    long first = kf_state_add_particles(t->sc->state, t->sc->model, n, x, v, NULL, t->o->material, volume);
+    if (first < 0) return -1;
+    /* the object each particle belongs to (see add_object) */
+    kf_particles *p = &t->sc->state->p;
+    if (t->o->field) p->zero &= ~KF_ZERO_OBJ;
+    for (size_t k = 0; k < n && !(p->zero & KF_ZERO_OBJ); k++) p->obj[(size_t)first + k] = (uint16_t)t->o->field;
+    return 0;
+}
+
 /* object i sampled (build.h's lattice, so the same on every call); with
- * ps, through it */
-static int sample_object(const kf_shot *shot, int i, const kf_sim_def *sd, part_sink *ps, kf_points *pts, char *err,
-                         size_t n) {
+ * ps, through it; with ss, straight into the state */
+static int sample_object(const kf_shot *shot, int i, const kf_sim_def *sd, part_sink *ps, state_sink *ss,
+                         kf_points *pts, char *err, size_t n) {
     const kf_shot_object *o = &shot->objects[i];
     kf_sample_def d = kf_default_sample_def();
     d.kind = o->shape;
@@ -142,6 +175,7 @@ static int sample_object(const kf_shot *shot, int i, const kf_sim_def *sd, part_
     memcpy(d.angular_velocity, o->angular_velocity, sizeof d.angular_velocity);
     d.threads = sd->threads;
     if (ps) d.keep = part_keep, d.keep_ctx = ps;
+    if (ss && !ps && kf_sample_can_emit(&d)) d.emit = state_emit, d.emit_ctx = ss;
     int rc = kf_sample_shape(&d, pts, err, n);
     if (rc == 0 && ps && ps->failed) {
         kf_points_free(pts);
@@ -159,10 +193,14 @@ static int add_object(kf_scene *sc, const kf_shot_object *o, const kf_points *pt
     long first = kf_state_add_particles(sc->state, sc->model, pts->n, pts->x, pts->v, NULL, o->material, pts->volume);
     if (first < 0) return -1;
     /* remember the object each particle belongs to (contact, surface.group:
-     * object): its own, or the one it is bonded to */
-    kf_particles_view view = kf_state_particles(sc->state);
-    for (size_t k = 0; k < pts->n; k++) view.obj[(size_t)first + k] = (uint16_t)o->field;
-    for (size_t k = 0; k < pts->n && index; k++) view.id[(size_t)first + k] = base + index[k];
+     * object): its own, or the one it is bonded to. Written in place, not
+     * through a writable view, which would make every array the model never
+     * writes (model.h: kf_model_zero_arrays) a plain one until the first
+     * interval, so a binning before it would touch their pages */
+    kf_particles *p = &sc->state->p;
+    if (o->field) p->zero &= ~KF_ZERO_OBJ; /* obj holds zeros until here */
+    for (size_t k = 0; k < pts->n && !(p->zero & KF_ZERO_OBJ); k++) p->obj[(size_t)first + k] = (uint16_t)o->field;
+    for (size_t k = 0; k < pts->n && index; k++) p->id[(size_t)first + k] = base + index[k];
     return 0;
 }
 
@@ -248,14 +286,20 @@ int kf_scene_from_shot_part(const kf_shot *shot, int threads, int part, kf_scene
             const kf_shot_object *o = &shot->objects[i];
             kf_points pts;
             part_sink ps = {seed, pass, &sd, 0, 0, NULL, 0, 0, 0};
-            if (sample_object(shot, i, &sd, seed ? &ps : NULL, &pts, err, sizeof err)) {
+            state_sink ss = {sc, o, &sd, 0, 0};
+            if (sample_object(shot, i, &sd, seed ? &ps : NULL, &ss, &pts, err, sizeof err)) {
                 kf_shot_report(diag, o->shape == KF_SOURCE_MESH ? &o->mesh_at : &o->at, KF_DIAG_ERROR,
                                "object '%s': %s", o->name, err);
                 bad = 1;
                 free(ps.index);
                 continue;
             }
-            if (report && check_in_domain(o, &sd, &pts, seed ? ps.outside : count_outside(&sd, &pts), diag)) {
+            const int emitted = pts.n && !pts.x; /* in the state already */
+            if (report && check_in_domain(o, &sd, &pts,
+                                          seed      ? ps.outside
+                                          : emitted ? ss.outside
+                                                    : count_outside(&sd, &pts),
+                                          diag)) {
                 bad = 1;
                 kf_points_free(&pts);
                 continue;
@@ -264,7 +308,7 @@ int kf_scene_from_shot_part(const kf_shot *shot, int threads, int part, kf_scene
             if (pts.whole == 0 && report)
                 kf_shot_report(diag, &o->at, KF_DIAG_WARNING,
                                "object '%s' holds no particles at dx %g (thinner than the lattice)", o->name, sd.dx);
-            else if (pass == 1 && add_object(sc, o, &pts, ps.index, base)) {
+            else if (pass == 1 && !emitted && add_object(sc, o, &pts, ps.index, base)) {
                 kf_shot_report(diag, &o->at, KF_DIAG_ERROR, "object '%s': out of memory for %zu particles", o->name,
                                pts.n);
                 bad = 1;

@@ -92,6 +92,8 @@ static int check_def(const kf_sample_def *d, char *err, size_t errlen) {
         if (!isfinite(d->velocity[k]) || !isfinite(d->angular_velocity[k]))
             problem(&p, "velocity and angular_velocity must be finite");
     }
+    if (d->emit && !kf_sample_can_emit(d))
+        problem(&p, "points can be handed over as they come only without angular velocity and without -0 in velocity");
     if (d->place.fit && !(d->place.fit_size > 0 && isfinite(d->place.fit_size)))
         problem(&p, "fit size must be > 0 (got %g)", d->place.fit_size);
     if (d->place.fit)
@@ -284,13 +286,35 @@ static int push(growing *g, const double q[3]) {
 }
 
 /* where the points inside go: kept (all, or those def.keep says), and
- * summed for the centroid, all of them in output order */
+ * summed for the centroid, all of them in output order; with emit, handed
+ * over a chunk at a time (out then holds one chunk) */
 typedef struct sink {
     int (*keep)(void *ctx, const double x[3]);
     void *ctx;
     double sum[3];
     size_t whole;
+    int (*emit)(void *ctx, const double *x, const double *v, size_t n, double volume, size_t most);
+    void *emit_ctx;
+    const double *v; /* a chunk of v0 (NULL at rest) */
+    double volume;
+    size_t most;
+    size_t emitted;
 } sink;
+
+/* the chunk in out to emit, and out emptied */
+static int flush(sink *to, growing *out) {
+    if (!to->emit || !out->n) return 0;
+    if (to->emit(to->emit_ctx, out->x, to->v, out->n, to->volume, to->most)) return -1;
+    to->emitted += out->n;
+    out->n = 0;
+    return 0;
+}
+
+int kf_sample_can_emit(const kf_sample_def *def) {
+    for (int a = 0; a < 3; a++)
+        if (def->angular_velocity[a] != 0 || (def->velocity[a] == 0 && signbit(def->velocity[a]))) return 0;
+    return 1;
+}
 
 static int seed_lattice(const lattice *L, const shape_ctx *S, const uint8_t *mark, int threads, growing *out, sink *to,
                         kf_sample_stats *st) {
@@ -362,10 +386,12 @@ static int seed_lattice(const lattice *L, const shape_ctx *S, const uint8_t *mar
                 for (int a = 0; a < 3; a++) to->sum[a] += q[a];
                 to->whole++;
                 if ((!to->keep || to->keep(to->ctx, q)) && push(out, q)) return free(flags), -1;
+                if (to->emit && out->n == KF_SAMPLE_EMIT_CHUNK && flush(to, out)) return free(flags), -1;
             }
         }
     }
     free(flags);
+    if (flush(to, out)) return -1;
     st->tested = tested;
     st->inside.points = tested;
     st->inside.rays = rays;
@@ -453,22 +479,48 @@ int kf_sample_shape(const kf_sample_def *def, kf_points *out, char *err, size_t 
         rc = -1;
         goto done;
     }
-    sink to = {def->keep, def->keep_ctx, {0, 0, 0}, 0};
+    sink to = {def->keep, def->keep_ctx, {0, 0, 0}, 0, def->emit, def->emit_ctx, NULL, 0, 0, 0};
+    to.volume = def->dx * def->dx * def->dx / (n * n * n);
+    to.most = (size_t)total;
+    /* emitting: a chunk of velocities, all v0 (none at rest) */
+    const double *v0 = def->velocity, *w = def->angular_velocity;
+    int still = 1;
+    for (int a = 0; a < 3; a++) still &= !signbit(v0[a]) && v0[a] == 0 && !signbit(w[a]) && w[a] == 0;
+    double *vchunk = NULL;
+    if (def->emit && !still) {
+        if (!(vchunk = malloc(KF_SAMPLE_EMIT_CHUNK * 3 * sizeof *vchunk))) {
+            snprintf(err, errlen, "sample: out of memory");
+            rc = -1;
+            goto done;
+        }
+        for (size_t k = 0; k < KF_SAMPLE_EMIT_CHUNK; k++) memcpy(&vchunk[3 * k], v0, 3 * sizeof *v0);
+        to.v = vchunk;
+    }
     if (seed_lattice(&L, &S, mark, def->threads, &g, &to, &out->stats)) {
-        snprintf(err, errlen, "sample: out of memory (%zu particles so far)", g.n);
+        free(vchunk);
+        snprintf(err, errlen, "sample: out of memory (%zu particles so far)", to.emitted + g.n);
         rc = -1;
         goto done;
     }
+    free(vchunk);
 
     /* velocities: v0 + ω × (x − centroid); a shape at rest (all +0) gets
      * none: every one would be +0, and the array was a sixth of a large
      * scene's seeding peak */
+    if (def->emit) {
+        /* handed over already */
+        out->n = to.emitted;
+        out->whole = to.whole;
+        memcpy(out->lo, lo, sizeof out->lo);
+        memcpy(out->hi, hi, sizeof out->hi);
+        for (int a = 0; a < 3; a++) out->centroid[a] = to.whole ? to.sum[a] / (double)to.whole : 0.5 * (lo[a] + hi[a]);
+        out->volume = to.volume;
+        out->stats.seconds = omp_get_wtime() - t_start;
+        goto done;
+    }
     out->n = g.n;
     out->x = g.x ? g.x : malloc(3 * sizeof *out->x);
     g.x = NULL;
-    const double *v0 = def->velocity, *w = def->angular_velocity;
-    int still = 1;
-    for (int a = 0; a < 3; a++) still &= !signbit(v0[a]) && v0[a] == 0 && !signbit(w[a]) && w[a] == 0;
     out->v = still ? NULL : malloc((out->n ? out->n : 1) * 3 * sizeof *out->v);
     if (!out->x || (!still && !out->v)) {
         kf_points_free(out);

@@ -45,7 +45,25 @@ typedef struct kf_sample_def {
      * velocities are those of the whole shape; n counts the kept points. */
     int (*keep)(void *ctx, const double x[3]);
     void *keep_ctx;
+    /* Hand the kept points here instead of keeping them in kf_points.x
+     * (NULL: kept): called from one thread, in the output order, up to
+     * KF_SAMPLE_EMIT_CHUNK at a time, with their velocities (NULL for a
+     * shape at rest), each particle's volume (kf_points.volume) and the
+     * most points the shape can have (its candidates: room for them once
+     * costs only address space, growing by doubling would copy), so a large shape never sits in doubles beside the
+     * particles made from it. Only without angular_velocity (each velocity is
+     * then v0, bit for bit, whatever the centroid) and without a -0 in
+     * velocity; kf_sample_shape refuses it otherwise. kf_points.x stays NULL
+     * and n counts the points handed over. Return 0, or -1 to stop (out of
+     * memory: kf_sample_shape then fails). */
+    int (*emit)(void *ctx, const double *x, const double *v, size_t n, double volume, size_t most);
+    void *emit_ctx;
 } kf_sample_def;
+
+#define KF_SAMPLE_EMIT_CHUNK 65536
+
+/* whether def's velocities allow emit (see above) */
+int kf_sample_can_emit(const kf_sample_def *def);
 
 /* Zero everything, ppc = 8, scale = 1. */
 kf_sample_def kf_default_sample_def(void);
