@@ -144,7 +144,8 @@ static inline double kf_memory_estimate(const kf_model *m, const kf_state *s, lo
     const size_t n = s->p.n;
     /* rigid bodies' surface seeds: position 12 + triangle 4 each (rigid.h),
      * and CPIC's splat scratch for the largest body's: world position 24,
-     * bin 4, order 4 (cpic.h) */
+     * bin 4, order 4 (cpic.h), freed after the splat (the heap is trimmed
+     * after an interval's first substep: step.c) */
     double seeds = 0, most = 0;
     for (int r = 0; r < m->nrigid; r++) {
         seeds += (double)m->rigid[r].nseed;
@@ -152,8 +153,11 @@ static inline double kf_memory_estimate(const kf_model *m, const kf_state *s, lo
     }
     /* the arrays that stay untouched zeros once the shot runs (kf_advance) */
     const unsigned zero = kf_state_zero_arrays(m, s) & (s->p.zero | ~(KF_ZERO_OBJ | KF_ZERO_MAT));
-    return kf_particle_bytes_running(m->nrigid > 0, zero) * (double)n +
-           (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + seeds * 16 + most * 32 + program;
+    /* the binning's scratch and the splat's are not resident together (the
+     * binning hands its pages back before the splat): the larger counts */
+    const double bin = kf_particle_bytes_binning() * (double)n, splat = most * 32;
+    return (kf_particle_bytes_running(m->nrigid > 0, zero) - kf_particle_bytes_binning()) * (double)n +
+           (bin > splat ? bin : splat) + (double)blocks * kf_grid_bytes_per_block(m->nrigid > 0) + seeds * 16 + program;
 }
 
 /* The recovery path's test hook (kf_model.fault_substep): set after

@@ -81,7 +81,8 @@ static inline size_t kf_particles_permute_bytes(size_t n) { return n * (sizeof(k
  *                mat 2 with one material, obj 2 with one object and no
  *                pieces, colour 4 without rigid bodies (KF_ZERO_*: zero
  *                the arrays that are untouched zeros)
- *   binning      dest 4, one shared permutation plane 4                8
+ *   binning      dest 4, one shared permutation plane 4, while it      8
+ *                bins (its pages go back after: kf_grid_bin)
  *   CPIC         with rigid bodies: distance 4, normal 12, flag 1     17
  * kf_advance's interval start lives in a temporary file (snapshot.c), not
  * here; grid nodes come on top (kf_grid_bytes_per_block). */
@@ -95,6 +96,11 @@ static inline double kf_particle_bytes_running(int rigid_bodies, unsigned zero) 
     if (rigid_bodies && !(zero & KF_ZERO_COLOUR)) state += sizeof *p.colour;
     double bin = sizeof(uint32_t) + (double)kf_particles_permute_bytes(1);
     return state + bin + (rigid_bodies ? 4 + 12 + 1 : 0);
+}
+
+/* the binning's share of kf_particle_bytes_running (resident only while it bins) */
+static inline double kf_particle_bytes_binning(void) {
+    return sizeof(uint32_t) + (double)kf_particles_permute_bytes(1);
 }
 
 void kf_particles_free(kf_particles *p);
