@@ -9,7 +9,7 @@
  * flattening; seeds 1-3, spacing h = 1 cm): top RMS 0.037-0.046 h, edge
  * radius 0.86-0.94 h, volume -0.4 to -0.5 %, no holes
  * (tools/evidence/surface_look.md). All four are held to the targets:
- * 0.05 h, 1 h, 2 %, none. */
+ * 0.05 h, 1 h, 2 %, none. A jittered ball keeps its volume too. */
 #include "kt.h"
 #include "mesh_util.h"
 #include "shot/diag.h"
@@ -68,7 +68,35 @@ static void resting_block(void) {
     }
 }
 
+/* A jittered ball of 8 spacings keeps its volume: a filter that flattens by
+ * curvature flow would shrink it (the voxel's own tangent plane alone: -5 %). */
+static void ball_volume(void) {
+    const double h = 0.01, c[3] = {0.5, 0.5, 0.5}, rad = 8 * h;
+    look_settings s = defaults();
+    for (uint32_t seed = 1; seed <= 2; seed++) {
+        kf_points pts;
+        if (look_seed_ball(c, rad, h, seed, &pts)) {
+            KT_CHECK(0, "seeding failed");
+            return;
+        }
+        kf_vdb_surface_params p;
+        look_params(&p, h, s);
+        kf_vdb_grid *g = NULL;
+        char err[512] = "";
+        KT_CHECK(kf_vdb_levelset_from_particles(pts.n, pts.x, NULL, NULL, NULL, &p, &g, NULL, err, sizeof err) == 0,
+                 "%s", err);
+        if (g) {
+            const double e = look_volume_error(g, 4.0 / 3.0 * 3.14159265358979323846 * rad * rad * rad);
+            printf("  ball seed %u: volume %+.4f\n", seed, e);
+            KT_NEAR(e, 0, 0.03, "a ball of 8 spacings within 3 percent of its volume (measured +1.7 to +1.9 percent)");
+        }
+        kf_vdb_free(g);
+        kf_points_free(&pts);
+    }
+}
+
 int main(int argc, char **argv) {
     KT_RUN(resting_block, argc, argv);
+    KT_RUN(ball_volume, argc, argv);
     return KT_EXIT();
 }
