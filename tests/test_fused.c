@@ -17,6 +17,7 @@
 
 #include "cpic/cpic.h"
 #include "kt.h"
+#include "mpm/contact.h"
 #include "mpm/model.h"
 
 typedef struct variant {
@@ -26,7 +27,8 @@ typedef struct variant {
     kf_transfer transfer;
     double dt_fixed, dt_max; /* 0: the CFL rule alone */
     int threads;
-    int bodies; /* a blade cutting down through the blocks and a falling plate */
+    int bodies;  /* a blade cutting down through the blocks and a falling plate */
+    int contact; /* each block its own object, in contact with the others (sim.contact) */
 } variant;
 
 enum { FRAMES = 2 };
@@ -88,6 +90,7 @@ static run run_scene(const variant *v, int unfused) {
     sd.dt_fixed = v->dt_fixed;
     sd.dt_max = v->dt_max;
     sd.threads = v->threads;
+    sd.contact = v->contact;
     sd.walls = 1;
     sd.wall_boundary = KF_BOUNDARY_SEPARATE;
     sd.wall_friction = 0.3;
@@ -110,8 +113,13 @@ static run run_scene(const variant *v, int unfused) {
         double vel[3] = {0.2 * (k - 1.5), -1.5, 0.1}; /* over a cell a frame: re-sorts */
         kf_state_fill_box(s, m, lo, hi, id, vel, 2, 7u + (uint32_t)k);
     }
+    if (v->contact) {
+        kf_particles_view p = kf_state_particles(s);
+        for (size_t i = 0; i < p.n; i++) p.obj[i] = p.mat[i];
+    }
     kf_step_stats st = {0};
     char msg[512];
+    int fields = 0;
     r.ok = 1;
     for (int f = 0; f < FRAMES && r.ok; f++) {
         if (kf_advance(m, s, 1.0 / 60, &st, msg, sizeof msg)) {
@@ -119,7 +127,9 @@ static run run_scene(const variant *v, int unfused) {
             r.ok = 0;
         }
         r.hash[f] = kf_state_hash(s);
+        fields |= s->contact && s->contact->active;
     }
+    KT_CHECK(!v->contact || fields, "%s: objects met in contact fields", v->name);
     /* the bodies met the material: each took impulses from it */
     for (int b = 0; b < (v->bodies ? 2 : 0); b++) {
         const double *J = s->cpic->impulse_total[b];
@@ -159,11 +169,11 @@ static void compare(const variant *v, int expect_fused) {
 
 static void fixed_step(void) {
     const variant vs[] = {
-        {"quadratic MLS APIC, 2 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 0},
-        {"quadratic MLS APIC, 1 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 1, 0},
-        {"cubic MLS APIC", KF_KERNEL_CUBIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 0},
-        {"quadratic classic APIC", KF_KERNEL_QUADRATIC, KF_FORCE_CLASSIC, KF_TRANSFER_APIC, 2e-4, 0, 2, 0},
-        {"quadratic MLS PIC", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_PIC, 2e-4, 0, 2, 0},
+        {"quadratic MLS APIC, 2 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 0, 0},
+        {"quadratic MLS APIC, 1 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 1, 0, 0},
+        {"cubic MLS APIC", KF_KERNEL_CUBIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 0, 0},
+        {"quadratic classic APIC", KF_KERNEL_QUADRATIC, KF_FORCE_CLASSIC, KF_TRANSFER_APIC, 2e-4, 0, 2, 0, 0},
+        {"quadratic MLS PIC", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_PIC, 2e-4, 0, 2, 0, 0},
     };
     /* cubic: binning leaves a falling particle no room below its owner
      * (base offsets 0..3 after a sort, 0..4 allowed), so every substep
@@ -173,24 +183,28 @@ static void fixed_step(void) {
 
 /* the CFL rule under a dt_max that holds: the clamp is guessed to hold again */
 static void clamped_step(void) {
-    const variant v = {"CFL under dt_max", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 0, 2e-4, 2, 0};
+    const variant v = {"CFL under dt_max", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 0, 2e-4, 2, 0, 0};
     compare(&v, 1);
 }
 
 /* the CFL rule alone: G2P and stress fused, P2G separate */
 static void cfl_step(void) {
-    const variant v = {"CFL rule", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 0, 0, 2, 0};
+    const variant v = {"CFL rule", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 0, 0, 2, 0, 0};
     compare(&v, 0);
 }
 
-/* rigid bodies: G2P and stress share the sweep (with the CPIC band's
- * transfers, penalty and guard in it) but the next P2G waits for the next
- * substep's colored distance field, so nothing is scattered early */
+/* rigid bodies and contact fields: G2P and stress share the sweep (with
+ * the CPIC band's transfers, penalty and guard, and the fields' gather, in
+ * it) but the next P2G waits for the next substep's colored distance field
+ * and fields, so nothing is scattered early */
 static void with_bodies(void) {
     const variant vs[] = {
-        {"bodies, fixed step, 2 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 1},
-        {"bodies, fixed step, 1 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 1, 1},
-        {"bodies, classic, CFL rule", KF_KERNEL_QUADRATIC, KF_FORCE_CLASSIC, KF_TRANSFER_APIC, 0, 0, 2, 1},
+        {"bodies, fixed step, 2 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 1, 0},
+        {"bodies, fixed step, 1 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 1, 1, 0},
+        {"bodies, classic, CFL rule", KF_KERNEL_QUADRATIC, KF_FORCE_CLASSIC, KF_TRANSFER_APIC, 0, 0, 2, 1, 0},
+        {"bodies, contact, 2 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 1, 1},
+        {"bodies, contact, 1 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 1, 1, 1},
+        {"contact, no bodies, CFL rule", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 0, 0, 2, 0, 1},
     };
     for (size_t k = 0; k < sizeof vs / sizeof vs[0]; k++) compare(&vs[k], 0);
 }

@@ -218,9 +218,10 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 /* The fused substep end (transfer.c): G2P, the stress pass and the next
  * substep's P2G in one sweep over the owner blocks, the P2G at the next
  * substep's Δt announced by the caller (next_dt), into grid.node_next. It
- * applies to the explicit integrator on one rank without contact fields,
- * FLIP or the testing fault (kf_fuse_applies; with rigid bodies, G2P and
- * stress only, since the next P2G needs the next substep's CDF): each node
+ * applies to the explicit integrator on one rank without FLIP or the
+ * testing fault (kf_fuse_applies; with rigid bodies or contact fields, G2P
+ * and stress only, since the next P2G needs the next substep's CDF and
+ * fields): each node
  * then sums the same terms in the same order as the unfused P2G, so the
  * next substep is the same bit for bit whichever path made its grid.
  * Returns KF_FUSED_REACH when every particle's stencil still fits its

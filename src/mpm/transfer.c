@@ -697,8 +697,8 @@ void kf_stress(const kf_model *m, kf_state *s, int project) {
  * same colour order, so the results are the unfused ones bit for bit. */
 
 int kf_fuse_applies(const kf_model *m, const kf_state *s) {
-    return m->sim.integrator == KF_INTEGRATOR_EXPLICIT && !s->dist && !m->sim.contact &&
-           m->sim.transfer != KF_TRANSFER_FLIP && m->fault_substep <= 0 && !m->unfused;
+    return m->sim.integrator == KF_INTEGRATOR_EXPLICIT && !s->dist && m->sim.transfer != KF_TRANSFER_FLIP &&
+           m->fault_substep <= 0 && !m->unfused;
 }
 
 /* the return mapping and stress of one owner's particles, in runs of one material */
@@ -743,10 +743,11 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
     kf_grid *g = &s->g;
     kf_particles *p = &s->p;
     const int KW = m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3;
-    /* with rigid bodies, the next substep's P2G reads the next substep's
-     * colored distance field (its poses, its band), not made yet: G2P and
+    /* with rigid bodies or contact fields, the next substep's P2G reads
+     * what the next substep makes first (the colored distance field of its
+     * poses, the owners where fields meet, the cut's pieces): G2P and
      * stress only, and the reach test that spares the next binning */
-    int scatter = next_dt > 0 && !m->nrigid;
+    int scatter = next_dt > 0 && !m->nrigid && !m->sim.contact;
     /* the next substep's nodes: the same blocks as now (a scatter is usable
      * only if binning will keep every particle where it is) */
     if (scatter && g->node_next_cap < g->nblocks) {
