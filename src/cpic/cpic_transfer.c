@@ -654,9 +654,10 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
 void kf_cpic_finish(const kf_model *m, kf_state *s, double dt) {
     kf_cpic *c = s->cpic;
     if (s->dist) {
-        /* across ranks: every rank's band owners, summed in the one-rank order */
-        kf_dist_rigid_sum(s, m->nrigid, c->nslot, &c->imp[0][0][0], KF_MAX_RIGIDS * 6, c->guard_caught, c->guard_depth,
-                          &c->impulse[0][0], &c->caught, &c->caught_depth);
+        /* across ranks: every rank's band owners, summed in the one-rank order
+         * (a rank without band owners may have no impulse rows at all) */
+        kf_dist_rigid_sum(s, m->nrigid, c->nslot, c->nslot ? &c->imp[0][0][0] : NULL, KF_MAX_RIGIDS * 6,
+                          c->guard_caught, c->guard_depth, &c->impulse[0][0], &c->caught, &c->caught_depth);
         for (int r = 0; r < m->nrigid; r++)
             for (int e = 0; e < 6; e++) c->impulse_total[r][e] += c->impulse[r][e];
         kf_rigid_sim_step(s->rsim, m->rigid, m->nrigid, s->rigid, s->time, dt, (const double(*)[6])c->impulse);
