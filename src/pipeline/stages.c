@@ -19,6 +19,7 @@
 #include "render.h"
 #include "exr_frame.h"
 #include "rigid_draw.h"
+#include "surface_keep.h"
 
 int kf_frame_paths_make(const kf_shot *shot, const char *out, int frame, kf_frame_paths *fp) {
     char name[1024];
@@ -193,6 +194,12 @@ int kf_pipeline_surface(const kf_shot *shot, const kf_scene *sc, const kf_frame_
         goto done;
     }
     rc = kf_vdb_write(fp->surface, grids, ngrids, &meta, err, errlen);
+    /* the render that usually follows meshes these grids instead of reading the file back */
+    if (rc == 0) {
+        kf_surface_keep(fp->surface, grids, ngrids);
+        memset(grids, 0, sizeof grids);
+        ngrids = 0;
+    }
 done:
     for (int g = 0; g < ngrids; g++) kf_vdb_free(grids[g]);
     if (grids[ngrids]) kf_vdb_free(grids[ngrids]); /* a group cut short by an error */
@@ -609,8 +616,9 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
         int group = strncmp(name, "surface_", 8) == 0 || strncmp(name, "surface.", 8) == 0;
         if (strcmp(info.grids[g].cls, "level set") != 0 || (use_groups ? !group : strcmp(name, "surface") != 0))
             continue;
-        kf_vdb_grid *ls;
-        if (kf_vdb_read_levelset(vdb, name, &ls, NULL, err, errlen)) goto done;
+        /* the level set this process just wrote to vdb, else the file's */
+        kf_vdb_grid *ls = kf_surface_take(vdb, name);
+        if (!ls && kf_vdb_read_levelset(vdb, name, &ls, NULL, err, errlen)) goto done;
         int mesh_rc = kf_vdb_mesh(ls, 0, 0, &meshes[nm], err, errlen);
         double voxel = kf_vdb_voxel_size(ls);
         kf_vdb_free(ls);
