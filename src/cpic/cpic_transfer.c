@@ -186,6 +186,11 @@ static void contact_point(const uint32_t *col, const float *dist, int q, const i
                           uint32_t cp, const double xi[3], const double com[3], double dx, double out[3]) {
     static const int stride[3] = {NB * NB, NB, 1};
     const uint32_t aff = 1u << (2 * r + 1), side = 1u << (2 * r);
+    /* deeper than a cell, no neighbour along an axis is outside */
+    if (dist[q] > 1) {
+        for (int a = 0; a < 3; a++) out[a] = xi[a];
+        return;
+    }
     for (int a = 0; a < 3; a++) {
         double e[2] = {0.5, 0.5};
         for (int h = 0; h < 2; h++) {
