@@ -66,7 +66,12 @@ inline void sub_box(const openvdb::Coord &lc, int s, float lo[3]) {
 struct cands {
     std::vector<float> x, y, z, nx, ny, nz;
     void gather(const dense_band &b, const samples &S, size_t i, const float lo[3], float r, const float o[3]) {
-        x.clear(), y.clear(), z.clear(), nx.clear(), ny.clear(), nz.clear();
+        // the ranges of samples to copy first (consecutive sub-blocks of a
+        // leaf merged), then one copy into arrays sized once: the same
+        // candidates in the same order as appending them one by one
+        uint32_t rg[2 * 27 * 8];
+        int nr = 0;
+        size_t tot = 0;
         const float r2 = r * r;
         for (int k = 0; k < 27; k++) {
             const int32_t j = b.nbr[27 * i + size_t(k)];
@@ -85,17 +90,23 @@ struct cands {
                     d2 += g * g;
                 }
                 if (d2 >= r2) continue;
-                for (uint32_t m = a0; m < a1; m++) {
-                    x.push_back(S.x[m] - o[0]), y.push_back(S.y[m] - o[1]), z.push_back(S.z[m] - o[2]);
-                    nx.push_back(S.nx[m]), ny.push_back(S.ny[m]), nz.push_back(S.nz[m]);
-                }
+                if (nr > 0 && rg[2 * nr - 1] == a0) rg[2 * nr - 1] = a1;
+                else rg[2 * nr] = a0, rg[2 * nr + 1] = a1, nr++;
+                tot += a1 - a0;
             }
         }
         // padded to whole blocks of LANES with points far away (weight 0)
-        while (x.size() % LANES) {
-            x.push_back(1e17f), y.push_back(1e17f), z.push_back(1e17f);
-            nx.push_back(0.f), ny.push_back(0.f), nz.push_back(0.f);
+        const size_t padded = (tot + LANES - 1) / LANES * LANES;
+        x.resize(padded), y.resize(padded), z.resize(padded), nx.resize(padded), ny.resize(padded), nz.resize(padded);
+        size_t m = 0;
+        for (int q = 0; q < nr; q++) {
+            const uint32_t a0 = rg[2 * q], a1 = rg[2 * q + 1];
+            for (uint32_t a = a0; a < a1; a++, m++) {
+                x[m] = S.x[a] - o[0], y[m] = S.y[a] - o[1], z[m] = S.z[a] - o[2];
+                nx[m] = S.nx[a], ny[m] = S.ny[a], nz[m] = S.nz[a];
+            }
         }
+        for (; m < padded; m++) x[m] = y[m] = z[m] = 1e17f, nx[m] = ny[m] = nz[m] = 0.f;
     }
 };
 
