@@ -67,21 +67,26 @@ static inline void look_params(kf_vdb_surface_params *p, double h, look_settings
     p->clamp_small = 1;
 }
 
-/* jittered particles in the box lo..hi (ppc 8 on a grid of dx = 2 h) */
-static inline int look_seed(const double lo[3], const double hi[3], double h, uint32_t seed, kf_points *pts) {
-    kf_sample_def d = kf_default_sample_def();
-    d.kind = KF_SOURCE_BOX;
-    for (int a = 0; a < 3; a++) d.size[a] = hi[a] - lo[a], d.place.translate[a] = 0.5 * (lo[a] + hi[a]);
-    d.dx = 2 * h;
-    d.ppc = 8;
-    d.seed = seed;
-    d.threads = 1;
+/* jittered particles of shape d (ppc 8 on a grid of dx = 2 h) */
+static inline int look_fill(kf_sample_def *d, double h, uint32_t seed, kf_points *pts) {
+    d->dx = 2 * h;
+    d->ppc = 8;
+    d->seed = seed;
+    d->threads = 1;
     char err[256];
-    if (kf_sample_shape(&d, pts, err, sizeof err)) {
+    if (kf_sample_shape(d, pts, err, sizeof err)) {
         fprintf(stderr, "seed: %s\n", err);
         return -1;
     }
     return 0;
+}
+
+/* jittered particles in the box lo..hi */
+static inline int look_seed(const double lo[3], const double hi[3], double h, uint32_t seed, kf_points *pts) {
+    kf_sample_def d = kf_default_sample_def();
+    d.kind = KF_SOURCE_BOX;
+    for (int a = 0; a < 3; a++) d.size[a] = hi[a] - lo[a], d.place.translate[a] = 0.5 * (lo[a] + hi[a]);
+    return look_fill(&d, h, seed, pts);
 }
 
 /* signed volume enclosed by a closed, outward-wound mesh */
@@ -96,22 +101,13 @@ static inline double look_mesh_volume(const kf_vdb_trimesh *m) {
     return v / 6;
 }
 
-/* jittered particles in a ball of radius r about c (ppc 8 on a grid of dx = 2 h) */
+/* jittered particles in a ball of radius r about c */
 static inline int look_seed_ball(const double c[3], double r, double h, uint32_t seed, kf_points *pts) {
     kf_sample_def d = kf_default_sample_def();
     d.kind = KF_SOURCE_SPHERE;
     d.radius = r;
     for (int a = 0; a < 3; a++) d.place.translate[a] = c[a];
-    d.dx = 2 * h;
-    d.ppc = 8;
-    d.seed = seed;
-    d.threads = 1;
-    char err[256];
-    if (kf_sample_shape(&d, pts, err, sizeof err)) {
-        fprintf(stderr, "seed: %s\n", err);
-        return -1;
-    }
-    return 0;
+    return look_fill(&d, h, seed, pts);
 }
 
 /* enclosed volume of a level set's mesh over vol, minus 1 */

@@ -69,17 +69,6 @@ static int gather_owners(struct kf_dist *d, const kf_grid *g) {
     return 0;
 }
 
-/* whether some rank has an owner block with this key (binary search) */
-static int is_owner(const struct kf_dist *d, uint64_t key) {
-    size_t lo = 0, hi = d->nowner_keys;
-    while (lo < hi) {
-        size_t mid = (lo + hi) / 2;
-        if (d->owner_keys[mid] < key) lo = mid + 1;
-        else hi = mid;
-    }
-    return lo < d->nowner_keys && d->owner_keys[lo] == key;
-}
-
 /* Which owner blocks other ranks need, and which ranks: those with an
  * owner block within R of it (its neighbourhood's nodes and theirs
  * overlap, or a wall ghost node reads across). A box whose corner keys lie
@@ -108,7 +97,7 @@ int kf_dist_pairs(const kf_model *m, kf_state *s, int32_t **pairs, size_t *npair
                 for (int dz = -R[2]; dz <= R[2]; dz++) {
                     uint64_t key = kf_block_key(c[0] + dx, c[1] + dy, c[2] + dz);
                     int q = kf_dist_rank_of(d, key);
-                    if (q == d->rank || mark[q] == (int)o || !is_owner(d, key)) continue;
+                    if (q == d->rank || mark[q] == (int)o || !kf_dist_is_owner(d, key)) continue;
                     mark[q] = (int)o;
                     if (npair == pair_cap) {
                         pair_cap = pair_cap ? 2 * pair_cap : 256;

@@ -59,6 +59,18 @@ static inline int kf_dist_rank_of(const struct kf_dist *d, uint64_t k) {
     return lo;
 }
 
+/* whether some rank has an owner block with this key (the owner keys are
+ * every rank's, ascending: a binary search) */
+static inline int kf_dist_is_owner(const struct kf_dist *d, uint64_t key) {
+    size_t lo = 0, hi = d->nowner_keys;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (d->owner_keys[mid] < key) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < d->nowner_keys && d->owner_keys[lo] == key;
+}
+
 /* the owner block key a sort gives a particle at x (its base node
  * recentred in a block); UINT64_MAX when binning will refuse it (NaN, out
  * of range) */

@@ -7,18 +7,6 @@
 
 #include "internal.h"
 
-/* whether some rank has an owner block with this key (the owner keys are
- * every rank's, ascending) */
-static int owned(const struct kf_dist *d, uint64_t key) {
-    size_t lo = 0, hi = d->nowner_keys;
-    while (lo < hi) {
-        size_t mid = (lo + hi) / 2;
-        if (d->owner_keys[mid] < key) lo = mid + 1;
-        else hi = mid;
-    }
-    return lo < d->nowner_keys && d->owner_keys[lo] == key;
-}
-
 /* The other ranks a record about node q goes to, into r (at most 27):
  * those with an owner block o whose 2x2x2 neighbourhood (nodes 4o to
  * 4o + 7 along each axis) holds a node within one node of q along each
@@ -38,7 +26,7 @@ static int destinations(const struct kf_dist *d, const int32_t q[3], int r[27]) 
                 const int k = kf_dist_rank_of(d, key);
                 int seen = k == d->rank;
                 for (int e = 0; e < nr && !seen; e++) seen = r[e] == k;
-                if (!seen && owned(d, key)) r[nr++] = k;
+                if (!seen && kf_dist_is_owner(d, key)) r[nr++] = k;
             }
     return nr;
 }

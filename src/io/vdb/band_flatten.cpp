@@ -12,8 +12,8 @@ namespace kf_vdb {
 
 namespace {
 
-constexpr int P = LEAF_DIM + 2; // a leaf with a one-voxel apron
-constexpr int SB = 4;           // sub-blocks of SB^3 voxels, 8 to a leaf
+constexpr int P = PADDED; // a leaf with a one-voxel apron
+constexpr int SB = 4;     // sub-blocks of SB^3 voxels, 8 to a leaf
 // the weighted sums run in this many lanes (a vector's width), added in
 // order after: it vectorises, and the sums are the same for any thread count
 constexpr int LANES = 16;
@@ -21,22 +21,6 @@ constexpr int LANES = 16;
 // weigh 2 pi / 3 r^2 in all about a voxel; one with under SUPPORT r^2 (a
 // quarter of that) is moved only in proportion
 constexpr float SUPPORT = 0.5f;
-
-// the leaf and its apron from the 26 neighbours (missing ones: +W)
-void gather(const dense_band &b, size_t i, float W, float *pad) {
-    for (int px = 0; px < P; px++) {
-        const int lx = px - 1, dx = lx < 0 ? -1 : (lx >= LEAF_DIM ? 1 : 0), x = lx - dx * LEAF_DIM;
-        for (int py = 0; py < P; py++) {
-            const int ly = py - 1, dy = ly < 0 ? -1 : (ly >= LEAF_DIM ? 1 : 0), y = ly - dy * LEAF_DIM;
-            float *row = pad + (px * P + py) * P;
-            for (int pz = 0; pz < P; pz++) {
-                const int lz = pz - 1, dz = lz < 0 ? -1 : (lz >= LEAF_DIM ? 1 : 0), z = lz - dz * LEAF_DIM;
-                const int32_t j = b.nbr[27 * i + dense_band::nbr_slot(dx, dy, dz)];
-                row[pz] = j < 0 ? W : b.leaf(size_t(j))[(x << 6) + (y << 3) + z];
-            }
-        }
-    }
-}
 
 // the unit gradient at padded voxel q (central differences); false if flat
 inline bool normal_at(const float *q, float n[3]) {
@@ -127,7 +111,7 @@ samples collect(const dense_band &b, float W) {
             bool any = false;
             for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < 1.f;
             if (!any) continue;
-            gather(b, i, W, pad);
+            gather_padded(b, i, W, pad);
             const openvdb::Coord lc = leaf_coord(b.key[i]);
             std::vector<float> &o = per[i];
             // sub-block by sub-block, so that each one's points are contiguous
@@ -237,7 +221,7 @@ void band_flatten(dense_band &b, float W, float radius, float sigma, float ns) {
             bool any = false;
             for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < B1;
             if (!any) continue;
-            gather(b, i, W, pad);
+            gather_padded(b, i, W, pad);
             const openvdb::Coord lc = leaf_coord(b.key[i]);
             float *o = out.data() + i * LEAF_SIZE;
             for (int s = 0; s < 8; s++) {

@@ -10,23 +10,7 @@ namespace kf_vdb {
 
 namespace {
 
-constexpr int P = LEAF_DIM + 2; // a leaf with a one-voxel apron
-
-// the leaf and its apron from the 26 neighbours (missing ones: +W)
-void gather(const dense_band &b, size_t i, float W, float *pad) {
-    for (int px = 0; px < P; px++) {
-        const int lx = px - 1, dx = lx < 0 ? -1 : (lx >= LEAF_DIM ? 1 : 0), x = lx - dx * LEAF_DIM;
-        for (int py = 0; py < P; py++) {
-            const int ly = py - 1, dy = ly < 0 ? -1 : (ly >= LEAF_DIM ? 1 : 0), y = ly - dy * LEAF_DIM;
-            float *row = pad + (px * P + py) * P;
-            for (int pz = 0; pz < P; pz++) {
-                const int lz = pz - 1, dz = lz < 0 ? -1 : (lz >= LEAF_DIM ? 1 : 0), z = lz - dz * LEAF_DIM;
-                const int32_t j = b.nbr[27 * i + dense_band::nbr_slot(dx, dy, dz)];
-                row[pz] = j < 0 ? W : b.leaf(size_t(j))[(x << 6) + (y << 3) + z];
-            }
-        }
-    }
-}
+constexpr int P = PADDED; // a leaf with a one-voxel apron
 
 // one explicit step of phi_t = kappa |grad phi| (OpenVDB's
 // meanCurvatureNormGrad with dt = dx^2 / 3), into out
@@ -42,7 +26,7 @@ void curvature_step(const dense_band &b, float W, std::vector<float> &out) {
                 std::copy(phi, phi + LEAF_SIZE, o);
                 continue;
             }
-            gather(b, i, W, pad);
+            gather_padded(b, i, W, pad);
             for (int x = 0; x < LEAF_DIM; x++)
                 for (int y = 0; y < LEAF_DIM; y++)
                     for (int z = 0; z < LEAF_DIM; z++) {

@@ -55,6 +55,26 @@ struct dense_band {
     void link();
 };
 
+// a leaf with a one-voxel apron, as the band's stencil passes read it
+constexpr int PADDED = LEAF_DIM + 2;
+
+// leaf i and its apron from the 26 neighbours into pad (PADDED^3; missing neighbours: W)
+inline void gather_padded(const dense_band &b, size_t i, float W, float *pad) {
+    constexpr int P = PADDED;
+    for (int px = 0; px < P; px++) {
+        const int lx = px - 1, dx = lx < 0 ? -1 : (lx >= LEAF_DIM ? 1 : 0), x = lx - dx * LEAF_DIM;
+        for (int py = 0; py < P; py++) {
+            const int ly = py - 1, dy = ly < 0 ? -1 : (ly >= LEAF_DIM ? 1 : 0), y = ly - dy * LEAF_DIM;
+            float *row = pad + (px * P + py) * P;
+            for (int pz = 0; pz < P; pz++) {
+                const int lz = pz - 1, dz = lz < 0 ? -1 : (lz >= LEAF_DIM ? 1 : 0), z = lz - dz * LEAF_DIM;
+                const int32_t j = b.nbr[27 * i + dense_band::nbr_slot(dx, dy, dz)];
+                row[pz] = j < 0 ? W : b.leaf(size_t(j))[(x << 6) + (y << 3) + z];
+            }
+        }
+    }
+}
+
 } // namespace kf_vdb
 
 #endif
