@@ -682,9 +682,11 @@ static void block_floats(void) {
  * The 0.61 and 0.83 blocks are barely stable (metacentric heights 0.7 and
  * 0.8 cells), so a spurious torque of a few hundredths of a N m tips them
  * over by 10 degrees or more. Measured (2026-11-26), error in cells (rms
- * vertical speed m/s, tilt at 2 s), slip / separate: 0.37: -0.11 (0.013,
- * 5.0) / +0.06 (0.020, 6.2), 0.61: -0.11 (0.008, 1.4) / +0.06 (0.009,
- * 6.4), 0.83: -0.36 (0.006, 2.1) / -0.32 (0.006, 0.6). Before separate
+ * vertical speed m/s, tilt at 2 s), slip / separate: 0.37: -0.11 (0.012,
+ * 4.4) / +0.07 (0.017, 3.9), 0.61: -0.15 (0.010, 4.0) / +0.03 (0.006,
+ * 6.2), 0.83: -0.31 (0.007, 0.6) / -0.31 (0.007, 5.9). (When contact_point
+ * also read nodes outside the owner's read box, which differed over MPI
+ * ranks: 0.83 separate 0.6 degrees, 0.61 separate 6.4.) Before separate
  * held the water its pressure presses on the face (pressed_bodies in the
  * CPIC transfer) it floated 0.36-0.39 cells high and the light block hopped
  * (0.073 m/s). Before the exchange acted where the body covers each node's

@@ -283,19 +283,7 @@ static int seed_box_of(const kf_cpic *c, const kf_grid *g, const double x[3], do
  * An owner whose nodes no seed can reach (near[owner] == 0, mark_near;
  * near NULL: all are near) gets no box, without a pass over its particles:
  * no seed is kept or dropped for its nodes, and a block's box (the union
- * of its owners') only shrinks by nodes nothing reads and no seed reaches.
- * Around a solid body the transfers also read past the stencil: where a
- * node's impulse acts (contact_point) comes from the distances of up to two
- * nodes beyond it along each axis. Those nodes must be in the particle's own
- * owner's box: found only in another owner's, they were splatted on one rank
- * and left empty on a rank without that owner, and a box skidding over a
- * rank's cut turned differently there. */
-static int read_margin(const kf_model *m) {
-    for (int r = 0; r < m->nrigid; r++)
-        if (!m->rigid[r].def.thin) return 2;
-    return 0;
-}
-
+ * of its owners') only shrinks by nodes nothing reads and no seed reaches. */
 static int read_boxes(const kf_model *m, kf_state *s, const uint8_t *near) {
     kf_cpic *c = s->cpic;
     const kf_grid *g = &s->g;
@@ -314,12 +302,12 @@ static int read_boxes(const kf_model *m, kf_state *s, const uint8_t *near) {
     /* the stencil's base node, as the transfers find it, is monotone in the
      * position: the owner's extreme particles give its extreme base nodes */
     const kf_real inv_dx = kf_model_inv_dx(m);
-    const int cubic = m->sim.kernel == KF_KERNEL_CUBIC, kw = cubic ? 4 : 3, margin = read_margin(m);
+    const int cubic = m->sim.kernel == KF_KERNEL_CUBIC, kw = cubic ? 4 : 3;
 #pragma omp parallel for schedule(static) num_threads(m->nthreads) if (p->n >= 65536)
     for (size_t k = 0; k < no; k++) {
         int32_t *ob = c->obox[k];
         if ((near && !near[k]) || g->pstart[k] == g->pstart[k + 1]) {
-            ob[0] = 1, ob[3] = 0;
+            ob[0] = ob[1] = ob[2] = 1, ob[3] = ob[4] = ob[5] = 0; /* empty along every axis (contact_point reads it) */
             continue;
         }
         for (int a = 0; a < 3; a++) {
@@ -329,8 +317,8 @@ static int read_boxes(const kf_model *m, kf_state *s, const uint8_t *near) {
                 lo = x[i] < lo ? x[i] : lo;
                 hi = x[i] > hi ? x[i] : hi;
             }
-            ob[a] = kf_base_node(lo, inv_dx, cubic) - margin;
-            ob[3 + a] = kf_base_node(hi, inv_dx, cubic) + kw - 1 + margin;
+            ob[a] = kf_base_node(lo, inv_dx, cubic);
+            ob[3 + a] = kf_base_node(hi, inv_dx, cubic) + kw - 1;
         }
     }
     for (size_t b = 0; b < nb; b++)
@@ -992,8 +980,7 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     for (int r = 0; r < m->nrigid && !all_near; r++)
         if (!(from_store && is_static(m, r)) && m->rigid[r].nseed > 0) {
             if (run_spheres(c, &m->rigid[r], r)) return -1;
-            all_near = mark_near(c, g, &m->rigid[r], &s->rigid[r], r, 1 / dx,
-                                 (m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3) + read_margin(m),
+            all_near = mark_near(c, g, &m->rigid[r], &s->rigid[r], r, 1 / dx, m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3,
                                  c->near_blk);
         }
     if (read_boxes(m, s, all_near ? NULL : c->near_blk)) return -1;
