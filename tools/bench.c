@@ -30,8 +30,9 @@
  *        default spins (measured: 4.3 CPU s instead of 0.5 for the preview
  *        frame on 2 busy cores), so `--only frame` re-runs itself with
  *        OMP_WAIT_POLICY=passive unless it is set.
- * scenes: the paper's scenes at the paper's size, N frames each (only with
- *        --only scenes; see bench_scenes.c for the options).
+ * scenes: the paper's scenes at the paper's size, N frames each, or with
+ *        --substeps N the first N substeps and the frame extrapolated (only
+ *        with --only scenes; see bench_scenes.c for the options).
  * memory: peak resident bytes per particle of the 8M cube and bunny_split
  *        at Δx 0.0033 over a few substeps, against kerf info's estimate
  *        (only with --only memory; bench_memory.c; --scenes cube picks one).
@@ -44,6 +45,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -340,7 +342,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--threads") && i + 1 < argc) so.threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--quick")) quick = 1;
         else if (!strcmp(argv[i], "--unfused")) unfused = 1;
-        else if (!strcmp(argv[i], "--substeps") && i + 1 < argc) substeps = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--substeps") && i + 1 < argc) substeps = so.substeps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--cells") && i + 1 < argc) only_cells = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--force") && i + 1 < argc) only_force = !strcmp(argv[++i], "classic");
@@ -465,7 +467,7 @@ int main(int argc, char **argv) {
                    "substeps]\n",
                    "simulate_preview", fr.sim_wall, fr.sim_cpu, fr.preview_particles, fr.preview_substeps);
             const char *wp = getenv("OMP_WAIT_POLICY");
-            if (!wp || strcmp(wp, "passive"))
+            if (!wp || strcasecmp(wp, "passive")) /* OpenMP reads the value case-insensitively */
                 printf("  (OMP_WAIT_POLICY is not passive: idle OpenMP threads spin and inflate simulate_preview's CPU "
                        "seconds; run --only frame)\n");
         }

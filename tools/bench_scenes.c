@@ -14,6 +14,12 @@
  * --paper-dx uses Table 3's Δx as printed. --scale multiplies the chosen Δx
  * (2 = an eighth of the particles) for a quick run.
  *
+ * With --substeps N only about N substeps from the shot's start run, and the
+ * frame's figures are extrapolated: seconds per substep times the substeps a
+ * frame takes at the Δt those substeps averaged (the substeps column then
+ * says "~"). The paper's sizes take minutes per frame; this takes seconds,
+ * at the price of the action that comes later in the frame.
+ *
  * Printed per scene: particles, substeps per frame, seconds per frame (wall
  * and process CPU),
  * particle-steps/s, ms per stage per frame, peak RSS (and bytes per
@@ -34,6 +40,7 @@
 
 #include "../src/core/timer.h"
 #include <kerf/kerf.h>
+#include "../src/mpm/model.h" /* kf_stable_dt */
 #include "../src/scene/budget.h"
 #include "../src/scene/build.h"
 #include "../src/shot/shot.h"
@@ -70,6 +77,7 @@ typedef struct scene_result {
     double peak_mb, cpu_s_per_frame;
     unsigned long long hash; /* kf_state_hash after the frames */
     int threads, frames;
+    long substeps_run;
 } scene_result;
 
 /* x, v and F of every particle as float32, in id order (ids are 0..n-1),
@@ -138,16 +146,25 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
     struct timespec c0, c1;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c0);
     double t0 = kf_now_ms();
-    int f = 0;
-    for (; f < o->frames; f++)
-        if (kf_advance(sc.model, sc.state, 1.0 / sc.fps, &st, msg, sizeof msg)) {
-            snprintf(r->msg, sizeof r->msg, "frame %d: %.150s", f + 1, msg);
-            break;
-        }
+    /* f frames, or the fraction of one frame that about N substeps cover */
+    double f = 0;
+    if (o->substeps > 0) {
+        const kf_model *m = sc.model;
+        double dt = m->sim.dt_fixed > 0 ? m->sim.dt_fixed : kf_stable_dt(m, sc.state, m->sim.cfl);
+        double span = fmin(o->substeps * dt, 1.0 / sc.fps);
+        if (kf_advance(sc.model, sc.state, span, &st, msg, sizeof msg)) snprintf(r->msg, sizeof r->msg, "%.150s", msg);
+        else f = span * sc.fps;
+    } else
+        for (int k = 0; k < o->frames; k++, f++)
+            if (kf_advance(sc.model, sc.state, 1.0 / sc.fps, &st, msg, sizeof msg)) {
+                snprintf(r->msg, sizeof r->msg, "frame %d: %.150s", k + 1, msg);
+                break;
+            }
     double sec = (kf_now_ms() - t0) / 1e3;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c1);
     double cpu = (double)(c1.tv_sec - c0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - c0.tv_nsec);
-    r->frames = f;
+    r->frames = (int)f;
+    r->substeps_run = st.substeps;
     if (f > 0) {
         r->ok = 1;
         r->s_per_frame = sec / f;
@@ -194,8 +211,13 @@ static int wanted(const char *list, const char *name) {
 
 int bench_scenes(const bench_scenes_opts *o) {
     const char *dir = o->shot_dir ? o->shot_dir : "shots";
-    printf("paper scenes, %d frame(s) each from the shot's start, %s%s\n", o->frames,
-           o->paper_dx ? "Table 3's dx" : "dx matching Table 3's particle count", o->scale != 1 ? " (scaled)" : "");
+    if (o->substeps > 0)
+        printf("paper scenes, about %d substeps each from the shot's start, per-frame figures extrapolated, %s%s\n",
+               o->substeps, o->paper_dx ? "Table 3's dx" : "dx matching Table 3's particle count",
+               o->scale != 1 ? " (scaled)" : "");
+    else
+        printf("paper scenes, %d frame(s) each from the shot's start, %s%s\n", o->frames,
+               o->paper_dx ? "Table 3's dx" : "dx matching Table 3's particle count", o->scale != 1 ? " (scaled)" : "");
     printf("%-12s %8s %9s %8s %9s %9s %8s", "scene", "dx", "particles", "substeps", "s/frame", "cpu s/f", "Mp-st/s");
     for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %8s", kf_stage_name((kf_stage)k));
     printf(" %8s %6s %9s %9s %9s %6s\n", "peak MB", "B/p", "paper s", "kerf c-s", "paper c-s", "ratio");
@@ -212,17 +234,19 @@ int bench_scenes(const bench_scenes_opts *o) {
         /* core-seconds per frame per million particles: kerf's threads, the paper's 4 cores */
         double kcs = r.s_per_frame * r.threads / (r.particles / 1e6);
         double pcs = paper[i].match_count ? paper[i].s_per_frame * 4 / (paper[i].particles / 1e6) : NAN;
-        printf("%-12s %8.5f %9.0f %8.1f %9.2f %9.2f %8.2f", paper[i].shot, r.dx, r.particles, r.substeps_per_frame,
-               r.s_per_frame, r.cpu_s_per_frame, r.mpsteps);
+        printf("%-12s %8.5f %9.0f %s%7.1f %9.2f %9.2f %8.2f", paper[i].shot, r.dx, r.particles,
+               o->substeps > 0 ? "~" : " ", r.substeps_per_frame, r.s_per_frame, r.cpu_s_per_frame, r.mpsteps);
         for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %8.0f", r.ms_per_frame[k]);
         printf(" %8.0f %6.0f %9.1f %9.2f %9.2f %6.2f\n", r.peak_mb, r.peak_mb * 1048576.0 / r.particles,
                paper[i].s_per_frame, kcs, pcs, kcs / pcs);
-        if (o->hash) printf("  state hash after %d frame(s): %016llx\n", r.frames, r.hash);
+        if (o->hash && o->substeps > 0) printf("  state hash after %ld substeps: %016llx\n", r.substeps_run, r.hash);
+        else if (o->hash) printf("  state hash after %d frame(s): %016llx\n", r.frames, r.hash);
         if (r.msg[0]) printf("  (%s)\n", r.msg);
         fflush(stdout);
     }
     printf("s/frame: wall; cpu s/f: the process's CPU seconds per frame (the honest figure at 1 thread on a busy "
-           "machine; with idle OpenMP threads spinning it overstates). stage columns: ms per frame (wall). kerf c-s / "
+           "machine; with idle OpenMP threads spinning it overstates). ~: extrapolated from the substeps run. stage "
+           "columns: ms per frame (wall). kerf c-s / "
            "paper c-s: core-seconds per frame per million particles "
            "(kerf: wall x threads; Table 3: wall x 4 cores of an i7-7700K at 4.2 GHz); ratio < 1: kerf "
            "spends less per core.\n");

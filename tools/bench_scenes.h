@@ -3,7 +3,10 @@
 #define KF_TOOLS_BENCH_SCENES_H
 
 typedef struct bench_scenes_opts {
-    int frames;           /* frames per scene from the shot's start */
+    int frames; /* frames per scene from the shot's start */
+    /* > 0: only about this many substeps from the shot's start, the frame's
+     * figures extrapolated from them (a paper-size frame takes minutes) */
+    int substeps;
     int threads;          /* 0: the shot's setting */
     int paper_dx;         /* 1: Table 3's dx; 0: the dx matching Table 3's particle count */
     double scale;         /* multiplies the dx (2: an eighth of the particles) */
