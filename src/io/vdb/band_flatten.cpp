@@ -17,14 +17,34 @@ constexpr int SB = 4;     // sub-blocks of SB^3 voxels, 8 to a leaf
 // the weighted sums run in this many lanes (a vector's width), added in
 // order after: it vectorises, and the sums are the same for any thread count
 constexpr int LANES = 16;
-// a flat face's points (one each side of the zero set per voxel column)
-// weigh 2 pi / 3 r^2 in all about a voxel; one with under SUPPORT r^2 (a
-// quarter of that) is moved only in proportion
-constexpr float SUPPORT = 0.5f;
+// a flat face's points (one per voxel column) weigh pi / 3 r^2 in all
+// about a voxel; one with under SUPPORT r^2 (a quarter of that) is moved
+// only in proportion
+constexpr float SUPPORT = 0.25f;
+// a leaf with a two-voxel apron: the normals of the apron's first layer
+constexpr int P2 = LEAF_DIM + 4;
 
-// the unit gradient at padded voxel q (central differences); false if flat
-inline bool normal_at(const float *q, float n[3]) {
-    const int sx = P * P, sy = P;
+// leaf i and a two-voxel apron from the 26 neighbours into pad (P2^3;
+// missing neighbours: W)
+void gather_padded2(const dense_band &b, size_t i, float W, float *pad) {
+    for (int px = 0; px < P2; px++) {
+        const int lx = px - 2, dx = lx < 0 ? -1 : (lx >= LEAF_DIM ? 1 : 0), x = lx - dx * LEAF_DIM;
+        for (int py = 0; py < P2; py++) {
+            const int ly = py - 2, dy = ly < 0 ? -1 : (ly >= LEAF_DIM ? 1 : 0), y = ly - dy * LEAF_DIM;
+            float *row = pad + (px * P2 + py) * P2;
+            for (int pz = 0; pz < P2; pz++) {
+                const int lz = pz - 2, dz = lz < 0 ? -1 : (lz >= LEAF_DIM ? 1 : 0), z = lz - dz * LEAF_DIM;
+                const int32_t j = b.nbr[27 * i + dense_band::nbr_slot(dx, dy, dz)];
+                row[pz] = j < 0 ? W : b.leaf(size_t(j))[(x << 6) + (y << 3) + z];
+            }
+        }
+    }
+}
+
+// the unit gradient at voxel q of a leaf padded to edge E (central
+// differences); false if flat
+template <int E = P> inline bool normal_at(const float *q, float n[3]) {
+    const int sx = E * E, sy = E;
     n[0] = 0.5f * (q[sx] - q[-sx]), n[1] = 0.5f * (q[sy] - q[-sy]), n[2] = 0.5f * (q[1] - q[-1]);
     const float g = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (!(g > 1e-4f)) return false;
@@ -105,13 +125,13 @@ samples collect(const dense_band &b, float W) {
     const size_t nl = b.size();
     std::vector<std::vector<float>> per(nl);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 4), [&](const tbb::blocked_range<size_t> &rg) {
-        float pad[P * P * P];
+        float pad[P2 * P2 * P2];
         for (size_t i = rg.begin(); i != rg.end(); i++) {
             const float *phi = b.leaf(i);
             bool any = false;
             for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < 1.f;
             if (!any) continue;
-            gather_padded(b, i, W, pad);
+            gather_padded2(b, i, W, pad);
             const openvdb::Coord lc = leaf_coord(b.key[i]);
             std::vector<float> &o = per[i];
             // sub-block by sub-block, so that each one's points are contiguous
@@ -120,26 +140,48 @@ samples collect(const dense_band &b, float W) {
                 for (int x = x0; x < x0 + SB; x++)
                     for (int y = y0; y < y0 + SB; y++)
                         for (int z = z0; z < z0 + SB; z++) {
-                            const float *q = pad + ((x + 1) * P + (y + 1)) * P + (z + 1);
+                            const float *q = pad + ((x + 2) * P2 + (y + 2)) * P2 + (z + 2);
                             const float c = q[0];
-                            // a voxel beside a crossing, on either side: its closest
-                            // point (the inside ones' and the outside ones' lie a few
-                            // hundredths of a voxel either side of the zero set)
+                            // one point per crossing voxel edge, made by the voxel of
+                            // the two nearer the zero set (ties: the inside one), so
+                            // that it lies within half a voxel of that voxel: the
+                            // mean of the two voxels' closest points (the inside one's
+                            // and the outside one's lie a few hundredths of a voxel
+                            // either side of the zero set) and of their normals. The
+                            // far voxel lies within 1.5 of the zero set: a leaf missing
+                            // from the band reads W, also where it lies inside (beyond
+                            // the band's inner rim the values carry only their sign).
                             const bool in = c < 0;
-                            bool cross = false;
-                            const int st[6] = {P * P, -P * P, P, -P, 1, -1};
-                            for (int k = 0; k < 6 && !cross; k++) cross = (q[st[k]] < 0) != in;
-                            if (!cross) continue;
-                            float n[3];
-                            if (!normal_at(q, n)) continue;
-                            const float rec[7] = {float(s),
-                                                  float(lc.x() * LEAF_DIM + x) - c * n[0],
-                                                  float(lc.y() * LEAF_DIM + y) - c * n[1],
-                                                  float(lc.z() * LEAF_DIM + z) - c * n[2],
-                                                  n[0],
-                                                  n[1],
-                                                  n[2]};
-                            o.insert(o.end(), rec, rec + 7);
+                            const float ac = std::fabs(c);
+                            const int st[6] = {P2 * P2, -P2 * P2, P2, -P2, 1, -1};
+                            float n[3] = {0, 0, 0};
+                            bool have_n = false, flat = false;
+                            for (int k = 0; k < 6 && !flat; k++) {
+                                const float u = q[st[k]], au = std::fabs(u);
+                                if ((u < 0) == in || !(ac < au || (ac == au && in)) || !(au < 1.5f)) continue;
+                                if (!have_n) {
+                                    flat = !normal_at<P2>(q, n);
+                                    have_n = true;
+                                    if (flat) continue;
+                                }
+                                float m[3];
+                                if (!normal_at<P2>(q + st[k], m)) continue;
+                                // the neighbour's offset from this voxel
+                                const int ex = k == 0 ? 1 : (k == 1 ? -1 : 0), ey = k == 2 ? 1 : (k == 3 ? -1 : 0),
+                                          ez = k == 4 ? 1 : (k == 5 ? -1 : 0);
+                                const float nm[3] = {n[0] + m[0], n[1] + m[1], n[2] + m[2]};
+                                const float g = std::sqrt(nm[0] * nm[0] + nm[1] * nm[1] + nm[2] * nm[2]);
+                                if (!(g > 1e-4f)) continue;
+                                const float rec[7] = {
+                                    float(s),
+                                    float(lc.x() * LEAF_DIM + x) + 0.5f * (float(ex) - c * n[0] - u * m[0]),
+                                    float(lc.y() * LEAF_DIM + y) + 0.5f * (float(ey) - c * n[1] - u * m[1]),
+                                    float(lc.z() * LEAF_DIM + z) + 0.5f * (float(ez) - c * n[2] - u * m[2]),
+                                    nm[0] / g,
+                                    nm[1] / g,
+                                    nm[2] / g};
+                                o.insert(o.end(), rec, rec + 7);
+                            }
                         }
             }
         }

@@ -22,8 +22,9 @@ namespace kf_vdb {
 // its normals a few degrees, an edge turns them by far more
 constexpr float FLATTEN_SIGMA = 0.03f;
 
-// One pass, in voxel units: the surface points (the closest points of the
-// voxels beside a crossing) get their normals averaged over normal_radius
+// One pass, in voxel units: the surface points (one per voxel edge the zero
+// set crosses: the mean of its two voxels' closest points) get their
+// normals averaged over normal_radius
 // (0: kept), then every voxel within 1.5 of the zero set gets the weighted
 // mean, over the points within radius, of its distance to their tangent
 // planes (the mean of its own normal's plane and theirs through each
