@@ -42,27 +42,30 @@ void for_each_cell_neighbourhood(size_t n, double R, const Pos &pos, const std::
     const double invR = 1 / R;
     // particles sorted into cells (ties by index: deterministic)
     // (in parallel: the order is the one total order of (key, index))
-    std::vector<uint64_t> key(n);
+    // (the (key, index) pairs sorted by value: no indirection in the comparisons)
+    std::vector<std::pair<uint64_t, size_t>> kp(n);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++)
+            kp[i] = {cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
+                              int64_t(std::floor(pos(i, 2) * invR))),
+                     i};
+    });
+    tbb::parallel_sort(kp.begin(), kp.end());
     std::vector<size_t> order(n);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
-        for (size_t i = rg.begin(); i != rg.end(); i++) {
-            key[i] = cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
-                              int64_t(std::floor(pos(i, 2) * invR)));
-            order[i] = i;
-        }
+        for (size_t i = rg.begin(); i != rg.end(); i++) order[i] = kp[i].second;
     });
-    tbb::parallel_sort(order.begin(), order.end(),
-                       [&](size_t a, size_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
     std::unordered_map<uint64_t, std::pair<size_t, size_t>> cells;
     std::vector<std::pair<size_t, size_t>> ranges;
     cells.reserve(n / 4 + 16);
     for (size_t s0 = 0; s0 < n;) {
         size_t e = s0;
-        while (e < n && key[order[e]] == key[order[s0]]) e++;
-        cells.emplace(key[order[s0]], std::make_pair(s0, e));
+        while (e < n && kp[e].first == kp[s0].first) e++;
+        cells.emplace(kp[s0].first, std::make_pair(s0, e));
         ranges.emplace_back(s0, e);
         s0 = e;
     }
+    kp.clear(), kp.shrink_to_fit();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, ranges.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
         std::vector<float> bx, by, bz;
         for (size_t c = rg.begin(); c != rg.end(); c++) {
