@@ -453,15 +453,74 @@ static int mark_sphere(const kf_cpic *c, const kf_grid *g, const double xc[3], d
     return 0;
 }
 
+/* mark_sphere's marks for every seed on triangle k of body b (pose st),
+ * by the triangle itself: the blocks of its box (its corners' box in place
+ * of a sphere) whose reach its plane passes through. A seed marks block p
+ * along an axis only when it lies within [4p - reach - 3, 4p + 8 + kw +
+ * reach] nodes (mark_sphere's box, a node wider), so a block none of whose
+ * such boxes the plane meets is marked by none of its seeds. Seeds are
+ * floats on the triangle: a margin of a node covers their rounding. */
+static int mark_triangle(const kf_cpic *c, const kf_grid *g, const kf_rigid_body *b, const kf_rigid_state *st, int k,
+                         double inv_dx, double reach, int kw, uint8_t *near) {
+    double v[3][3], lo[3], hi[3], e1[3], e2[3], n[3];
+    for (int q = 0; q < 3; q++) {
+        const double *o = &b->vert[3 * b->tri[3 * k + q]];
+        for (int a = 0; a < 3; a++)
+            v[q][a] = (st->R[3 * a] * o[0] + st->R[3 * a + 1] * o[1] + st->R[3 * a + 2] * o[2] + st->t[a]) * inv_dx;
+    }
+    for (int a = 0; a < 3; a++) {
+        lo[a] = fmin(v[0][a], fmin(v[1][a], v[2][a]));
+        hi[a] = fmax(v[0][a], fmax(v[1][a], v[2][a]));
+        e1[a] = v[1][a] - v[0][a];
+        e2[a] = v[2][a] - v[0][a];
+    }
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    const double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    for (int a = 0; a < 3; a++) n[a] = nn > 0 ? n[a] / nn : 0; /* degenerate: every block of the box */
+    int b0[3], b1[3];
+    for (int a = 0; a < 3; a++) {
+        const double l = floor(lo[a] - reach) - 3, h = ceil(hi[a] + reach) + 3;
+        if (!(l == l) || !(h == h)) return -1;
+        const double blo = c->bmap_lo[a], bhi = c->bmap_lo[a] + c->bmap_dim[a] - 1;
+        const double mlo = (blo - 2) * KF_BLOCK, mhi = (bhi + 2) * KF_BLOCK;
+        b0[a] = kf_block_of((int)fmin(fmax(l - (KF_BLOCK - 1 + kw - 1), mlo), mhi));
+        b1[a] = kf_block_of((int)fmin(fmax(h, mlo), mhi));
+        b0[a] = b0[a] < (int)blo ? (int)blo : b0[a];
+        b1[a] = b1[a] > (int)bhi ? (int)bhi : b1[a];
+    }
+    /* the plane's offset, and a block's reach as a box: centre and half sides */
+    const double off = n[0] * v[0][0] + n[1] * v[0][1] + n[2] * v[0][2];
+    const double half = 0.5 * (11 + kw + 2 * reach) + 1, mid = 0.5 * (5 + kw);
+    const double spread = half * (fabs(n[0]) + fabs(n[1]) + fabs(n[2]));
+    for (int p = b0[0]; p <= b1[0]; p++)
+        for (int q = b0[1]; q <= b1[1]; q++)
+            for (int w = b0[2]; w <= b1[2]; w++) {
+                const double cx = KF_BLOCK * p + mid, cy = KF_BLOCK * q + mid, cz = KF_BLOCK * w + mid;
+                if (fabs(n[0] * cx + n[1] * cy + n[2] * cz - off) > spread) continue;
+                int32_t blk = find_block(c, g, p, q, w);
+                if (blk >= 0) near[blk] = 1;
+            }
+    return 0;
+}
+
 /* The owners some seed of body r (pose st) may reach this substep, marked
  * in near[] (one byte per block of the grid): per short run of seeds, by
  * its bounding sphere, or seed by seed where the sphere is wide (a run
- * that turns a corner of the mesh). Returns 1 when every owner must count
- * as near (no block map, a pose that is not finite). */
+ * that turns a corner of the mesh). A mesh of few large triangles (many
+ * seeds each: a blade of two) is marked triangle by triangle instead.
+ * Returns 1 when every owner must count as near (no block map, a pose
+ * that is not finite). */
 static int mark_near(const kf_cpic *c, const kf_grid *g, const kf_rigid_body *b, const kf_rigid_state *st, int r,
                      double inv_dx, int kw, uint8_t *near) {
     if (!c->bmap_on) return 1;
     const double reach = b->def.thin ? 1.5 : 2.5; /* splat_body's */
+    if ((size_t)b->ntri * 16 <= b->nseed) {
+        for (int k = 0; k < b->ntri; k++)
+            if (mark_triangle(c, g, b, st, k, inv_dx, reach, kw, near) < 0) return 1;
+        return 0;
+    }
     const size_t len = KF_CPIC_RUN / 8, nrun = (b->nseed + len - 1) / len;
     for (size_t k = 0; k < nrun; k++) {
         double xc[3];

@@ -291,6 +291,58 @@ static inline void fit_add(double M[4][4], double y[4], double w, double value, 
     }
 }
 
+/* The same sums as fit_add, a row of M (and y) per 4-lane multiply and add,
+ * for the particle's own fit (particle_cdf), where fit_add compiles to
+ * separately rounded products and sums, none fused: each lane is w P_r
+ * rounded, times P_c rounded, added (w P_r in M's last column and row, w
+ * value P_r in y), bit for bit. The empty asm keeps each product a value of
+ * its own, so the add is not contracted into a fused multiply-add. */
+#if defined(__AVX__) && !defined(KF_DOUBLE)
+#include <immintrin.h>
+typedef struct fit4 {
+    __m256d m[4], y;
+} fit4;
+static inline void fit4_add(fit4 *f, double w, double value, const chunk *ck, int j, int a, int b, int k,
+                            double inv_dx) {
+    const double P0 = ck->d[0][a][j] * inv_dx, P1 = ck->d[1][b][j] * inv_dx, P2 = ck->d[2][k][j] * inv_dx;
+    const __m256d P = _mm256_setr_pd(P0, P1, P2, 1);
+    __m256d wp = _mm256_mul_pd(_mm256_set1_pd(w), P), t[4];
+    __asm__("" : "+x"(wp));
+    const double wv = w * value;
+    t[0] = _mm256_mul_pd(_mm256_set1_pd(wp[0]), P);
+    t[1] = _mm256_mul_pd(_mm256_set1_pd(wp[1]), P);
+    t[2] = _mm256_mul_pd(_mm256_set1_pd(wp[2]), P);
+    t[3] = _mm256_mul_pd(_mm256_set1_pd(wv), P);
+    __asm__("" : "+x"(t[0]), "+x"(t[1]), "+x"(t[2]), "+x"(t[3]));
+    f->m[0] = _mm256_add_pd(f->m[0], t[0]);
+    f->m[1] = _mm256_add_pd(f->m[1], t[1]);
+    f->m[2] = _mm256_add_pd(f->m[2], t[2]);
+    f->m[3] = _mm256_add_pd(f->m[3], wp);
+    f->y = _mm256_add_pd(f->y, t[3]);
+}
+static inline void fit4_zero(fit4 *f) {
+    for (int r = 0; r < 4; r++) f->m[r] = _mm256_setzero_pd();
+    f->y = _mm256_setzero_pd();
+}
+static inline void fit4_out(const fit4 *f, double M[4][4], double y[4]) {
+    for (int r = 0; r < 4; r++) _mm256_storeu_pd(M[r], f->m[r]);
+    _mm256_storeu_pd(y, f->y);
+}
+#else
+typedef struct fit4 {
+    double m[4][4], y[4];
+} fit4;
+static inline void fit4_add(fit4 *f, double w, double value, const chunk *ck, int j, int a, int b, int k,
+                            double inv_dx) {
+    fit_add(f->m, f->y, w, value, ck, j, a, b, k, inv_dx);
+}
+static inline void fit4_zero(fit4 *f) { memset(f, 0, sizeof *f); }
+static inline void fit4_out(const fit4 *f, double M[4][4], double y[4]) {
+    memcpy(M, f->m, sizeof f->m);
+    memcpy(y, f->y, sizeof f->y);
+}
+#endif
+
 /* The side of body r (bit = 2r + 1) a particle newly near it is on: 1
  * negative, 0 positive, -1 undecided (retry next substep).
  * Eq. 21 votes with the nodes' tags weighted by N_i d_i. d_i is the distance
@@ -379,7 +431,9 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     c->pn[3 * i] = c->pn[3 * i + 1] = c->pn[3 * i + 2] = 0;
     if (!(cp & AFF)) return;
     /* MLS fit of the nodes' distances, signed relative to the particle */
-    double M[4][4] = {{0}}, y[4] = {0}, coef[4];
+    double M[4][4], y[4], coef[4];
+    fit4 fit;
+    fit4_zero(&fit);
     float closest = 1e30f;
     int rstar = -1, first_body = -1, mixed = 0;
     for (int a = 0; a < 3; a++)
@@ -393,11 +447,12 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
                 if (flips > 1) continue;
                 double sgn = flips ? -dist[q] : dist[q];
                 double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
-                fit_add(M, y, w, sgn, ck, j, a, b, k, inv_dx);
+                fit4_add(&fit, w, sgn, ck, j, a, b, k, inv_dx);
                 if (first_body < 0) first_body = (int)(cn >> KF_CPIC_RSTAR_SHIFT);
                 mixed |= (int)(cn >> KF_CPIC_RSTAR_SHIFT) != first_body;
                 if (dist[q] < closest) closest = dist[q], rstar = (int)(cn >> KF_CPIC_RSTAR_SHIFT) - 1;
             }
+    fit4_out(&fit, M, y);
     double det = solve4(M, y, coef);
     if (!(fabs(det) > 1e-4)) return; /* too few nodes: colour kept, no distance (a full stencil gives 1/64) */
     double g2 = coef[0] * coef[0] + coef[1] * coef[1] + coef[2] * coef[2];
@@ -446,13 +501,30 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
     uint8_t thin_body[KF_MAX_RIGIDS];
     for (int r = 0; r < m->nrigid; r++) thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
+    /* the colours first (they read the owner's CDF alone, not the cache):
+     * a chunk with no particle across a surface scatters as outside the
+     * band, the same sums in the same order */
+    uint8_t across[KF_CHUNK];
+    int any_across = 0;
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
         particle_cdf(c, p, i, ck, j, col, dist, oc->aff, dx, thin_body);
         const uint32_t cp = p->colour[i];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+        across[j] = (cp & AFF) && !all_compatible(col, o, cp);
+        any_across |= across[j];
+    }
+    if (!any_across) {
+        if (classic) scatter_chunk(3, 1, ck, cache);
+        else scatter_chunk(3, 0, ck, cache);
+        return;
+    }
+    for (int j = 0; j < ck->n; j++) {
+        size_t i = i0 + (size_t)j;
+        const uint32_t cp = p->colour[i];
+        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
         /* no affinity to any body, or no node across a surface: the ordinary scatter */
-        if (!(cp & AFF) || all_compatible(col, o, cp)) {
+        if (!across[j]) {
             if (classic) scatter_one(3, 1, ck, j, cache);
             else scatter_one(3, 0, ck, j, cache);
             continue;
@@ -519,16 +591,47 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     const double dx = m->sim.dx, dt = c->dt;
     const int apic = m->sim.transfer != KF_TRANSFER_PIC;   /* APIC and FLIP carry C */
     static const int SYM[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ef in the xx yy zz xy xz yz planes */
-    uint8_t uniform[KF_MAX_RIGIDS], thin_body[KF_MAX_RIGIDS];
+    uint8_t uniform[KF_MAX_RIGIDS], thin_body[KF_MAX_RIGIDS], separate[KF_MAX_RIGIDS];
     for (int r = 0; r < m->nrigid; r++) {
         uniform[r] = (uint8_t)uniform_velocity(&s->rigid[r]);
         thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
+        separate[r] = (uint8_t)(m->rigid[r].def.boundary == KF_BOUNDARY_SEPARATE);
+    }
+    /* Which particles see a node across a surface (the rest gather as
+     * usual), and whether one of those nodes belongs to a separate body:
+     * only then is the particle's pressing judged (pressed_bodies), from
+     * the stress P2G scattered. Where the stress is not kept it is
+     * evaluated again from F (not yet updated by this chunk), which is a
+     * whole batch of lanes: most chunks of the band need none of it. */
+    uint8_t across[KF_CHUNK];
+    int need_tau = 0;
+    for (int j = 0; j < ck->n; j++) {
+        const uint32_t cp = p->colour[i0 + (size_t)j];
+        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+        across[j] = 0;
+        if (!(cp & AFF)) continue;
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++)
+                for (int k = 0; k < 3; k++) {
+                    const uint32_t cn = col[o + (a * NB + b) * NB + k];
+                    if (compatible(cn, cp)) continue;
+                    across[j] = 1;
+                    need_tau |= separate[(cn >> KF_CPIC_RSTAR_SHIFT) - 1];
+                }
+    }
+    kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
+    if (need_tau && (p->zero & KF_ZERO_TAU)) {
+        kf_real *const out[6] = {tbuf[0], tbuf[1], tbuf[2], tbuf[3], tbuf[4], tbuf[5]};
+        kf_stress_eval(m, p, i0, ck->n, out);
+        for (int k = 0; k < 6; k++) ck->tau[k] = tbuf[k];
+    } else {
+        for (int k = 0; k < 6; k++) ck->tau[k] = need_tau ? p->tau[k] + i0 : NULL;
     }
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
         const uint32_t cp = p->colour[i];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        if (!(cp & AFF) || all_compatible(col, o, cp)) {
+        if (!across[j]) {
             if (classic) gather_one(3, 1, ck, j, cache);
             else gather_one(3, 0, ck, j, cache);
             continue;
@@ -540,8 +643,8 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         uint32_t have = 0;
         for (int e = 0; e < 9; e++) Cj[e] = apic ? p->C[e][i] : 0;
         /* the particle's stress as P2G scatters it: −Δt V⁰ τ */
-        double T[9];
-        for (int e = 0; e < 9; e++) T[e] = -dt * (double)p->vol0[i] * (double)ck->tau[SYM[e]][j];
+        double T[9] = {0};
+        for (int e = 0; e < (need_tau ? 9 : 0); e++) T[e] = -dt * (double)p->vol0[i] * (double)ck->tau[SYM[e]][j];
         const uint32_t held = pressed_bodies(m, s, ck, j, col, o, cp, bc, vp, np, T, mass, classic);
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)

@@ -383,9 +383,6 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     kf_real max_v2 = 0;
-    /* near a rigid surface with the stress not kept: a chunk's, evaluated */
-    kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
-    kf_real *const tout[6] = {tbuf[0], tbuf[1], tbuf[2], tbuf[3], tbuf[4], tbuf[5]};
 
     /* gather the neighbourhood's velocities */
     const int32_t *nb = g->nb[r];
@@ -420,11 +417,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
         /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
          * near a rigid surface, ghost velocities on incompatible nodes (CPIC
          * reads the stress P2G scattered: F's before this chunk updates it) */
-        if (band) {
-            if (p->zero & KF_ZERO_TAU) kf_stress_eval(m, p, i0, n, tout);
-            for (int k = 0; k < 6; k++) ck->tau[k] = (p->zero & KF_ZERO_TAU) ? tbuf[k] : p->tau[k] + i0;
-            kf_cpic_g2p_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
-        }
+        if (band) kf_cpic_g2p_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
         for (int j = 0; j < (band ? 0 : n); j++) gather_one(KW, CLASSIC, ck, j, cache);
         /* where objects meet: each particle's own field's velocity */
         if (fields) kf_contact_g2p_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
