@@ -293,8 +293,8 @@ static double frame_total(const double *t) {
 typedef struct block_result {
     size_t particles;
     int frames;
-    long substeps;
-    double seconds, mpsteps, ms[KF_STAGE_COUNT], peak_mb;
+    long substeps, fused;                                              /* fused: substeps whose P2G came early */
+    double seconds, cpu_seconds, mpsteps, ms[KF_STAGE_COUNT], peak_mb; /* cpu: process CPU of the frames */
 } block_result;
 
 static int bench_block(long n, int frames, block_result *out) {
@@ -306,13 +306,15 @@ static int bench_block(long n, int frames, block_result *out) {
     }
     kf_model_set_unfused(sc.model, unfused);
     kf_step_stats st = {0};
-    double t0 = kf_now_ms();
+    double t0 = kf_now_ms(), c0 = cpu_s();
     for (int f = 0; f < frames; f++)
         if (kf_advance(sc.model, sc.state, 1.0 / sc.fps, &st, msg, sizeof msg)) {
             fprintf(stderr, "bench: falling block: %s\n", msg);
             break;
         }
     out->seconds = (kf_now_ms() - t0) / 1e3;
+    out->cpu_seconds = cpu_s() - c0;
+    out->fused = st.fused;
     out->particles = kf_state_count(sc.state);
     out->frames = frames;
     out->substeps = st.substeps;
@@ -472,9 +474,11 @@ int main(int argc, char **argv) {
                        "seconds; run --only frame)\n");
         }
         if (have_block) {
-            printf("falling block: %zu particles, %d frames, %ld substeps, %.2f s, %.2f M particle-steps/s, peak %.0f "
-                   "MB\n",
-                   blk.particles, blk.frames, blk.substeps, blk.seconds, blk.mpsteps, blk.peak_mb);
+            printf("falling block: %zu particles, %d frames, %ld substeps (%ld with an early P2G), %.2f s (CPU %.2f s, "
+                   "%.1f ns per particle-step), %.2f M particle-steps/s, peak %.0f MB\n",
+                   blk.particles, blk.frames, blk.substeps, blk.fused, blk.seconds, blk.cpu_seconds,
+                   blk.cpu_seconds * 1e9 / ((double)blk.particles * (double)(blk.substeps ? blk.substeps : 1)),
+                   blk.mpsteps, blk.peak_mb);
             printf("  ms per substep:");
             for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %s %.2f", kf_stage_name((kf_stage)k), blk.ms[k]);
             printf("\n");

@@ -405,7 +405,8 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *stats, kf_
  * current kf_step may then end with the next one's P2G, fused with its G2P
  * and stress pass: the same bits, one sweep over the particles fewer.
  * kf_advance announces its own substeps whenever it knows the next one's
- * length (a fixed step, or the sim.dt_max clamp). */
+ * length (a fixed step, the sim.dt_max clamp, or under the CFL rule its
+ * look-ahead from the grid's velocities). */
 void kf_state_fuse_next(kf_state *s, double next_dt);
 
 /* Advance by `duration` seconds in CFL-adaptive substeps. On trouble the

@@ -60,6 +60,24 @@ struct kf_state {
      * with nothing editing the state in between; kf_step may then end with
      * the next substep's P2G (kf_g2p2g) */
     double fuse_next;
+    /* the CFL rule's look-ahead (step.c), within one kf_advance interval:
+     * fuse_cfl > 0 has kf_step pick the next substep's length itself once
+     * the grid's velocities are known (guess_dt, landed in the fuse_left
+     * still to go after this substep, 0: the interval ends), so the fused
+     * sweep can scatter its P2G; kf_advance then steps min(guess_dt, the
+     * CFL rule's Δt), so no substep is longer than the rule allows */
+    double fuse_cfl, fuse_left, guess_dt;
+    /* the CFL rule's particle figures made by the fused sweep (kf_cfl_scan
+     * over every owner: the fastest |v|², each material's smallest state),
+     * read once by kf_advance (which asks for them, scan_want) in place of
+     * its own pass */
+    int scan_want, scan_valid;
+    double scan_v2;
+    kf_real scan_state[KF_MAX_MATERIALS];
+    /* the smallest states the last two substeps were chosen from (newest
+     * first; cfl_hist of them valid): their trend predicts the next */
+    int cfl_hist;
+    kf_real cfl_state[2][KF_MAX_MATERIALS];
     long stiff_limited; /* particles the last kf_stress evaluated at the limited stiffness */
     int snapshot_tau_valid;
     /* rigid bodies (CPIC): motion state and the solver, created with the
@@ -232,6 +250,12 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 #define KF_FUSED_REACH 1
 #define KF_FUSED_SCATTER 2
 int kf_fuse_applies(const kf_model *m, const kf_state *s);
+/* The CFL rule's scan of particles lo..hi (step.c): the fastest |v|² into
+ * *v2max and each material's smallest state (water's J, snow's Jp, the
+ * corotated det F; sand none) into state_min, both only lowered or raised,
+ * so any split of the particles gives the same figures. One compiled
+ * function for kf_advance's pass and the fused sweep: the same bits. */
+void kf_cfl_scan(const kf_model *m, const kf_particles *p, size_t lo, size_t hi, double *v2max, kf_real *state_min);
 int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F
  * (nothing to do where the stress is not kept: KF_ZERO_TAU) */

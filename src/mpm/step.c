@@ -8,10 +8,20 @@
  *
  * Where the scene allows (kf_fuse_applies), G2P and stress run as one sweep
  * over the owner blocks, and when the next substep's Δt is known in advance
- * (kf_state_fuse_next; kf_advance knows it under a fixed step or a holding
- * dt_max clamp) the sweep also makes the next substep's P2G (kf_g2p2g),
- * which that substep then uses instead of its own: the same bits either
- * way, one pass over the particles fewer. */
+ * (kf_state_fuse_next; kf_advance knows it under a fixed step, a holding
+ * dt_max clamp, or the CFL rule's look-ahead) the sweep also makes the next
+ * substep's P2G (kf_g2p2g), which that substep then uses instead of its
+ * own: the same bits either way, one pass over the particles fewer.
+ *
+ * The CFL rule picks Δt from the particles after G2P (the fastest |v|, the
+ * most compressed state), too late for a sweep that scatters the next P2G
+ * during G2P. Where every particle's new velocity is a weighted mean of
+ * the grid's (looks_ahead), kf_step also picks the next length before G2P
+ * from the grid's new velocities (guess_next_dt), and kf_advance steps the
+ * smaller of that and the rule's own: never longer than the rule allows,
+ * and the look-ahead's (so the scatter is used) nearly always. The sweep
+ * gathers the rule's figures as it goes (kf_cfl_scan), so kf_advance needs
+ * no pass of its own over the particles. */
 #include <math.h>
 #ifdef __GLIBC__
 #include <malloc.h>
@@ -42,6 +52,8 @@ static void set_trouble(kf_trouble *t, const kf_state *s, size_t i, const char *
 }
 
 static double rigid_max_speed(const kf_model *m, const kf_state *s);
+static double guess_next_dt(const kf_model *m, const kf_state *s);
+static double landed(double dt, double left);
 
 int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_trouble *trouble) {
     kf_trouble none;
@@ -146,11 +158,19 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
 
         kf_grid_update(m, s, rdt);
         if (m->sim.contact) kf_contact_grid(m, s, rdt);
+        /* under the CFL rule's look-ahead (kf_advance): the next substep's
+         * length from the grid's new velocities, before G2P, so the sweep
+         * below can scatter the next P2G at it */
+        if (s->fuse_cfl > 0) {
+            s->guess_dt = guess_next_dt(m, s);
+            s->fuse_next = s->fuse_left > 0 ? landed(s->guess_dt, s->fuse_left) : 0;
+        }
         t1 = kf_now_ms();
         if (st) st->ms[KF_STAGE_GRID] += t1 - t0;
     }
 
     kf_g2p_result res;
+    s->scan_valid = 0;
     if (fusable) {
         /* G2P and the stress pass in one sweep, with the next substep's P2G
          * when its Δt is announced; the whole sweep is timed as G2P */
@@ -255,52 +275,91 @@ static double rigid_max_speed(const kf_model *m, const kf_state *s) {
     return best;
 }
 
-/* Δx / (c + |v|max): the substep at CFL number 1. c is the fastest wave
- * speed among the materials (water's at the most compressed particle). */
-static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
+/* The CFL rule's figures over particles lo..hi: |v|² in double (exact
+ * products of floats, so contraction cannot change it) and the smallest
+ * plastic state ps[0] per material (water's J, snow's Jp; the fixed
+ * corotated model's det F, whose volume barrier stiffens below J_b; sand's
+ * wave speed does not depend on a state). Values above 1 never lower the
+ * starting 1. */
+__attribute__((noinline)) void kf_cfl_scan(const kf_model *m, const kf_particles *p, size_t lo, size_t hi,
+                                           double *v2max, kf_real *state_min) {
+    /* per lane of 16, in runs of one material: loops the compiler turns into
+     * SIMD (max and min are exact, so the lanes' split changes nothing) */
+    enum { L = 16 };
+    double vb[L];
+    for (int j = 0; j < L; j++) vb[j] = *v2max;
+    const kf_real *const *F = (const kf_real *const *)p->F;
+    const kf_real *const *v = (const kf_real *const *)p->v;
+    while (lo < hi) {
+        const uint16_t k = p->mat[lo];
+        size_t e = lo + 1;
+        while (e < hi && p->mat[e] == k) e++;
+        const int model = m->mat[k].model;
+        kf_real sb[L];
+        for (int j = 0; j < L; j++) sb[j] = state_min[k];
+        for (size_t i0 = lo; i0 < e; i0 += L) {
+            const int n = e - i0 < L ? (int)(e - i0) : L;
+            for (int j = 0; j < n; j++) {
+                const size_t i = i0 + (size_t)j;
+                double v2 = (double)v[0][i] * v[0][i] + (double)v[1][i] * v[1][i] + (double)v[2][i] * v[2][i];
+                vb[j] = v2 > vb[j] ? v2 : vb[j];
+            }
+            if (model == KF_MAT_COROTATED)
+                for (int j = 0; j < n; j++) {
+                    const size_t i = i0 + (size_t)j;
+                    kf_real st = F[0][i] * (F[4][i] * F[8][i] - F[5][i] * F[7][i]) -
+                                 F[1][i] * (F[3][i] * F[8][i] - F[5][i] * F[6][i]) +
+                                 F[2][i] * (F[3][i] * F[7][i] - F[4][i] * F[6][i]);
+                    sb[j] = st < sb[j] ? st : sb[j];
+                }
+            else if (model != KF_MAT_SAND)
+                for (int j = 0; j < n; j++) sb[j] = p->ps[0][i0 + (size_t)j] < sb[j] ? p->ps[0][i0 + (size_t)j] : sb[j];
+        }
+        for (int j = 0; j < L; j++)
+            if (sb[j] < state_min[k]) state_min[k] = sb[j];
+        lo = e;
+    }
+    for (int j = 0; j < L; j++)
+        if (vb[j] > *v2max) *v2max = vb[j];
+}
+
+/* the scan over every particle, across ranks too (max and min are exact,
+ * so the figures do not depend on the thread count or the ranks' split) */
+static void cfl_scan_all(const kf_model *m, const kf_state *s, double *vmax2, kf_real *state_min) {
     const kf_particles *p = &s->p;
-    double vmax2 = 0, cmax = 0;
-    /* the smallest plastic state ps[0] per material: water's J, snow's Jp */
-    kf_real state_min[KF_MAX_MATERIALS];
-    for (int k = 0; k < m->nmat; k++) state_min[k] = 1;
-    size_t n = p->n;
-    const int nmat = m->nmat;
-#pragma omp parallel num_threads(m->nthreads)
+    const int nmat = m->nmat, nthreads = m->nthreads;
+    const size_t n = p->n;
+    *vmax2 = 0;
+    for (int k = 0; k < nmat; k++) state_min[k] = 1;
+#pragma omp parallel num_threads(nthreads)
     {
         kf_real local[KF_MAX_MATERIALS];
         double v2max = 0;
         for (int k = 0; k < nmat; k++) local[k] = 1;
-#pragma omp for schedule(static) nowait
-        for (size_t i = 0; i < n; i++) {
-            double v2 =
-                (double)p->v[0][i] * p->v[0][i] + (double)p->v[1][i] * p->v[1][i] + (double)p->v[2][i] * p->v[2][i];
-            if (v2 > v2max) v2max = v2;
-            uint16_t k = p->mat[i];
-            kf_real st = p->ps[0][i];
-            /* fixed corotated: det F (its volume barrier stiffens below J_b) */
-            if (m->mat[k].model == KF_MAT_COROTATED) {
-                const kf_real *const *F = (const kf_real *const *)p->F;
-                st = F[0][i] * (F[4][i] * F[8][i] - F[5][i] * F[7][i]) -
-                     F[1][i] * (F[3][i] * F[8][i] - F[5][i] * F[6][i]) +
-                     F[2][i] * (F[3][i] * F[7][i] - F[4][i] * F[6][i]);
-            }
-            if (st < local[k] && m->mat[k].model != KF_MAT_SAND) local[k] = st;
-        }
+        int t = omp_get_thread_num(), nt = omp_get_num_threads();
+        kf_cfl_scan(m, p, n * (size_t)t / (size_t)nt, n * (size_t)(t + 1) / (size_t)nt, &v2max, local);
 #pragma omp critical
         {
-            if (v2max > vmax2) vmax2 = v2max;
+            if (v2max > *vmax2) *vmax2 = v2max;
             for (int k = 0; k < nmat; k++)
                 if (local[k] < state_min[k]) state_min[k] = local[k];
         }
     }
     /* across ranks: the global max and min (exact, so the substep agrees) */
     if (s->dist) {
-        vmax2 = kf_dist_max(s, vmax2);
+        *vmax2 = kf_dist_max(s, *vmax2);
         kf_dist_min_reals(s, state_min, nmat);
     }
+}
+
+/* Δx / (c + |v|max): the substep at CFL number 1, from the fastest
+ * particle's |v|² and each material's smallest state. c is the fastest wave
+ * speed among the materials (water's at the most compressed particle). */
+static double unit_from(const kf_model *m, const kf_state *s, double vmax2, const kf_real *state_min) {
+    double cmax = 0;
     /* under a fixed step, the wave speed of the stiffness the step resolves */
     const double c_limit = kf_model_c_limit(m);
-    for (int k = 0; k < nmat; k++) {
+    for (int k = 0; k < m->nmat; k++) {
         int stateful =
             m->mat[k].model == KF_MAT_WATER || m->mat[k].model == KF_MAT_SNOW || m->mat[k].model == KF_MAT_COROTATED;
         kf_mat mk = m->mat[k];
@@ -320,8 +379,79 @@ static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
     return m->sim.dx / (cmax + sqrt(vmax2) + 1e-30);
 }
 
+static double unit_cfl_dt(const kf_model *m, const kf_state *s) {
+    double v2;
+    kf_real state_min[KF_MAX_MATERIALS];
+    cfl_scan_all(m, s, &v2, state_min);
+    return unit_from(m, s, v2, state_min);
+}
+
 static double clamp_dt(const kf_model *m, double dt) {
     return m->sim.dt_max > 0 && dt > m->sim.dt_max ? m->sim.dt_max : dt;
+}
+
+/* whether kf_advance picks each substep's length under the CFL rule before
+ * the substep before it ends its G2P (kf_step's guess_next_dt): the
+ * explicit integrator with APIC, PIC or polypic, whose particle velocities
+ * are weighted means of the grid's (no FLIP, no rigid bodies' ghost
+ * velocities, no contact fields' own velocities) */
+static int looks_ahead(const kf_model *m) {
+    return m->sim.integrator == KF_INTEGRATOR_EXPLICIT && m->sim.transfer != KF_TRANSFER_FLIP && !m->nrigid &&
+           !m->sim.contact && !(m->sim.dt_fixed > 0);
+}
+
+static inline double node_v2(const kf_v4 v) {
+    /* a node without mass gives every particle a zero weight */
+    return v[3] > 0 ? (double)v[0] * v[0] + (double)v[1] * v[1] + (double)v[2] * v[2] : 0;
+}
+
+/* The fastest node's |v|² in double: every particle's new velocity is a
+ * weighted mean of its stencil's nodes with mass (weights >= 0 summing to
+ * 1), so none is faster, up to the mean's rounding. On one rank every node
+ * with mass lies in some owner's neighbourhood; across ranks only the nodes
+ * of a rank's own owners' neighbourhoods hold the one-rank sums (a halo
+ * node may hold part of one), so each rank looks at those, and the max
+ * over ranks is the one-rank figure. */
+static double grid_vmax2(const kf_model *m, const kf_state *s) {
+    const kf_grid *g = &s->g;
+    double best = 0;
+    if (!s->dist) {
+        const size_t nn = g->nblocks * KF_BLOCK_NODES;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(max : best)
+        for (size_t i = 0; i < nn; i++) {
+            double v2 = node_v2(g->node[i]);
+            if (v2 > best) best = v2;
+        }
+        return best;
+    }
+    const size_t nowner = g->nowner;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(max : best)
+    for (size_t r = 0; r < nowner; r++)
+        for (int q = 0; q < 8; q++) {
+            const kf_v4 *node = &g->node[(size_t)g->nb[r][q] * KF_BLOCK_NODES];
+            for (int l = 0; l < KF_BLOCK_NODES; l++) {
+                double v2 = node_v2(node[l]);
+                if (v2 > best) best = v2;
+            }
+        }
+    return kf_dist_max(s, best);
+}
+
+/* The next substep's length under the CFL rule, chosen before G2P: the
+ * fastest node stands in for the fastest particle, and each material's
+ * smallest state for the end of the substep is the newest one the rule
+ * saw, lowered by twice its last fall. A relative margin of 1e-5 covers
+ * the rounding of the mean. kf_advance takes the smaller of this and the
+ * rule's own Δt from the particles after the substep, so this only ever
+ * shortens a substep; where it is the smaller (nearly always), the fused
+ * sweep's early P2G was made at the right length. */
+static double guess_next_dt(const kf_model *m, const kf_state *s) {
+    kf_real pred[KF_MAX_MATERIALS];
+    for (int k = 0; k < m->nmat; k++) {
+        kf_real now = s->cfl_hist > 0 ? s->cfl_state[0][k] : 1, prev = s->cfl_hist > 1 ? s->cfl_state[1][k] : now;
+        pred[k] = prev > now ? now - 2 * (prev - now) : now;
+    }
+    return clamp_dt(m, s->fuse_cfl * (1 - 1e-5) * unit_from(m, s, grid_vmax2(m, s), pred));
 }
 
 double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl) { return clamp_dt(m, cfl * unit_cfl_dt(m, s)); }
@@ -369,19 +499,43 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
      * in stiff_limited), and what trouble remains is reported with how far
      * the step was outgrown rather than by changing the shot's step */
     double reached = 0;
+    const int ahead = looks_ahead(m);
     for (; attempt <= retries; attempt++) {
         double t = 0;
         int ok = 1;
+        /* the look-ahead starts afresh with each try of the interval, so a
+         * retried or resumed interval picks the same substeps */
+        s->guess_dt = 0, s->cfl_hist = 0, s->scan_valid = 0, s->scan_want = 1;
         while (duration - t > 1e-9 * duration) {
-            double unit = unit_cfl_dt(m, s), left = duration - t;
+            /* the CFL rule's figures: from the fused sweep where it made
+             * them, else one pass over the particles */
+            double v2;
+            kf_real state_min[KF_MAX_MATERIALS];
+            if (s->scan_valid) {
+                v2 = s->scan_v2;
+                memcpy(state_min, s->scan_state, sizeof(kf_real) * (size_t)m->nmat);
+            } else {
+                cfl_scan_all(m, s, &v2, state_min);
+            }
+            s->scan_valid = 0;
+            memcpy(s->cfl_state[1], s->cfl_state[0], sizeof s->cfl_state[0]);
+            memcpy(s->cfl_state[0], state_min, sizeof(kf_real) * (size_t)m->nmat);
+            s->cfl_hist++;
+            double unit = unit_from(m, s, v2, state_min), left = duration - t;
             double dt = fixed > 0 ? fixed : clamp_dt(m, cfl * unit);
+            /* the look-ahead's pick where it is the shorter */
+            if (ahead && s->guess_dt > 0 && s->guess_dt < dt) dt = s->guess_dt;
             if (fixed > 0 && dt / unit > reached) reached = dt / unit;
             /* the next substep's length where it is known now (a fixed step)
              * or likely (the dt_max clamp held): kf_step may scatter its P2G
-             * early (kf_g2p2g); a wrong guess only costs that scatter */
-            double next = fixed > 0 ? fixed : dt < cfl * unit ? dt : 0;
+             * early (kf_g2p2g); a wrong guess only costs that scatter. Under
+             * the look-ahead kf_step picks it itself, from the grid. */
+            double next = fixed > 0 ? fixed : !ahead && dt < cfl * unit ? dt : 0;
             double left_next = duration - (t + landed(dt, left)); /* as the next turn computes it */
             s->fuse_next = next > 0 && left_next > 1e-9 * duration ? landed(next, left_next) : 0;
+            s->fuse_cfl = ahead ? cfl : 0;
+            s->fuse_left = left_next > 1e-9 * duration ? left_next : 0;
+            s->guess_dt = 0;
             dt = landed(dt, left);
             if (kf_step(m, s, dt, st, &tr)) {
                 ok = 0;
@@ -394,7 +548,7 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
             t += dt;
             if (st && dt / unit > st->max_cfl) st->max_cfl = dt / unit; /* CFL number used */
         }
-        s->fuse_next = 0;
+        s->fuse_next = 0, s->fuse_cfl = 0, s->guess_dt = 0, s->scan_valid = 0, s->scan_want = 0;
         if (ok) return 0;
         /* trouble: back to the interval start, half the step, try again */
         if (kf_snapshot_restore(s, time0, substep0)) {

@@ -758,9 +758,18 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
     int usable = scatter, give_up = 0, reach = 1;
     const kf_real inv_dx = kf_model_inv_dx(m);
     const size_t nblocks = g->nblocks, nowner = g->nowner;
+    /* the CFL rule's figures for kf_advance, while each owner is in cache */
+    const int scan = s->scan_want;
+    const int nmat = m->nmat;
+    double scan_v2 = 0;
+    kf_real scan_state[KF_MAX_MATERIALS];
+    for (int k = 0; k < nmat; k++) scan_state[k] = 1;
 #pragma omp parallel num_threads(m->nthreads) reduction(+ : limited)
     {
         kf_ftz();
+        double v2max = 0;
+        kf_real state_min[KF_MAX_MATERIALS];
+        for (int k = 0; k < nmat; k++) state_min[k] = 1;
         kf_v4 cache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));  /* this substep's velocities */
         kf_v4 pcache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64))); /* the next substep's P2G */
         chunk ck __attribute__((aligned(64)));
@@ -777,6 +786,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
                     size_t r = (size_t)g->owner[k];
                     gfn(m, s, r, dt, cache, NULL, &ck, &acc);
                     if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
+                    if (scan) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min);
                     in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
                     int stop;
 #pragma omp atomic read
@@ -799,6 +809,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
             for (size_t r = 0; r < nowner; r++) {
                 gfn(m, s, r, dt, cache, NULL, &ck, &acc);
                 if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
+                if (scan) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min);
                 in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
             }
         }
@@ -809,8 +820,15 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
             if (acc.max_cells > total.max_cells) total.max_cells = acc.max_cells;
             usable &= ok;
             reach &= in_reach;
+            if (v2max > scan_v2) scan_v2 = v2max;
+            for (int k = 0; k < nmat; k++)
+                if (state_min[k] < scan_state[k]) scan_state[k] = state_min[k];
         }
     }
+    /* owners hold every particle once (binning), so these are the figures of all */
+    s->scan_valid = scan && !total.trouble.found;
+    s->scan_v2 = scan_v2;
+    memcpy(s->scan_state, scan_state, sizeof(kf_real) * (size_t)nmat);
     s->stiff_limited = limited;
     s->tau_valid = 1;
     s->stress_model = m;

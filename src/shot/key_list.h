@@ -38,7 +38,7 @@ KF_KEY(SIM_DX, "sim.dx", KT_NUM, TOP(s.sim.dx), OC(0, 10), NULL, "0.02", "m", NU
 KF_KEY(SIM_PPC, "sim.ppc", KT_INT, TOP(s.ppc), ANY, "1|8|27|64", "8", NULL, NULL, 0,
        "Particles per grid cell when seeding.")
 KF_KEY(SIM_CFL, "sim.cfl", KT_NUM, TOP(s.sim.cfl), OC(0, 2), NULL, "0.4", NULL, NULL, 0,
-       "CFL number: a substep is cfl * dx / (wave speed + fastest particle).")
+       "CFL number: a substep is at most cfl * dx / (wave speed + fastest particle).")
 KF_KEY(SIM_DT_MAX, "sim.dt_max", KT_NUM, TOP(s.sim.dt_max), GE(0), NULL, "0", "s", NULL, 0,
        "Longest substep allowed (0 = only the CFL rule).")
 KF_KEY(SIM_DT_FIXED, "sim.dt_fixed", KT_NUM, TOP(s.sim.dt_fixed), GE(0), NULL, "0", "s", NULL, 0,
