@@ -490,18 +490,36 @@ static int mark_triangle(const kf_cpic *c, const kf_grid *g, const kf_rigid_body
         b0[a] = b0[a] < (int)blo ? (int)blo : b0[a];
         b1[a] = b1[a] > (int)bhi ? (int)bhi : b1[a];
     }
-    /* the plane's offset, and a block's reach as a box: centre and half sides */
+    /* the plane's offset, and a block's reach as a box: centre and half
+     * sides. Along the axis the plane faces most, the blocks it passes
+     * within reach of form one run per column of the other two axes (a
+     * block wider each way): the work follows the triangle's area, not its
+     * box's volume. */
     const double off = n[0] * v[0][0] + n[1] * v[0][1] + n[2] * v[0][2];
     const double half = 0.5 * (11 + kw + 2 * reach) + 1, mid = 0.5 * (5 + kw);
     const double spread = half * (fabs(n[0]) + fabs(n[1]) + fabs(n[2]));
-    for (int p = b0[0]; p <= b1[0]; p++)
-        for (int q = b0[1]; q <= b1[1]; q++)
-            for (int w = b0[2]; w <= b1[2]; w++) {
-                const double cx = KF_BLOCK * p + mid, cy = KF_BLOCK * q + mid, cz = KF_BLOCK * w + mid;
-                if (fabs(n[0] * cx + n[1] * cy + n[2] * cz - off) > spread) continue;
-                int32_t blk = find_block(c, g, p, q, w);
+    int ax = 0;
+    for (int a = 1; a < 3; a++)
+        if (fabs(n[a]) > fabs(n[ax])) ax = a;
+    const int a1 = (ax + 1) % 3, a2 = (ax + 2) % 3;
+    int blk3[3];
+    for (int p = b0[a1]; p <= b1[a1]; p++)
+        for (int q = b0[a2]; q <= b1[a2]; q++) {
+            int w0 = b0[ax], w1 = b1[ax];
+            if (n[ax] != 0) {
+                const double rest = n[a1] * (KF_BLOCK * p + mid) + n[a2] * (KF_BLOCK * q + mid);
+                const double f0 = (off - rest - spread) / n[ax], f1 = (off - rest + spread) / n[ax];
+                const double wlo = floor((fmin(f0, f1) - mid) / KF_BLOCK) - 1,
+                             whi = ceil((fmax(f0, f1) - mid) / KF_BLOCK) + 1;
+                if (wlo > w0) w0 = (int)wlo;
+                if (whi < w1) w1 = (int)whi;
+            }
+            for (int w = w0; w <= w1; w++) {
+                blk3[a1] = p, blk3[a2] = q, blk3[ax] = w;
+                int32_t blk = find_block(c, g, blk3[0], blk3[1], blk3[2]);
                 if (blk >= 0) near[blk] = 1;
             }
+        }
     return 0;
 }
 
