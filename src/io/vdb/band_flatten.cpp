@@ -24,23 +24,6 @@ constexpr float SUPPORT = 0.25f;
 // a leaf with a two-voxel apron: the normals of the apron's first layer
 constexpr int P2 = LEAF_DIM + 4;
 
-// leaf i and a two-voxel apron from the 26 neighbours into pad (P2^3;
-// missing neighbours: W)
-void gather_padded2(const dense_band &b, size_t i, float W, float *pad) {
-    for (int px = 0; px < P2; px++) {
-        const int lx = px - 2, dx = lx < 0 ? -1 : (lx >= LEAF_DIM ? 1 : 0), x = lx - dx * LEAF_DIM;
-        for (int py = 0; py < P2; py++) {
-            const int ly = py - 2, dy = ly < 0 ? -1 : (ly >= LEAF_DIM ? 1 : 0), y = ly - dy * LEAF_DIM;
-            float *row = pad + (px * P2 + py) * P2;
-            for (int pz = 0; pz < P2; pz++) {
-                const int lz = pz - 2, dz = lz < 0 ? -1 : (lz >= LEAF_DIM ? 1 : 0), z = lz - dz * LEAF_DIM;
-                const int32_t j = b.nbr[27 * i + dense_band::nbr_slot(dx, dy, dz)];
-                row[pz] = j < 0 ? W : b.leaf(size_t(j))[(x << 6) + (y << 3) + z];
-            }
-        }
-    }
-}
-
 // the unit gradient at voxel q of a leaf padded to edge E (central
 // differences); false if flat
 template <int E = P> inline bool normal_at(const float *q, float n[3]) {
@@ -131,7 +114,7 @@ samples collect(const dense_band &b, float W) {
             bool any = false;
             for (int v = 0; v < LEAF_SIZE && !any; v++) any = std::fabs(phi[v]) < 1.f;
             if (!any) continue;
-            gather_padded2(b, i, W, pad);
+            gather_apron<2>(b, i, W, pad);
             const openvdb::Coord lc = leaf_coord(b.key[i]);
             std::vector<float> &o = per[i];
             // sub-block by sub-block, so that each one's points are contiguous

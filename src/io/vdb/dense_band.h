@@ -58,22 +58,29 @@ struct dense_band {
 // a leaf with a one-voxel apron, as the band's stencil passes read it
 constexpr int PADDED = LEAF_DIM + 2;
 
-// leaf i and its apron from the 26 neighbours into pad (PADDED^3; missing neighbours: W)
-inline void gather_padded(const dense_band &b, size_t i, float W, float *pad) {
-    constexpr int P = PADDED;
-    for (int px = 0; px < P; px++) {
-        const int lx = px - 1, dx = lx < 0 ? -1 : (lx >= LEAF_DIM ? 1 : 0), x = lx - dx * LEAF_DIM;
-        for (int py = 0; py < P; py++) {
-            const int ly = py - 1, dy = ly < 0 ? -1 : (ly >= LEAF_DIM ? 1 : 0), y = ly - dy * LEAF_DIM;
-            float *row = pad + (px * P + py) * P;
-            for (int pz = 0; pz < P; pz++) {
-                const int lz = pz - 1, dz = lz < 0 ? -1 : (lz >= LEAF_DIM ? 1 : 0), z = lz - dz * LEAF_DIM;
-                const int32_t j = b.nbr[27 * i + dense_band::nbr_slot(dx, dy, dz)];
-                row[pz] = j < 0 ? W : b.leaf(size_t(j))[(x << 6) + (y << 3) + z];
-            }
+// leaf i and an apron of A voxels from the 26 neighbours into pad
+// ((LEAF_DIM + 2 A)^3; missing neighbours: W), row by row: each z row is
+// up to three runs, one from each leaf it crosses
+template <int A> inline void gather_apron(const dense_band &b, size_t i, float W, float *pad) {
+    constexpr int E = LEAF_DIM + 2 * A;
+    for (int px = 0; px < E; px++) {
+        const int lx = px - A, dx = lx < 0 ? -1 : (lx >= LEAF_DIM ? 1 : 0), x = lx - dx * LEAF_DIM;
+        for (int py = 0; py < E; py++) {
+            const int ly = py - A, dy = ly < 0 ? -1 : (ly >= LEAF_DIM ? 1 : 0), y = ly - dy * LEAF_DIM;
+            float *row = pad + (px * E + py) * E;
+            const int off = (x << 6) + (y << 3);
+            const int32_t *nb = b.nbr.data() + 27 * i + dense_band::nbr_slot(dx, dy, 0);
+            const int32_t jm = nb[-1], j0 = nb[0], jp = nb[1];
+            for (int pz = 0; pz < A; pz++) row[pz] = jm < 0 ? W : b.leaf(size_t(jm))[off + LEAF_DIM - A + pz];
+            if (j0 < 0) std::fill(row + A, row + A + LEAF_DIM, W);
+            else std::copy(b.leaf(size_t(j0)) + off, b.leaf(size_t(j0)) + off + LEAF_DIM, row + A);
+            for (int pz = 0; pz < A; pz++) row[A + LEAF_DIM + pz] = jp < 0 ? W : b.leaf(size_t(jp))[off + pz];
         }
     }
 }
+
+// leaf i and its one-voxel apron, as the band's stencil passes read it (PADDED^3)
+inline void gather_padded(const dense_band &b, size_t i, float W, float *pad) { gather_apron<1>(b, i, W, pad); }
 
 } // namespace kf_vdb
 
