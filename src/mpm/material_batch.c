@@ -14,6 +14,7 @@
 #include "material.h"
 
 #include <math.h>
+#include <string.h>
 
 #define BATCH 16
 #define SWEEPS 8
@@ -511,6 +512,15 @@ static int snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *con
     return limited;
 }
 
+/* c <= BATCH lanes out of a batch's plane: a full batch as one fixed-size
+ * copy (a vector move; a variable length compiles to a string copy, whose
+ * start-up costs more than the copy) */
+static inline void copy_lanes(kf_real *restrict dst, const kf_real *restrict src, int c) {
+    if (c == BATCH) memcpy(dst, src, BATCH * sizeof *src);
+    else
+        for (int j = 0; j < c; j++) dst[j] = src[j];
+}
+
 /* One batch of c <= BATCH particles from index first, through lanes of a
  * full BATCH in aligned local planes (the rest padded with F = I at rest):
  * every particle takes the same machine code whatever its place in a run
@@ -521,12 +531,19 @@ static int lanes_batch(const kf_mat *m, int c, kf_real *const Fp[9], kf_real *co
                        kf_real *const tau6[6]) {
     kf_real F[9][BATCH] __attribute__((aligned(64))), P[2][BATCH] __attribute__((aligned(64)));
     kf_real T[6][BATCH] __attribute__((aligned(64)));
-    for (int k = 0; k < 9; k++)
-        for (int j = 0; j < BATCH; j++) F[k][j] = j < c ? Fp[k][first + (size_t)j] : (kf_real)(k % 4 == 0);
     /* the pads at rest: snow's Jp 1, the Hencky models' corrections 0 */
     const kf_real rest = m->model == KF_MAT_SNOW ? 1 : 0;
-    for (int k = 0; k < 2; k++)
-        for (int j = 0; j < BATCH; j++) P[k][j] = j < c ? ps[k][first + (size_t)j] : k == 0 ? rest : 0;
+    /* a full batch as fixed-size copies (vector moves); a short one padded
+     * lane by lane */
+    if (c == BATCH) {
+        for (int k = 0; k < 9; k++) memcpy(F[k], Fp[k] + first, sizeof F[k]);
+        for (int k = 0; k < 2; k++) memcpy(P[k], ps[k] + first, sizeof P[k]);
+    } else {
+        for (int k = 0; k < 9; k++)
+            for (int j = 0; j < BATCH; j++) F[k][j] = j < c ? Fp[k][first + (size_t)j] : (kf_real)(k % 4 == 0);
+        for (int k = 0; k < 2; k++)
+            for (int j = 0; j < BATCH; j++) P[k][j] = j < c ? ps[k][first + (size_t)j] : k == 0 ? rest : 0;
+    }
     kf_real *const Fl[9] = {F[0], F[1], F[2], F[3], F[4], F[5], F[6], F[7], F[8]};
     kf_real *const Pl[2] = {P[0], P[1]};
     kf_real *const Tl[6] = {T[0], T[1], T[2], T[3], T[4], T[5]};
@@ -534,14 +551,11 @@ static int lanes_batch(const kf_mat *m, int c, kf_real *const Fp[9], kf_real *co
     if (m->model == KF_MAT_COROTATED) limited = corotated_batch(m, BATCH, Fl, Pl, 0, Tl);
     else if (m->model == KF_MAT_SNOW) limited = snow_batch(m, BATCH, Fl, Pl, project && m->plastic, 0, Tl);
     else hencky_batch(m, BATCH, Fl, Pl, project && m->plastic, 0, Tl);
-    for (int k = 0; k < 6; k++)
-        for (int j = 0; j < c; j++) tau6[k][j] = T[k][j];
+    for (int k = 0; k < 6; k++) copy_lanes(tau6[k], T[k], c);
     /* the corotated model changes neither (its ps may be an untouched zero array) */
     if (project && m->plastic && m->model != KF_MAT_COROTATED) {
-        for (int k = 0; k < 9; k++)
-            for (int j = 0; j < c; j++) Fp[k][first + (size_t)j] = F[k][j];
-        for (int k = 0; k < 2; k++)
-            for (int j = 0; j < c; j++) ps[k][first + (size_t)j] = P[k][j];
+        for (int k = 0; k < 9; k++) copy_lanes(Fp[k] + first, F[k], c);
+        for (int k = 0; k < 2; k++) copy_lanes(ps[k] + first, P[k], c);
     }
     return limited;
 }

@@ -202,10 +202,15 @@ KF_INLINE void p2g_flush_old(int KW, kf_grid *g, const int32_t *nb, const kf_v4 
  * nodes, or the fused step's next ones) */
 KF_INLINE void p2g_flush(int KW, kf_v4 *node, const int32_t *nb, const kf_v4 *cache, const int lohi[6]) {
     const int CD = CD_MAX;
+    /* per cache row, the part in the lower z block, then the upper one */
+    const int c0 = lohi[2], c1 = lohi[5] + KW, cm = c1 < KF_BLOCK ? c1 : KF_BLOCK;
+    const int cu = c0 > KF_BLOCK ? c0 : KF_BLOCK;
     for (int a = lohi[0]; a < lohi[3] + KW; a++)
         for (int b = lohi[1]; b < lohi[4] + KW; b++) {
             const kf_v4 *row = &cache[(a * CD + b) * CD];
-            for (int c = lohi[2]; c < lohi[5] + KW; c++) node[nb_index(nb, a, b, c)] += row[c];
+            kf_v4 *lo = nb_row(node, nb, a, b, 0), *hi = nb_row(node, nb, a, b, 1);
+            for (int c = c0; c < cm; c++) lo[c] += row[c];
+            for (int c = cu; c < c1; c++) hi[c - KF_BLOCK] += row[c];
         }
 }
 
@@ -370,7 +375,6 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
 
 KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, kf_real dt,
                          kf_v4 *cache, kf_v4 *ocache, chunk *ck, step_acc *acc) {
-    const int CD = CD_MAX;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
     /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
@@ -383,25 +387,19 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     kf_real max_v2 = 0;
+    /* whether any material is water: else no chunk looks at the particles' materials */
+    int water = 0;
+    for (int k = 0; k < m->nmat; k++) water |= m->mat[k].model == KF_MAT_WATER;
 
     /* gather the neighbourhood's velocities */
     const int32_t *nb = g->nb[r];
-    for (int a = 0; a < CD; a++)
-        for (int b = 0; b < CD; b++) {
-            kf_v4 *row = &cache[(a * CD + b) * CD];
-            for (int c = 0; c < CD; c++) row[c] = *nb_node(g, nb, a, b, c);
-        }
+    nb_gather(g->node, nb, cache);
     /* FLIP, away from rigid surfaces and objects' own fields (where the
      * particle's velocity is CPIC's or its field's, APIC there): the old
      * velocities of the neighbourhood too */
     const int flip = FLIP && !band && !fields;
     const kf_real ratio = (kf_real)m->sim.flip_ratio;
-    if (flip)
-        for (int a = 0; a < CD; a++)
-            for (int b = 0; b < CD; b++) {
-                kf_v4 *row = &ocache[(a * CD + b) * CD];
-                for (int c = 0; c < CD; c++) row[c] = g->node_old[nb_node(g, nb, a, b, c) - g->node];
-            }
+    if (flip) nb_gather(g->node_old, nb, ocache);
 
     for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
         size_t left = g->pstart[r + 1] - i0;
@@ -418,7 +416,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
          * near a rigid surface, ghost velocities on incompatible nodes (CPIC
          * reads the stress P2G scattered: F's before this chunk updates it) */
         if (band) kf_cpic_g2p_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
-        for (int j = 0; j < (band ? 0 : n); j++) gather_one(KW, CLASSIC, ck, j, cache);
+        else gather_chunk(KW, CLASSIC, ck, cache);
         /* where objects meet: each particle's own field's velocity */
         if (fields) kf_contact_g2p_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
         /* polypic: the higher modes of the new velocities; none near rigid
@@ -516,7 +514,7 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
 
         /* water keeps F = I and tracks J ← (1 + Δt tr L) J instead */
         int any_water = 0;
-        for (int j = 0; j < n; j++) any_water |= m->mat[p->mat[i0 + (size_t)j]].model == KF_MAT_WATER;
+        for (int j = 0; j < (water ? n : 0); j++) any_water |= m->mat[p->mat[i0 + (size_t)j]].model == KF_MAT_WATER;
         /* a whole chunk as one fixed-size copy per plane (a vector move, not
          * the string copy a variable length compiles to) */
         for (int k = 0; k < 9; k++) {

@@ -84,6 +84,23 @@ static inline size_t nb_index(const int32_t *nb, int a, int b, int c) {
 static inline kf_v4 *nb_node(const kf_grid *g, const int32_t *nb, int a, int b, int c) {
     return &g->node[nb_index(nb, a, b, c)];
 }
+/* the first node of row (a, b) of the neighbourhood's lower (hz 0) or upper
+ * (hz 1) z block: KF_BLOCK contiguous nodes */
+static inline kf_v4 *nb_row(kf_v4 *node, const int32_t *nb, int a, int b, int hz) {
+    int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | hz];
+    return &node[(size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2)];
+}
+/* the whole neighbourhood of nodes into a cache (edge CD_MAX), a row's
+ * block-long runs at a time (fixed-size copies: vector moves) */
+static inline void nb_gather(kf_v4 *node, const int32_t *nb, kf_v4 *cache) {
+    _Static_assert(CD_MAX == 2 * KF_BLOCK && KF_BLOCK == 4, "a cache row is two blocks' rows");
+    for (int a = 0; a < CD_MAX; a++)
+        for (int b = 0; b < CD_MAX; b++) {
+            kf_v4 *row = &cache[(a * CD_MAX + b) * CD_MAX];
+            memcpy(row, nb_row(node, nb, a, b, 0), KF_BLOCK * sizeof(kf_v4));
+            memcpy(row + KF_BLOCK, nb_row(node, nb, a, b, 1), KF_BLOCK * sizeof(kf_v4));
+        }
+}
 
 /* ---- prefetching -------------------------------------------------------------
  * A chunk's phases stream two to three dozen particle planes at once, more
@@ -318,7 +335,7 @@ static inline __m512 group_sums4(__m512 a, __m512 b, __m512 c, __m512 d) {
  * lane: v = Σ_c w_c S_c, B:,0 = Σ_c w_c S0_c, B:,1 = Σ_c w_c S1_c,
  * B:,2 = Σ_c w_c d_c S_c. The same sums as the portable path in another
  * order: results differ from it in the last bits. */
-KF_INLINE void gather_rows512(int KW, chunk *ck, int j, const kf_v4 *cache) {
+KF_INLINE __m512 gather_rows512_sum(int KW, const chunk *ck, int j, const kf_v4 *cache) {
     const int CD = CD_MAX;
     const __mmask16 mk = KW == 4 ? 0xFFFF : 0x0FFF;
     kf_real w2[4], wd2[4];
@@ -342,15 +359,53 @@ KF_INLINE void gather_rows512(int KW, chunk *ck, int j, const kf_v4 *cache) {
         S1 = _mm512_fmadd_ps(_mm512_set1_ps(wa), A1, S1);
     }
     const __m512 WK = row_lanes(w2, KW);
-    const __m512 sum = group_sums4(_mm512_mul_ps(WK, S), _mm512_mul_ps(WK, S0), _mm512_mul_ps(WK, S1),
-                                   _mm512_mul_ps(row_lanes(wd2, KW), S));
+    return group_sums4(_mm512_mul_ps(WK, S), _mm512_mul_ps(WK, S0), _mm512_mul_ps(WK, S1),
+                       _mm512_mul_ps(row_lanes(wd2, KW), S));
+}
+
+/* one particle's gather: its record [v, m | B:,0 | B:,1 | B:,2] into the chunk */
+KF_INLINE void gather_rows512(int KW, chunk *ck, int j, const kf_v4 *cache) {
     float o[16] __attribute__((aligned(64)));
-    _mm512_store_ps(o, sum);
+    _mm512_store_ps(o, gather_rows512_sum(KW, ck, j, cache));
     for (int k = 0; k < 3; k++) {
         ck->v[k][j] = o[k];
         ck->b[3 * k][j] = o[4 + k];
         ck->b[3 * k + 1][j] = o[8 + k];
         ck->b[3 * k + 2][j] = o[12 + k];
+    }
+}
+
+/* A whole chunk's gather: each particle's record is one row of a 16x16
+ * block, and one register transpose turns the block into the chunk's
+ * planes (a dozen shuffles per record instead of a dozen scalar stores).
+ * The records are gather_rows512's, bit for bit. */
+KF_INLINE void gather_chunk512(int KW, chunk *ck, const kf_v4 *cache) {
+    float rec[KF_CHUNK][16] __attribute__((aligned(64)));
+    for (int j = 0; j < ck->n; j++) _mm512_store_ps(rec[j], gather_rows512_sum(KW, ck, j, cache));
+    for (int j = ck->n; j < KF_CHUNK; j++) _mm512_store_ps(rec[j], _mm512_setzero_ps());
+    /* pairs of rows interleaved, then quads: u[4q + i] holds, in 128-bit
+     * lane L, element 4L + i of rows 4q..4q+3 (i = 3, the masses, unused) */
+    __m512 u[16];
+    for (int q = 0; q < 4; q++) {
+        const __m512 r0 = _mm512_load_ps(rec[4 * q]), r1 = _mm512_load_ps(rec[4 * q + 1]);
+        const __m512 r2 = _mm512_load_ps(rec[4 * q + 2]), r3 = _mm512_load_ps(rec[4 * q + 3]);
+        const __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(r0, r1)),
+                      t1 = _mm512_castps_pd(_mm512_unpackhi_ps(r0, r1));
+        const __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(r2, r3)),
+                      t3 = _mm512_castps_pd(_mm512_unpackhi_ps(r2, r3));
+        u[4 * q] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
+        u[4 * q + 1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
+        u[4 * q + 2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
+    }
+    /* then the lanes: column 4L + i gathers lane L of u[i], u[4 + i], u[8 + i], u[12 + i] */
+    for (int i = 0; i < 3; i++) {
+        const __m512 v0 = _mm512_shuffle_f32x4(u[i], u[4 + i], 0x88), v1 = _mm512_shuffle_f32x4(u[i], u[4 + i], 0xDD);
+        const __m512 w0 = _mm512_shuffle_f32x4(u[8 + i], u[12 + i], 0x88);
+        const __m512 w1 = _mm512_shuffle_f32x4(u[8 + i], u[12 + i], 0xDD);
+        _mm512_storeu_ps(ck->v[i], _mm512_shuffle_f32x4(v0, w0, 0x88));         /* column i */
+        _mm512_storeu_ps(ck->b[3 * i], _mm512_shuffle_f32x4(v1, w1, 0x88));     /* column 4 + i */
+        _mm512_storeu_ps(ck->b[3 * i + 1], _mm512_shuffle_f32x4(v0, w0, 0xDD)); /* column 8 + i */
+        _mm512_storeu_ps(ck->b[3 * i + 2], _mm512_shuffle_f32x4(v1, w1, 0xDD)); /* column 12 + i */
     }
 }
 #endif
@@ -403,6 +458,17 @@ KF_INLINE void gather_one(int KW, int CLASSIC, chunk *ck, int j, const kf_v4 *ca
             ck->g[3 * k + 2][j] = g2[k];
         }
     }
+}
+
+/* a chunk's G2P gathers, particle by particle or (AVX-512, MLS) as one block */
+KF_INLINE void gather_chunk(int KW, int CLASSIC, chunk *ck, const kf_v4 *cache) {
+#ifdef KF_ROWS512
+    if (!CLASSIC) {
+        gather_chunk512(KW, ck, cache);
+        return;
+    }
+#endif
+    for (int j = 0; j < ck->n; j++) gather_one(KW, CLASSIC, ck, j, cache);
 }
 
 #endif
