@@ -1,5 +1,5 @@
 # scene_table.gp — where the time goes in the paper's scenes, from kerf_bench's scene table.
-#   build/kerf_bench --only scenes --frames 1 --scale 1 | grep -v '^paper\|^s/frame' > DIR/scene_table.dat
+#   build/kerf_bench --only scenes --substeps 30 --threads 2 | grep -v '^paper\|^s/frame' | sed 's/~/ /' > DIR/scene_table.tsv
 #   gnuplot -e "dir='DIR'" tools/evidence/scene_table.gp
 # Writes dir/scene_table.png: left, each scene's frame split by stage (share of the
 # stages' sum); right, core-seconds per frame per million particles, kerf against
@@ -8,7 +8,7 @@ if (!exists("dir")) dir = "."
 if (!exists("label")) label = "1 frame at the paper's resolution"
 set terminal pngcairo size 1800,640 font "sans,11" noenhanced
 set datafile separator whitespace
-data = dir."/scene_table.dat"
+data = dir."/scene_table.tsv"
 # columns: 1 scene, 8-14 ms per frame: sort p2g grid g2p stress cdf rigid; 18 kerf c-s, 19 paper c-s
 stages = "sort p2g grid g2p stress cdf rigid"
 total(i) = column(8) + column(9) + column(10) + column(11) + column(12) + column(13) + column(14)
