@@ -25,6 +25,9 @@ struct kf_rigid_bvh {
     /* the mesh in double (shifted), for exact closest points */
     double *vert;
     int *tri;
+    /* per triangle its plane (unit normal, offset; zero for a sliver), and
+     * a distance far above the rounding of the distances closest_cb compares */
+    double *plane, tol;
 };
 
 void kf_rigid_bvh_free(kf_rigid_bvh *b) {
@@ -33,6 +36,7 @@ void kf_rigid_bvh_free(kf_rigid_bvh *b) {
     if (b->dev) rtcReleaseDevice(b->dev);
     free(b->vert);
     free(b->tri);
+    free(b->plane);
     free(b);
 }
 
@@ -51,6 +55,29 @@ kf_rigid_bvh *kf_rigid_bvh_build(const double *vert, int nvert, const int *tri, 
     if (!b->vert || !b->tri) return snprintf(err, errlen, "out of memory"), kf_rigid_bvh_free(b), NULL;
     for (size_t i = 0; i < 3 * (size_t)nvert; i++) b->vert[i] = vert[i] - b->c[i % 3];
     memcpy(b->tri, tri, sizeof(int) * 3 * (size_t)ntri);
+    b->plane = malloc(sizeof(double) * 4 * (size_t)ntri);
+    if (!b->plane) return snprintf(err, errlen, "out of memory"), kf_rigid_bvh_free(b), NULL;
+    double ext = 0;
+    for (size_t i = 0; i < 3 * (size_t)nvert; i++) ext = fmax(ext, fabs(b->vert[i]));
+    b->tol = 1e-9 * (1 + ext);
+    for (size_t k = 0; k < (size_t)ntri; k++) {
+        const double *v0 = &b->vert[3 * tri[3 * k]], *v1 = &b->vert[3 * tri[3 * k + 1]],
+                     *v2 = &b->vert[3 * tri[3 * k + 2]];
+        double e1[3], e2[3], n[3];
+        for (int a = 0; a < 3; a++) e1[a] = v1[a] - v0[a], e2[a] = v2[a] - v0[a];
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        /* a sliver's normal is not trusted (its cross product cancels):
+         * it keeps a zero plane, never skipped */
+        double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]),
+               l2 = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+        int ok = nn > 1e-3 * l1 * l2;
+        double *pl = &b->plane[4 * k];
+        for (int a = 0; a < 3; a++) pl[a] = ok ? n[a] / nn : 0;
+        pl[3] = pl[0] * v0[0] + pl[1] * v0[1] + pl[2] * v0[2];
+    }
     /* one build thread: the simulation's OpenMP threads own the cores */
     b->dev = rtcNewDevice("threads=1");
     if (!b->dev) {
@@ -160,8 +187,8 @@ static void closest_on_triangle(const double p[3], const double a[3], const doub
 
 typedef struct closest_ctx {
     const kf_rigid_bvh *b;
-    double p[3]; /* shifted */
-    double best2;
+    double p[3];        /* shifted */
+    double best2, best; /* the best distance, squared and not */
     int prim, interior;
     double q[3]; /* shifted */
 } closest_ctx;
@@ -169,6 +196,12 @@ typedef struct closest_ctx {
 static bool closest_cb(struct RTCPointQueryFunctionArguments *args) {
     closest_ctx *c = args->userPtr;
     const int *t = &c->b->tri[3 * args->primID];
+    /* A triangle whose plane is already farther than the best point cannot
+     * hold a closer one (its closest point lies on the plane): skipped
+     * before the region test. With the margin (tol) it is skipped only
+     * where the test below would reject it too: the result is the same. */
+    const double *pl = &c->b->plane[4 * args->primID];
+    if (fabs(pl[0] * c->p[0] + pl[1] * c->p[1] + pl[2] * c->p[2] - pl[3]) > c->best + c->b->tol) return false;
     double q[3];
     int interior;
     closest_on_triangle(c->p, &c->b->vert[3 * t[0]], &c->b->vert[3 * t[1]], &c->b->vert[3 * t[2]], q, &interior);
@@ -179,14 +212,15 @@ static bool closest_cb(struct RTCPointQueryFunctionArguments *args) {
         c->prim = (int)args->primID;
         c->interior = interior;
         memcpy(c->q, q, sizeof q);
-        args->query->radius = (float)sqrt(d2); /* shrink the search */
+        c->best = sqrt(d2);
+        args->query->radius = (float)c->best; /* shrink the search */
         return true;
     }
     return false;
 }
 
 int kf_rigid_bvh_closest(const kf_rigid_bvh *b, const double p[3], double radius, double q[3], int *interior) {
-    closest_ctx c = {b, {p[0] - b->c[0], p[1] - b->c[1], p[2] - b->c[2]}, radius * radius, -1, 0, {0, 0, 0}};
+    closest_ctx c = {b, {p[0] - b->c[0], p[1] - b->c[1], p[2] - b->c[2]}, radius * radius, radius, -1, 0, {0, 0, 0}};
     struct RTCPointQuery pq = {(float)c.p[0], (float)c.p[1], (float)c.p[2], 0, (float)radius};
     struct RTCPointQueryContext ctx;
     rtcInitPointQueryContext(&ctx);
