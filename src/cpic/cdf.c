@@ -26,6 +26,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../core/mat3.h"
 #include "cpic.h"
 #include "../dist/dist.h"
 
@@ -474,10 +475,8 @@ static int mark_triangle(const kf_cpic *c, const kf_grid *g, const kf_rigid_body
         e1[a] = v[1][a] - v[0][a];
         e2[a] = v[2][a] - v[0][a];
     }
-    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-    const double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    kf_v3d_cross(n, e1, e2);
+    const double nn = sqrt(kf_v3d_dot(n, n));
     for (int a = 0; a < 3; a++) n[a] = nn > 0 ? n[a] / nn : 0; /* degenerate: every block of the box */
     int b0[3], b1[3];
     for (int a = 0; a < 3; a++) {
@@ -495,7 +494,7 @@ static int mark_triangle(const kf_cpic *c, const kf_grid *g, const kf_rigid_body
      * within reach of form one run per column of the other two axes (a
      * block wider each way): the work follows the triangle's area, not its
      * box's volume. */
-    const double off = n[0] * v[0][0] + n[1] * v[0][1] + n[2] * v[0][2];
+    const double off = kf_v3d_dot(n, v[0]);
     const double half = 0.5 * (11 + kw + 2 * reach) + 1, mid = 0.5 * (5 + kw);
     const double spread = half * (fabs(n[0]) + fabs(n[1]) + fabs(n[2]));
     int ax = 0;

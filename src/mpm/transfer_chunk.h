@@ -75,11 +75,15 @@ KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, 
         stencil_axis(KW, ck->n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a]);
 }
 
-/* node (a, b, c) of an owner's cache, counted from the owner's first node,
- * in the 2x2x2 block neighbourhood nb */
+/* the index of the first node of row (a, b) of the 2x2x2 block
+ * neighbourhood nb's lower (hz 0) or upper (hz 1) z block; then node
+ * (a, b, c) of an owner's cache, counted from the owner's first node */
+static inline size_t nb_row_index(const int32_t *nb, int a, int b, int hz) {
+    int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | hz];
+    return (size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2);
+}
 static inline size_t nb_index(const int32_t *nb, int a, int b, int c) {
-    int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (c >> 2)];
-    return (size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2 | (c & 3));
+    return nb_row_index(nb, a, b, c >> 2) + (size_t)(c & 3);
 }
 static inline kf_v4 *nb_node(const kf_grid *g, const int32_t *nb, int a, int b, int c) {
     return &g->node[nb_index(nb, a, b, c)];
@@ -87,8 +91,7 @@ static inline kf_v4 *nb_node(const kf_grid *g, const int32_t *nb, int a, int b, 
 /* the first node of row (a, b) of the neighbourhood's lower (hz 0) or upper
  * (hz 1) z block: KF_BLOCK contiguous nodes */
 static inline kf_v4 *nb_row(kf_v4 *node, const int32_t *nb, int a, int b, int hz) {
-    int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | hz];
-    return &node[(size_t)blk * KF_BLOCK_NODES + ((a & 3) << 4 | (b & 3) << 2)];
+    return &node[nb_row_index(nb, a, b, hz)];
 }
 /* the whole neighbourhood of nodes into a cache (edge CD_MAX), a row's
  * block-long runs at a time (fixed-size copies: vector moves) */

@@ -11,6 +11,8 @@
  * float keeps its precision for a mesh far from its origin. */
 #include "bvh.h"
 
+#include "../core/mat3.h"
+
 #include <embree3/rtcore.h>
 #include <math.h>
 #include <stdbool.h>
@@ -65,18 +67,14 @@ kf_rigid_bvh *kf_rigid_bvh_build(const double *vert, int nvert, const int *tri, 
                      *v2 = &b->vert[3 * tri[3 * k + 2]];
         double e1[3], e2[3], n[3];
         for (int a = 0; a < 3; a++) e1[a] = v1[a] - v0[a], e2[a] = v2[a] - v0[a];
-        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        kf_v3d_cross(n, e1, e2);
         /* a sliver's normal is not trusted (its cross product cancels):
          * it keeps a zero plane, never skipped */
-        double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]),
-               l2 = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+        double nn = sqrt(kf_v3d_dot(n, n)), l1 = sqrt(kf_v3d_dot(e1, e1)), l2 = sqrt(kf_v3d_dot(e2, e2));
         int ok = nn > 1e-3 * l1 * l2;
         double *pl = &b->plane[4 * k];
         for (int a = 0; a < 3; a++) pl[a] = ok ? n[a] / nn : 0;
-        pl[3] = pl[0] * v0[0] + pl[1] * v0[1] + pl[2] * v0[2];
+        pl[3] = kf_v3d_dot(pl, v0);
     }
     /* one build thread: the simulation's OpenMP threads own the cores */
     b->dev = rtcNewDevice("threads=1");
