@@ -45,6 +45,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->seed_x);
     free(c->seed_bin);
     free(c->seed_order);
+    free(c->run_kept);
     free(c->aff);
     free(c->near_blk);
     free(c->rbox);
@@ -376,8 +377,9 @@ static int box_reads(const kf_cpic *c, const kf_grid *g, const seed_box *sb) {
     return 0;
 }
 
-/* the bounding spheres of a body's seeds in runs of `len` (body frame) */
-static int spheres_of(const kf_rigid_body *b, size_t len, double (**out)[4]) {
+/* the bounding spheres of a body's seeds in runs of `len` (body frame),
+ * with the half sides of their boxes */
+static int spheres_of(const kf_rigid_body *b, size_t len, double (**out)[8]) {
     size_t nrun = (b->nseed + len - 1) / len;
     if (grow((void **)out, sizeof(**out), nrun)) return -1;
     for (size_t k = 0; k < nrun; k++) {
@@ -398,6 +400,8 @@ static int spheres_of(const kf_rigid_body *b, size_t len, double (**out)[4]) {
         for (int a = 0; a < 3; a++) (*out)[k][a] = mid[a];
         /* a little more: the seeds' world positions round differently */
         (*out)[k][3] = sqrt(rad2) * (1 + 1e-6) + 1e-9;
+        for (int a = 0; a < 3; a++) (*out)[k][4 + a] = 0.5 * (hi[a] - lo[a]) * (1 + 1e-6) + 1e-9;
+        (*out)[k][7] = 0;
     }
     return 0;
 }
@@ -415,6 +419,19 @@ static int run_spheres(kf_cpic *c, const kf_rigid_body *b, int r) {
 static inline void sphere_world(const kf_rigid_state *st, const double *sp, double xc[3]) {
     for (int a = 0; a < 3; a++)
         xc[a] = st->R[3 * a] * sp[0] + st->R[3 * a + 1] * sp[1] + st->R[3 * a + 2] * sp[2] + st->t[a];
+}
+
+/* How far a run's seeds lie from its centre along each world axis: the
+ * rotated box's half sides (|R| times the body-frame half sides, a little
+ * more for the rounding of the seeds' world positions), at most the
+ * sphere's radius. For a body that does not turn this is the seeds' own
+ * box: much tighter than the sphere for a run along a blade's edge. */
+static inline void run_extent(const kf_rigid_state *st, const double *sp, double ext[3]) {
+    for (int a = 0; a < 3; a++) {
+        const double e = fabs(st->R[3 * a]) * sp[4] + fabs(st->R[3 * a + 1]) * sp[5] + fabs(st->R[3 * a + 2]) * sp[6];
+        const double m = e * (1 + 1e-9) + 1e-9;
+        ext[a] = m < sp[3] ? m : sp[3];
+    }
 }
 
 static void seed_world(const kf_rigid_state *st, const float *o, double x[3]);
@@ -564,20 +581,20 @@ static int mark_near(const kf_cpic *c, const kf_grid *g, const kf_rigid_body *b,
     return 0;
 }
 
-/* Can no seed of this run (sphere centre xc, radius rad, world) have a
+/* Can no seed of this run (centre xc, within ext of it along each axis, world) have a
  * block in its box? Outside the grid's box with a margin (slo, shi), or no
  * block in the blocks its seeds' boxes can span. Conservative: a run it
  * passes over would have had every seed drop out one by one. */
-static int run_far(const kf_cpic *c, const kf_grid *g, const double xc[3], double rad, const double slo[3],
+static int run_far(const kf_cpic *c, const kf_grid *g, const double xc[3], const double ext[3], const double slo[3],
                    const double shi[3], double inv_dx, double reach) {
     for (int a = 0; a < 3; a++)
-        if (xc[a] + rad < slo[a] || xc[a] - rad > shi[a]) return 1;
+        if (xc[a] + ext[a] < slo[a] || xc[a] - ext[a] > shi[a]) return 1;
     if (!c->bmap_on) return 0;
     int n0[3], n1[3], b0[3], b1[3];
     size_t n = 1;
     for (int a = 0; a < 3; a++) {
-        n0[a] = (int)floor((xc[a] - rad) * inv_dx - reach) - 1;
-        n1[a] = (int)ceil((xc[a] + rad) * inv_dx + reach) + 1;
+        n0[a] = (int)floor((xc[a] - ext[a]) * inv_dx - reach) - 1;
+        n1[a] = (int)ceil((xc[a] + ext[a]) * inv_dx + reach) + 1;
         b0[a] = kf_block_of(n0[a]);
         b1[a] = kf_block_of(n1[a]);
         n *= (size_t)(b1[a] - b0[a] + 1);
@@ -711,21 +728,31 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
      * than their seeds (the bins' order, hence the result, is the same) */
     if (run_spheres(c, b, r)) return -1;
     const size_t nrun = (ns + KF_CPIC_RUN - 1) / KF_CPIC_RUN;
-#pragma omp parallel for schedule(static) num_threads(m->nthreads) if (ns >= 8192)
+    if (nrun > c->cap_run_kept) {
+        size_t cap = nrun + nrun / 4 + 16;
+        if (grow((void **)&c->run_kept, 1, cap)) return -1;
+        c->cap_run_kept = cap;
+    }
+    uint8_t *kept = c->run_kept;
+    size_t nkept = 0;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) if (ns >= 8192) reduction(+ : nkept)
     for (size_t k = 0; k < nrun; k++) {
         const size_t e0 = k * KF_CPIC_RUN, e1 = e0 + KF_CPIC_RUN < ns ? e0 + KF_CPIC_RUN : ns;
         /* a run far from every block: its seeds all drop out */
         const double *sp = c->run_sphere[r][k];
-        double xc[3];
+        double xc[3], ext[3];
         sphere_world(st, sp, xc);
+        run_extent(st, sp, ext);
+        kept[k] = 0;
         for (size_t e = e0; e < e1; e++) sbin[e] = -1;
-        if (run_far(c, g, xc, sp[3], slo, shi, inv_dx, reach)) continue;
+        if (run_far(c, g, xc, ext, slo, shi, inv_dx, reach)) continue;
         for (size_t e = e0; e < e1; e++) {
             /* the same, eight times finer */
             if ((e - e0) % (KF_CPIC_RUN / 8) == 0) {
                 const double *ss = c->sub_sphere[r][e / (KF_CPIC_RUN / 8)];
                 sphere_world(st, ss, xc);
-                if (run_far(c, g, xc, ss[3], slo, shi, inv_dx, reach)) {
+                run_extent(st, ss, ext);
+                if (run_far(c, g, xc, ext, slo, shi, inv_dx, reach)) {
                     e += KF_CPIC_RUN / 8 - 1;
                     continue;
                 }
@@ -740,22 +767,29 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
             if (out || !seed_box_of(c, g, x, inv_dx, reach, &sb) || !box_reads(c, g, &sb)) continue;
             int bin = sb.b0[0] - bin0;
             sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1; /* outside: no block there either */
+            if (sbin[e] >= 0) kept[k] = 1, nkept++;
         }
     }
+    /* none kept (a body near the material but reaching no node it reads):
+     * nothing to splat */
+    if (!nkept) return 0;
     /* 2. the triangles the remaining seeds lie on, in world space; the
-     * seeds grouped by bin (a stable counting sort) */
+     * seeds grouped by bin (a stable counting sort), over the runs that
+     * kept a seed */
     int32_t *bs = c->bin_start;
     memset(bs, 0, (nbins + 1) * sizeof *bs);
-    for (size_t e = 0; e < ns; e++)
-        if (sbin[e] >= 0) {
-            bs[sbin[e] + 1]++;
-            if (c->tri_stamp[r][b->seed_tri[e]] != c->epoch) world_triangle(c, b, st, r, b->seed_tri[e]);
-        }
+    for (size_t k = 0; k < nrun; k++)
+        for (size_t e = k * KF_CPIC_RUN, e1 = e + KF_CPIC_RUN < ns ? e + KF_CPIC_RUN : ns; kept[k] && e < e1; e++)
+            if (sbin[e] >= 0) {
+                bs[sbin[e] + 1]++;
+                if (c->tri_stamp[r][b->seed_tri[e]] != c->epoch) world_triangle(c, b, st, r, b->seed_tri[e]);
+            }
     for (size_t k = 0; k < nbins; k++) bs[k + 1] += bs[k];
     {
         int32_t *fill = c->seed_order;
-        for (size_t e = 0; e < ns; e++)
-            if (sbin[e] >= 0) fill[bs[sbin[e]]++] = (int32_t)e;
+        for (size_t k = 0; k < nrun; k++)
+            for (size_t e = k * KF_CPIC_RUN, e1 = e + KF_CPIC_RUN < ns ? e + KF_CPIC_RUN : ns; kept[k] && e < e1; e++)
+                if (sbin[e] >= 0) fill[bs[sbin[e]]++] = (int32_t)e;
         for (size_t k = nbins; k > 0; k--) bs[k] = bs[k - 1];
         bs[0] = 0;
     }

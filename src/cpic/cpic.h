@@ -80,10 +80,13 @@ typedef struct kf_cpic {
     int32_t bmap_lo[3], bmap_dim[3];
     /* per body, its seeds in runs of KF_CPIC_RUN, and those in runs of
      * KF_CPIC_RUN / 8, each with a bounding sphere in the body's frame (x,
-     * y, z, radius): a run far from every block is passed over without
-     * placing its seeds */
-    double (*run_sphere[KF_MAX_RIGIDS])[4];
-    double (*sub_sphere[KF_MAX_RIGIDS])[4];
+     * y, z, radius) and the half sides of the seeds' box about the same
+     * centre (x, y, z; the last slot unused): a run far from every block is
+     * passed over without placing its seeds */
+    double (*run_sphere[KF_MAX_RIGIDS])[8];
+    double (*sub_sphere[KF_MAX_RIGIDS])[8];
+    uint8_t *run_kept; /* per run of the body being splatted: some seed was kept */
+    size_t cap_run_kept;
     const float *run_seed[KF_MAX_RIGIDS]; /* the seeds they were made for */
     size_t run_nseed[KF_MAX_RIGIDS];
     /* per block, the box of its nodes some particle's stencil may read this
