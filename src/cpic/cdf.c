@@ -581,6 +581,63 @@ static int mark_near(const kf_cpic *c, const kf_grid *g, const kf_rigid_body *b,
     return 0;
 }
 
+/* The owners some seed of any body may reach, marked in near[], by the
+ * box of each body's seeds (the union of its runs' boxes, rotated into the
+ * world): a coarse mark_near that costs a few comparisons per owner. An
+ * owner reads the nodes of its 2x2x2 blocks; a seed's box reaches reach
+ * nodes about it (seed_box_of), so an owner none of whose nodes lies
+ * within reach of a body's box is reached by none of its seeds. Every
+ * body counts, static ones too, so an owner near any body's surface gets
+ * its box as without marks. Returns 1 when every owner must count as near
+ * (no body has seeds, or a pose is not finite). */
+static int near_bodies(const kf_model *m, kf_state *s, uint8_t *near) {
+    kf_cpic *c = s->cpic;
+    const kf_grid *g = &s->g;
+    const double inv_dx = 1 / m->sim.dx;
+    int lo[KF_MAX_RIGIDS][3], hi[KF_MAX_RIGIDS][3], nb = 0;
+    for (int r = 0; r < m->nrigid; r++) {
+        const kf_rigid_body *b = &m->rigid[r];
+        if (b->nseed == 0) continue;
+        if (run_spheres(c, b, r)) return 1;
+        const kf_rigid_state *st = &s->rigid[r];
+        const double reach = b->def.thin ? 1.5 : 2.5; /* splat_body's */
+        double blo[3] = {1e300, 1e300, 1e300}, bhi[3] = {-1e300, -1e300, -1e300};
+        const size_t nrun = (b->nseed + KF_CPIC_RUN - 1) / KF_CPIC_RUN;
+        for (size_t k = 0; k < nrun; k++) {
+            const double *sp = c->run_sphere[r][k];
+            for (int a = 0; a < 3; a++) {
+                blo[a] = fmin(blo[a], sp[a] - sp[4 + a]);
+                bhi[a] = fmax(bhi[a], sp[a] + sp[4 + a]);
+            }
+        }
+        double box[8] = {0.5 * (blo[0] + bhi[0]), 0.5 * (blo[1] + bhi[1]), 0.5 * (blo[2] + bhi[2]), 1e300, 0, 0, 0, 0};
+        for (int a = 0; a < 3; a++) box[4 + a] = (0.5 * (bhi[a] - blo[a])) * (1 + 1e-9) + 1e-9;
+        double xc[3], ext[3];
+        sphere_world(st, box, xc);
+        run_extent(st, box, ext);
+        for (int a = 0; a < 3; a++) {
+            const double l = floor((xc[a] - ext[a]) * inv_dx - reach) - 1,
+                         h = ceil((xc[a] + ext[a]) * inv_dx + reach) + 1;
+            if (!(l > -1e9 && h < 1e9)) return 1;
+            lo[nb][a] = (int)l, hi[nb][a] = (int)h;
+        }
+        nb++;
+    }
+    if (!nb) return 1;
+    const size_t no = g->nowner;
+    for (size_t k = 0; k < no; k++) {
+        const int32_t *bc = &g->bcoord[3 * k]; /* an owner is the block of the same index */
+        uint8_t in = 0;
+        for (int q = 0; q < nb && !in; q++) {
+            in = 1;
+            for (int a = 0; a < 3; a++)
+                in &= KF_BLOCK * bc[a] + 2 * KF_BLOCK >= lo[q][a] && KF_BLOCK * bc[a] - 1 <= hi[q][a];
+        }
+        near[k] = in;
+    }
+    return 0;
+}
+
 /* Can no seed of this run (centre xc, within ext of it along each axis, world) have a
  * block in its box? Outside the grid's box with a margin (slo, shi), or no
  * block in the blocks its seeds' boxes can span. Conservative: a run it
@@ -593,8 +650,12 @@ static int run_far(const kf_cpic *c, const kf_grid *g, const double xc[3], const
     int n0[3], n1[3], b0[3], b1[3];
     size_t n = 1;
     for (int a = 0; a < 3; a++) {
-        n0[a] = (int)floor((xc[a] - ext[a]) * inv_dx - reach) - 1;
-        n1[a] = (int)ceil((xc[a] + ext[a]) * inv_dx + reach) + 1;
+        /* the seeds' boxes' nodes (seed_box_of: ceil(x - reach) ..
+         * floor(x + reach) in nodes): each step is monotone in x, and ext
+         * covers the seeds' rounding, so these bound them; a millionth of
+         * a node more */
+        n0[a] = (int)ceil((xc[a] - ext[a]) * inv_dx - reach - 1e-6);
+        n1[a] = (int)floor((xc[a] + ext[a]) * inv_dx + reach + 1e-6);
         b0[a] = kf_block_of(n0[a]);
         b1[a] = kf_block_of(n1[a]);
         n *= (size_t)(b1[a] - b0[a] + 1);
@@ -1093,6 +1154,9 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
             all_near = mark_near(c, g, &m->rigid[r], &s->rigid[r], r, 1 / dx, m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3,
                                  c->near_blk);
         }
+    /* without the marks, the owners no body's seeds can reach at all (the
+     * box of all its seeds) still get no box (read_boxes) */
+    if (all_near) all_near = near_bodies(m, s, c->near_blk);
     if (read_boxes(m, s, all_near ? NULL : c->near_blk)) return -1;
     uint32_t tri_base = 1; /* triangle ids for the splat's visit marks, unique across bodies */
     for (int r = 0; r < m->nrigid; r++) {

@@ -61,17 +61,10 @@ static int reserve(void **p, size_t *cap, size_t n, size_t size) {
  * each block's 64-bit mask of such nodes tells whether the field is whole.
  * Returns 1 when it is (the full pass would find one part and change
  * nothing), 0 when the full pass must decide, -1 out of memory. */
-static int whole_at_once(const kf_state *s, kf_contact *c, const uint32_t *node_of) {
+static int whole_at_once(const kf_state *s, kf_contact *c, const uint32_t *node_of, uint32_t aff, int one) {
     const kf_particles *p = &s->p;
     const kf_grid *g = &s->g;
     const size_t n = p->n, nb = g->nblocks;
-    uint32_t aff = 0;
-    int one = 1;
-    const uint16_t f0 = kf_contact_field(p, 0);
-    for (size_t i = 0; i < n; i++) {
-        aff |= p->colour[i];
-        one &= kf_contact_field(p, i) == f0;
-    }
     if ((aff & 0xAAAAAAAu) || !one) return 0;
     if (nb > c->pc_occ_cap) {
         size_t cap = nb + nb / 4 + 64;
@@ -541,24 +534,51 @@ int kf_contact_pieces(const kf_model *m, kf_state *s) {
     uint32_t *cls = c->pc_cls, *rep = c->pc_rep, *cnt = c->pc_cnt;
     const kf_real inv_dx = kf_model_inv_dx(m);
 
-    /* each particle's nearest node, inside its owner's neighbourhood */
+    /* each particle's nearest node, inside its owner's neighbourhood; with
+     * it, whether any particle has affinity to a body and whether all share
+     * one field (whole_at_once). The owner's neighbours and corner are
+     * copied to locals: the node stores cannot change them, so the loop
+     * runs in vector lanes (the same arithmetic per particle). */
     const size_t nowner = g->nowner;
-#pragma omp parallel for schedule(static) num_threads(m->nthreads) if (n >= 65536)
+    uint32_t aff = 0;
+    int one = 1;
+    const uint16_t f0 = n ? kf_contact_field(p, 0) : 0;
+    const kf_real *restrict px = p->x[0], *restrict py = p->x[1], *restrict pz = p->x[2];
+    const uint32_t *restrict pcol = p->colour;
+    uint32_t *restrict nodes_out = node_of;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) if (n >= 65536) reduction(| : aff) reduction(& : one)
     for (size_t k = 0; k < nowner; k++) {
         const int32_t *bc = &g->bcoord[3 * k]; /* an owner is the block of the same index */
+        const int o0 = KF_BLOCK * bc[0], o1 = KF_BLOCK * bc[1], o2 = KF_BLOCK * bc[2];
+        int32_t nbk[8];
+        memcpy(nbk, g->nb[k], sizeof nbk);
+        uint32_t a_k = 0;
+        int one_k = 1;
         for (size_t i = g->pstart[k]; i < g->pstart[k + 1]; i++) {
-            int l[3];
-            for (int a = 0; a < 3; a++) {
-                l[a] = (int)kf_floor(p->x[a][i] * inv_dx + KF_R(0.5)) - KF_BLOCK * bc[a];
-                l[a] = l[a] < 0 ? 0 : l[a] > 7 ? 7 : l[a];
-            }
-            int blk = g->nb[k][(l[0] >> 2) << 2 | (l[1] >> 2) << 1 | (l[2] >> 2)];
-            node_of[i] = (uint32_t)blk * KF_BLOCK_NODES + (uint32_t)((l[0] & 3) << 4 | (l[1] & 3) << 2 | (l[2] & 3));
+            int l0 = (int)kf_floor(px[i] * inv_dx + KF_R(0.5)) - o0;
+            int l1 = (int)kf_floor(py[i] * inv_dx + KF_R(0.5)) - o1;
+            int l2 = (int)kf_floor(pz[i] * inv_dx + KF_R(0.5)) - o2;
+            l0 = l0 < 0 ? 0 : l0 > 7 ? 7 : l0;
+            l1 = l1 < 0 ? 0 : l1 > 7 ? 7 : l1;
+            l2 = l2 < 0 ? 0 : l2 > 7 ? 7 : l2;
+            int blk = nbk[(l0 >> 2) << 2 | (l1 >> 2) << 1 | (l2 >> 2)];
+            nodes_out[i] = (uint32_t)blk * KF_BLOCK_NODES + (uint32_t)((l0 & 3) << 4 | (l1 & 3) << 2 | (l2 & 3));
+            a_k |= pcol[i];
+            one_k &= kf_contact_field(p, i) == f0;
         }
+        aff |= a_k;
+        one &= one_k;
     }
+    /* particles outside the owners' ranges (none where the grid binned
+     * them all) are read as well */
+    if (!nowner || g->pstart[0] != 0 || g->pstart[nowner] != n)
+        for (size_t i = 0; i < n; i++) {
+            aff |= pcol[i];
+            one &= kf_contact_field(p, i) == f0;
+        }
     if (s->dist) return pieces_across_ranks(m, s, node_of);
     {
-        int whole = whole_at_once(s, c, node_of);
+        int whole = whole_at_once(s, c, node_of, aff, one);
         if (whole) return whole < 0 ? -1 : 0;
     }
     memset(start, 0, sizeof(uint32_t) * (nodes + 1));
