@@ -373,9 +373,214 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
 
 /* ---- G2P ---------------------------------------------------------------------- */
 
+/* n values of a chunk's plane into a particle plane: a whole chunk as one
+ * fixed-size copy (a vector move, not the string copy or the scalar stores
+ * a variable length compiles to) */
+KF_INLINE void plane_out(kf_real *restrict dst, const kf_real *restrict src, int n) {
+    if (n == KF_CHUNK) memcpy(dst, src, KF_CHUNK * sizeof(kf_real));
+    else memcpy(dst, src, sizeof(kf_real) * (size_t)n);
+}
+
+/* what one owner's chunks share (g2p_block) */
+typedef struct g2p_owner {
+    const kf_model *m;
+    kf_state *s;
+    size_t r;
+    kf_real dt, dx, inv_dx, minv, jmin, jmax, ratio;
+    const int32_t *bc;
+    int band, fields, poly, water, flip;
+    const kf_cpic_owner *oc;
+    const kf_v4 *cache, *ocache;
+    step_acc *acc;
+} g2p_owner;
+
+/* one chunk of an owner's particles from i0: n of them, a constant
+ * KF_CHUNK for every full chunk (each per-particle loop is then one
+ * register per row, with no remainder code) or the owner's tail. Returns
+ * the chunk's largest |v|². */
+KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owner *o, chunk *ck, size_t i0) {
+    const kf_model *m = o->m;
+    kf_state *s = o->s;
+    kf_particles *p = &s->p;
+    const size_t r = o->r;
+    const kf_real dt = o->dt, dx = o->dx, inv_dx = o->inv_dx, minv = o->minv, jmin = o->jmin, jmax = o->jmax;
+    const kf_real ratio = o->ratio;
+    const int32_t *bc = o->bc;
+    const int band = o->band, fields = o->fields, poly = o->poly, water = o->water, flip = FLIP && o->flip;
+    const kf_cpic_owner *oc = o->oc;
+    const kf_v4 *cache = o->cache, *ocache = o->ocache;
+    step_acc *acc = o->acc;
+    kf_real max_v2 = 0;
+    ck->n = n;
+    /* the planes this chunk's successors read or write */
+    prefetch_planes(p->x, 3, i0, 1);
+    prefetch_planes(p->v, 3, i0, 1);
+    prefetch_planes(p->C, 9, i0, 1);
+    prefetch_planes(p->F, 9, i0, 1);
+    if (CLASSIC || band) stencil_phase_n(KW, 1, n, ck, p->x, i0, bc, inv_dx, dx);
+    else stencil_phase_n(KW, 0, n, ck, p->x, i0, bc, inv_dx, dx);
+
+    /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
+     * near a rigid surface, ghost velocities on incompatible nodes (CPIC
+     * reads the stress P2G scattered: F's before this chunk updates it) */
+    if (band) kf_cpic_g2p_chunk(m, s, r, oc, ck, i0, cache, CLASSIC);
+    else gather_chunk(KW, CLASSIC, n, ck, cache);
+    /* where objects meet: each particle's own field's velocity */
+    if (fields) kf_contact_g2p_chunk(m, s, r, band ? oc->col : NULL, ck, i0, KW, CLASSIC);
+    /* polypic: the higher modes of the new velocities; none near rigid
+     * surfaces or where objects meet (APIC there) */
+    if (poly)
+        for (int j = 0; j < n; j++) {
+            kf_real *md = &s->poly[(size_t)p->id[i0 + (size_t)j] * KF_POLY_REALS];
+            if (band || fields) memset(md, 0, KF_POLY_REALS * sizeof *md);
+            else poly_gather(ck, j, inv_dx, cache, md);
+        }
+
+    /* C = D⁻¹ B; velocity gradient L = C (MLS: the one product, made in
+     * place and copied out a plane at a time) or Σ v_i ∇wᵀ (classic) */
+    if (CLASSIC)
+        for (int k = 0; k < 9; k++) {
+            kf_real *restrict C = p->C[k] + i0;
+            KF_SIMD
+            for (int j = 0; j < n; j++) {
+                C[j] = minv * ck->b[k][j];
+                ck->g[k][j] *= inv_dx;
+            }
+        }
+    else {
+        for (int k = 0; k < 9; k++) {
+            KF_SIMD
+            for (int j = 0; j < n; j++) ck->b[k][j] *= minv;
+        }
+        for (int k = 0; k < 9; k++) plane_out(p->C[k] + i0, ck->b[k], n);
+    }
+    kf_real(*L)[KF_CHUNK] = CLASSIC ? ck->g : ck->b;
+
+    /* near a rigid surface, where each particle starts: the guard follows its path */
+    kf_real xold[3 * KF_CHUNK];
+    if (band)
+        for (int a = 0; a < 3; a++) memcpy(&xold[a * KF_CHUNK], p->x[a] + i0, sizeof(kf_real) * (size_t)n);
+
+    /* FLIP: v ← Σ w v_i + ratio (v − Σ w v_i⁰), the particle's velocity
+     * beyond what the grid's old velocity v_i⁰ held of it kept; the
+     * particle still moves with the grid's Σ w v_i, as F does */
+    if (flip)
+        for (int j = 0; j < n; j++) {
+            kf_v4 vo = gather_velocity(KW, ck, j, ocache);
+            for (int a = 0; a < 3; a++) {
+                kf_real *v = p->v[a] + i0;
+                v[j] = ck->v[a][j] + ratio * (v[j] - vo[a]);
+                p->x[a][i0 + (size_t)j] += dt * ck->v[a][j];
+            }
+        }
+    /* velocity and advection */
+    for (int a = 0; a < (flip ? 0 : 3); a++) {
+        kf_real *restrict x = p->x[a] + i0;
+        const kf_real *restrict va = ck->v[a];
+        plane_out(p->v[a] + i0, va, n);
+        KF_SIMD
+        for (int j = 0; j < n; j++) x[j] += dt * va[j];
+    }
+
+    /* F ← (I + Δt L) F and its determinant, across the chunk */
+    kf_real Fn[9][KF_CHUNK], J[KF_CHUNK];
+    {
+        kf_real *const *F = p->F;
+        for (int rr = 0; rr < 3; rr++)
+            for (int cc = 0; cc < 3; cc++) {
+                const kf_real *restrict f0 = F[cc] + i0, *restrict f1 = F[3 + cc] + i0, *restrict f2 = F[6 + cc] + i0;
+                KF_SIMD
+                for (int j = 0; j < n; j++) {
+                    kf_real fr = (rr == 0 ? f0 : rr == 1 ? f1 : f2)[j];
+                    Fn[3 * rr + cc][j] =
+                        fr + dt * (L[3 * rr][j] * f0[j] + L[3 * rr + 1][j] * f1[j] + L[3 * rr + 2][j] * f2[j]);
+                }
+            }
+        KF_SIMD
+        for (int j = 0; j < n; j++)
+            J[j] = Fn[0][j] * (Fn[4][j] * Fn[8][j] - Fn[5][j] * Fn[7][j]) -
+                   Fn[1][j] * (Fn[3][j] * Fn[8][j] - Fn[5][j] * Fn[6][j]) +
+                   Fn[2][j] * (Fn[3][j] * Fn[7][j] - Fn[4][j] * Fn[6][j]);
+        /* where the step deforms by more than a few percent (a body
+         * driving material a large fraction of a cell per substep), the
+         * exact step exp(Δt L) F instead: det stays positive (expm.h) */
+        kf_real a2[KF_CHUNK];
+        int any_large = 0;
+        KF_SIMD
+        for (int j = 0; j < n; j++) {
+            kf_real sum = 0;
+            for (int k = 0; k < 9; k++) sum += L[k][j] * L[k][j];
+            a2[j] = sum * dt * dt;
+        }
+        KF_SIMD_OR(any_large)
+        for (int j = 0; j < n; j++) any_large |= a2[j] > (kf_real)KF_EXPM_FROM2;
+        for (int j = 0; j < (any_large ? n : 0); j++) {
+            if (!(a2[j] > (kf_real)KF_EXPM_FROM2)) continue;
+            size_t i = i0 + (size_t)j;
+            double A[9], E[9];
+            for (int k = 0; k < 9; k++) A[k] = (double)dt * L[k][j];
+            kf_expm3(A, E);
+            for (int rr = 0; rr < 3; rr++)
+                for (int cc = 0; cc < 3; cc++)
+                    Fn[3 * rr + cc][j] =
+                        (kf_real)(E[3 * rr] * F[cc][i] + E[3 * rr + 1] * F[3 + cc][i] + E[3 * rr + 2] * F[6 + cc][i]);
+            J[j] = Fn[0][j] * (Fn[4][j] * Fn[8][j] - Fn[5][j] * Fn[7][j]) -
+                   Fn[1][j] * (Fn[3][j] * Fn[8][j] - Fn[5][j] * Fn[6][j]) +
+                   Fn[2][j] * (Fn[3][j] * Fn[7][j] - Fn[4][j] * Fn[6][j]);
+        }
+    }
+
+    /* water keeps F = I and tracks J ← (1 + Δt tr L) J instead */
+    int any_water = 0;
+    for (int j = 0; j < (water ? n : 0); j++) any_water |= m->mat[p->mat[i0 + (size_t)j]].model == KF_MAT_WATER;
+    for (int k = 0; k < 9; k++) plane_out(p->F[k] + i0, Fn[k], n);
+    if (any_water) {
+        for (int j = 0; j < n; j++) {
+            size_t i = i0 + (size_t)j;
+            if (m->mat[p->mat[i]].model != KF_MAT_WATER) continue;
+            kf_real div = dt * (L[0][j] + L[4][j] + L[8][j]);
+            /* exp(Δt tr L) where the linear step could reach 0 (as for F above) */
+            J[j] = p->ps[0][i] * (div * div > (kf_real)KF_EXPM_FROM2 ? kf_exp(div) : 1 + div);
+            p->ps[0][i] = J[j];
+            for (int k = 0; k < 9; k++) p->F[k][i] = (kf_real)(k % 4 == 0);
+        }
+    }
+
+    /* slightly penetrated particles pushed back out (Eq. 22); then
+     * nothing may have passed through a surface (guard.c) */
+    if (band) {
+        kf_cpic_penalty(m, s, r, i0, n);
+        kf_cpic_guard(m, s, r, oc, ck, i0, xold);
+    }
+
+    /* numerical trouble: non-finite, volume out of range, too fast */
+    kf_real v2s[KF_CHUNK];
+    KF_SIMD
+    for (int j = 0; j < n; j++)
+        v2s[j] = ck->v[0][j] * ck->v[0][j] + ck->v[1][j] * ck->v[1][j] + ck->v[2][j] * ck->v[2][j];
+    int bad = 0;
+    KF_SIMD_OR(bad)
+    for (int j = 0; j < n; j++) bad |= !(v2s[j] < (kf_real)1e30) | !(J[j] > jmin) | !(J[j] < jmax);
+    /* all finite and >= 0: the largest in any order */
+    if (!bad) {
+        KF_SIMD_MAX(max_v2)
+        for (int j = 0; j < n; j++) max_v2 = v2s[j] > max_v2 ? v2s[j] : max_v2;
+    } else {
+        for (int j = 0; j < n; j++) {
+            size_t i = i0 + (size_t)j;
+            kf_real v2 = v2s[j];
+            max_v2 = v2 > max_v2 ? v2 : max_v2;
+            if (!(v2 < (kf_real)1e30) || J[j] != J[j])
+                note_trouble(acc, p, i, "NaN or Inf velocity", (double)v2, s->substep);
+            else if (!(J[j] > jmin && J[j] < jmax))
+                note_trouble(acc, p, i, "J = det F out of range", (double)J[j], s->substep);
+        }
+    }
+    return max_v2;
+}
+
 KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, kf_real dt,
                          kf_v4 *cache, kf_v4 *ocache, chunk *ck, step_acc *acc) {
-    kf_particles *p = &s->p;
     kf_grid *g = &s->g;
     /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
     const kf_real dx = (kf_real)m->sim.dx, inv_dx = kf_model_inv_dx(m);
@@ -386,7 +591,6 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
     const int poly = m->sim.transfer == KF_TRANSFER_POLYPIC;
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
-    kf_real max_v2 = 0;
     /* whether any material is water: else no chunk looks at the particles' materials */
     int water = 0;
     for (int k = 0; k < m->nmat; k++) water |= m->mat[k].model == KF_MAT_WATER;
@@ -401,162 +605,32 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
     const kf_real ratio = (kf_real)m->sim.flip_ratio;
     if (flip) nb_gather(g->node_old, nb, ocache);
 
+    const g2p_owner o = {.m = m,
+                         .s = s,
+                         .r = r,
+                         .dt = dt,
+                         .dx = dx,
+                         .inv_dx = inv_dx,
+                         .minv = minv,
+                         .jmin = jmin,
+                         .jmax = jmax,
+                         .ratio = ratio,
+                         .bc = bc,
+                         .band = band,
+                         .fields = fields,
+                         .poly = poly,
+                         .water = water,
+                         .flip = flip,
+                         .oc = band ? &oc : NULL,
+                         .cache = cache,
+                         .ocache = ocache,
+                         .acc = acc};
+    kf_real max_v2 = 0;
     for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
-        size_t left = g->pstart[r + 1] - i0;
-        ck->n = left < KF_CHUNK ? (int)left : KF_CHUNK;
-        const int n = ck->n;
-        /* the planes this chunk's successors read or write */
-        prefetch_planes(p->x, 3, i0, 1);
-        prefetch_planes(p->v, 3, i0, 1);
-        prefetch_planes(p->C, 9, i0, 1);
-        prefetch_planes(p->F, 9, i0, 1);
-        stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
-
-        /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
-         * near a rigid surface, ghost velocities on incompatible nodes (CPIC
-         * reads the stress P2G scattered: F's before this chunk updates it) */
-        if (band) kf_cpic_g2p_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
-        else gather_chunk(KW, CLASSIC, ck, cache);
-        /* where objects meet: each particle's own field's velocity */
-        if (fields) kf_contact_g2p_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC);
-        /* polypic: the higher modes of the new velocities; none near rigid
-         * surfaces or where objects meet (APIC there) */
-        if (poly)
-            for (int j = 0; j < n; j++) {
-                kf_real *md = &s->poly[(size_t)p->id[i0 + (size_t)j] * KF_POLY_REALS];
-                if (band || fields) memset(md, 0, KF_POLY_REALS * sizeof *md);
-                else poly_gather(ck, j, inv_dx, cache, md);
-            }
-
-        /* C = D⁻¹ B; velocity gradient L = C (MLS) or Σ v_i ∇wᵀ (classic) */
-        for (int k = 0; k < 9; k++) {
-            kf_real *restrict C = p->C[k] + i0;
-            for (int j = 0; j < n; j++) {
-                C[j] = minv * ck->b[k][j];
-                if (CLASSIC) ck->g[k][j] *= inv_dx;
-            }
-        }
-        kf_real(*L)[KF_CHUNK] = CLASSIC ? ck->g : ck->b;
-        if (!CLASSIC)
-            for (int k = 0; k < 9; k++)
-                for (int j = 0; j < n; j++) L[k][j] *= minv;
-
-        /* near a rigid surface, where each particle starts: the guard follows its path */
-        kf_real xold[3 * KF_CHUNK];
-        if (band)
-            for (int a = 0; a < 3; a++) memcpy(&xold[a * KF_CHUNK], p->x[a] + i0, sizeof(kf_real) * (size_t)n);
-
-        /* FLIP: v ← Σ w v_i + ratio (v − Σ w v_i⁰), the particle's velocity
-         * beyond what the grid's old velocity v_i⁰ held of it kept; the
-         * particle still moves with the grid's Σ w v_i, as F does */
-        if (flip)
-            for (int j = 0; j < n; j++) {
-                kf_v4 vo = gather_velocity(KW, ck, j, ocache);
-                for (int a = 0; a < 3; a++) {
-                    kf_real *v = p->v[a] + i0;
-                    v[j] = ck->v[a][j] + ratio * (v[j] - vo[a]);
-                    p->x[a][i0 + (size_t)j] += dt * ck->v[a][j];
-                }
-            }
-        /* velocity and advection */
-        for (int a = 0; a < (flip ? 0 : 3); a++) {
-            kf_real *restrict v = p->v[a] + i0, *restrict x = p->x[a] + i0;
-            for (int j = 0; j < n; j++) {
-                v[j] = ck->v[a][j];
-                x[j] += dt * ck->v[a][j];
-            }
-        }
-
-        /* F ← (I + Δt L) F and its determinant, across the chunk */
-        kf_real Fn[9][KF_CHUNK], J[KF_CHUNK];
-        {
-            kf_real *const *F = p->F;
-            for (int rr = 0; rr < 3; rr++)
-                for (int cc = 0; cc < 3; cc++) {
-                    const kf_real *restrict f0 = F[cc] + i0, *restrict f1 = F[3 + cc] + i0,
-                                            *restrict f2 = F[6 + cc] + i0;
-                    for (int j = 0; j < n; j++) {
-                        kf_real fr = (rr == 0 ? f0 : rr == 1 ? f1 : f2)[j];
-                        Fn[3 * rr + cc][j] =
-                            fr + dt * (L[3 * rr][j] * f0[j] + L[3 * rr + 1][j] * f1[j] + L[3 * rr + 2][j] * f2[j]);
-                    }
-                }
-            for (int j = 0; j < n; j++)
-                J[j] = Fn[0][j] * (Fn[4][j] * Fn[8][j] - Fn[5][j] * Fn[7][j]) -
-                       Fn[1][j] * (Fn[3][j] * Fn[8][j] - Fn[5][j] * Fn[6][j]) +
-                       Fn[2][j] * (Fn[3][j] * Fn[7][j] - Fn[4][j] * Fn[6][j]);
-            /* where the step deforms by more than a few percent (a body
-             * driving material a large fraction of a cell per substep), the
-             * exact step exp(Δt L) F instead: det stays positive (expm.h) */
-            kf_real a2[KF_CHUNK];
-            int any_large = 0;
-            for (int j = 0; j < n; j++) {
-                kf_real sum = 0;
-                for (int k = 0; k < 9; k++) sum += L[k][j] * L[k][j];
-                a2[j] = sum * dt * dt;
-                any_large |= a2[j] > (kf_real)KF_EXPM_FROM2;
-            }
-            for (int j = 0; j < (any_large ? n : 0); j++) {
-                if (!(a2[j] > (kf_real)KF_EXPM_FROM2)) continue;
-                size_t i = i0 + (size_t)j;
-                double A[9], E[9];
-                for (int k = 0; k < 9; k++) A[k] = (double)dt * L[k][j];
-                kf_expm3(A, E);
-                for (int rr = 0; rr < 3; rr++)
-                    for (int cc = 0; cc < 3; cc++)
-                        Fn[3 * rr + cc][j] = (kf_real)(E[3 * rr] * F[cc][i] + E[3 * rr + 1] * F[3 + cc][i] +
-                                                       E[3 * rr + 2] * F[6 + cc][i]);
-                J[j] = Fn[0][j] * (Fn[4][j] * Fn[8][j] - Fn[5][j] * Fn[7][j]) -
-                       Fn[1][j] * (Fn[3][j] * Fn[8][j] - Fn[5][j] * Fn[6][j]) +
-                       Fn[2][j] * (Fn[3][j] * Fn[7][j] - Fn[4][j] * Fn[6][j]);
-            }
-        }
-
-        /* water keeps F = I and tracks J ← (1 + Δt tr L) J instead */
-        int any_water = 0;
-        for (int j = 0; j < (water ? n : 0); j++) any_water |= m->mat[p->mat[i0 + (size_t)j]].model == KF_MAT_WATER;
-        /* a whole chunk as one fixed-size copy per plane (a vector move, not
-         * the string copy a variable length compiles to) */
-        for (int k = 0; k < 9; k++) {
-            if (n == KF_CHUNK) memcpy(p->F[k] + i0, Fn[k], sizeof Fn[k]);
-            else memcpy(p->F[k] + i0, Fn[k], sizeof(kf_real) * (size_t)n);
-        }
-        if (any_water) {
-            for (int j = 0; j < n; j++) {
-                size_t i = i0 + (size_t)j;
-                if (m->mat[p->mat[i]].model != KF_MAT_WATER) continue;
-                kf_real div = dt * (L[0][j] + L[4][j] + L[8][j]);
-                /* exp(Δt tr L) where the linear step could reach 0 (as for F above) */
-                J[j] = p->ps[0][i] * (div * div > (kf_real)KF_EXPM_FROM2 ? kf_exp(div) : 1 + div);
-                p->ps[0][i] = J[j];
-                for (int k = 0; k < 9; k++) p->F[k][i] = (kf_real)(k % 4 == 0);
-            }
-        }
-
-        /* slightly penetrated particles pushed back out (Eq. 22); then
-         * nothing may have passed through a surface (guard.c) */
-        if (band) {
-            kf_cpic_penalty(m, s, r, i0, n);
-            kf_cpic_guard(m, s, r, &oc, ck, i0, xold);
-        }
-
-        /* numerical trouble: non-finite, volume out of range, too fast */
-        int bad = 0;
-        for (int j = 0; j < n; j++) {
-            kf_real v2 = ck->v[0][j] * ck->v[0][j] + ck->v[1][j] * ck->v[1][j] + ck->v[2][j] * ck->v[2][j];
-            bad |= !(v2 < (kf_real)1e30) | !(J[j] > jmin && J[j] < jmax);
-            max_v2 = v2 > max_v2 ? v2 : max_v2;
-        }
-        if (bad) {
-            for (int j = 0; j < n; j++) {
-                size_t i = i0 + (size_t)j;
-                kf_real v2 = ck->v[0][j] * ck->v[0][j] + ck->v[1][j] * ck->v[1][j] + ck->v[2][j] * ck->v[2][j];
-                if (!(v2 < (kf_real)1e30) || J[j] != J[j])
-                    note_trouble(acc, p, i, "NaN or Inf velocity", (double)v2, s->substep);
-                else if (!(J[j] > jmin && J[j] < jmax))
-                    note_trouble(acc, p, i, "J = det F out of range", (double)J[j], s->substep);
-            }
-        }
+        const size_t left = g->pstart[r + 1] - i0;
+        const kf_real v2 = left >= KF_CHUNK ? g2p_chunk(KW, CLASSIC, FLIP, KF_CHUNK, &o, ck, i0)
+                                            : g2p_chunk(KW, CLASSIC, FLIP, (int)left, &o, ck, i0);
+        max_v2 = v2 > max_v2 ? v2 : max_v2;
     }
     double cells = sqrt((double)max_v2) * dt * inv_dx;
     if (cells > acc->max_cells) acc->max_cells = cells;

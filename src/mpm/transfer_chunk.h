@@ -15,31 +15,42 @@
 #define KF_INLINE static inline __attribute__((always_inline))
 #define CD_MAX KF_CACHE_EDGE /* cache edge: the owner's 2x2x2 block neighbourhood (grid.h) */
 #define KF_CHUNK 16          /* particles per phase: one AVX-512 register of floats */
+/* a per-particle loop over a chunk as one vector loop: without it a full
+ * chunk's fixed 16 iterations are unrolled first, then left scalar where
+ * the compiler cannot prove the planes apart; the lanes' arithmetic is the
+ * scalar loop's, operation for operation (the OR and max are exact in any
+ * order) */
+#define KF_SIMD _Pragma("omp simd")
+#define KF_SIMD_OR(v) _Pragma(KF_STR(omp simd reduction(| : v)))
+#define KF_SIMD_MAX(v) _Pragma(KF_STR(omp simd reduction(max : v)))
+#define KF_STR(x) #x
 
 /* per-thread scratch of one chunk, structure of arrays across particles */
 typedef struct chunk {
-    int n;
-    int l[3][KF_CHUNK];         /* base node offset inside the owner block */
-    kf_real w[3][4][KF_CHUNK];  /* kernel weights per axis */
-    kf_real dw[3][4][KF_CHUNK]; /* their derivatives (grid units) */
-    kf_real d[3][4][KF_CHUNK];  /* node minus particle, m */
-    kf_real q[9][KF_CHUNK];     /* P2G: MLS Q, or APIC m C for classic */
-    kf_real qm[9][KF_CHUNK];    /* P2G, FLIP: m C alone (the momentum without the stress) */
-    kf_real t[9][KF_CHUNK];     /* P2G classic: -Δt V⁰ τ / Δx */
-    kf_real mv[4][KF_CHUNK];    /* P2G: m v, m */
-    kf_real v[3][KF_CHUNK];     /* G2P: Σ w v_i */
-    kf_real b[9][KF_CHUNK];     /* G2P: Σ w v_i dᵀ */
-    kf_real g[9][KF_CHUNK];     /* G2P classic: Σ v_i ∇wᵀ (grid units) */
-    const kf_real *tau[6];      /* G2P near a rigid surface: the chunk's stress τ (xx yy zz xy xz yz), from 0 */
+    /* every plane on its own 64-byte line: a chunk-wide access is one aligned register */
+    _Alignas(64) int l[3][KF_CHUNK]; /* base node offset inside the owner block */
+    kf_real w[3][4][KF_CHUNK];       /* kernel weights per axis */
+    kf_real dw[3][4][KF_CHUNK];      /* their derivatives (grid units) */
+    kf_real d[3][4][KF_CHUNK];       /* node minus particle, m */
+    kf_real q[9][KF_CHUNK];          /* P2G: MLS Q, or APIC m C for classic */
+    kf_real qm[9][KF_CHUNK];         /* P2G, FLIP: m C alone (the momentum without the stress) */
+    kf_real t[9][KF_CHUNK];          /* P2G classic: -Δt V⁰ τ / Δx */
+    kf_real mv[4][KF_CHUNK];         /* P2G: m v, m */
+    kf_real v[3][KF_CHUNK];          /* G2P: Σ w v_i */
+    kf_real b[9][KF_CHUNK];          /* G2P: Σ w v_i dᵀ */
+    kf_real g[9][KF_CHUNK];          /* G2P classic: Σ v_i ∇wᵀ (grid units) */
+    const kf_real *tau[6];           /* G2P near a rigid surface: the chunk's stress τ (xx yy zz xy xz yz), from 0 */
+    int n;                           /* particles in the chunk, at most KF_CHUNK */
 } chunk;
 
 /* ---- kernels ----------------------------------------------------------------
  * fx is the particle position in grid units minus its base node. w[i] is the
  * weight of node base+i, dw[i] its derivative with respect to the particle
  * position, in grid units (divide by Δx for world units). */
-KF_INLINE void stencil_axis(int KW, int n, const kf_real *restrict x, int origin, kf_real inv_dx, kf_real dx,
+KF_INLINE void stencil_axis(int KW, int DW, int n, const kf_real *restrict x, int origin, kf_real inv_dx, kf_real dx,
                             int *restrict l, kf_real (*restrict w)[KF_CHUNK], kf_real (*restrict dw)[KF_CHUNK],
                             kf_real (*restrict d)[KF_CHUNK]) {
+    KF_SIMD
     for (int j = 0; j < n; j++) {
         int base = kf_base_node(x[j], inv_dx, KW == 4);
         kf_real fx = x[j] * inv_dx - (kf_real)base;
@@ -50,9 +61,11 @@ KF_INLINE void stencil_axis(int KW, int n, const kf_real *restrict x, int origin
             w[0][j] = KF_R(0.5) * p * p;
             w[1][j] = KF_R(0.75) - q * q;
             w[2][j] = KF_R(0.5) * r * r;
-            dw[0][j] = -p;
-            dw[1][j] = -2 * q;
-            dw[2][j] = r;
+            if (DW) {
+                dw[0][j] = -p;
+                dw[1][j] = -2 * q;
+                dw[2][j] = r;
+            }
         } else {
             /* cubic: fx in [1, 2) */
             kf_real r1 = fx - 1, s2 = 2 - fx;
@@ -60,19 +73,28 @@ KF_INLINE void stencil_axis(int KW, int n, const kf_real *restrict x, int origin
             w[1][j] = KF_R(0.5) * r1 * r1 * r1 - r1 * r1 + KF_R(2.0 / 3.0);
             w[2][j] = KF_R(0.5) * s2 * s2 * s2 - s2 * s2 + KF_R(2.0 / 3.0);
             w[3][j] = r1 * r1 * r1 / 6;
-            dw[0][j] = -KF_R(0.5) * s2 * s2;
-            dw[1][j] = KF_R(1.5) * r1 * r1 - 2 * r1;
-            dw[2][j] = -(KF_R(1.5) * s2 * s2 - 2 * s2);
-            dw[3][j] = KF_R(0.5) * r1 * r1;
+            if (DW) {
+                dw[0][j] = -KF_R(0.5) * s2 * s2;
+                dw[1][j] = KF_R(1.5) * r1 * r1 - 2 * r1;
+                dw[2][j] = -(KF_R(1.5) * s2 * s2 - 2 * s2);
+                dw[3][j] = KF_R(0.5) * r1 * r1;
+            }
         }
         for (int i = 0; i < KW; i++) d[i][j] = ((kf_real)i - fx) * dx;
     }
 }
 
+/* the stencil of n particles (a constant KF_CHUNK for a full chunk: each
+ * loop is then one register per row); the weight gradients only where a
+ * caller reads them (DW: classic MPM, CPIC's band) */
+KF_INLINE void stencil_phase_n(int KW, int DW, int n, chunk *ck, kf_real *const x[3], size_t i0, const int32_t *bc,
+                               kf_real inv_dx, kf_real dx) {
+    for (int a = 0; a < 3; a++)
+        stencil_axis(KW, DW, n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a]);
+}
 KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, const int32_t *bc, kf_real inv_dx,
                              kf_real dx) {
-    for (int a = 0; a < 3; a++)
-        stencil_axis(KW, ck->n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a]);
+    stencil_phase_n(KW, 1, ck->n, ck, x, i0, bc, inv_dx, dx);
 }
 
 /* the index of the first node of row (a, b) of the 2x2x2 block
@@ -382,10 +404,10 @@ KF_INLINE void gather_rows512(int KW, chunk *ck, int j, const kf_v4 *cache) {
  * block, and one register transpose turns the block into the chunk's
  * planes (a dozen shuffles per record instead of a dozen scalar stores).
  * The records are gather_rows512's, bit for bit. */
-KF_INLINE void gather_chunk512(int KW, chunk *ck, const kf_v4 *cache) {
+KF_INLINE void gather_chunk512(int KW, int n, chunk *ck, const kf_v4 *cache) {
     float rec[KF_CHUNK][16] __attribute__((aligned(64)));
-    for (int j = 0; j < ck->n; j++) _mm512_store_ps(rec[j], gather_rows512_sum(KW, ck, j, cache));
-    for (int j = ck->n; j < KF_CHUNK; j++) _mm512_store_ps(rec[j], _mm512_setzero_ps());
+    for (int j = 0; j < n; j++) _mm512_store_ps(rec[j], gather_rows512_sum(KW, ck, j, cache));
+    for (int j = n; j < KF_CHUNK; j++) _mm512_store_ps(rec[j], _mm512_setzero_ps());
     /* pairs of rows interleaved, then quads: u[4q + i] holds, in 128-bit
      * lane L, element 4L + i of rows 4q..4q+3 (i = 3, the masses, unused) */
     __m512 u[16];
@@ -463,15 +485,16 @@ KF_INLINE void gather_one(int KW, int CLASSIC, chunk *ck, int j, const kf_v4 *ca
     }
 }
 
-/* a chunk's G2P gathers, particle by particle or (AVX-512, MLS) as one block */
-KF_INLINE void gather_chunk(int KW, int CLASSIC, chunk *ck, const kf_v4 *cache) {
+/* a chunk's G2P gathers of n particles (ck->n, or the constant KF_CHUNK),
+ * particle by particle or (AVX-512, MLS) as one block */
+KF_INLINE void gather_chunk(int KW, int CLASSIC, int n, chunk *ck, const kf_v4 *cache) {
 #ifdef KF_ROWS512
     if (!CLASSIC) {
-        gather_chunk512(KW, ck, cache);
+        gather_chunk512(KW, n, ck, cache);
         return;
     }
 #endif
-    for (int j = 0; j < ck->n; j++) gather_one(KW, CLASSIC, ck, j, cache);
+    for (int j = 0; j < n; j++) gather_one(KW, CLASSIC, ck, j, cache);
 }
 
 #endif
