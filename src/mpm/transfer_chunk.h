@@ -177,8 +177,8 @@ static inline __m512 row_v4(kf_v4 a) { return _mm512_broadcast_f32x4((__m128)a);
 #endif
 
 #ifdef KF_ROWS512
-/* one particle's MLS scatter terms, shared by the one-particle and the
- * run-in-registers paths so that both round alike: stencil row (a, b) gets
+/* one particle's MLS scatter terms (scatter_one; scatter_chunk512 forms
+ * the same ones, rounding alike): stencil row (a, b) gets
  * (w_a w_b WK) (h_ab + DQ2) in its z-lanes, h_ab = base + d_a q0 + d_b q1 */
 typedef struct {
     kf_v4 base, q0, q1;
@@ -263,44 +263,124 @@ KF_INLINE void scatter_one(int KW, int CLASSIC, const chunk *ck, int j, kf_v4 *c
     }
 }
 
-/* a chunk's P2G contributions to the owner's node cache. With AVX-512 (MLS),
- * a run of consecutive particles with the same base node (binning orders
- * an owner's particles by base node) keeps its KW² stencil rows in
- * registers: loaded once, each particle's share added in order, stored
- * once. The sums are those of scatter_one, bit for bit; what goes is the
- * store-to-load round trip through the same rows between particles. */
+#ifdef KF_ROWS512
+/* 16 planes of 16 floats into 16 records (record j: element j of every
+ * plane, in plane order): pairs of planes interleaved, then quads, then
+ * the 128-bit lanes */
+static inline void transpose16(const __m512 in[16], __m512 out[16]) {
+    __m512 t[16], u[16];
+    for (int q = 0; q < 4; q++) {
+        const __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(in[4 * q], in[4 * q + 1]));
+        const __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(in[4 * q], in[4 * q + 1]));
+        const __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(in[4 * q + 2], in[4 * q + 3]));
+        const __m512d t3 = _mm512_castps_pd(_mm512_unpackhi_ps(in[4 * q + 2], in[4 * q + 3]));
+        /* u[4q + i], 128-bit lane L: element 4L + i of planes 4q..4q+3 */
+        u[4 * q] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
+        u[4 * q + 1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
+        u[4 * q + 2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
+        u[4 * q + 3] = _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3));
+    }
+    for (int i = 0; i < 4; i++) {
+        t[i] = _mm512_shuffle_f32x4(u[i], u[4 + i], 0x88);
+        t[4 + i] = _mm512_shuffle_f32x4(u[i], u[4 + i], 0xDD);
+        t[8 + i] = _mm512_shuffle_f32x4(u[8 + i], u[12 + i], 0x88);
+        t[12 + i] = _mm512_shuffle_f32x4(u[8 + i], u[12 + i], 0xDD);
+    }
+    for (int i = 0; i < 4; i++) {
+        out[i] = _mm512_shuffle_f32x4(t[i], t[8 + i], 0x88);
+        out[4 + i] = _mm512_shuffle_f32x4(t[4 + i], t[12 + i], 0x88);
+        out[8 + i] = _mm512_shuffle_f32x4(t[i], t[8 + i], 0xDD);
+        out[12 + i] = _mm512_shuffle_f32x4(t[4 + i], t[12 + i], 0xDD);
+    }
+}
+
+/* A chunk's MLS scatter, AVX-512. A run of consecutive particles with the
+ * same base node (binning orders an owner's particles by base node) keeps
+ * its KW² stencil rows in registers: loaded once, each particle's share
+ * added in order, stored once (no store-to-load round trip through the
+ * same rows between particles). Each lane computes what scatter_one
+ * computes, rounding for rounding; what changes is where the operands come
+ * from: each particle's [m v, m | Q:,0 | Q:,1 | Q:,2] and its z-weights
+ * and z-offsets as one register each (two transposes per chunk, then one
+ * 128-bit broadcast or lane permute per term instead of a dozen inserts),
+ * the products w_a w_b for the whole chunk at once (one broadcast operand
+ * per row), and h_ab = m v + d_a Q:,0 + d_b Q:,1 made in all four node
+ * groups at once (no broadcast of it per row). */
+KF_INLINE void scatter_chunk512(int KW, const chunk *ck, kf_v4 *cache) {
+    const int CD = CD_MAX;
+    const __mmask16 mk = KW == 4 ? 0xFFFF : 0x0FFF;
+    const __m512 zero = _mm512_setzero_ps();
+    __m512 pl[16], rec[KF_CHUNK], zr[KF_CHUNK];
+    for (int k = 0; k < 4; k++) pl[k] = _mm512_loadu_ps(ck->mv[k]);
+    for (int c = 0; c < 3; c++) {
+        pl[4 + 4 * c] = _mm512_loadu_ps(ck->q[c]);
+        pl[5 + 4 * c] = _mm512_loadu_ps(ck->q[3 + c]);
+        pl[6 + 4 * c] = _mm512_loadu_ps(ck->q[6 + c]);
+        pl[7 + 4 * c] = zero;
+    }
+    transpose16(pl, rec);
+    for (int c = 0; c < 4; c++) {
+        pl[c] = c < KW ? _mm512_loadu_ps(ck->w[2][c]) : zero;
+        pl[4 + c] = c < KW ? _mm512_loadu_ps(ck->d[2][c]) : zero;
+        pl[8 + c] = pl[12 + c] = zero;
+    }
+    transpose16(pl, zr);
+    float wab[16][KF_CHUNK] __attribute__((aligned(64)));
+    for (int a = 0; a < KW; a++)
+        for (int b = 0; b < KW; b++)
+            _mm512_store_ps(wab[a * KW + b], _mm512_mul_ps(_mm512_loadu_ps(ck->w[0][a]), _mm512_loadu_ps(ck->w[1][b])));
+    /* a record's z-weights and z-offsets spread over the row's node groups */
+    const __m512i iw = _mm512_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3);
+    const __m512i id = _mm512_setr_epi32(4, 4, 4, 4, 5, 5, 5, 5, 6, 6, 6, 6, 7, 7, 7, 7);
+
+    __m512 acc[16];
+    for (int k = 0; k < 16; k++) acc[k] = zero;
+    float *origin = NULL;
+    int run = -1;
+    for (int j = 0; j < ck->n; j++) {
+        const int key = (ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j];
+        if (key != run) {
+            if (origin)
+                for (int a = 0; a < KW; a++)
+                    for (int b = 0; b < KW; b++)
+                        _mm512_mask_storeu_ps(origin + 4 * (a * CD + b) * CD, mk, acc[a * KW + b]);
+            run = key;
+            origin = (float *)&cache[key];
+            for (int a = 0; a < KW; a++)
+                for (int b = 0; b < KW; b++)
+                    acc[a * KW + b] = _mm512_maskz_loadu_ps(mk, origin + 4 * (a * CD + b) * CD);
+        }
+        /* rows512_of's terms: base, q0, q1 in every node group, WK and d_c q2 */
+        const __m512 base = _mm512_shuffle_f32x4(rec[j], rec[j], 0x00);
+        const __m512 q0 = _mm512_shuffle_f32x4(rec[j], rec[j], 0x55);
+        const __m512 q1 = _mm512_shuffle_f32x4(rec[j], rec[j], 0xAA);
+        const __m512 q2 = _mm512_shuffle_f32x4(rec[j], rec[j], 0xFF);
+        const __m512 WK = _mm512_maskz_permutexvar_ps(mk, iw, zr[j]);
+        const __m512 DQ2 = _mm512_mul_round_ps(_mm512_maskz_permutexvar_ps(mk, id, zr[j]), q2, KF_RN);
+        /* rows512_add's, row by row: h_a, h_ab as the multiply-adds the
+         * one-particle path compiles to */
+        for (int a = 0; a < KW; a++) {
+            const __m512 ha = _mm512_fmadd_ps(_mm512_set1_ps(ck->d[0][a][j]), q0, base);
+            for (int b = 0; b < KW; b++) {
+                const __m512 hab = _mm512_fmadd_ps(_mm512_set1_ps(ck->d[1][b][j]), q1, ha);
+                const __m512 t = _mm512_add_round_ps(hab, DQ2, KF_RN);
+                const __m512 w = _mm512_mul_ps(_mm512_set1_ps(wab[a * KW + b][j]), WK);
+                acc[a * KW + b] = _mm512_fmadd_ps(w, t, acc[a * KW + b]);
+            }
+        }
+    }
+    if (origin)
+        for (int a = 0; a < KW; a++)
+            for (int b = 0; b < KW; b++) _mm512_mask_storeu_ps(origin + 4 * (a * CD + b) * CD, mk, acc[a * KW + b]);
+}
+#endif
+
+/* a chunk's P2G contributions to the owner's node cache: with AVX-512
+ * (MLS) in register runs (scatter_chunk512), else particle by particle */
 KF_INLINE void scatter_chunk(int KW, int CLASSIC, const chunk *ck, kf_v4 *cache) {
 #ifdef KF_ROWS512
     if (!CLASSIC) {
-        const int CD = CD_MAX;
-        const __mmask16 mk = KW == 4 ? 0xFFFF : 0x0FFF;
-        __m512 acc[16];
-        for (int k = 0; k < 16; k++) acc[k] = _mm512_setzero_ps();
-        float *origin = NULL;
-        int run = -1;
-        for (int j = 0; j < ck->n; j++) {
-            const int key = (ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j];
-            if (key != run) {
-                if (origin)
-                    for (int a = 0; a < KW; a++)
-                        for (int b = 0; b < KW; b++)
-                            _mm512_mask_storeu_ps(origin + 4 * (a * CD + b) * CD, mk, acc[a * KW + b]);
-                run = key;
-                origin = (float *)&cache[key];
-                for (int a = 0; a < KW; a++)
-                    for (int b = 0; b < KW; b++)
-                        acc[a * KW + b] = _mm512_maskz_loadu_ps(mk, origin + 4 * (a * CD + b) * CD);
-            }
-            /* as scatter_one, rounding for rounding */
-            const rows512 r = rows512_of(KW, ck, j);
-            for (int a = 0; a < KW; a++) {
-                const kf_v4 ha = r.base + ck->d[0][a][j] * r.q0;
-                for (int b = 0; b < KW; b++) acc[a * KW + b] = rows512_add(&r, ck, j, a, b, ha, acc[a * KW + b]);
-            }
-        }
-        if (origin)
-            for (int a = 0; a < KW; a++)
-                for (int b = 0; b < KW; b++) _mm512_mask_storeu_ps(origin + 4 * (a * CD + b) * CD, mk, acc[a * KW + b]);
+        scatter_chunk512(KW, ck, cache);
         return;
     }
 #endif
