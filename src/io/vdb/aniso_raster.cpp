@@ -5,6 +5,7 @@
 #include "band_distance.h"
 #include "centre_smooth.h"
 #include "cell_neighbours.h"
+#include "key_order.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -137,12 +138,15 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
     // `thickness` beyond the outermost centres)
     const double rb = deep_ball_radius(a);
     deep = deep_particles(n, xd, xf, a.spacing, rb);
+    // every deep ball has the same shape: made once, then moved to each
+    // centre (the same floats as making each one)
+    const double c0[3] = {0, 0, 0}, axb[3] = {rb * inv, rb * inv, rb * inv};
+    const kernel ball = make_kernel(c0, axb, I3);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t i = rg.begin(); i != rg.end(); i++) {
             if (!deep[i]) continue;
-            const double c[3] = {pos(i, 0) * inv, pos(i, 1) * inv, pos(i, 2) * inv},
-                         ax[3] = {rb * inv, rb * inv, rb * inv};
-            K[i] = make_kernel(c, ax, I3);
+            K[i] = ball;
+            for (int k = 0; k < 3; k++) K[i].c[k] = float(pos(i, k) * inv);
         }
     });
     const float fR2 = float(R2), finvR = float(invR);
@@ -449,26 +453,25 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
 
     // kernels sorted into leaf bins (ties by index: deterministic)
     t0 = cpu_now();
-    std::vector<std::pair<uint64_t, uint32_t>> order(n);
+    std::vector<uint64_t> keys(n);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t i = rg.begin(); i != rg.end(); i++)
-            order[i] = {leaf_key(leaf_of(K[i].c[0]), leaf_of(K[i].c[1]), leaf_of(K[i].c[2])), uint32_t(i)};
+            keys[i] = leaf_key(leaf_of(K[i].c[0]), leaf_of(K[i].c[1]), leaf_of(K[i].c[2]));
     });
-    tbb::parallel_sort(order.begin(), order.end());
+    key_bins<uint32_t> kb = order_by_key<uint32_t>(keys);
+    keys.clear(), keys.shrink_to_fit();
     binned b;
-    b.k.resize(n), b.src.resize(n), b.deep.resize(n);
+    b.k.resize(n), b.deep.resize(n);
+    b.src.swap(kb.order), b.key.swap(kb.key), b.at.swap(kb.at);
     // a deep ball's core: within rb - 1 voxels (less a margin far above
     // rounding) its neighbours are inside the ball
     const double rbv = deep_ball_radius(a) / vx;
     b.core = rbv > 1.5 ? float(rbv - 1 - 0.01) : 0.f;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t q = rg.begin(); q != rg.end(); q++) b.k[q] = K[b.src[q]], b.deep[q] = deep[b.src[q]];
+    });
     float emax = 0;
-    for (size_t q = 0; q < n; q++) {
-        b.k[q] = K[order[q].second], b.src[q] = order[q].second, b.deep[q] = deep[order[q].second];
-        if (q == 0 || order[q].first != order[q - 1].first)
-            b.key.push_back(order[q].first), b.at.push_back(uint32_t(q));
-        emax = std::max(emax, std::max(b.k[q].ext[0], std::max(b.k[q].ext[1], b.k[q].ext[2])));
-    }
-    b.at.push_back(uint32_t(n));
+    for (size_t i = 0; i < n; i++) emax = std::max(emax, std::max(K[i].ext[0], std::max(K[i].ext[1], K[i].ext[2])));
     b.reach = int(std::ceil(double(emax) / LEAF_DIM));
     // the leaves within reach of a bin holding a particle near a face: the
     // surface lies in them; the others are wholly inside or outside

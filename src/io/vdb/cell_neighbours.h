@@ -15,11 +15,12 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
+#include "key_order.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -41,31 +42,21 @@ void for_each_cell_neighbourhood(size_t n, double R, const Pos &pos, const std::
                                  const Visit &visit) {
     const double invR = 1 / R;
     // particles sorted into cells (ties by index: deterministic)
-    // (in parallel: the order is the one total order of (key, index))
-    // (the (key, index) pairs sorted by value: no indirection in the comparisons)
-    std::vector<std::pair<uint64_t, size_t>> kp(n);
+    std::vector<uint64_t> keys(n);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t i = rg.begin(); i != rg.end(); i++)
-            kp[i] = {cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
-                              int64_t(std::floor(pos(i, 2) * invR))),
-                     i};
+            keys[i] = cell_key(int64_t(std::floor(pos(i, 0) * invR)), int64_t(std::floor(pos(i, 1) * invR)),
+                               int64_t(std::floor(pos(i, 2) * invR)));
     });
-    tbb::parallel_sort(kp.begin(), kp.end());
-    std::vector<size_t> order(n);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
-        for (size_t i = rg.begin(); i != rg.end(); i++) order[i] = kp[i].second;
-    });
-    std::unordered_map<uint64_t, std::pair<size_t, size_t>> cells;
-    std::vector<std::pair<size_t, size_t>> ranges;
-    cells.reserve(n / 4 + 16);
-    for (size_t s0 = 0; s0 < n;) {
-        size_t e = s0;
-        while (e < n && kp[e].first == kp[s0].first) e++;
-        cells.emplace(kp[s0].first, std::make_pair(s0, e));
-        ranges.emplace_back(s0, e);
-        s0 = e;
-    }
-    kp.clear(), kp.shrink_to_fit();
+    const key_bins<size_t> kb = order_by_key<size_t>(keys);
+    keys.clear(), keys.shrink_to_fit();
+    const std::vector<size_t> &order = kb.order;
+    std::vector<std::pair<size_t, size_t>> ranges(kb.key.size());
+    for (size_t c = 0; c < ranges.size(); c++) ranges[c] = {kb.at[c], kb.at[c + 1]};
+    auto find_cell = [&](uint64_t k) {
+        auto it = std::lower_bound(kb.key.begin(), kb.key.end(), k);
+        return it == kb.key.end() || *it != k ? long(-1) : long(it - kb.key.begin());
+    };
     tbb::parallel_for(tbb::blocked_range<size_t>(0, ranges.size(), 16), [&](const tbb::blocked_range<size_t> &rg) {
         std::vector<float> bx, by, bz;
         for (size_t c = rg.begin(); c != rg.end(); c++) {
@@ -80,9 +71,9 @@ void for_each_cell_neighbourhood(size_t n, double R, const Pos &pos, const std::
             for (int dz = -1; dz <= 1; dz++)
                 for (int dy = -1; dy <= 1; dy++)
                     for (int dxc = -1; dxc <= 1; dxc++) {
-                        auto it = cells.find(cell_key(ci[0] + dxc, ci[1] + dy, ci[2] + dz));
-                        if (it == cells.end()) continue;
-                        for (size_t s1 = it->second.first; s1 < it->second.second; s1++) {
+                        const long cn = find_cell(cell_key(ci[0] + dxc, ci[1] + dy, ci[2] + dz));
+                        if (cn < 0) continue;
+                        for (size_t s1 = ranges[size_t(cn)].first; s1 < ranges[size_t(cn)].second; s1++) {
                             const size_t j = order[s1];
                             bx.push_back(float(pos(j, 0) - o[0]));
                             by.push_back(float(pos(j, 1) - o[1]));

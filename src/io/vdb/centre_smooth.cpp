@@ -4,11 +4,14 @@
 
 #include "buried_particles.h"
 #include "dense_band.h"
+#include "key_order.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
@@ -29,33 +32,41 @@ std::vector<uint8_t> deep_particles(size_t n, const double *xd, const float *xf,
     if (M > 8 || n >= (size_t(1) << 32)) return deep;
     const double lim = double(LEAF_BIAS) * LEAF_DIM - 64;
     // positions in cell units, sorted into 8^3-cell bins (ties by index)
-    std::vector<std::pair<uint64_t, uint32_t>> order(n);
-    bool far = false;
-    for (size_t i = 0; i < n; i++) {
-        int64_t l[3];
-        for (int a = 0; a < 3; a++) {
-            const double u = (xd ? xd[3 * i + a] : double(xf[3 * i + a])) * inv;
-            if (!(std::fabs(u) < lim)) far = true;
-            l[a] = far ? 0 : int64_t(std::floor(u + 0.5)) >> LEAF_LOG2;
+    // (a particle beyond the keys' reach: none is deep)
+    std::vector<uint64_t> keys(n);
+    std::atomic<bool> far{false};
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            int64_t l[3];
+            for (int a = 0; a < 3; a++) {
+                const double u = (xd ? xd[3 * i + a] : double(xf[3 * i + a])) * inv;
+                if (!(std::fabs(u) < lim)) {
+                    far = true;
+                    l[a] = 0;
+                } else {
+                    l[a] = int64_t(std::floor(u + 0.5)) >> LEAF_LOG2;
+                }
+            }
+            keys[i] = leaf_key(l[0], l[1], l[2]);
         }
-        order[i] = {leaf_key(l[0], l[1], l[2]), uint32_t(i)};
-    }
+    });
     if (far) return deep;
-    tbb::parallel_sort(order.begin(), order.end());
+    const key_bins<uint32_t> kb = order_by_key<uint32_t>(keys);
+    keys.clear(), keys.shrink_to_fit();
+    const std::vector<uint32_t> &order = kb.order;
     std::vector<float> x(n), y(n), z(n);
-    std::vector<uint64_t> bin_key;
-    std::vector<uint32_t> bin_at;
-    for (size_t k = 0; k < n; k++) {
-        const size_t i = order[k].second;
-        x[k] = float((xd ? xd[3 * i] : double(xf[3 * i])) * inv);
-        y[k] = float((xd ? xd[3 * i + 1] : double(xf[3 * i + 1])) * inv);
-        z[k] = float((xd ? xd[3 * i + 2] : double(xf[3 * i + 2])) * inv);
-        if (k == 0 || order[k].first != order[k - 1].first)
-            bin_key.push_back(order[k].first), bin_at.push_back(uint32_t(k));
-    }
-    bin_at.push_back(uint32_t(n));
-    const std::vector<uint8_t> flag = buried_particles(x.data(), y.data(), z.data(), bin_key, bin_at, M);
-    for (size_t k = 0; k < n; k++) deep[order[k].second] = flag[k];
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t k = rg.begin(); k != rg.end(); k++) {
+            const size_t i = order[k];
+            x[k] = float((xd ? xd[3 * i] : double(xf[3 * i])) * inv);
+            y[k] = float((xd ? xd[3 * i + 1] : double(xf[3 * i + 1])) * inv);
+            z[k] = float((xd ? xd[3 * i + 2] : double(xf[3 * i + 2])) * inv);
+        }
+    });
+    const std::vector<uint8_t> flag = buried_particles(x.data(), y.data(), z.data(), kb.key, kb.at, M);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t k = rg.begin(); k != rg.end(); k++) deep[order[k]] = flag[k];
+    });
     return deep;
 }
 
