@@ -9,6 +9,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
@@ -428,10 +429,12 @@ void distance_from_crossings(dense_band &band, const std::vector<float> &D, floa
     sp.at.assign(nl + 1, 0);
     for (size_t i = 0; i < nl; i++) sp.at[i + 1] = sp.at[i] + uint32_t(pts[i].size() / 3);
     sp.x.resize(sp.at[nl]), sp.y.resize(sp.at[nl]), sp.z.resize(sp.at[nl]);
-    for (size_t i = 0; i < nl; i++)
-        for (size_t k = 0; 3 * k < pts[i].size(); k++)
-            sp.x[sp.at[i] + k] = pts[i][3 * k], sp.y[sp.at[i] + k] = pts[i][3 * k + 1],
-                            sp.z[sp.at[i] + k] = pts[i][3 * k + 2];
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 64), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t i = rg.begin(); i != rg.end(); i++)
+            for (size_t k = 0; 3 * k < pts[i].size(); k++)
+                sp.x[sp.at[i] + k] = pts[i][3 * k], sp.y[sp.at[i] + k] = pts[i][3 * k + 1],
+                                sp.z[sp.at[i] + k] = pts[i][3 * k + 2];
+    });
     pts.clear();
     band_distance(band, sp, 0.f, W);
 }
@@ -470,26 +473,40 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t q = rg.begin(); q != rg.end(); q++) b.k[q] = K[b.src[q]], b.deep[q] = deep[b.src[q]];
     });
-    float emax = 0;
-    for (size_t i = 0; i < n; i++) emax = std::max(emax, std::max(K[i].ext[0], std::max(K[i].ext[1], K[i].ext[2])));
+    // (the largest extent: a maximum, the same in any order)
+    const float emax = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, n, 4096), 0.f,
+        [&](const tbb::blocked_range<size_t> &rg, float e) {
+            for (size_t i = rg.begin(); i != rg.end(); i++)
+                e = std::max(e, std::max(K[i].ext[0], std::max(K[i].ext[1], K[i].ext[2])));
+            return e;
+        },
+        [](float x, float y) { return std::max(x, y); });
     b.reach = int(std::ceil(double(emax) / LEAF_DIM));
     // the leaves within reach of a bin holding a particle near a face: the
-    // surface lies in them; the others are wholly inside or outside
-    std::vector<uint64_t> targets;
-    const int r = b.reach;
-    for (size_t bi = 0; bi + 1 < b.at.size(); bi++) {
-        bool any = false;
-        for (uint32_t q = b.at[bi]; q < b.at[bi + 1] && !any; q++) any = !deep[b.src[q]];
-        if (!any) continue;
-        const Coord c = leaf_coord(b.key[bi]);
-        for (int x = -r; x <= r; x++)
-            for (int y = -r; y <= r; y++)
-                for (int z = -r; z <= r; z++) targets.push_back(leaf_key(c.x() + x, c.y() + y, c.z() + z));
-    }
+    // surface lies in them; the others are wholly inside or outside (each
+    // bin's in its own slots, NONE where it holds none: the same set)
+    const int r = b.reach, side = 2 * r + 1, per = side * side * side;
+    const size_t nbin = b.key.size();
+    constexpr uint64_t NONE = ~uint64_t(0);
+    std::vector<uint64_t> targets(nbin * size_t(per), NONE);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nbin, 64), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t bi = rg.begin(); bi != rg.end(); bi++) {
+            bool any = false;
+            for (uint32_t q = b.at[bi]; q < b.at[bi + 1] && !any; q++) any = !b.deep[q];
+            if (!any) continue;
+            const Coord c = leaf_coord(b.key[bi]);
+            uint64_t *t = targets.data() + bi * size_t(per);
+            for (int x = -r; x <= r; x++)
+                for (int y = -r; y <= r; y++)
+                    for (int z = -r; z <= r; z++) *t++ = leaf_key(c.x() + x, c.y() + y, c.z() + z);
+        }
+    });
     K.clear();
     K.shrink_to_fit();
     tbb::parallel_sort(targets.begin(), targets.end());
     targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    if (!targets.empty() && targets.back() == NONE) targets.pop_back();
     tm.sort_s = cpu_now() - t0;
 
     // the union over the targets; then the band: the targets and the 26
@@ -505,18 +522,25 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
                        track ? who.data() + t * LEAF_SIZE : nullptr, 0);
     });
     dense_band band;
-    band.key = targets;
-    for (size_t t = 0; t < targets.size(); t++) {
-        const float *f0 = F.data() + t * LEAF_SIZE;
-        if (std::none_of(f0, f0 + LEAF_SIZE, [](float v) { return v >= 0; })) continue;
-        const Coord c = leaf_coord(targets[t]);
-        for (int i = -1; i <= 1; i++)
-            for (int j = -1; j <= 1; j++)
-                for (int k = -1; k <= 1; k++)
-                    if (i || j || k) band.key.push_back(leaf_key(c.x() + i, c.y() + j, c.z() + k));
-    }
+    // (each target's 26 neighbours in its own slots, NONE where it holds no
+    // inside voxel: the same set)
+    band.key.assign(targets.size() * 27, NONE);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, targets.size(), 64), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t t = rg.begin(); t != rg.end(); t++) {
+            uint64_t *o = band.key.data() + 27 * t;
+            o[0] = targets[t];
+            const float *f0 = F.data() + t * LEAF_SIZE;
+            if (std::none_of(f0, f0 + LEAF_SIZE, [](float v) { return v >= 0; })) continue;
+            const Coord c = leaf_coord(targets[t]);
+            for (int i = -1; i <= 1; i++)
+                for (int j = -1; j <= 1; j++)
+                    for (int k = -1; k <= 1; k++)
+                        if (i || j || k) *++o = leaf_key(c.x() + i, c.y() + j, c.z() + k);
+        }
+    });
     tbb::parallel_sort(band.key.begin(), band.key.end());
     band.key.erase(std::unique(band.key.begin(), band.key.end()), band.key.end());
+    if (!band.key.empty() && band.key.back() == NONE) band.key.pop_back();
     const size_t nl = band.size();
     std::vector<float> D(nl * LEAF_SIZE);
     std::vector<int32_t> bwho(track ? nl * LEAF_SIZE : 0);

@@ -44,16 +44,25 @@ template <class Index> key_bins<Index> order_by_key(const std::vector<uint64_t> 
         return r;
     }
     constexpr uint64_t F = (uint64_t(1) << 21) - 1;
-    // the keys' box, field by field
-    uint64_t lo[3] = {F, F, F}, hi[3] = {0, 0, 0};
-    for (size_t i = 0; i < n; i++)
-        for (int f = 0; f < 3; f++) {
-            const uint64_t v = keys[i] >> (21 * f) & F;
-            lo[f] = std::min(lo[f], v), hi[f] = std::max(hi[f], v);
-        }
-    const uint64_t e0 = hi[0] - lo[0] + 1, e1 = hi[1] - lo[1] + 1, e2 = hi[2] - lo[2] + 1;
-    // chunks of the input, each counted and then placed on its own
+    // the keys' box, field by field (chunk by chunk, then combined)
     constexpr size_t CHUNKS = 16;
+    const size_t chunk = (n + CHUNKS - 1) / CHUNKS;
+    uint64_t clo[CHUNKS][3], chi[CHUNKS][3];
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, CHUNKS, 1), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t c = rg.begin(); c != rg.end(); c++) {
+            uint64_t l[3] = {F, F, F}, h[3] = {0, 0, 0};
+            for (size_t i = c * chunk; i < std::min(n, (c + 1) * chunk); i++)
+                for (int f = 0; f < 3; f++) {
+                    const uint64_t v = keys[i] >> (21 * f) & F;
+                    l[f] = std::min(l[f], v), h[f] = std::max(h[f], v);
+                }
+            for (int f = 0; f < 3; f++) clo[c][f] = l[f], chi[c][f] = h[f];
+        }
+    });
+    uint64_t lo[3] = {F, F, F}, hi[3] = {0, 0, 0};
+    for (size_t c = 0; c < CHUNKS; c++)
+        for (int f = 0; f < 3; f++) lo[f] = std::min(lo[f], clo[c][f]), hi[f] = std::max(hi[f], chi[c][f]);
+    const uint64_t e0 = hi[0] - lo[0] + 1, e1 = hi[1] - lo[1] + 1, e2 = hi[2] - lo[2] + 1;
     const size_t nbox = e0 * e1 * e2 <= (uint64_t(1) << 26) ? size_t(e0 * e1 * e2) : 0;
     if (nbox == 0 || nbox > 4 * n + 4096) {
         // a sparse box: the comparison sort, the same order
@@ -73,7 +82,7 @@ template <class Index> key_bins<Index> order_by_key(const std::vector<uint64_t> 
     auto slot = [&](uint64_t k) {
         return size_t((((k >> 42 & F) - lo[2]) * e1 + ((k >> 21 & F) - lo[1])) * e0 + ((k & F) - lo[0]));
     };
-    const size_t chunk = (n + CHUNKS - 1) / CHUNKS;
+    // chunks of the input, each counted and then placed on its own
     std::vector<uint32_t> cnt(CHUNKS * nbox, 0);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, CHUNKS, 1), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t c = rg.begin(); c != rg.end(); c++) {
