@@ -125,9 +125,10 @@ kernel make_kernel(const double c[3], const double a[3], const double V[3][3]) {
 // than their ball reaches) get a ball of 2/3 the neighbourhood unexamined
 // (the spheres' radius: no gaps inside, on a lattice or after it deforms); the others a disc from the weighted
 // covariance of their neighbours within R (weight 1 - (d/R)^3), gathered in cells of edge R, cell by cell in parallel
-// (each kernel depends only on the input).
+// (each kernel depends only on the input). Particle i's kernel is written
+// at slot[i].
 std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, const aniso_params &a, double vx,
-                                  std::vector<uint8_t> &deep) {
+                                  const uint32_t *slot, std::vector<uint8_t> &deep) {
     auto pos = [&](size_t i, int k) { return xd ? xd[3 * i + k] : double(xf[3 * i + k]); };
     const double inv = 1 / vx, R = a.R, invR = 1 / R, R2 = R * R;
     // a full neighbourhood's covariance per axis: the weighted second moment
@@ -146,8 +147,9 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t i = rg.begin(); i != rg.end(); i++) {
             if (!deep[i]) continue;
-            K[i] = ball;
-            for (int k = 0; k < 3; k++) K[i].c[k] = float(pos(i, k) * inv);
+            kernel &k0 = K[slot[i]];
+            k0 = ball;
+            for (int k = 0; k < 3; k++) k0.c[k] = float(pos(i, k) * inv);
         }
     });
     const float fR2 = float(R2), finvR = float(invR);
@@ -196,7 +198,7 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
                 const double c[3] = {pos(i, 0) * inv, pos(i, 1) * inv, pos(i, 2) * inv};
                 if (cnt < FEW_NEIGHBOURS) {
                     const double ax[3] = {2 * t, 2 * t, 2 * t};
-                    K[i] = make_kernel(c, ax, I3);
+                    K[slot[i]] = make_kernel(c, ax, I3);
                     continue;
                 }
                 for (int k = 0; k < 3; k++) m[k] /= ws; // ws >= 1: the particle itself
@@ -212,7 +214,7 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
                 for (int k = 0; k < 2; k++)
                     ax[k] = std::max(t, sup * std::min(std::max(ev[k], ev[0] / a.kr) / s_full, 1.0));
                 ax[2] = t;
-                K[i] = make_kernel(c, ax, V);
+                K[slot[i]] = make_kernel(c, ax, V);
             }
         });
     return K;
@@ -448,37 +450,50 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
     if (!(a.support > 0 && a.R > 0 && a.kr >= 1 && a.thickness > 0 && a.spacing > 0))
         throw std::runtime_error("anisotropic kernels: reach, neighbourhood, ratio, thickness or spacing out of range");
     aniso_timing tm{};
+    // the kernels' leaf bins, from their centres (ties by index:
+    // deterministic), before they are made: each is made in its place
     double t0 = cpu_now();
-    std::vector<uint8_t> deep;
-    std::vector<kernel> K = shape_kernels(n, xd, xf, a, vx, deep);
-    for (size_t i = 0; i < n; i++) tm.n_deep += deep[i];
-    tm.shape_s = cpu_now() - t0;
-
-    // kernels sorted into leaf bins (ties by index: deterministic)
-    t0 = cpu_now();
+    const double inv = 1 / vx;
     std::vector<uint64_t> keys(n);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
-        for (size_t i = rg.begin(); i != rg.end(); i++)
-            keys[i] = leaf_key(leaf_of(K[i].c[0]), leaf_of(K[i].c[1]), leaf_of(K[i].c[2]));
+        for (size_t i = rg.begin(); i != rg.end(); i++) {
+            int64_t l[3];
+            for (int k = 0; k < 3; k++) l[k] = leaf_of(float((xd ? xd[3 * i + k] : double(xf[3 * i + k])) * inv));
+            keys[i] = leaf_key(l[0], l[1], l[2]);
+        }
     });
     key_bins<uint32_t> kb = order_by_key<uint32_t>(keys);
     keys.clear(), keys.shrink_to_fit();
+    std::vector<uint32_t> slot(n);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t q = rg.begin(); q != rg.end(); q++) slot[kb.order[q]] = uint32_t(q);
+    });
+    tm.sort_s = cpu_now() - t0;
+
+    t0 = cpu_now();
+    std::vector<uint8_t> deep;
+    std::vector<kernel> K = shape_kernels(n, xd, xf, a, vx, slot.data(), deep);
+    for (size_t i = 0; i < n; i++) tm.n_deep += deep[i];
+    slot.clear(), slot.shrink_to_fit();
+    tm.shape_s = cpu_now() - t0;
+
+    t0 = cpu_now();
     binned b;
-    b.k.resize(n), b.deep.resize(n);
+    b.k.swap(K), b.deep.resize(n);
     b.src.swap(kb.order), b.key.swap(kb.key), b.at.swap(kb.at);
     // a deep ball's core: within rb - 1 voxels (less a margin far above
     // rounding) its neighbours are inside the ball
     const double rbv = deep_ball_radius(a) / vx;
     b.core = rbv > 1.5 ? float(rbv - 1 - 0.01) : 0.f;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
-        for (size_t q = rg.begin(); q != rg.end(); q++) b.k[q] = K[b.src[q]], b.deep[q] = deep[b.src[q]];
+        for (size_t q = rg.begin(); q != rg.end(); q++) b.deep[q] = deep[b.src[q]];
     });
     // (the largest extent: a maximum, the same in any order)
     const float emax = tbb::parallel_reduce(
         tbb::blocked_range<size_t>(0, n, 4096), 0.f,
         [&](const tbb::blocked_range<size_t> &rg, float e) {
             for (size_t i = rg.begin(); i != rg.end(); i++)
-                e = std::max(e, std::max(K[i].ext[0], std::max(K[i].ext[1], K[i].ext[2])));
+                e = std::max(e, std::max(b.k[i].ext[0], std::max(b.k[i].ext[1], b.k[i].ext[2])));
             return e;
         },
         [](float x, float y) { return std::max(x, y); });
@@ -502,12 +517,10 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
                     for (int z = -r; z <= r; z++) *t++ = leaf_key(c.x() + x, c.y() + y, c.z() + z);
         }
     });
-    K.clear();
-    K.shrink_to_fit();
     tbb::parallel_sort(targets.begin(), targets.end());
     targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
     if (!targets.empty() && targets.back() == NONE) targets.pop_back();
-    tm.sort_s = cpu_now() - t0;
+    tm.sort_s += cpu_now() - t0;
 
     // the union over the targets; then the band: the targets and the 26
     // leaves around each that holds an inside voxel (the deep leaves beside
