@@ -381,7 +381,8 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
 
 // Where the union's value D (one per band voxel; a missing leaf reads
 // `outside`) crosses 0, made a signed distance in band.phi (voxel units).
-void distance_from_crossings(dense_band &band, const std::vector<float> &D, float outside, float W) {
+// D's buffer then becomes the band's scratch (the passes after write there).
+void distance_from_crossings(dense_band &band, std::vector<float> &D, float outside, float W) {
     const float iso = 0;
     const size_t nl = band.size();
     // The crossings: along each voxel edge from an inside voxel (value at
@@ -438,6 +439,7 @@ void distance_from_crossings(dense_band &band, const std::vector<float> &D, floa
                                 sp.z[sp.at[i] + k] = pts[i][3 * k + 2];
     });
     pts.clear();
+    band.scratch.swap(D);
     band_distance(band, sp, 0.f, W);
 }
 

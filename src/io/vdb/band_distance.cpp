@@ -32,7 +32,8 @@ bool at_crossing(const dense_band &b, size_t i, int v) {
 void band_distance(dense_band &b, const surface_points &s, float exact_out, float W) {
     if (!(W > 0 && W <= 7)) throw std::runtime_error("band distance: width over 7 voxels");
     const float W2 = W * W;
-    std::vector<float> out(b.phi.size());
+    std::vector<float> &out = b.scratch; // every value is written below
+    out.resize(b.phi.size());
     tbb::parallel_for(tbb::blocked_range<size_t>(0, b.size(), 4), [&](const tbb::blocked_range<size_t> &rg) {
         float d2[LEAF_SIZE]; // squared distance to the nearest point so far
         for (size_t i = rg.begin(); i != rg.end(); i++) {

@@ -236,7 +236,8 @@ void band_flatten(dense_band &b, float W, float radius, float sigma, float ns) {
         });
         S.nx.swap(T.nx), S.ny.swap(T.ny), S.nz.swap(T.nz);
     }
-    std::vector<float> out(b.phi);
+    std::vector<float> &out = b.scratch;
+    out = b.phi;
     const float ir2 = 1 / (radius * radius);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 4), [&](const tbb::blocked_range<size_t> &rg) {
         float pad[P * P * P];

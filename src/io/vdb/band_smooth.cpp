@@ -69,7 +69,8 @@ void shift(dense_band &b, float by) {
 
 void band_smooth(dense_band &b, float W, float dilate, int iterations, float erode) {
     shift(b, -dilate);
-    std::vector<float> out(iterations > 0 ? b.phi.size() : 0);
+    std::vector<float> &out = b.scratch;
+    if (iterations > 0) out.resize(b.phi.size());
     for (int k = 0; k < iterations; k++) {
         curvature_step(b, W, out);
         b.phi.swap(out);

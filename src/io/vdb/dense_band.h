@@ -41,6 +41,9 @@ struct dense_band {
     std::vector<uint64_t> key; // ascending
     std::vector<float> phi;    // key.size() x LEAF_SIZE
     std::vector<int32_t> nbr;  // key.size() x 27: index of the leaf at (dx, dy, dz), -1 absent
+    // a second buffer of phi's size for the passes that write a new phi and
+    // swap it in: kept, so that each pass writes pages already mapped
+    std::vector<float> scratch;
 
     size_t size() const { return key.size(); }
     float *leaf(size_t i) { return phi.data() + i * LEAF_SIZE; }
