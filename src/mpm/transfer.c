@@ -427,8 +427,13 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
     prefetch_planes(p->v, 3, i0, 1);
     prefetch_planes(p->C, 9, i0, 1);
     prefetch_planes(p->F, 9, i0, 1);
-    if (CLASSIC || band) stencil_phase_n(KW, 1, n, ck, p->x, i0, bc, inv_dx, dx);
-    else stencil_phase_n(KW, 0, n, ck, p->x, i0, bc, inv_dx, dx);
+#ifdef KF_ROWS512
+    const int WD = !CLASSIC; /* the MLS gather in rows (band particles' gather_one too) */
+#else
+    const int WD = 0;
+#endif
+    if (CLASSIC || band) stencil_phase_n(KW, 1, WD, n, ck, p->x, i0, bc, inv_dx, dx);
+    else stencil_phase_n(KW, 0, WD, n, ck, p->x, i0, bc, inv_dx, dx);
 
     /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
      * near a rigid surface, ghost velocities on incompatible nodes (CPIC
@@ -446,23 +451,14 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
             else poly_gather(ck, j, inv_dx, cache, md);
         }
 
-    /* C = D⁻¹ B; velocity gradient L = C (MLS: the one product, made in
-     * place and copied out a plane at a time) or Σ v_i ∇wᵀ (classic) */
-    if (CLASSIC)
-        for (int k = 0; k < 9; k++) {
-            kf_real *restrict C = p->C[k] + i0;
-            KF_SIMD
-            for (int j = 0; j < n; j++) {
-                C[j] = minv * ck->b[k][j];
-                ck->g[k][j] *= inv_dx;
-            }
+    /* C = D⁻¹ B (in place, stored with the other planes below); velocity
+     * gradient L = C (MLS: the one product) or Σ v_i ∇wᵀ (classic) */
+    for (int k = 0; k < 9; k++) {
+        KF_SIMD
+        for (int j = 0; j < n; j++) {
+            ck->b[k][j] *= minv;
+            if (CLASSIC) ck->g[k][j] *= inv_dx;
         }
-    else {
-        for (int k = 0; k < 9; k++) {
-            KF_SIMD
-            for (int j = 0; j < n; j++) ck->b[k][j] *= minv;
-        }
-        for (int k = 0; k < 9; k++) plane_out(p->C[k] + i0, ck->b[k], n);
     }
     kf_real(*L)[KF_CHUNK] = CLASSIC ? ck->g : ck->b;
 
@@ -483,14 +479,6 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
                 p->x[a][i0 + (size_t)j] += dt * ck->v[a][j];
             }
         }
-    /* velocity and advection */
-    for (int a = 0; a < (flip ? 0 : 3); a++) {
-        kf_real *restrict x = p->x[a] + i0;
-        const kf_real *restrict va = ck->v[a];
-        plane_out(p->v[a] + i0, va, n);
-        KF_SIMD
-        for (int j = 0; j < n; j++) x[j] += dt * va[j];
-    }
 
     /* F ← (I + Δt L) F and its determinant, across the chunk */
     kf_real Fn[9][KF_CHUNK], J[KF_CHUNK];
@@ -543,6 +531,17 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
     /* water keeps F = I and tracks J ← (1 + Δt tr L) J instead */
     int any_water = 0;
     for (int j = 0; j < (water ? n : 0); j++) any_water |= m->mat[p->mat[i0 + (size_t)j]].model == KF_MAT_WATER;
+    /* the chunk's planes out, after F's loads: the stores (C and v lines
+     * are written, not read) queue behind the arithmetic, not before it */
+    for (int k = 0; k < 9; k++) plane_out(p->C[k] + i0, ck->b[k], n);
+    /* velocity and advection (FLIP did both above) */
+    for (int a = 0; a < (flip ? 0 : 3); a++) {
+        kf_real *restrict x = p->x[a] + i0;
+        const kf_real *restrict va = ck->v[a];
+        plane_out(p->v[a] + i0, va, n);
+        KF_SIMD
+        for (int j = 0; j < n; j++) x[j] += dt * va[j];
+    }
     for (int k = 0; k < 9; k++) plane_out(p->F[k] + i0, Fn[k], n);
     if (any_water) {
         for (int j = 0; j < n; j++) {

@@ -32,6 +32,7 @@ typedef struct chunk {
     kf_real w[3][4][KF_CHUNK];       /* kernel weights per axis */
     kf_real dw[3][4][KF_CHUNK];      /* their derivatives (grid units) */
     kf_real d[3][4][KF_CHUNK];       /* node minus particle, m */
+    kf_real wd[3][4][KF_CHUNK];      /* G2P, MLS in rows: w d */
     kf_real q[9][KF_CHUNK];          /* P2G: MLS Q, or APIC m C for classic */
     kf_real qm[9][KF_CHUNK];         /* P2G, FLIP: m C alone (the momentum without the stress) */
     kf_real t[9][KF_CHUNK];          /* P2G classic: -Δt V⁰ τ / Δx */
@@ -47,9 +48,10 @@ typedef struct chunk {
  * fx is the particle position in grid units minus its base node. w[i] is the
  * weight of node base+i, dw[i] its derivative with respect to the particle
  * position, in grid units (divide by Δx for world units). */
-KF_INLINE void stencil_axis(int KW, int DW, int n, const kf_real *restrict x, int origin, kf_real inv_dx, kf_real dx,
-                            int *restrict l, kf_real (*restrict w)[KF_CHUNK], kf_real (*restrict dw)[KF_CHUNK],
-                            kf_real (*restrict d)[KF_CHUNK]) {
+KF_INLINE void stencil_axis(int KW, int DW, int WD, int n, const kf_real *restrict x, int origin, kf_real inv_dx,
+                            kf_real dx, int *restrict l, kf_real (*restrict w)[KF_CHUNK],
+                            kf_real (*restrict dw)[KF_CHUNK], kf_real (*restrict d)[KF_CHUNK],
+                            kf_real (*restrict wd)[KF_CHUNK]) {
     KF_SIMD
     for (int j = 0; j < n; j++) {
         int base = kf_base_node(x[j], inv_dx, KW == 4);
@@ -81,20 +83,23 @@ KF_INLINE void stencil_axis(int KW, int DW, int n, const kf_real *restrict x, in
             }
         }
         for (int i = 0; i < KW; i++) d[i][j] = ((kf_real)i - fx) * dx;
+        for (int i = 0; i < (WD ? KW : 0); i++) wd[i][j] = w[i][j] * d[i][j];
     }
 }
 
 /* the stencil of n particles (a constant KF_CHUNK for a full chunk: each
  * loop is then one register per row); the weight gradients only where a
- * caller reads them (DW: classic MPM, CPIC's band) */
-KF_INLINE void stencil_phase_n(int KW, int DW, int n, chunk *ck, kf_real *const x[3], size_t i0, const int32_t *bc,
-                               kf_real inv_dx, kf_real dx) {
+ * caller reads them (DW: classic MPM, CPIC's band), the products w d only
+ * for the MLS gather in rows (WD) */
+KF_INLINE void stencil_phase_n(int KW, int DW, int WD, int n, chunk *ck, kf_real *const x[3], size_t i0,
+                               const int32_t *bc, kf_real inv_dx, kf_real dx) {
     for (int a = 0; a < 3; a++)
-        stencil_axis(KW, DW, n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a]);
+        stencil_axis(KW, DW, WD, n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a],
+                     ck->wd[a]);
 }
 KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, const int32_t *bc, kf_real inv_dx,
                              kf_real dx) {
-    stencil_phase_n(KW, 1, ck->n, ck, x, i0, bc, inv_dx, dx);
+    stencil_phase_n(KW, 1, 0, ck->n, ck, x, i0, bc, inv_dx, dx);
 }
 
 /* the index of the first node of row (a, b) of the 2x2x2 block
@@ -446,7 +451,7 @@ KF_INLINE __m512 gather_rows512_sum(int KW, const chunk *ck, int j, const kf_v4 
     kf_real w2[4], wd2[4];
     for (int c = 0; c < 4; c++) {
         w2[c] = c < KW ? ck->w[2][c][j] : 0;
-        wd2[c] = c < KW ? ck->w[2][c][j] * ck->d[2][c][j] : 0;
+        wd2[c] = c < KW ? ck->wd[2][c][j] : 0;
     }
     const float *origin = (const float *)&cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
     __m512 S = _mm512_setzero_ps(), S0 = S, S1 = S;
@@ -456,11 +461,11 @@ KF_INLINE __m512 gather_rows512_sum(int KW, const chunk *ck, int j, const kf_v4 
             const __m512 r = _mm512_maskz_loadu_ps(mk, origin + 4 * (a * CD + b) * CD);
             const kf_real wb = ck->w[1][b][j];
             A = _mm512_fmadd_ps(_mm512_set1_ps(wb), r, A);
-            A1 = _mm512_fmadd_ps(_mm512_set1_ps(wb * ck->d[1][b][j]), r, A1);
+            A1 = _mm512_fmadd_ps(_mm512_set1_ps(ck->wd[1][b][j]), r, A1);
         }
         const kf_real wa = ck->w[0][a][j];
         S = _mm512_fmadd_ps(_mm512_set1_ps(wa), A, S);
-        S0 = _mm512_fmadd_ps(_mm512_set1_ps(wa * ck->d[0][a][j]), A, S0);
+        S0 = _mm512_fmadd_ps(_mm512_set1_ps(ck->wd[0][a][j]), A, S0);
         S1 = _mm512_fmadd_ps(_mm512_set1_ps(wa), A1, S1);
     }
     const __m512 WK = row_lanes(w2, KW);
