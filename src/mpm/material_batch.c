@@ -569,6 +569,10 @@ int kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *co
             int c = n - j0 < BATCH ? n - j0 : BATCH;
             kf_real *out[6];
             for (int k = 0; k < 6; k++) out[k] = tau6[k] + j0;
+            /* the stress pass writes planes last touched a substep ago
+             * (memory): their lines asked for four batches ahead */
+            if (project)
+                for (int k = 0; k < 6; k++) __builtin_prefetch(out[k] + 4 * BATCH, 1, 3);
             limited += lanes_batch(m, c, F, ps, project, first + (size_t)j0, out);
         }
         return limited;

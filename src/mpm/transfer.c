@@ -775,6 +775,15 @@ int kf_fuse_applies(const kf_model *m, const kf_state *s) {
            m->fault_substep <= 0 && !m->unfused;
 }
 
+/* the stress planes of an owner's first particles (the stress batches ask
+ * for the rest as they go), asked for before its G2P: the planes were last
+ * written a substep ago, so their lines come from memory while G2P runs */
+static inline void prefetch_tau_head(const kf_particles *p, size_t lo, size_t hi) {
+    const size_t end = hi < lo + 64 ? hi : lo + 64;
+    for (int k = 0; k < 6; k++)
+        for (size_t i = lo; i < end; i += 16) __builtin_prefetch(p->tau[k] + i, 1, 3);
+}
+
 /* the return mapping and stress of one owner's particles, in runs of one material */
 static long stress_owner(const kf_mat *mats, kf_particles *p, size_t lo, size_t hi) {
     long limited = 0;
@@ -865,6 +874,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
 #pragma omp for schedule(dynamic, 4)
                 for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
                     size_t r = (size_t)g->owner[k];
+                    if (keep) prefetch_tau_head(p, g->pstart[r], g->pstart[r + 1]);
                     gfn(m, s, r, dt, cache, NULL, &ck, &acc);
                     if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
                     if (scan) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min);
@@ -888,6 +898,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
         } else {
 #pragma omp for schedule(dynamic, 4)
             for (size_t r = 0; r < nowner; r++) {
+                if (keep) prefetch_tau_head(p, g->pstart[r], g->pstart[r + 1]);
                 gfn(m, s, r, dt, cache, NULL, &ck, &acc);
                 if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
                 if (scan) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min);
