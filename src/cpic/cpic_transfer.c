@@ -627,15 +627,16 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     } else {
         for (int k = 0; k < 6; k++) ck->tau[k] = need_tau ? p->tau[k] + i0 : NULL;
     }
+    /* every particle's ordinary gather as one chunk (the rows of the
+     * particles outside the band's, the same sums); those across a surface
+     * then write theirs over it */
+    if (classic) gather_chunk(3, 1, ck->n, ck, cache);
+    else gather_chunk(3, 0, ck->n, ck, cache);
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
         const uint32_t cp = p->colour[i];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        if (!across[j]) {
-            if (classic) gather_one(3, 1, ck, j, cache);
-            else gather_one(3, 0, ck, j, cache);
-            continue;
-        }
+        if (!across[j]) continue;
         const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
         const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
         const double mass = p->mass[i];
