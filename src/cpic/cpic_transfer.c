@@ -24,15 +24,24 @@
 void kf_cpic_owner_cdf(const kf_state *s, size_t owner, kf_cpic_owner *oc) {
     const kf_cpic *c = s->cpic;
     const int32_t *nb = s->g.nb[owner];
-    for (int a = 0; a < NB; a++)
-        for (int b = 0; b < NB; b++)
-            for (int k = 0; k < NB; k++) {
-                int blk = nb[(a >> 2) << 2 | (b >> 2) << 1 | (k >> 2)];
-                size_t node = 64 * (size_t)blk + (size_t)((a & 3) << 4 | (b & 3) << 2 | (k & 3));
-                int valid = c->stamp[blk] == c->epoch;
-                oc->col[(a * NB + b) * NB + k] = valid ? c->node_c[node] : 0;
-                oc->dist[(a * NB + b) * NB + k] = valid ? c->node_d[node] : 0;
+    /* block by block: a block's row of 4 nodes along z is 4 consecutive
+     * entries both in the grid and in the cache (the same values as node
+     * by node, in vector moves) */
+    _Static_assert(NB == 2 * KF_BLOCK, "the cache spans the owner's 2x2x2 blocks");
+    for (int e = 0; e < 8; e++) {
+        const int blk = nb[e], da = e >> 2, db = (e >> 1) & 1, dk = e & 1;
+        const int valid = c->stamp[blk] == c->epoch;
+        const uint32_t *nc = &c->node_c[64 * (size_t)blk];
+        const float *nd = &c->node_d[64 * (size_t)blk];
+        for (int a = 0; a < KF_BLOCK; a++)
+            for (int b = 0; b < KF_BLOCK; b++) {
+                const int q = ((KF_BLOCK * da + a) * NB + KF_BLOCK * db + b) * NB + KF_BLOCK * dk, n = a << 4 | b << 2;
+                for (int k = 0; k < KF_BLOCK; k++) {
+                    oc->col[q + k] = valid ? nc[n + k] : 0;
+                    oc->dist[q + k] = valid ? nd[n + k] : 0;
+                }
             }
+    }
     /* the stencils' affinity, one axis at a time (the quadratic stencil's
      * base nodes lie in 0..NB-3 along each axis) */
     uint32_t t[NB * NB * NB];
