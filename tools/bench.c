@@ -39,8 +39,8 @@
  * stress: ns per particle of the stress pass per solid model, batch path
  *        and scalar path, one thread (only with --only stress; bench_stress.c).
  * --cells, --force and --threads pick one cube size, force or thread count.
- * --unfused runs G2P, the stress pass and P2G as separate passes (cube and
- *        block), the reference the fused substep end must equal bit for bit.
+ * --unfused runs G2P, the stress pass and P2G as separate passes (cube,
+ *        block and scenes), the reference the fused substep end must equal bit for bit.
  * --quick shrinks them (24³ and 16³ cubes, a 100k-particle block) for a smoke run. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -343,7 +343,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--scale") && i + 1 < argc) so.scale = atof(argv[++i]);
         else if (!strcmp(argv[i], "--threads") && i + 1 < argc) so.threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--quick")) quick = 1;
-        else if (!strcmp(argv[i], "--unfused")) unfused = 1;
+        else if (!strcmp(argv[i], "--unfused")) unfused = so.unfused = 1;
         else if (!strcmp(argv[i], "--substeps") && i + 1 < argc) substeps = so.substeps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--cells") && i + 1 < argc) only_cells = atoi(argv[++i]);

@@ -143,6 +143,7 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
     r->est_particles = kf_budget_estimate(shot, &b, err, sizeof err) ? 0 : b.particles;
     r->dx = dx;
     r->particles = (double)kf_state_count(sc.state);
+    kf_model_set_unfused(sc.model, o->unfused);
     r->threads = kf_model_sim(sc.model)->threads > 0 ? kf_model_sim(sc.model)->threads : omp_get_max_threads();
     kf_step_stats st;
     memset(&st, 0, sizeof st);

@@ -18,6 +18,7 @@ typedef struct bench_scenes_opts {
     /* write each scene's particles after the frames to <dump>/<scene>.f32 (NULL: none): x, v and F of
      * every particle as float32 in id order, to measure how far two builds' results differ */
     const char *dump;
+    int unfused; /* 1: G2P, stress and P2G as separate passes (the fused sweep's reference) */
 } bench_scenes_opts;
 
 /* Print the table; returns 0, or 1 if a scene failed (its row says why). */
