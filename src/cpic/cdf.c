@@ -53,6 +53,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->bin_start);
     free(c->slot);
     free(c->imp);
+    for (int r = 0; r < KF_MAX_RIGIDS; r++) free(c->sides[r].v);
     free(c->guard_caught);
     free(c->guard_depth);
     free(c->pd);

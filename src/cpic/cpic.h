@@ -144,6 +144,16 @@ typedef struct kf_cpic {
     /* the crossing guard (guard.c): every body's pose at the substep's end,
      * and per owner slot the crossings caught and the deepest (m) */
     kf_rigid_state end[KF_MAX_RIGIDS];
+    /* per thin body, which side its surface can give a point of each cell
+     * of a lattice in its mesh frame (guard.c), filled as particles reach
+     * the cells: the guard's re-sync needs no closest-triangle query where
+     * the answer cannot change the particle's tag */
+    struct kf_cpic_sides {
+        int tried;
+        uint8_t *v; /* per cell: 0 not yet known, else a KF_SIDES_* value */
+        double lo[3], h, reach, tol;
+        int dim[3];
+    } sides[KF_MAX_RIGIDS];
     long *guard_caught;
     double *guard_depth;
     /* the substep's guard totals (kf_cpic_finish) */

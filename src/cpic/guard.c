@@ -32,6 +32,7 @@
  * Colours are untouched: a particle that never crosses keeps the side its
  * colour records. */
 #include <math.h>
+#include <stdlib.h>
 
 #include "../mpm/collider.h"
 #include "../mpm/transfer_chunk.h"
@@ -41,12 +42,15 @@
 
 #define NB KF_CPIC_NB
 
+static void sides_make(const kf_model *m, kf_cpic *c, int r);
+
 /* the pose of every body at the substep's end (exact, or predicted for dynamic bodies) */
 void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt) {
     kf_cpic *c = s->cpic;
     for (int r = 0; r < m->nrigid; r++) {
         const kf_rigid_body *b = &m->rigid[r];
         kf_rigid_state *e = &c->end[r];
+        if (!c->sides[r].tried) sides_make(m, c, r);
         if (b->def.motion != KF_RIGID_DYNAMIC) {
             kf_rigid_state_at(b, s->time + dt, e);
             continue;
@@ -171,6 +175,113 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     return depth;
 }
 
+/* ---- the sides a thin body's surface can give ---------------------------------
+ * The re-sync below asks for the triangle closest to a particle within 1.5
+ * cells and takes the side of its plane; it changes a tag only where that
+ * side differs from the tag (a few in a million on a blade in the material).
+ * The answer for every point of a small cell of the mesh frame is bounded
+ * by the cell's candidates: if some triangle lies within D of the cell's
+ * centre, every point of the cell has one within D + h (h: the cell's half
+ * diagonal), so its closest triangle lies within D + 2h of the centre, and
+ * within reach + h. With no candidate there is no closest triangle; with
+ * the cell strictly on one side of every candidate's plane, the closest
+ * (whichever it is) gives that side. So per cell of a lattice of a quarter
+ * cell's spacing, made as particles first reach it and kept for the run
+ * (the mesh does not change in its frame), one of the values below; a
+ * particle whose tag already names its cell's side needs no query. The cell
+ * is widened a little past its lattice bounds and the distances and the
+ * plane test have a margin far above their rounding, so a point that rounds
+ * into the neighbouring cell, or a distance that rounds across 0, is still
+ * covered. */
+enum { KF_SIDES_NONE = 1, KF_SIDES_FRONT, KF_SIDES_BEHIND, KF_SIDES_MIXED };
+
+/* the lattice for thin body r, made once (serially, before the guard runs) */
+static void sides_make(const kf_model *m, kf_cpic *c, int r) {
+    struct kf_cpic_sides *sd = &c->sides[r];
+    const kf_rigid_body *b = &m->rigid[r];
+    sd->tried = 1;
+    if (!b->bvh || !b->def.thin || b->nvert <= 0) return;
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300}, ext = 0;
+    for (int v = 0; v < b->nvert; v++)
+        for (int a = 0; a < 3; a++) {
+            const double x = b->vert[3 * v + a];
+            lo[a] = x < lo[a] ? x : lo[a];
+            hi[a] = x > hi[a] ? x : hi[a];
+            ext = fabs(x) > ext ? fabs(x) : ext;
+        }
+    sd->h = 0.25 * m->sim.dx;
+    sd->reach = 1.5 * m->sim.dx;
+    sd->tol = 1e-9 * (1 + ext);
+    size_t n = 1;
+    for (int a = 0; a < 3; a++) {
+        /* a cell's margin beyond the reach: a point outside the lattice is
+         * farther than the reach from every vertex's box */
+        sd->lo[a] = lo[a] - sd->reach - sd->h;
+        sd->dim[a] = (int)ceil((hi[a] + sd->reach + sd->h - sd->lo[a]) / sd->h) + 1;
+        n *= (size_t)sd->dim[a];
+    }
+    /* a body hundreds of cells across in every direction: always query
+     * (below that, only the pages of cells particles reach are touched) */
+    if (n > ((size_t)1 << 26)) return;
+    sd->v = calloc(n, 1);
+}
+
+typedef struct sides_ctx {
+    const kf_rigid_body *b;
+    double c[3], half[3], tol;
+    int front, behind;
+} sides_ctx;
+
+static int sides_tri(void *ctx, int k) {
+    sides_ctx *x = ctx;
+    double n[3], off;
+    tri_plane(x->b, x->b->guard_tri[k], n, &off);
+    /* the plane's distance over the cell: its centre's, give or take the corners' spread */
+    const double u = kf_v3d_dot(n, x->c) - off,
+                 spread = fabs(n[0]) * x->half[0] + fabs(n[1]) * x->half[1] + fabs(n[2]) * x->half[2];
+    if (u - spread > x->tol) x->front = 1;
+    else if (u + spread < -x->tol) x->behind = 1;
+    else x->front = x->behind = 1;
+    return x->front && x->behind; /* mixed: the rest cannot change that */
+}
+
+/* the value of the cell holding mesh-frame point pm (made if not yet known) */
+static int sides_at(const kf_cpic *c, const kf_rigid_body *b, int r, const double pm[3]) {
+    const struct kf_cpic_sides *sd = &c->sides[r];
+    if (!sd->v) return KF_SIDES_MIXED;
+    int ix[3];
+    for (int a = 0; a < 3; a++) {
+        const double f = floor((pm[a] - sd->lo[a]) / sd->h);
+        if (!(f >= 0 && f < sd->dim[a])) return KF_SIDES_NONE; /* beyond the reach of every triangle */
+        ix[a] = (int)f;
+    }
+    const size_t at = ((size_t)ix[0] * (size_t)sd->dim[1] + (size_t)ix[1]) * (size_t)sd->dim[2] + (size_t)ix[2];
+    int v = __atomic_load_n(&sd->v[at], __ATOMIC_RELAXED);
+    if (v) return v;
+    /* the same value whichever thread makes it first */
+    sides_ctx x = {b, {0, 0, 0}, {0, 0, 0}, sd->tol, 0, 0};
+    double d2 = 0;
+    for (int a = 0; a < 3; a++) {
+        x.half[a] = 0.5 * sd->h * 1.01; /* widened: points that round into the next cell */
+        x.c[a] = sd->lo[a] + (ix[a] + 0.5) * sd->h;
+        d2 += x.half[a] * x.half[a];
+    }
+    const double hd = sqrt(d2);
+    double q[3], within = sd->reach + hd;
+    int interior;
+    if (kf_rigid_bvh_closest(b->bvh, x.c, within * 1.001 + 1000 * sd->tol, q, &interior) >= 0) {
+        const double D = sqrt((q[0] - x.c[0]) * (q[0] - x.c[0]) + (q[1] - x.c[1]) * (q[1] - x.c[1]) +
+                              (q[2] - x.c[2]) * (q[2] - x.c[2]));
+        if (D + 2 * hd < within) within = D + 2 * hd;
+        /* widened past the rounding of Embree's float radius, which may
+         * have let the query return a triangle a hair farther than the closest */
+        kf_rigid_bvh_within(b->bvh, x.c, within * 1.0001 + 1000 * sd->tol, sides_tri, &x);
+    }
+    v = x.front && x.behind ? KF_SIDES_MIXED : x.front ? KF_SIDES_FRONT : x.behind ? KF_SIDES_BEHIND : KF_SIDES_NONE;
+    __atomic_store_n(&sd->v[at], (uint8_t)v, __ATOMIC_RELAXED);
+    return v;
+}
+
 /* A particle near thin body r that did not cross it takes the side of the
  * exact closest triangle, as a node takes the side of its closest primitive
  * (cdf.c). With the guard nothing is behind a thin body for real (its path
@@ -191,11 +302,17 @@ static void retag(const kf_model *m, kf_state *s, int r, size_t i) {
     kf_particles *p = &s->p;
     double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, pm[3], q[3], nrm[3], off;
     to_mesh(&s->cpic->end[r], x, pm);
+    const uint32_t tbit = 1u << (2 * r);
+    /* the answer known without a query: no triangle within reach, or the
+     * side the tag already names */
+    const int known = sides_at(s->cpic, b, r, pm);
+    if (known == KF_SIDES_NONE || (known == KF_SIDES_FRONT && !(p->colour[i] & tbit)) ||
+        (known == KF_SIDES_BEHIND && (p->colour[i] & tbit)))
+        return;
     int interior = 0, k = kf_rigid_bvh_closest(b->bvh, pm, 1.5 * m->sim.dx, q, &interior);
     if (k < 0 || !interior) return;
     tri_plane(b, b->guard_tri[k], nrm, &off);
     const double u = kf_v3d_dot(nrm, pm) - off;
-    const uint32_t tbit = 1u << (2 * r);
     if (u < 0) p->colour[i] |= tbit;
     else if (u > 0) p->colour[i] &= ~tbit;
 }

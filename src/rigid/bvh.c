@@ -228,3 +228,40 @@ int kf_rigid_bvh_closest(const kf_rigid_bvh *b, const double p[3], double radius
     if (interior) *interior = c.interior;
     return c.prim;
 }
+
+/* ---- every triangle within a radius ---------------------------------------- */
+
+typedef struct within_ctx {
+    const kf_rigid_bvh *b;
+    double p[3]; /* shifted */
+    double r2;
+    int (*fn)(void *, int);
+    void *ctx;
+    int done;
+} within_ctx;
+
+static bool within_cb(struct RTCPointQueryFunctionArguments *args) {
+    within_ctx *c = args->userPtr;
+    if (c->done) return false;
+    const int *t = &c->b->tri[3 * args->primID];
+    double q[3];
+    int interior;
+    closest_on_triangle(c->p, &c->b->vert[3 * t[0]], &c->b->vert[3 * t[1]], &c->b->vert[3 * t[2]], q, &interior);
+    double d2 =
+        (q[0] - c->p[0]) * (q[0] - c->p[0]) + (q[1] - c->p[1]) * (q[1] - c->p[1]) + (q[2] - c->p[2]) * (q[2] - c->p[2]);
+    if (d2 <= c->r2) c->done = c->fn(c->ctx, (int)args->primID);
+    return false; /* the radius stays: every triangle within it is visited */
+}
+
+void kf_rigid_bvh_within(const kf_rigid_bvh *b, const double p[3], double radius, int (*fn)(void *ctx, int tri),
+                         void *ctx) {
+    within_ctx c = {b, {p[0] - b->c[0], p[1] - b->c[1], p[2] - b->c[2]}, radius * radius, fn, ctx, 0};
+    /* Embree's radius widened far beyond the rounding of its float point and
+     * vertices (tol is 1e-9 of the mesh's extent), so that no triangle within
+     * the double radius is left out of its traversal; the distance test
+     * above decides */
+    struct RTCPointQuery pq = {(float)c.p[0], (float)c.p[1], (float)c.p[2], 0, (float)(radius * 1.001 + 1000 * b->tol)};
+    struct RTCPointQueryContext ctx2;
+    rtcInitPointQueryContext(&ctx2);
+    rtcPointQuery(b->scn, &pq, &ctx2, within_cb, &c);
+}

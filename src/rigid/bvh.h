@@ -21,4 +21,10 @@ int kf_rigid_bvh_first_hit(const kf_rigid_bvh *b, const double p0[3], const doub
  * of p is not the triangle's to say). Thread-safe. */
 int kf_rigid_bvh_closest(const kf_rigid_bvh *b, const double p[3], double radius, double q[3], int *interior);
 
+/* Every triangle whose closest point to p (mesh frame) is within radius:
+ * fn(ctx, index) for each, in the scene's order; once fn returns nonzero
+ * the rest are passed over. Thread-safe. */
+void kf_rigid_bvh_within(const kf_rigid_bvh *b, const double p[3], double radius, int (*fn)(void *ctx, int tri),
+                         void *ctx);
+
 #endif
