@@ -356,6 +356,9 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
                 if (cull) {
                     // the whole 8-voxel row, branch-free so that it
                     // vectorises; voxels outside [za, zb] keep theirs
+                    // (not unrolled: GCC unrolls the 8 iterations first
+                    // and then leaves them scalar, with branches)
+#pragma GCC unroll 1
                     for (int z = 0; z < LEAF_DIM; z++) {
                         const float dz = float(oz + z) - cz;
                         const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
