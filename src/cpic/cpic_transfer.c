@@ -254,7 +254,9 @@ static inline void affine_velocity_of(const double C[9], int apic, const double 
 }
 
 /* Solve the symmetric 4x4 system M c = y (Gaussian elimination with partial
- * pivoting); returns det M. */
+ * pivoting); returns det M. Each x -= a b is one fused multiply-add, as the
+ * compiler contracted it before this was written out (and as the lanes of
+ * solve4_lanes do it). */
 static double solve4(double M[4][4], double y[4], double c[4]) {
     double det = 1;
     for (int k = 0; k < 4; k++) {
@@ -276,17 +278,101 @@ static double solve4(double M[4][4], double y[4], double c[4]) {
         if (M[k][k] == 0) return 0;
         for (int i = k + 1; i < 4; i++) {
             double f = M[i][k] / M[k][k];
-            for (int j = k; j < 4; j++) M[i][j] -= f * M[k][j];
-            y[i] -= f * y[k];
+            for (int j = k; j < 4; j++) M[i][j] = fma(-f, M[k][j], M[i][j]);
+            y[i] = fma(-f, y[k], y[i]);
         }
     }
     for (int k = 3; k >= 0; k--) {
         double sum = y[k];
-        for (int j = k + 1; j < 4; j++) sum -= M[k][j] * c[j];
+        for (int j = k + 1; j < 4; j++) sum = fma(-M[k][j], c[j], sum);
         c[k] = sum / M[k][k];
     }
     return det;
 }
+
+/* A particle's distance fit between its sums and its solve: the sums, the
+ * closest node's body and whether the fit's nodes mix bodies. The solves of
+ * a chunk's particles run together (solve4_lanes). */
+typedef struct cdf_fit {
+    double M[4][4][KF_CHUNK], y[4][KF_CHUNK], coef[4][KF_CHUNK], det[KF_CHUNK]; /* by lane */
+    int rstar[KF_CHUNK], mixed[KF_CHUNK], idx[KF_CHUNK], n;
+} cdf_fit;
+
+/* solve4 for the fits queued in f, eight at a time. Each lane does what
+ * solve4 does, in its order and with its roundings: the pivot by the same
+ * strict comparisons, rows swapped where the lane's pivot says, every
+ * x -= a b as one fused multiply-add (as solve4 compiles: the compiler
+ * contracts each of them), the same divisions. A lane whose pivot is 0 has
+ * det 0 (its coefficients are not read). Bit for bit with solve4. */
+#if defined(__AVX512F__) && defined(__FP_FAST_FMA)
+#include <immintrin.h>
+static void solve4_lanes(cdf_fit *f) {
+    for (int q0 = 0; q0 < f->n; q0 += 8) {
+        const int nl = f->n - q0 < 8 ? f->n - q0 : 8;
+        const __mmask8 live = (__mmask8)((1u << nl) - 1);
+        /* the lanes' matrices and right-hand sides (the unused lanes: the identity) */
+        __m512d M[4][4], y[4];
+        for (int r = 0; r < 4; r++) {
+            for (int c = 0; c < 4; c++) M[r][c] = _mm512_mask_loadu_pd(_mm512_set1_pd(r == c), live, &f->M[r][c][q0]);
+            y[r] = _mm512_maskz_loadu_pd(live, &f->y[r][q0]);
+        }
+        const __m512d sign = _mm512_set1_pd(-0.0);
+        __m512d det = _mm512_set1_pd(1);
+        __mmask8 zero = 0;
+        for (int k = 0; k < 4; k++) {
+            /* the pivot: the first largest |M[i][k]|, by strict comparisons in row order */
+            __m512i piv = _mm512_set1_epi64(k);
+            __m512d big = _mm512_andnot_pd(sign, M[k][k]);
+            for (int i = k + 1; i < 4; i++) {
+                const __m512d a = _mm512_andnot_pd(sign, M[i][k]);
+                const __mmask8 gt = _mm512_cmp_pd_mask(a, big, _CMP_GT_OQ);
+                piv = _mm512_mask_mov_epi64(piv, gt, _mm512_set1_epi64(i));
+                big = _mm512_mask_mov_pd(big, gt, a);
+            }
+            for (int i = k + 1; i < 4; i++) {
+                const __mmask8 sw = _mm512_cmpeq_epi64_mask(piv, _mm512_set1_epi64(i));
+                for (int j = 0; j < 4; j++) {
+                    const __m512d t = M[k][j];
+                    M[k][j] = _mm512_mask_mov_pd(M[k][j], sw, M[i][j]);
+                    M[i][j] = _mm512_mask_mov_pd(M[i][j], sw, t);
+                }
+                const __m512d t = y[k];
+                y[k] = _mm512_mask_mov_pd(y[k], sw, y[i]);
+                y[i] = _mm512_mask_mov_pd(y[i], sw, t);
+                det = _mm512_mask_xor_pd(det, sw, det, sign);
+            }
+            det = _mm512_mul_pd(det, M[k][k]);
+            zero |= _mm512_cmp_pd_mask(M[k][k], _mm512_setzero_pd(), _CMP_EQ_OQ);
+            for (int i = k + 1; i < 4; i++) {
+                const __m512d fk = _mm512_div_pd(M[i][k], M[k][k]);
+                for (int j = k; j < 4; j++) M[i][j] = _mm512_fnmadd_pd(fk, M[k][j], M[i][j]);
+                y[i] = _mm512_fnmadd_pd(fk, y[k], y[i]);
+            }
+        }
+        __m512d cf[4];
+        for (int k = 3; k >= 0; k--) {
+            __m512d sum = y[k];
+            for (int j = k + 1; j < 4; j++) sum = _mm512_fnmadd_pd(M[k][j], cf[j], sum);
+            cf[k] = _mm512_div_pd(sum, M[k][k]);
+        }
+        det = _mm512_mask_mov_pd(det, zero, _mm512_setzero_pd());
+        _mm512_mask_storeu_pd(&f->det[q0], live, det);
+        for (int k = 0; k < 4; k++) _mm512_mask_storeu_pd(&f->coef[k][q0], live, cf[k]);
+    }
+}
+#else
+static void solve4_lanes(cdf_fit *f) {
+    for (int q = 0; q < f->n; q++) {
+        double M[4][4], y[4], c[4];
+        for (int r = 0; r < 4; r++) {
+            for (int k = 0; k < 4; k++) M[r][k] = f->M[r][k][q];
+            y[r] = f->y[r][q];
+        }
+        f->det[q] = solve4(M, y, c);
+        for (int r = 0; r < 4; r++) f->coef[r][q] = c[r];
+    }
+}
+#endif
 
 /* One node of the linear MLS fit of §5.3.2: weight w, value at the node, and
  * P = [z / Δx; 1] with z the node minus the particle. Solving M c = y gives
@@ -382,11 +468,12 @@ static int acquire_side(const chunk *ck, int j, const uint32_t *col, const float
     return -1;
 }
 
-/* §5.3.1–5.3.3: the particle's colour (kept, dropped, acquired), then its
- * distance and normal. Writes the colour, pd, pn and near (r*+1 of the
- * fit's closest node, 0 when the fit failed). */
+/* §5.3.1–5.3.3: the particle's colour (kept, dropped, acquired), then the
+ * sums of its distance fit (the solve and the rest follow in
+ * particle_cdf_finish). Writes the colour, and resets pd, pn and near (r*+1
+ * of the fit's closest node, 0 when the fit failed); queues the fit in f. */
 static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck, int j, const uint32_t *col,
-                         const float *dist, const uint32_t *oc_aff, double dx, const uint8_t *thin_body) {
+                         const float *dist, const uint32_t *oc_aff, double dx, const uint8_t *thin_body, cdf_fit *f) {
     const double inv_dx = 1 / dx;
     const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
     /* no node of the stencil near a body: only the scar stays */
@@ -440,7 +527,6 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     c->pn[3 * i] = c->pn[3 * i + 1] = c->pn[3 * i + 2] = 0;
     if (!(cp & AFF)) return;
     /* MLS fit of the nodes' distances, signed relative to the particle */
-    double M[4][4], y[4], coef[4];
     fit4 fit;
     fit4_zero(&fit);
     float closest = 1e30f;
@@ -461,9 +547,25 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
                 mixed |= (int)(cn >> KF_CPIC_RSTAR_SHIFT) != first_body;
                 if (dist[q] < closest) closest = dist[q], rstar = (int)(cn >> KF_CPIC_RSTAR_SHIFT) - 1;
             }
+    const int q = f->n++;
+    double M[4][4], y[4];
     fit4_out(&fit, M, y);
-    double det = solve4(M, y, coef);
-    if (!(fabs(det) > 1e-4)) return; /* too few nodes: colour kept, no distance (a full stencil gives 1/64) */
+    for (int r = 0; r < 4; r++) {
+        for (int k = 0; k < 4; k++) f->M[r][k][q] = M[r][k];
+        f->y[r][q] = y[r];
+    }
+    f->rstar[q] = rstar;
+    f->mixed[q] = mixed;
+    f->idx[q] = j;
+}
+
+/* the fit's outcome for queued fit q of particle i (colour cp) */
+static void particle_cdf_finish(kf_cpic *c, kf_particles *p, size_t i, const cdf_fit *f, int q, double dx,
+                                const uint8_t *thin_body) {
+    const uint32_t cp = p->colour[i];
+    const int rstar = f->rstar[q], mixed = f->mixed[q];
+    if (!(fabs(f->det[q]) > 1e-4)) return; /* too few nodes: colour kept, no distance (a full stencil gives 1/64) */
+    double coef[4] = {f->coef[0][q], f->coef[1][q], f->coef[2][q], f->coef[3][q]};
     double g2 = coef[0] * coef[0] + coef[1] * coef[1] + coef[2] * coef[2];
     /* A tag that disagrees with the geometry by more than a quarter cell is
      * stale, not a penetration: the crossing guard (guard.c) lets no
@@ -515,9 +617,13 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
      * band, the same sums in the same order */
     uint8_t across[KF_CHUNK];
     int any_across = 0;
+    cdf_fit fit;
+    fit.n = 0;
+    for (int j = 0; j < ck->n; j++) particle_cdf(c, p, i0 + (size_t)j, ck, j, col, dist, oc->aff, dx, thin_body, &fit);
+    solve4_lanes(&fit);
+    for (int q = 0; q < fit.n; q++) particle_cdf_finish(c, p, i0 + (size_t)fit.idx[q], &fit, q, dx, thin_body);
     for (int j = 0; j < ck->n; j++) {
         size_t i = i0 + (size_t)j;
-        particle_cdf(c, p, i, ck, j, col, dist, oc->aff, dx, thin_body);
         const uint32_t cp = p->colour[i];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
         across[j] = (cp & AFF) && !all_compatible(col, o, cp);
