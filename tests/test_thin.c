@@ -22,6 +22,9 @@
 
 #include "kt.h"
 #include "scene_util.h"
+#include "cpic/cpic.h"
+#include "rigid/bvh.h"
+#include "rigid/rigid.h"
 #include "problems/thin_problem.h"
 
 /* A run is sane when no particle's volume ratio fell below J_SANE at any
@@ -412,6 +415,120 @@ static void audit_sees_crossing(void) {
     kf_model_destroy(m);
 }
 
+/* ---- the guard's lattice of sides ------------------------------------------
+ * The guard skips its closest-triangle query where a lattice cell says what
+ * the answer would be. On two sheets at dx 12 mm, a crinkle (a wave of
+ * amplitude 7.5 mm and wavelength 50 mm, triangles of 2.5 x 7.5 mm, as a
+ * crinkle-cut knife) and a sharp ridge (slopes of 1.5 meeting at a crest,
+ * where the closest triangle jumps from one slope to the other and each
+ * slope's plane cuts through the other's side), at random points around
+ * them, mostly close to the surface, and at points on the lattice's own
+ * planes, the query the guard makes (the closest triangle within 1.5 dx)
+ * must agree with every cell's claim: none within reach where the cell says
+ * none, and the point on the side of the closest triangle's plane the cell
+ * names. Exact: no tolerance. The cells must also answer for a fair share
+ * of the points, or the lattice saves nothing. */
+static double sheet_z(int ridge, double x) {
+    return ridge ? -1.5 * fabs(x - 0.1) : 0.0075 * sin(2 * 3.14159265358979323846 * x / 0.05);
+}
+
+static void sides_on(int ridge) {
+    enum { NX = 81, NY = 9, NP = 300000 };
+    static double vert[3 * NX * NY];
+    static int tri[6 * (NX - 1) * (NY - 1)];
+    const double dx = 0.012, R = 1.5 * dx;
+    for (int i = 0; i < NX; i++)
+        for (int j = 0; j < NY; j++) {
+            double *v = &vert[3 * (i * NY + j)];
+            v[0] = 0.0025 * i, v[1] = 0.0075 * j, v[2] = sheet_z(ridge, v[0]);
+        }
+    int nt = 0;
+    for (int i = 0; i + 1 < NX; i++)
+        for (int j = 0; j + 1 < NY; j++) {
+            const int a = i * NY + j, b = a + NY;
+            const int t[6] = {a, b, a + 1, a + 1, b, b + 1};
+            memcpy(&tri[3 * nt], t, sizeof t);
+            nt += 2;
+        }
+    kf_rigid_def d;
+    memset(&d, 0, sizeof d);
+    snprintf(d.name, sizeof d.name, ridge ? "ridge" : "crinkle");
+    d.vertices = vert, d.nvertices = NX * NY, d.triangles = tri, d.ntriangles = nt;
+    d.thin = 1, d.motion = KF_RIGID_KINEMATIC, d.boundary = KF_BOUNDARY_SLIP;
+    kf_rigid_body body;
+    char err[256];
+    KT_CHECK(kf_rigid_compile(&body, &d, dx, err, sizeof err) == 0, "%s", err);
+    if (!body.bvh) return;
+    struct kf_cpic_sides sd;
+    memset(&sd, 0, sizeof sd);
+    kf_cpic_sides_make(&body, dx, &sd);
+    KT_CHECK(sd.v != NULL, "a sheet 20 cm long gets a lattice");
+    long count[5] = {0}, reached = 0, bad = 0;
+    uint64_t state = 12345;
+    for (int n = 0; n < NP; n++) {
+        double p[3];
+        for (int a = 0; a < 3; a++) {
+            state = state * 6364136223846793005ull + 1442695040888963407ull;
+            const double u = (double)(state >> 11) / 9007199254740992.0;
+            static const double lo[3] = {-0.03, -0.03, -0.2}, span[3] = {0.26, 0.12, 0.25};
+            p[a] = lo[a] + span[a] * u;
+        }
+        /* two of three points within 8 mm of the sheet, where the closest
+         * triangle changes from cell to cell */
+        if (n % 3) p[2] = sheet_z(ridge, p[0]) + (p[2] + 0.075) / 0.125 * 0.008;
+        /* every fourth point on a plane of the lattice: the cell it rounds into */
+        if (n % 4 == 0) {
+            const int a = n / 4 % 3;
+            p[a] = sd.lo[a] + sd.h * floor((p[a] - sd.lo[a]) / sd.h);
+        }
+        const int v = kf_cpic_sides_at(&sd, &body, p);
+        count[v]++;
+        double q[3];
+        int interior = 0;
+        const int k = kf_rigid_bvh_closest(body.bvh, p, R, q, &interior);
+        if (k >= 0) reached++;
+        if (v == KF_SIDES_NONE && k >= 0) {
+            bad++;
+            KT_CHECK(0, "a cell says none within reach, the query found triangle %d", k);
+        }
+        if ((v == KF_SIDES_FRONT || v == KF_SIDES_BEHIND) && k >= 0) {
+            const int *t = &body.tri[3 * body.guard_tri[k]];
+            const double *a = &body.vert[3 * t[0]], *b = &body.vert[3 * t[1]], *c = &body.vert[3 * t[2]];
+            double e1[3], e2[3], nrm[3];
+            for (int e = 0; e < 3; e++) e1[e] = b[e] - a[e], e2[e] = c[e] - a[e];
+            nrm[0] = e1[1] * e2[2] - e1[2] * e2[1];
+            nrm[1] = e1[2] * e2[0] - e1[0] * e2[2];
+            nrm[2] = e1[0] * e2[1] - e1[1] * e2[0];
+            const double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+            const double u = (nrm[0] * (p[0] - a[0]) + nrm[1] * (p[1] - a[1]) + nrm[2] * (p[2] - a[2])) / len;
+            if (v == KF_SIDES_FRONT ? !(u > 0) : !(u < 0)) {
+                bad++;
+                if (bad < 5)
+                    KT_CHECK(0, "a cell says %s, the closest triangle's plane gives %.3g m",
+                             v == KF_SIDES_FRONT ? "front" : "behind", u);
+            }
+        }
+    }
+    printf("sides (%s): %ld points, %ld with a triangle within reach; cells none %ld, front %ld, behind %ld, mixed "
+           "%ld; %ld disagree\n",
+           d.name, (long)NP, reached, count[KF_SIDES_NONE], count[KF_SIDES_FRONT], count[KF_SIDES_BEHIND],
+           count[KF_SIDES_MIXED], bad);
+    KT_CHECK(bad == 0, "every cell's claim holds (%ld do not)", bad);
+    /* not vacuous: each kind occurs, and the cells answer for most points */
+    KT_CHECK(count[KF_SIDES_NONE] > 0 && count[KF_SIDES_FRONT] > 0 && count[KF_SIDES_BEHIND] > 0 &&
+                 count[KF_SIDES_MIXED] > 0,
+             "none %ld front %ld behind %ld mixed %ld", count[KF_SIDES_NONE], count[KF_SIDES_FRONT],
+             count[KF_SIDES_BEHIND], count[KF_SIDES_MIXED]);
+    KT_CHECK(count[KF_SIDES_MIXED] < NP / 2, "mixed %ld of %d points", count[KF_SIDES_MIXED], NP);
+    free(sd.v);
+    kf_rigid_body_free(&body);
+}
+
+static void sides_lattice(void) {
+    sides_on(0);
+    sides_on(1);
+}
+
 int main(int argc, char **argv) {
     KT_RUN(sweep_sand, argc, argv);
     KT_RUN(sweep_goo, argc, argv);
@@ -427,5 +544,6 @@ int main(int argc, char **argv) {
     KT_RUN(plate_back_water, argc, argv);
     KT_RUN(halves_part, argc, argv);
     KT_RUN(audit_sees_crossing, argc, argv);
+    KT_RUN(sides_lattice, argc, argv);
     return KT_EXIT();
 }

@@ -161,6 +161,18 @@ typedef struct kf_cpic {
     double caught_depth;
 } kf_cpic;
 
+/* The sides a thin body's surface can give the points of each cell of a
+ * lattice in its mesh frame (guard.c): made for cells of a quarter of dx
+ * (kf_cpic_sides_make; a body too large for the lattice gets none), each
+ * cell's value found when a point first asks (kf_cpic_sides_at, safe from
+ * any thread). KF_SIDES_NONE: no triangle within 1.5 dx of any point of the
+ * cell; FRONT (BEHIND): the cell strictly in front of (behind) the plane of
+ * every triangle that can be the closest within that reach; MIXED: no
+ * answer without a query. */
+enum { KF_SIDES_NONE = 1, KF_SIDES_FRONT, KF_SIDES_BEHIND, KF_SIDES_MIXED };
+void kf_cpic_sides_make(const kf_rigid_body *b, double dx, struct kf_cpic_sides *sd);
+int kf_cpic_sides_at(const struct kf_cpic_sides *sd, const kf_rigid_body *b, const double pm[3]);
+
 /* J (linear impulse at world point x) and its moment about the body's com, added to imp[6] */
 static inline void kf_cpic_add_impulse(double *imp, const kf_rigid_state *st, const double x[3], const double J[3]) {
     double r0 = x[0] - st->com[0], r1 = x[1] - st->com[1], r2 = x[2] - st->com[2];

@@ -42,15 +42,13 @@
 
 #define NB KF_CPIC_NB
 
-static void sides_make(const kf_model *m, kf_cpic *c, int r);
-
 /* the pose of every body at the substep's end (exact, or predicted for dynamic bodies) */
 void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt) {
     kf_cpic *c = s->cpic;
     for (int r = 0; r < m->nrigid; r++) {
         const kf_rigid_body *b = &m->rigid[r];
         kf_rigid_state *e = &c->end[r];
-        if (!c->sides[r].tried) sides_make(m, c, r);
+        if (!c->sides[r].tried) kf_cpic_sides_make(b, m->sim.dx, &c->sides[r]);
         if (b->def.motion != KF_RIGID_DYNAMIC) {
             kf_rigid_state_at(b, s->time + dt, e);
             continue;
@@ -193,12 +191,7 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
  * plane test have a margin far above their rounding, so a point that rounds
  * into the neighbouring cell, or a distance that rounds across 0, is still
  * covered. */
-enum { KF_SIDES_NONE = 1, KF_SIDES_FRONT, KF_SIDES_BEHIND, KF_SIDES_MIXED };
-
-/* the lattice for thin body r, made once (serially, before the guard runs) */
-static void sides_make(const kf_model *m, kf_cpic *c, int r) {
-    struct kf_cpic_sides *sd = &c->sides[r];
-    const kf_rigid_body *b = &m->rigid[r];
+void kf_cpic_sides_make(const kf_rigid_body *b, double dx, struct kf_cpic_sides *sd) {
     sd->tried = 1;
     if (!b->bvh || !b->def.thin || b->nvert <= 0) return;
     double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300}, ext = 0;
@@ -209,8 +202,8 @@ static void sides_make(const kf_model *m, kf_cpic *c, int r) {
             hi[a] = x > hi[a] ? x : hi[a];
             ext = fabs(x) > ext ? fabs(x) : ext;
         }
-    sd->h = 0.25 * m->sim.dx;
-    sd->reach = 1.5 * m->sim.dx;
+    sd->h = 0.25 * dx;
+    sd->reach = 1.5 * dx;
     sd->tol = 1e-9 * (1 + ext);
     size_t n = 1;
     for (int a = 0; a < 3; a++) {
@@ -245,9 +238,7 @@ static int sides_tri(void *ctx, int k) {
     return x->front && x->behind; /* mixed: the rest cannot change that */
 }
 
-/* the value of the cell holding mesh-frame point pm (made if not yet known) */
-static int sides_at(const kf_cpic *c, const kf_rigid_body *b, int r, const double pm[3]) {
-    const struct kf_cpic_sides *sd = &c->sides[r];
+int kf_cpic_sides_at(const struct kf_cpic_sides *sd, const kf_rigid_body *b, const double pm[3]) {
     if (!sd->v) return KF_SIDES_MIXED;
     int ix[3];
     for (int a = 0; a < 3; a++) {
@@ -305,7 +296,7 @@ static void retag(const kf_model *m, kf_state *s, int r, size_t i) {
     const uint32_t tbit = 1u << (2 * r);
     /* the answer known without a query: no triangle within reach, or the
      * side the tag already names */
-    const int known = sides_at(s->cpic, b, r, pm);
+    const int known = kf_cpic_sides_at(&s->cpic->sides[r], b, pm);
     if (known == KF_SIDES_NONE || (known == KF_SIDES_FRONT && !(p->colour[i] & tbit)) ||
         (known == KF_SIDES_BEHIND && (p->colour[i] & tbit)))
         return;
