@@ -353,11 +353,12 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
                 const int ma = za - oz, mb = zb - oz;
                 float *d = F + row;
                 const float cz = K.c[2], m5 = K.M[5], am = K.amin;
-                if (cull) {
+                if (!who) {
                     // the whole 8-voxel row, branch-free so that it
                     // vectorises; voxels outside [za, zb] keep theirs
                     // (not unrolled: GCC unrolls the 8 iterations first
-                    // and then leaves them scalar, with branches)
+                    // and then leaves them scalar, with branches). One
+                    // vector costs less than a short span's scalar loop.
 #pragma GCC unroll 1
                     for (int z = 0; z < LEAF_DIM; z++) {
                         const float dz = float(oz + z) - cz;
@@ -365,15 +366,15 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
                         d[z] = z >= ma && z <= mb && val > d[z] ? val : d[z];
                     }
                 } else {
-                    // the span alone (no cores: preview voxels,
-                    // or particles tracked): rows are short there
-                    int32_t *w = who ? who + row : nullptr;
+                    // particles tracked: the span alone, the first
+                    // kernel of the largest value keeping the voxel
+                    int32_t *w = who + row;
                     for (int z = ma; z <= mb; z++) {
                         const float dz = float(oz + z) - cz;
                         const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
                         if (val > d[z]) {
                             d[z] = val;
-                            if (w) w[z] = int32_t(q);
+                            w[z] = int32_t(q);
                         }
                     }
                 }
