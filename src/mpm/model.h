@@ -254,8 +254,11 @@ int kf_fuse_applies(const kf_model *m, const kf_state *s);
  * *v2max and each material's smallest state (water's J, snow's Jp, the
  * corotated det F; sand none) into state_min, both only lowered or raised,
  * so any split of the particles gives the same figures. One compiled
- * function for kf_advance's pass and the fused sweep: the same bits. */
-void kf_cfl_scan(const kf_model *m, const kf_particles *p, size_t lo, size_t hi, double *v2max, kf_real *state_min);
+ * function for kf_advance's pass and the fused sweep: the same bits. With
+ * states_only, the plastic states ps[0] alone (the fused sweep's G2P makes
+ * the rest). */
+void kf_cfl_scan(const kf_model *m, const kf_particles *p, size_t lo, size_t hi, double *v2max, kf_real *state_min,
+                 int states_only);
 int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F
  * (nothing to do where the stress is not kept: KF_ZERO_TAU) */

@@ -280,9 +280,10 @@ static double rigid_max_speed(const kf_model *m, const kf_state *s) {
  * plastic state ps[0] per material (water's J, snow's Jp; the fixed
  * corotated model's det F, whose volume barrier stiffens below J_b; sand's
  * wave speed does not depend on a state). Values above 1 never lower the
- * starting 1. */
+ * starting 1. With states_only, only the plastic states ps[0] (the fused
+ * sweep's G2P made |v|² and det F as it went: kf_g2p2g). */
 __attribute__((noinline)) void kf_cfl_scan(const kf_model *m, const kf_particles *p, size_t lo, size_t hi,
-                                           double *v2max, kf_real *state_min) {
+                                           double *v2max, kf_real *state_min, int states_only) {
     /* per lane of 16, in runs of one material: loops the compiler turns into
      * SIMD (max and min are exact, so the lanes' split changes nothing) */
     enum { L = 16 };
@@ -297,9 +298,14 @@ __attribute__((noinline)) void kf_cfl_scan(const kf_model *m, const kf_particles
         const int model = m->mat[k].model;
         kf_real sb[L];
         for (int j = 0; j < L; j++) sb[j] = state_min[k];
+        /* nothing left to scan in this run */
+        if (states_only && (model == KF_MAT_COROTATED || model == KF_MAT_SAND)) {
+            lo = e;
+            continue;
+        }
         for (size_t i0 = lo; i0 < e; i0 += L) {
             const int n = e - i0 < L ? (int)(e - i0) : L;
-            for (int j = 0; j < n; j++) {
+            for (int j = 0; j < (states_only ? 0 : n); j++) {
                 const size_t i = i0 + (size_t)j;
                 double v2 = (double)v[0][i] * v[0][i] + (double)v[1][i] * v[1][i] + (double)v[2][i] * v[2][i];
                 vb[j] = v2 > vb[j] ? v2 : vb[j];
@@ -337,7 +343,7 @@ static void cfl_scan_all(const kf_model *m, const kf_state *s, double *vmax2, kf
         double v2max = 0;
         for (int k = 0; k < nmat; k++) local[k] = 1;
         int t = omp_get_thread_num(), nt = omp_get_num_threads();
-        kf_cfl_scan(m, p, n * (size_t)t / (size_t)nt, n * (size_t)(t + 1) / (size_t)nt, &v2max, local);
+        kf_cfl_scan(m, p, n * (size_t)t / (size_t)nt, n * (size_t)(t + 1) / (size_t)nt, &v2max, local, 0);
 #pragma omp critical
         {
             if (v2max > *vmax2) *vmax2 = v2max;

@@ -399,6 +399,9 @@ typedef struct g2p_owner {
     kf_real dt, dx, inv_dx, minv, jmin, jmax, ratio;
     const int32_t *bc;
     int band, fields, poly, water, flip;
+    /* the CFL figures (acc->scan): 0 no corotated material, 1 only
+     * material corot_k (corotated), 2 some corotated among others */
+    int corot, corot_k;
     const kf_cpic_owner *oc;
     const kf_v4 *cache, *ocache;
     step_acc *acc;
@@ -585,6 +588,34 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
                 note_trouble(acc, p, i, "J = det F out of range", (double)J[j], s->substep);
         }
     }
+
+    /* the CFL rule's figures (kf_cfl_scan's, bit for bit) while v and F are
+     * in cache: |v|² in double (exact products of floats, whatever the
+     * contraction) from the planes CPIC's guard may have changed, and det F
+     * of the corotated particles; max and min are exact, so the split into
+     * chunks changes nothing (non-finite values are trouble, and then the
+     * figures are not used) */
+    if (acc->scan) {
+        const kf_real *restrict v0 = p->v[0] + i0, *restrict v1 = p->v[1] + i0, *restrict v2 = p->v[2] + i0;
+        double vb = acc->scan_v2;
+        KF_SIMD_MAX(vb)
+        for (int j = 0; j < n; j++) {
+            const double q = (double)v0[j] * v0[j] + (double)v1[j] * v1[j] + (double)v2[j] * v2[j];
+            vb = q > vb ? q : vb;
+        }
+        acc->scan_v2 = vb;
+        if (o->corot == 1) {
+            kf_real sb = acc->scan_state[o->corot_k];
+            KF_SIMD_MIN(sb)
+            for (int j = 0; j < n; j++) sb = J[j] < sb ? J[j] : sb;
+            acc->scan_state[o->corot_k] = sb;
+        } else if (o->corot == 2) {
+            for (int j = 0; j < n; j++) {
+                const int k = p->mat[i0 + (size_t)j];
+                if (m->mat[k].model == KF_MAT_COROTATED && J[j] < acc->scan_state[k]) acc->scan_state[k] = J[j];
+            }
+        }
+    }
     return max_v2;
 }
 
@@ -601,8 +632,12 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     /* whether any material is water: else no chunk looks at the particles' materials */
-    int water = 0;
-    for (int k = 0; k < m->nmat; k++) water |= m->mat[k].model == KF_MAT_WATER;
+    int water = 0, corot = 0, corot_k = 0;
+    for (int k = 0; k < m->nmat; k++) {
+        water |= m->mat[k].model == KF_MAT_WATER;
+        if (m->mat[k].model == KF_MAT_COROTATED) corot++, corot_k = k;
+    }
+    corot = !corot ? 0 : corot == 1 && m->nmat == 1 ? 1 : 2;
 
     /* gather the neighbourhood's velocities */
     const int32_t *nb = g->nb[r];
@@ -630,6 +665,8 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
                          .poly = poly,
                          .water = water,
                          .flip = flip,
+                         .corot = corot,
+                         .corot_k = corot_k,
                          .oc = band ? &oc : NULL,
                          .cache = cache,
                          .ocache = ocache,
@@ -851,6 +888,10 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
     /* the CFL rule's figures for kf_advance, while each owner is in cache */
     const int scan = s->scan_want;
     const int nmat = m->nmat;
+    /* G2P makes |v|² and det F as it goes; the plastic states ps[0] are
+     * scanned after the stress, which may project them */
+    int scan_states = 0;
+    for (int k = 0; k < nmat; k++) scan_states |= m->mat[k].model != KF_MAT_COROTATED && m->mat[k].model != KF_MAT_SAND;
     double scan_v2 = 0;
     kf_real scan_state[KF_MAX_MATERIALS];
     for (int k = 0; k < nmat; k++) scan_state[k] = 1;
@@ -863,7 +904,8 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
         kf_v4 cache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));  /* this substep's velocities */
         kf_v4 pcache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64))); /* the next substep's P2G */
         chunk ck __attribute__((aligned(64)));
-        step_acc acc = {0};
+        step_acc acc = {.scan = scan};
+        for (int k = 0; k < nmat; k++) acc.scan_state[k] = 1;
         int ok = 1, in_reach = 1;
         if (scatter) {
 #pragma omp for schedule(static)
@@ -877,7 +919,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
                     if (keep) prefetch_tau_head(p, g->pstart[r], g->pstart[r + 1]);
                     gfn(m, s, r, dt, cache, NULL, &ck, &acc);
                     if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
-                    if (scan) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min);
+                    if (scan && scan_states) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min, 1);
                     in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
                     int stop;
 #pragma omp atomic read
@@ -901,7 +943,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
                 if (keep) prefetch_tau_head(p, g->pstart[r], g->pstart[r + 1]);
                 gfn(m, s, r, dt, cache, NULL, &ck, &acc);
                 if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
-                if (scan) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min);
+                if (scan && scan_states) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min, 1);
                 in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
             }
         }
@@ -913,8 +955,11 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
             usable &= ok;
             reach &= in_reach;
             if (v2max > scan_v2) scan_v2 = v2max;
-            for (int k = 0; k < nmat; k++)
+            if (acc.scan_v2 > scan_v2) scan_v2 = acc.scan_v2;
+            for (int k = 0; k < nmat; k++) {
                 if (state_min[k] < scan_state[k]) scan_state[k] = state_min[k];
+                if (acc.scan_state[k] < scan_state[k]) scan_state[k] = acc.scan_state[k];
+            }
         }
     }
     /* owners hold every particle once (binning), so these are the figures of all */

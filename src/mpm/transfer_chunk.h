@@ -23,6 +23,7 @@
 #define KF_SIMD _Pragma("omp simd")
 #define KF_SIMD_OR(v) _Pragma(KF_STR(omp simd reduction(| : v)))
 #define KF_SIMD_MAX(v) _Pragma(KF_STR(omp simd reduction(max : v)))
+#define KF_SIMD_MIN(v) _Pragma(KF_STR(omp simd reduction(min : v)))
 #define KF_STR(x) #x
 
 /* per-thread scratch of one chunk, structure of arrays across particles */
@@ -153,6 +154,11 @@ KF_INLINE void prefetch_planes(kf_real *const *plane, int count, size_t i, int w
 typedef struct step_acc {
     kf_trouble trouble;
     double max_cells;
+    /* the fused sweep's CFL figures, made by G2P where scan is set (the
+     * fastest |v|², each corotated material's smallest det F) */
+    int scan;
+    double scan_v2;
+    kf_real scan_state[KF_MAX_MATERIALS];
 } step_acc;
 
 static inline void note_trouble(step_acc *acc, const kf_particles *p, size_t i, const char *what, double value,
@@ -272,7 +278,7 @@ KF_INLINE void scatter_one(int KW, int CLASSIC, const chunk *ck, int j, kf_v4 *c
 /* 16 planes of 16 floats into 16 records (record j: element j of every
  * plane, in plane order): pairs of planes interleaved, then quads, then
  * the 128-bit lanes */
-static inline void transpose16(const __m512 in[16], __m512 out[16]) {
+KF_INLINE void transpose16(const __m512 in[16], __m512 out[16]) {
     __m512 t[16], u[16];
     for (int q = 0; q < 4; q++) {
         const __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(in[4 * q], in[4 * q + 1]));
@@ -487,35 +493,18 @@ KF_INLINE void gather_rows512(int KW, chunk *ck, int j, const kf_v4 *cache) {
 
 /* A whole chunk's gather: each particle's record is one row of a 16x16
  * block, and one register transpose turns the block into the chunk's
- * planes (a dozen shuffles per record instead of a dozen scalar stores).
- * The records are gather_rows512's, bit for bit. */
+ * planes (a dozen shuffles per record instead of a dozen scalar stores;
+ * the shuffles of the unused columns, the masses, are dead code). The
+ * records are gather_rows512's, bit for bit. */
 KF_INLINE void gather_chunk512(int KW, int n, chunk *ck, const kf_v4 *cache) {
-    float rec[KF_CHUNK][16] __attribute__((aligned(64)));
-    for (int j = 0; j < n; j++) _mm512_store_ps(rec[j], gather_rows512_sum(KW, ck, j, cache));
-    for (int j = n; j < KF_CHUNK; j++) _mm512_store_ps(rec[j], _mm512_setzero_ps());
-    /* pairs of rows interleaved, then quads: u[4q + i] holds, in 128-bit
-     * lane L, element 4L + i of rows 4q..4q+3 (i = 3, the masses, unused) */
-    __m512 u[16];
-    for (int q = 0; q < 4; q++) {
-        const __m512 r0 = _mm512_load_ps(rec[4 * q]), r1 = _mm512_load_ps(rec[4 * q + 1]);
-        const __m512 r2 = _mm512_load_ps(rec[4 * q + 2]), r3 = _mm512_load_ps(rec[4 * q + 3]);
-        const __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(r0, r1)),
-                      t1 = _mm512_castps_pd(_mm512_unpackhi_ps(r0, r1));
-        const __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(r2, r3)),
-                      t3 = _mm512_castps_pd(_mm512_unpackhi_ps(r2, r3));
-        u[4 * q] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
-        u[4 * q + 1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
-        u[4 * q + 2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
-    }
-    /* then the lanes: column 4L + i gathers lane L of u[i], u[4 + i], u[8 + i], u[12 + i] */
+    __m512 rec[KF_CHUNK], col[16];
+    for (int j = 0; j < KF_CHUNK; j++) rec[j] = j < n ? gather_rows512_sum(KW, ck, j, cache) : _mm512_setzero_ps();
+    transpose16(rec, col);
     for (int i = 0; i < 3; i++) {
-        const __m512 v0 = _mm512_shuffle_f32x4(u[i], u[4 + i], 0x88), v1 = _mm512_shuffle_f32x4(u[i], u[4 + i], 0xDD);
-        const __m512 w0 = _mm512_shuffle_f32x4(u[8 + i], u[12 + i], 0x88);
-        const __m512 w1 = _mm512_shuffle_f32x4(u[8 + i], u[12 + i], 0xDD);
-        _mm512_storeu_ps(ck->v[i], _mm512_shuffle_f32x4(v0, w0, 0x88));         /* column i */
-        _mm512_storeu_ps(ck->b[3 * i], _mm512_shuffle_f32x4(v1, w1, 0x88));     /* column 4 + i */
-        _mm512_storeu_ps(ck->b[3 * i + 1], _mm512_shuffle_f32x4(v0, w0, 0xDD)); /* column 8 + i */
-        _mm512_storeu_ps(ck->b[3 * i + 2], _mm512_shuffle_f32x4(v1, w1, 0xDD)); /* column 12 + i */
+        _mm512_storeu_ps(ck->v[i], col[i]);
+        _mm512_storeu_ps(ck->b[3 * i], col[4 + i]);
+        _mm512_storeu_ps(ck->b[3 * i + 1], col[8 + i]);
+        _mm512_storeu_ps(ck->b[3 * i + 2], col[12 + i]);
     }
 }
 #endif
