@@ -78,18 +78,142 @@ _Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like
  * outside the owner's neighbourhood or a non-finite stress makes the
  * scatter unusable (returns 1 at once; the next substep bins and scatters
  * as usual, and reports the trouble then) */
+/* what one owner's P2G chunks share (p2g_block_cache) */
+typedef struct p2g_owner {
+    const kf_model *m;
+    kf_state *s;
+    size_t r;
+    kf_real dt, dx, inv_dx, minv;
+    const int32_t *bc;
+    int apic, poly, band, fields, eval, fused;
+    kf_cpic_owner *oc;
+    kf_v4 *cache, *mcache, *fcache;
+    step_acc *acc;
+} p2g_owner;
+
+/* one chunk of an owner's particles from i0: n of them, a constant
+ * KF_CHUNK for every full chunk (each per-particle loop is then one
+ * register per row, with no remainder code or alias checks) or the
+ * owner's tail; the stencil's base offsets widen lo..hi. Returns 1 where
+ * the fused sweep's scatter is unusable. */
+KF_INLINE int p2g_chunk(int KW, int CLASSIC, int FLIP, int n, const p2g_owner *o, chunk *ck, size_t i0, int lo[3],
+                        int hi[3]) {
+    const int CD = CD_MAX;
+    const kf_model *m = o->m;
+    kf_state *s = o->s;
+    kf_particles *p = &s->p;
+    const size_t r = o->r;
+    const kf_real dt = o->dt, inv_dx = o->inv_dx, minv = o->minv;
+    const int apic = o->apic, band = o->band, fields = o->fields, eval = o->eval, fused = o->fused;
+    kf_v4 *cache = o->cache;
+    ck->n = n;
+    /* the planes this chunk's successors read */
+    prefetch_planes(p->x, 3, i0, 0);
+    prefetch_planes(p->v, 3, i0, 0);
+    prefetch_planes(p->C, 9, i0, 0);
+    if (!eval) prefetch_planes(p->tau, 6, i0, 0);
+    prefetch_planes(&p->mass, 1, i0, 0);
+    prefetch_planes(&p->vol0, 1, i0, 0);
+    /* the weight gradients only where a caller reads them (classic MPM,
+     * CPIC's band, the objects' own fields, polypic) */
+    if (CLASSIC || band || fields || o->poly) stencil_phase_n(KW, 1, 0, n, ck, p->x, i0, o->bc, inv_dx, o->dx);
+    else stencil_phase_n(KW, 0, 0, n, ck, p->x, i0, o->bc, inv_dx, o->dx);
+    for (int a = 0; a < 3; a++) {
+        int la = lo[a], ha = hi[a];
+        const int *restrict l = ck->l[a];
+        KF_SIMD_MIN(la)
+        for (int j = 0; j < n; j++) la = l[j] < la ? l[j] : la;
+        KF_SIMD_MAX(ha)
+        for (int j = 0; j < n; j++) ha = l[j] > ha ? l[j] : ha;
+        lo[a] = la, hi[a] = ha;
+    }
+    /* binned particles fit by construction; after the fused G2P one
+     * may have drifted out of reach (binning will re-sort it) */
+    if (fused && (lo[0] < 0 || lo[1] < 0 || lo[2] < 0 || hi[0] > CD - KW || hi[1] > CD - KW || hi[2] > CD - KW))
+        return 1;
+
+    /* Q = m C − Δt V⁰ D⁻¹ τ (MLS), or m C and the separate force term
+     * −Δt V⁰ τ ∇w (classic); PIC drops m C */
+    const kf_real *restrict mass = p->mass + i0, *restrict vol = p->vol0 + i0;
+    int bad = 0;
+    static const int sym[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ij in the xx yy zz xy xz yz planes */
+    /* the stress not kept (KF_ZERO_TAU): the chunk's evaluated from F here */
+    kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
+    kf_real *const tout[6] = {tbuf[0], tbuf[1], tbuf[2], tbuf[3], tbuf[4], tbuf[5]};
+    const kf_real *tc[6];
+    if (eval) kf_stress_eval(m, p, i0, n, tout);
+    for (int k = 0; k < 6; k++) tc[k] = eval ? tbuf[k] : p->tau[k] + i0;
+    /* the stress term −Δt V⁰ τ once per entry of τ (six, not nine),
+     * and τ's finiteness in one pass (one reduction, not nine) */
+    kf_real st6[6][KF_CHUNK] __attribute__((aligned(64)));
+    for (int k = 0; k < 6; k++) {
+        const kf_real *restrict tau = tc[k];
+        kf_real *restrict st = st6[k];
+        KF_SIMD
+        for (int j = 0; j < n; j++) st[j] = -dt * vol[j] * tau[j];
+    }
+    KF_SIMD_OR(bad)
+    for (int j = 0; j < n; j++) {
+        int b = 0;
+        for (int k = 0; k < 6; k++) b |= !(kf_fabs(tc[k][j]) < (kf_real)1e30);
+        bad |= b;
+    }
+    for (int k = 0; k < 9; k++) {
+        const kf_real *restrict C = p->C[k] + i0, *restrict st = st6[sym[k]];
+        kf_real *restrict q = ck->q[k], *restrict qm = ck->qm[k], *restrict t = ck->t[k];
+        KF_SIMD
+        for (int j = 0; j < n; j++) {
+            kf_real mc = apic ? mass[j] * C[j] : 0;
+            if (FLIP) qm[j] = mc;
+            if (CLASSIC) {
+                q[j] = mc;
+                t[j] = st[j] * inv_dx;
+            } else {
+                q[j] = mc + minv * st[j];
+            }
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        const kf_real *restrict v = p->v[a] + i0;
+        kf_real *restrict mv = ck->mv[a];
+        KF_SIMD
+        for (int j = 0; j < n; j++) mv[j] = mass[j] * v[j];
+    }
+    memcpy(ck->mv[3], mass, sizeof(kf_real) * (size_t)n);
+    if (bad && fused) return 1;
+    if (bad) {
+        /* catch non-finite state where it starts, before P2G spreads it */
+        for (int j = 0; j < n; j++)
+            for (int k = 0; k < 6; k++)
+                if (!(kf_fabs(tc[k][j]) < (kf_real)1e30))
+                    note_trouble(o->acc, p, i0 + (size_t)j, "NaN or Inf stress", (double)tc[k][j], s->substep);
+    }
+
+    /* near a rigid surface: compatible nodes only, impulses on the bodies */
+    if (band) kf_cpic_p2g_chunk(m, s, r, o->oc, ck, i0, cache, CLASSIC);
+    /* scatter: one node row per vector op, Q d as three column FMAs */
+    else scatter_chunk_n(KW, CLASSIC, n, ck, cache);
+    /* where objects meet: each particle's share into its own field too */
+    if (fields) kf_contact_p2g_chunk(m, s, r, band ? o->oc->col : NULL, ck, i0, KW, CLASSIC, o->fcache);
+    /* polypic, away from rigid surfaces and objects' own fields (APIC
+     * there, as for flip): each particle's higher modes */
+    if (o->poly && !band && !fields)
+        for (int j = 0; j < n; j++)
+            poly_scatter(ck, j, inv_dx, mass[j], &s->poly[(size_t)p->id[i0 + (size_t)j] * KF_POLY_REALS], cache);
+    /* FLIP: the momentum alone, on every node the ordinary scatter
+     * reaches (in the band too: a particle outside the band reads only
+     * nodes no rigid surface colours, where both scatters agree) */
+    if (FLIP)
+        for (int j = 0; j < n; j++) scatter_momentum(KW, ck, j, o->mcache);
+    return 0;
+}
+
 KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, kf_real dt,
                               kf_v4 *cache, kf_v4 *mcache, kf_v4 *fcache, chunk *ck, step_acc *acc, int lohi[6],
                               int fused) {
     const int CD = CD_MAX;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
-    /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
-    const kf_real dx = (kf_real)m->sim.dx, inv_dx = kf_model_inv_dx(m);
-    const kf_real minv = (kf_real)(1.0 / kf_model_dfactor(m));
-    const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC, FLIP and polypic carry C */
-    const int poly = m->sim.transfer == KF_TRANSFER_POLYPIC;
-    const int32_t *bc = &g->bcoord[3 * r];
     const int band = kf_cpic_band(s, r), fields = kf_contact_owner(s, r);
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
@@ -98,96 +222,31 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
     if (fields) memset(fcache, 0, sizeof(kf_v4) * KF_CONTACT_CACHE_ROWS * CD * CD * CD);
     /* the base offsets the block's particles use: only their nodes are flushed */
     int lo[3] = {CD, CD, CD}, hi[3] = {0, 0, 0};
-    /* the stress not kept (KF_ZERO_TAU): each chunk's evaluated from F here */
-    const int eval = (p->zero & KF_ZERO_TAU) != 0;
-    kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
-    kf_real *const tout[6] = {tbuf[0], tbuf[1], tbuf[2], tbuf[3], tbuf[4], tbuf[5]};
-
+    /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
+    const p2g_owner o = {.m = m,
+                         .s = s,
+                         .r = r,
+                         .dt = dt,
+                         .dx = (kf_real)m->sim.dx,
+                         .inv_dx = kf_model_inv_dx(m),
+                         .minv = (kf_real)(1.0 / kf_model_dfactor(m)),
+                         .bc = &g->bcoord[3 * r],
+                         .apic = m->sim.transfer != KF_TRANSFER_PIC, /* APIC, FLIP and polypic carry C */
+                         .poly = m->sim.transfer == KF_TRANSFER_POLYPIC,
+                         .band = band,
+                         .fields = fields,
+                         .eval = (p->zero & KF_ZERO_TAU) != 0,
+                         .fused = fused,
+                         .oc = band ? &oc : NULL,
+                         .cache = cache,
+                         .mcache = mcache,
+                         .fcache = fcache,
+                         .acc = acc};
     for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
-        size_t left = g->pstart[r + 1] - i0;
-        ck->n = left < KF_CHUNK ? (int)left : KF_CHUNK;
-        const int n = ck->n;
-        /* the planes this chunk's successors read */
-        prefetch_planes(p->x, 3, i0, 0);
-        prefetch_planes(p->v, 3, i0, 0);
-        prefetch_planes(p->C, 9, i0, 0);
-        if (!eval) prefetch_planes(p->tau, 6, i0, 0);
-        prefetch_planes(&p->mass, 1, i0, 0);
-        prefetch_planes(&p->vol0, 1, i0, 0);
-        stencil_phase(KW, ck, p->x, i0, bc, inv_dx, dx);
-        for (int a = 0; a < 3; a++)
-            for (int j = 0; j < n; j++) {
-                lo[a] = ck->l[a][j] < lo[a] ? ck->l[a][j] : lo[a];
-                hi[a] = ck->l[a][j] > hi[a] ? ck->l[a][j] : hi[a];
-            }
-        /* binned particles fit by construction; after the fused G2P one
-         * may have drifted out of reach (binning will re-sort it) */
-        if (fused && (lo[0] < 0 || lo[1] < 0 || lo[2] < 0 || hi[0] > CD - KW || hi[1] > CD - KW || hi[2] > CD - KW))
-            return 1;
-
-        /* Q = m C − Δt V⁰ D⁻¹ τ (MLS), or m C and the separate force term
-         * −Δt V⁰ τ ∇w (classic); PIC drops m C */
-        const kf_real *restrict mass = p->mass + i0, *restrict vol = p->vol0 + i0;
-        int bad = 0;
-        static const int sym[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ij in the xx yy zz xy xz yz planes */
-        const kf_real *tc[6];
-        if (eval) kf_stress_eval(m, p, i0, n, tout);
-        for (int k = 0; k < 6; k++) tc[k] = eval ? tbuf[k] : p->tau[k] + i0;
-        /* the stress term −Δt V⁰ τ once per entry of τ (six, not nine),
-         * and τ's finiteness in one pass (one reduction, not nine) */
-        kf_real st6[6][KF_CHUNK] __attribute__((aligned(64)));
-        for (int k = 0; k < 6; k++) {
-            const kf_real *restrict tau = tc[k];
-            for (int j = 0; j < n; j++) st6[k][j] = -dt * vol[j] * tau[j];
-        }
-        for (int j = 0; j < n; j++) {
-            int b = 0;
-            for (int k = 0; k < 6; k++) b |= !(kf_fabs(tc[k][j]) < (kf_real)1e30);
-            bad |= b;
-        }
-        for (int k = 0; k < 9; k++) {
-            const kf_real *restrict C = p->C[k] + i0, *restrict st = st6[sym[k]];
-            for (int j = 0; j < n; j++) {
-                kf_real mc = apic ? mass[j] * C[j] : 0;
-                if (FLIP) ck->qm[k][j] = mc;
-                if (CLASSIC) {
-                    ck->q[k][j] = mc;
-                    ck->t[k][j] = st[j] * inv_dx;
-                } else {
-                    ck->q[k][j] = mc + minv * st[j];
-                }
-            }
-        }
-        for (int a = 0; a < 3; a++) {
-            const kf_real *restrict v = p->v[a] + i0;
-            for (int j = 0; j < n; j++) ck->mv[a][j] = mass[j] * v[j];
-        }
-        for (int j = 0; j < n; j++) ck->mv[3][j] = mass[j];
-        if (bad && fused) return 1;
-        if (bad) {
-            /* catch non-finite state where it starts, before P2G spreads it */
-            for (int j = 0; j < n; j++)
-                for (int k = 0; k < 6; k++)
-                    if (!(kf_fabs(tc[k][j]) < (kf_real)1e30))
-                        note_trouble(acc, p, i0 + (size_t)j, "NaN or Inf stress", (double)tc[k][j], s->substep);
-        }
-
-        /* near a rigid surface: compatible nodes only, impulses on the bodies */
-        if (band) kf_cpic_p2g_chunk(m, s, r, &oc, ck, i0, cache, CLASSIC);
-        /* scatter: one node row per vector op, Q d as three column FMAs */
-        else scatter_chunk(KW, CLASSIC, ck, cache);
-        /* where objects meet: each particle's share into its own field too */
-        if (fields) kf_contact_p2g_chunk(m, s, r, band ? oc.col : NULL, ck, i0, KW, CLASSIC, fcache);
-        /* polypic, away from rigid surfaces and objects' own fields (APIC
-         * there, as for flip): each particle's higher modes */
-        if (poly && !band && !fields)
-            for (int j = 0; j < n; j++)
-                poly_scatter(ck, j, inv_dx, mass[j], &s->poly[(size_t)p->id[i0 + (size_t)j] * KF_POLY_REALS], cache);
-        /* FLIP: the momentum alone, on every node the ordinary scatter
-         * reaches (in the band too: a particle outside the band reads only
-         * nodes no rigid surface colours, where both scatters agree) */
-        if (FLIP)
-            for (int j = 0; j < n; j++) scatter_momentum(KW, ck, j, mcache);
+        const size_t left = g->pstart[r + 1] - i0;
+        const int stop = left >= KF_CHUNK ? p2g_chunk(KW, CLASSIC, FLIP, KF_CHUNK, &o, ck, i0, lo, hi)
+                                          : p2g_chunk(KW, CLASSIC, FLIP, (int)left, &o, ck, i0, lo, hi);
+        if (stop) return 1;
     }
 
     for (int a = 0; a < 3; a++) lohi[a] = lo[a], lohi[3 + a] = hi[a];

@@ -317,7 +317,7 @@ KF_INLINE void transpose16(const __m512 in[16], __m512 out[16]) {
  * the products w_a w_b for the whole chunk at once (one broadcast operand
  * per row), and h_ab = m v + d_a Q:,0 + d_b Q:,1 made in all four node
  * groups at once (no broadcast of it per row). */
-KF_INLINE void scatter_chunk512(int KW, const chunk *ck, kf_v4 *cache) {
+KF_INLINE void scatter_chunk512(int KW, int n, const chunk *ck, kf_v4 *cache) {
     const int CD = CD_MAX;
     const __mmask16 mk = KW == 4 ? 0xFFFF : 0x0FFF;
     const __m512 zero = _mm512_setzero_ps();
@@ -348,7 +348,7 @@ KF_INLINE void scatter_chunk512(int KW, const chunk *ck, kf_v4 *cache) {
     for (int k = 0; k < 16; k++) acc[k] = zero;
     float *origin = NULL;
     int run = -1;
-    for (int j = 0; j < ck->n; j++) {
+    for (int j = 0; j < n; j++) {
         const int key = (ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j];
         if (key != run) {
             if (origin)
@@ -386,16 +386,20 @@ KF_INLINE void scatter_chunk512(int KW, const chunk *ck, kf_v4 *cache) {
 }
 #endif
 
-/* a chunk's P2G contributions to the owner's node cache: with AVX-512
- * (MLS) in register runs (scatter_chunk512), else particle by particle */
-KF_INLINE void scatter_chunk(int KW, int CLASSIC, const chunk *ck, kf_v4 *cache) {
+/* a chunk's P2G contributions of n particles (ck->n, or the constant
+ * KF_CHUNK) to the owner's node cache: with AVX-512 (MLS) in register
+ * runs (scatter_chunk512), else particle by particle */
+KF_INLINE void scatter_chunk_n(int KW, int CLASSIC, int n, const chunk *ck, kf_v4 *cache) {
 #ifdef KF_ROWS512
     if (!CLASSIC) {
-        scatter_chunk512(KW, ck, cache);
+        scatter_chunk512(KW, n, ck, cache);
         return;
     }
 #endif
-    for (int j = 0; j < ck->n; j++) scatter_one(KW, CLASSIC, ck, j, cache);
+    for (int j = 0; j < n; j++) scatter_one(KW, CLASSIC, ck, j, cache);
+}
+KF_INLINE void scatter_chunk(int KW, int CLASSIC, const chunk *ck, kf_v4 *cache) {
+    scatter_chunk_n(KW, CLASSIC, ck->n, ck, cache);
 }
 
 /* FLIP: one particle's momentum and mass alone, m v + m C d (no stress
