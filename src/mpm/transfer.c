@@ -116,8 +116,8 @@ KF_INLINE int p2g_chunk(int KW, int CLASSIC, int FLIP, int n, const p2g_owner *o
     prefetch_planes(&p->vol0, 1, i0, 0);
     /* the weight gradients only where a caller reads them (classic MPM,
      * CPIC's band, the objects' own fields, polypic) */
-    if (CLASSIC || band || fields || o->poly) stencil_phase_n(KW, 1, 0, n, ck, p->x, i0, o->bc, inv_dx, o->dx);
-    else stencil_phase_n(KW, 0, 0, n, ck, p->x, i0, o->bc, inv_dx, o->dx);
+    if (CLASSIC || band || fields || o->poly) stencil_phase_n(KW, 1, 1, 0, n, ck, p->x, i0, o->bc, inv_dx, o->dx);
+    else stencil_phase_n(KW, 0, 1, 0, n, ck, p->x, i0, o->bc, inv_dx, o->dx);
     for (int a = 0; a < 3; a++) {
         int la = lo[a], ha = hi[a];
         const int *restrict l = ck->l[a];
@@ -494,8 +494,10 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
 #else
     const int WD = 0;
 #endif
-    if (CLASSIC || band) stencil_phase_n(KW, 1, WD, n, ck, p->x, i0, bc, inv_dx, dx);
-    else stencil_phase_n(KW, 0, WD, n, ck, p->x, i0, bc, inv_dx, dx);
+    /* the offsets d for every reader but the MLS gather in rows */
+    if (CLASSIC || band) stencil_phase_n(KW, 1, 1, WD, n, ck, p->x, i0, bc, inv_dx, dx);
+    else if (fields || poly || !WD) stencil_phase_n(KW, 0, 1, WD, n, ck, p->x, i0, bc, inv_dx, dx);
+    else stencil_phase_n(KW, 0, 0, WD, n, ck, p->x, i0, bc, inv_dx, dx);
 
     /* gather: v = Σ w v_i, B_k = Σ w d_k v_i, classic G_k = Σ ∂_k w v_i;
      * near a rigid surface, ghost velocities on incompatible nodes (CPIC

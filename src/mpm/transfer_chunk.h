@@ -49,7 +49,7 @@ typedef struct chunk {
  * fx is the particle position in grid units minus its base node. w[i] is the
  * weight of node base+i, dw[i] its derivative with respect to the particle
  * position, in grid units (divide by Δx for world units). */
-KF_INLINE void stencil_axis(int KW, int DW, int WD, int n, const kf_real *restrict x, int origin, kf_real inv_dx,
+KF_INLINE void stencil_axis(int KW, int DW, int D, int WD, int n, const kf_real *restrict x, int origin, kf_real inv_dx,
                             kf_real dx, int *restrict l, kf_real (*restrict w)[KF_CHUNK],
                             kf_real (*restrict dw)[KF_CHUNK], kf_real (*restrict d)[KF_CHUNK],
                             kf_real (*restrict wd)[KF_CHUNK]) {
@@ -83,24 +83,25 @@ KF_INLINE void stencil_axis(int KW, int DW, int WD, int n, const kf_real *restri
                 dw[3][j] = KF_R(0.5) * r1 * r1;
             }
         }
-        for (int i = 0; i < KW; i++) d[i][j] = ((kf_real)i - fx) * dx;
-        for (int i = 0; i < (WD ? KW : 0); i++) wd[i][j] = w[i][j] * d[i][j];
+        for (int i = 0; i < (D ? KW : 0); i++) d[i][j] = ((kf_real)i - fx) * dx;
+        for (int i = 0; i < (WD ? KW : 0); i++) wd[i][j] = w[i][j] * (((kf_real)i - fx) * dx);
     }
 }
 
 /* the stencil of n particles (a constant KF_CHUNK for a full chunk: each
  * loop is then one register per row); the weight gradients only where a
- * caller reads them (DW: classic MPM, CPIC's band), the products w d only
- * for the MLS gather in rows (WD) */
-KF_INLINE void stencil_phase_n(int KW, int DW, int WD, int n, chunk *ck, kf_real *const x[3], size_t i0,
+ * caller reads them (DW: classic MPM, CPIC's band), the offsets d only
+ * where they are read (D: not by the MLS gather in rows, which reads only
+ * w and w d), the products w d only for that gather (WD) */
+KF_INLINE void stencil_phase_n(int KW, int DW, int D, int WD, int n, chunk *ck, kf_real *const x[3], size_t i0,
                                const int32_t *bc, kf_real inv_dx, kf_real dx) {
     for (int a = 0; a < 3; a++)
-        stencil_axis(KW, DW, WD, n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a],
+        stencil_axis(KW, DW, D, WD, n, x[a] + i0, KF_BLOCK * bc[a], inv_dx, dx, ck->l[a], ck->w[a], ck->dw[a], ck->d[a],
                      ck->wd[a]);
 }
 KF_INLINE void stencil_phase(int KW, chunk *ck, kf_real *const x[3], size_t i0, const int32_t *bc, kf_real inv_dx,
                              kf_real dx) {
-    stencil_phase_n(KW, 1, 0, ck->n, ck, x, i0, bc, inv_dx, dx);
+    stencil_phase_n(KW, 1, 1, 0, ck->n, ck, x, i0, bc, inv_dx, dx);
 }
 
 /* the index of the first node of row (a, b) of the 2x2x2 block
