@@ -5,8 +5,9 @@
  * the CFL rule's look-ahead from the grid's velocities, or a caller's
  * kf_state_fuse_next), each substep ends with the next one's P2G, made
  * owner block by owner block right after the block's G2P and stress;
- * otherwise (rigid bodies, contact fields) G2P and the stress still share
- * one sweep. Both must
+ * otherwise (moving rigid bodies, contact fields that meet) G2P and the
+ * stress still share one sweep. With every body static the early P2G
+ * covers CPIC's band too (its colours, distances and impulses). Both must
  * leave every particle plane as the separate passes do (kf_model.unfused),
  * bit for bit, after every frame: particles falling through block faces
  * (the early scatter is then thrown away and the next substep bins and
@@ -29,8 +30,9 @@ typedef struct variant {
     kf_transfer transfer;
     double dt_fixed, dt_max; /* 0: the CFL rule alone */
     int threads;
-    int bodies;  /* a blade cutting down through the blocks and a falling plate */
-    int contact; /* each block its own object, in contact with the others (sim.contact) */
+    int bodies;  /* 1: a blade cutting down through the blocks and a falling plate; 2: static bodies */
+    int contact; /* 1: each block its own object, in contact with the others (sim.contact); 2: contact on,
+                    one object (the cut's pieces become fields) */
 } variant;
 
 enum { FRAMES = 2 };
@@ -39,7 +41,8 @@ typedef struct run {
     uint64_t hash[FRAMES];
     long substeps, fused, rebins;
     double max_cfl; /* the largest CFL number a substep used */
-    int ok;
+    int ok, fields;
+    double impulse[KF_MAX_RIGIDS][6]; /* the bodies' running totals (a static body's move nothing) */
 } run;
 
 /* CPIC's band in the sweep: a thin blade, kinematic, turning as it cuts
@@ -81,6 +84,43 @@ static void add_bodies(kf_model *m, const char *name) {
     KT_CHECK(kf_model_add_rigid(m, &d, err, sizeof err) >= 0, "%s: plate: %s", name, err);
 }
 
+/* CPIC's band with every body static (its distance field the same every
+ * substep, so the next P2G is made in the sweep, band included): a thin
+ * blade, edge up, that the second block (goo, a solid) falls onto and that
+ * cuts it through within the two frames (with contact on, the halves
+ * become fields of their own and meet: the early scatter is dropped from
+ * then on), and a solid box on the floor under the fourth (snow) */
+static void add_static_bodies(kf_model *m, const char *name) {
+    static const double quad[12] = {0, 0, -0.15, 0, 0, 0.15, 0, 0.11, 0.15, 0, 0.11, -0.15};
+    static const double box[24] = {0, 0, 0,    0.05, 0, 0,    0.05, 0.04, 0,    0, 0.04, 0,
+                                   0, 0, 0.07, 0.05, 0, 0.07, 0.05, 0.04, 0.07, 0, 0.04, 0.07};
+    static const int tri[6] = {0, 1, 2, 0, 2, 3};
+    /* outward normals (counter-clockwise seen from outside) */
+    static const int btri[36] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                 3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+    char err[256];
+    kf_rigid_def d;
+    memset(&d, 0, sizeof d);
+    snprintf(d.name, sizeof d.name, "blade");
+    d.vertices = quad, d.nvertices = 4, d.triangles = tri, d.ntriangles = 2;
+    d.thin = 1;
+    d.motion = KF_RIGID_STATIC;
+    d.boundary = KF_BOUNDARY_SEPARATE;
+    d.friction = 0.2;
+    d.penalty = KF_RIGID_AUTO;
+    d.position[0] = 0.155, d.position[2] = 0.185;
+    KT_CHECK(kf_model_add_rigid(m, &d, err, sizeof err) >= 0, "%s: blade: %s", name, err);
+    memset(&d, 0, sizeof d);
+    snprintf(d.name, sizeof d.name, "box");
+    d.vertices = box, d.nvertices = 8, d.triangles = btri, d.ntriangles = 12;
+    d.motion = KF_RIGID_STATIC;
+    d.boundary = KF_BOUNDARY_SEPARATE;
+    d.friction = 0.3;
+    d.penalty = KF_RIGID_AUTO;
+    d.position[0] = 0.27, d.position[2] = 0.15;
+    KT_CHECK(kf_model_add_rigid(m, &d, err, sizeof err) >= 0, "%s: box: %s", name, err);
+}
+
 /* four blocks of four materials side by side, touching, falling onto the
  * floor of a box with friction; one frame is 1/60 s */
 static run run_scene(const variant *v, int unfused) {
@@ -93,7 +133,7 @@ static run run_scene(const variant *v, int unfused) {
     sd.dt_fixed = v->dt_fixed;
     sd.dt_max = v->dt_max;
     sd.threads = v->threads;
-    sd.contact = v->contact;
+    sd.contact = v->contact != 0;
     sd.walls = 1;
     sd.wall_boundary = KF_BOUNDARY_SEPARATE;
     sd.wall_friction = 0.3;
@@ -103,7 +143,8 @@ static run run_scene(const variant *v, int unfused) {
     KT_CHECK(m != NULL, "%s: model: %s", v->name, err);
     if (!m) return r;
     kf_model_set_unfused(m, unfused);
-    if (v->bodies) add_bodies(m, v->name);
+    if (v->bodies == 1) add_bodies(m, v->name);
+    if (v->bodies == 2) add_static_bodies(m, v->name);
     const char *presets[4] = {"jello", "goo", "sand", "snow"};
     kf_state *s = kf_state_create(m);
     for (int k = 0; k < 4; k++) {
@@ -116,7 +157,7 @@ static run run_scene(const variant *v, int unfused) {
         double vel[3] = {0.2 * (k - 1.5), -1.5, 0.1}; /* over a cell a frame: re-sorts */
         kf_state_fill_box(s, m, lo, hi, id, vel, 2, 7u + (uint32_t)k);
     }
-    if (v->contact) {
+    if (v->contact == 1) {
         kf_particles_view p = kf_state_particles(s);
         for (size_t i = 0; i < p.n; i++) p.obj[i] = p.mat[i];
     }
@@ -132,13 +173,15 @@ static run run_scene(const variant *v, int unfused) {
         r.hash[f] = kf_state_hash(s);
         fields |= s->contact && s->contact->active;
     }
-    KT_CHECK(!v->contact || fields, "%s: objects met in contact fields", v->name);
+    KT_CHECK(v->contact != 1 || fields, "%s: objects met in contact fields", v->name);
+    r.fields = fields;
     /* the bodies met the material: each took impulses from it */
     for (int b = 0; b < (v->bodies ? 2 : 0); b++) {
         const double *J = s->cpic->impulse_total[b];
         KT_CHECK(fabs(J[0]) + fabs(J[1]) + fabs(J[2]) > 1e-4, "%s: body %d took an impulse from the material (%g N s)",
                  v->name, b, fabs(J[0]) + fabs(J[1]) + fabs(J[2]));
     }
+    if (s->cpic) memcpy(r.impulse, s->cpic->impulse_total, sizeof r.impulse);
     r.substeps = st.substeps;
     r.max_cfl = st.max_cfl;
     r.fused = st.fused;
@@ -159,6 +202,9 @@ static void compare(const variant *v, int expect_fused) {
     KT_CHECK(first < 0, "%s: the fused run equals the unfused one after every frame (first difference: frame %d)",
              v->name, first);
     KT_CHECK(b.fused == 0, "%s: the unfused run scatters nothing early", v->name);
+    KT_CHECK(!memcmp(a.impulse, b.impulse, sizeof a.impulse),
+             "%s: the bodies took the same impulses, bit for bit (fused %.17g, unfused %.17g N s along y, body 0)",
+             v->name, a.impulse[0][1], b.impulse[0][1]);
     /* under the CFL rule no substep is longer than the rule allows (the
      * look-ahead only shortens them); the default sim.cfl is 0.4 */
     if (!(v->dt_fixed > 0))
@@ -203,10 +249,11 @@ static void cfl_step(void) {
     compare(&v, 1);
 }
 
-/* rigid bodies and contact fields: G2P and stress share the sweep (with
- * the CPIC band's transfers, penalty and guard, and the fields' gather, in
- * it) but the next P2G waits for the next substep's colored distance field
- * and fields, so nothing is scattered early */
+/* moving rigid bodies and contact fields: G2P and stress share the sweep
+ * (with the CPIC band's transfers, penalty and guard, and the fields'
+ * gather, in it) but the next P2G waits for the next substep's colored
+ * distance field (a moving body's) and fields, so nothing is scattered
+ * early */
 static void with_bodies(void) {
     const variant vs[] = {
         {"bodies, fixed step, 2 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 1, 0},
@@ -253,6 +300,24 @@ static uint64_t direct_run(kf_kernel kernel, int unfused, int edit, long *fused)
     return h;
 }
 
+/* every body static: the next P2G is scattered early in the band too
+ * (its colours, distances, the impulses on the bodies), and with contact
+ * on (one object, cut in pieces by the blade) while no fields meet */
+static void with_static_bodies(void) {
+    const variant vs[] = {
+        {"static bodies, 2 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 2, 0},
+        {"static bodies, 1 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 1, 2, 0},
+        {"static bodies, classic", KF_KERNEL_QUADRATIC, KF_FORCE_CLASSIC, KF_TRANSFER_APIC, 2e-4, 0, 2, 2, 0},
+        {"static bodies, dt_max", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 0, 2e-4, 2, 2, 0},
+        {"static bodies, pieces, 2 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 2, 2},
+        {"static bodies, pieces, 1 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 1, 2, 2},
+    };
+    for (size_t k = 0; k < sizeof vs / sizeof vs[0]; k++) compare(&vs[k], 1);
+    /* under the CFL rule alone the next Δt comes after the sweep: nothing early */
+    const variant cfl = {"static bodies, CFL rule", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 0, 0, 2, 2, 0};
+    compare(&cfl, 0);
+}
+
 static void direct_steps(void) {
     for (int cubic = 0; cubic < 2; cubic++) {
         const kf_kernel kw = cubic ? KF_KERNEL_CUBIC : KF_KERNEL_QUADRATIC;
@@ -278,5 +343,6 @@ int main(int argc, char **argv) {
     KT_RUN(cfl_step, argc, argv);
     KT_RUN(direct_steps, argc, argv);
     KT_RUN(with_bodies, argc, argv);
+    KT_RUN(with_static_bodies, argc, argv);
     return KT_EXIT();
 }

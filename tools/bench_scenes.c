@@ -79,6 +79,7 @@ typedef struct scene_result {
     unsigned long long hash; /* kf_state_hash after the frames */
     int threads, frames;
     long substeps_run;
+    long fused; /* substeps whose P2G the substep before made early (the fused sweep) */
 } scene_result;
 
 /* x, v and F of every particle as float32, in id order (ids are 0..n-1),
@@ -182,6 +183,7 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
     double cpu = (double)(c1.tv_sec - c0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - c0.tv_nsec);
     r->frames = (int)f;
     r->substeps_run = st.substeps;
+    r->fused = st.fused;
     if (f > 0) {
         r->ok = 1;
         r->s_per_frame = sec / f;
@@ -260,6 +262,7 @@ int bench_scenes(const bench_scenes_opts *o) {
                paper[i].s_per_frame, kcs, pcs, kcs / pcs);
         if (o->hash && o->substeps > 0) printf("  state hash after %ld substeps: %016llx\n", r.substeps_run, r.hash);
         else if (o->hash) printf("  state hash after %d frame(s): %016llx\n", r.frames, r.hash);
+        if (o->hash) printf("  early P2G (made by the substep before): %ld of %ld substeps\n", r.fused, r.substeps_run);
         if (r.msg[0]) printf("  (%s)\n", r.msg);
         fflush(stdout);
     }

@@ -71,6 +71,10 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->st.best);
     free(c->st.hkey);
     free(c->st.hval);
+    free(c->early.imp);
+    free(c->early.keep);
+    free(c->early.first);
+    free(c->early.done);
     free(c);
 }
 
@@ -1135,6 +1139,10 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
     /* the static bodies from their store, then every other body */
     int from_store = st_apply(m, s);
     if (from_store < 0 || bmap_fill(c, g)) return -1;
+    /* every body static and copied from the store: the next substep's
+     * splat over the same blocks gives the same CDF (early.c) */
+    c->static_cdf = from_store == 1 && !s->dist;
+    for (int r = 0; r < m->nrigid; r++) c->static_cdf &= is_static(m, r);
     /* the owners the splatted bodies' seeds may reach (mark_near) */
     if (g->nblocks > c->cap_near) {
         size_t cap = g->nblocks + g->nblocks / 2 + 16;

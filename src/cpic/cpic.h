@@ -159,6 +159,25 @@ typedef struct kf_cpic {
     /* the substep's guard totals (kf_cpic_finish) */
     long caught;
     double caught_depth;
+    /* this substep's CDF is every body's, all static, copied from the
+     * store: the next substep's splat over the same blocks gives the same
+     * CDF, band and read boxes (kf_cpic_splat) */
+    int static_cdf;
+    /* The next substep's P2G made early in the fused sweep (early.c): its
+     * impulse rows and gΔt, and the colours its band owners' particles had
+     * before it (per slot from first[slot], kept where done[slot]), put
+     * back if that substep does not use the scatter. */
+    struct kf_cpic_early {
+        int pending;         /* some owner's particles hold colours of the early P2G */
+        double dt, gdt[3];   /* the next substep's Δt and gΔt */
+        uint32_t epoch;      /* the splat it was made after */
+        size_t nslot, nkeep; /* band owners and their particles then */
+        double (*imp)[KF_MAX_RIGIDS][6];
+        uint32_t *keep;
+        size_t *first;
+        uint8_t *done;
+        size_t cap_slot, cap_keep;
+    } early;
 } kf_cpic;
 
 /* The sides a thin body's surface can give the points of each cell of a

@@ -60,6 +60,9 @@ void kf_cpic_owner_cdf(const kf_state *s, size_t owner, kf_cpic_owner *oc) {
             }
     for (int q = 0; q < NB * NB * NB; q++)
         oc->aff[q] = q < (NB - 2) * NB * NB ? t[q] | t[q + NB * NB] | t[q + 2 * NB * NB] : t[q];
+    /* this substep's impulse rows and gΔt (the fused sweep's early P2G points them at the next one's) */
+    oc->imp = &c->imp[c->slot[owner]][0][0];
+    oc->gdt = c->gdt;
 }
 
 #define compatible kf_cpic_compatible
@@ -606,7 +609,8 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     kf_v4 *cache = cache_v;
     const uint32_t *col = oc->col;
     const float *dist = oc->dist;
-    double *imp = &c->imp[c->slot[owner]][0][0];
+    double *imp = oc->imp;
+    const double *gdt = oc->gdt;
     const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx;
     const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
@@ -683,7 +687,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                                     (4 * bc[2] + ck->l[2][j] + k) * dx};
                     double J[3], cd[3];
                     affine_velocity_of(Cj, apic, d, cd);
-                    for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (c->gdt[e] - cd[e]);
+                    for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (gdt[e] - cd[e]);
                     double at[3] = {xi[0], xi[1], xi[2]};
                     if (!thin_body[r]) {
                         const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};

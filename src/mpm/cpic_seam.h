@@ -33,6 +33,10 @@ typedef struct kf_cpic_owner {
      * its 3x3x3 stencil's colours together: 0 where no node of it is near
      * a body, and the particle's transfers are the ordinary ones */
     uint32_t aff[KF_CPIC_NB * KF_CPIC_NB * KF_CPIC_NB];
+    /* where the owner's P2G adds its impulses on the bodies, and the gΔt it
+     * uses: this substep's, or (kf_cpic_early_owner) the next one's */
+    double *imp;
+    const double *gdt;
 } kf_cpic_owner;
 
 void kf_cpic_free(struct kf_cpic *c);
@@ -61,6 +65,31 @@ void kf_cpic_penalty(const kf_model *m, kf_state *s, size_t owner, size_t i0, in
  * xold: the chunk's positions before advection, [3][KF_CHUNK] flat. */
 void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const struct chunk *ck,
                    size_t i0, const kf_real *xold);
+
+/* The next substep's P2G made early by the fused sweep (early.c), where
+ * its CDF is known before the sweep: every body static and this
+ * substep's CDF copied from the static store, so the next splat over the
+ * same blocks gives it again. kf_cpic_early_begin, before the sweep: 1 if
+ * the sweep may scatter at next_dt (the impulse rows zeroed). Per band
+ * owner, kf_cpic_early_owner after its G2P: keeps its particles' colours
+ * and points oc at the next substep's impulse rows and gΔt. The next
+ * substep, after its splat, kf_cpic_early_take: the early impulses become
+ * the substep's (1), or, when the CDF is not the one foreseen, the colours
+ * go back (0: run P2G). kf_cpic_early_undo puts the kept colours back
+ * (the scatter is not used; particles where the sweep left them);
+ * kf_cpic_early_drop forgets them (the particles were restored);
+ * kf_cpic_early_colours writes them into a copy's colours (NULL: none
+ * held). kf_cpic_early_pending: colours of an early P2G are held, made
+ * at *dt. */
+int kf_cpic_early_begin(const kf_model *m, kf_state *s, double next_dt);
+void kf_cpic_early_owner(kf_state *s, size_t owner, kf_cpic_owner *oc);
+int kf_cpic_early_take(kf_state *s);
+void kf_cpic_early_undo(kf_state *s);
+void kf_cpic_early_drop(kf_state *s);
+void kf_cpic_early_colours(const kf_state *s, uint32_t *colour);
+/* the kept colours and the particles' trade places (twice: as they were) */
+void kf_cpic_early_swap(kf_state *s);
+int kf_cpic_early_pending(const kf_state *s, double *dt);
 
 /* Sum the impulses and advance the rigid bodies to t + dt. */
 void kf_cpic_finish(const kf_model *m, kf_state *s, double dt);

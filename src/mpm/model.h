@@ -259,7 +259,7 @@ int kf_fuse_applies(const kf_model *m, const kf_state *s);
  * the rest). */
 void kf_cfl_scan(const kf_model *m, const kf_particles *p, size_t lo, size_t hi, double *v2max, kf_real *state_min,
                  int states_only);
-int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p_result *out);
+int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, double next_dt, kf_g2p_result *out);
 /* return mapping (when project) and the stress of every particle's F
  * (nothing to do where the stress is not kept: KF_ZERO_TAU) */
 void kf_stress(const kf_model *m, kf_state *s, int project);

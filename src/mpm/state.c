@@ -72,6 +72,8 @@ void kf_state_destroy(kf_state *s) {
 
 void kf_state_copy(kf_state *dst, const kf_state *src) {
     kf_particles_copy(&dst->p, &src->p);
+    /* an early P2G pending in src (step.c): the copy gets the colours it started from */
+    if (dst->p.colour) kf_cpic_early_colours(src, dst->p.colour);
     dst->time = src->time;
     dst->substep = src->substep;
     dst->next_id = src->next_id;
@@ -141,6 +143,8 @@ kf_particles_view kf_state_particles(kf_state *s) {
      * the ones that still do) */
     s->tau_valid = 0;
     s->p.zero = 0;
+    /* an early P2G's colours (step.c) back first: the caller sees and edits the substep's own */
+    kf_cpic_early_undo(s);
     return kf_state_particles_read(s);
 }
 

@@ -11,7 +11,11 @@
  * (kf_state_fuse_next; kf_advance knows it under a fixed step, a holding
  * dt_max clamp, or the CFL rule's look-ahead) the sweep also makes the next
  * substep's P2G (kf_g2p2g), which that substep then uses instead of its
- * own: the same bits either way, one pass over the particles fewer.
+ * own: the same bits either way, one pass over the particles fewer. With
+ * rigid bodies that needs the next substep's colored distance field before
+ * the sweep: where every body is static it is this one (cpic/early.c), and
+ * the band's early P2G keeps the colours it started from until the next
+ * substep has taken it or dropped it.
  *
  * The CFL rule picks Δt from the particles after G2P (the fastest |v|, the
  * most compressed state), too late for a sweep that scatters the next P2G
@@ -78,6 +82,15 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
      * particle within its owner's reach and nothing edited them since */
     kf_grid *g = &s->g;
     const int fusable = kf_fuse_applies(m, s);
+    /* with rigid bodies the last sweep's early P2G (kf_g2p2g) rewrote its
+     * band particles' colours: if this substep will not use it (the
+     * conditions below, and its Δt to the bit: gΔt is a double), they go
+     * back now, while the particles are where the sweep left them */
+    double early_dt = 0;
+    const int early = m->nrigid && kf_cpic_early_pending(s, &early_dt);
+    if (early && !(fusable && g->fused_ready && g->fused_substep == s->substep && g->fused_rebins == g->rebins &&
+                   g->valid && s->tau_valid && g->fused_dt == rdt && early_dt == dt))
+        kf_cpic_early_undo(s);
     const int in_reach =
         fusable && g->valid && s->tau_valid && g->reach_substep == s->substep && g->reach_rebins == g->rebins;
     g->reach_substep = -1;
@@ -93,8 +106,8 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     /* the last substep's fused end (kf_g2p2g) scattered this one's P2G
      * already: usable when it was made for this substep and this Δt, binning
      * kept every particle where it was, and nothing edited the particles */
-    const int scattered = fusable && g->fused_ready && g->fused_substep == s->substep && g->fused_rebins == g->rebins &&
-                          g->valid && s->tau_valid && g->fused_dt == rdt;
+    int scattered = fusable && g->fused_ready && g->fused_substep == s->substep && g->fused_rebins == g->rebins &&
+                    g->valid && s->tau_valid && g->fused_dt == rdt && (!m->nrigid || (early && early_dt == dt));
     g->fused_ready = 0;
 
     /* testing the recovery path: one particle's velocity goes bad, once */
@@ -116,10 +129,26 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     }
 
     /* contact between objects: the owners where fields meet (contact.h) */
-    if (m->sim.contact && kf_contact_prepare(m, s)) {
-        set_trouble(trouble, s, 0, "out of memory preparing contact between objects", 0);
-        return 1;
+    if (m->sim.contact) {
+        /* the cut's pieces read the colours the substep starts with: an
+         * early P2G's own are set aside meanwhile */
+        const int swap = scattered && m->nrigid;
+        if (swap) kf_cpic_early_swap(s);
+        const int crc = kf_contact_prepare(m, s);
+        if (swap) kf_cpic_early_swap(s);
+        if (crc) {
+            set_trouble(trouble, s, 0, "out of memory preparing contact between objects", 0);
+            return 1;
+        }
+        /* fields meet somewhere: P2G scatters them too, which the early one did not */
+        if (scattered && s->contact && s->contact->active) {
+            kf_cpic_early_undo(s);
+            scattered = 0;
+        }
     }
+    /* the early P2G's impulses become this substep's (the CDF is the one it
+     * read; else its colours go back and P2G runs) */
+    if (scattered && m->nrigid && !kf_cpic_early_take(s)) scattered = 0;
 
     if (m->sim.integrator == KF_INTEGRATOR_IMPLICIT) {
         /* backward Euler (implicit.h): P2G of mass and momentum,
@@ -175,7 +204,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
         /* G2P and the stress pass in one sweep, with the next substep's P2G
          * when its Δt is announced; the whole sweep is timed as G2P */
         const kf_real next = (kf_real)s->fuse_next;
-        const int got = kf_g2p2g(m, s, rdt, next, &res);
+        const int got = kf_g2p2g(m, s, rdt, s->fuse_next, &res);
         if (got & KF_FUSED_REACH) {
             g->reach_substep = s->substep + 1;
             g->reach_rebins = g->rebins;
@@ -481,6 +510,8 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
      * (the grid keeps a grouping of particles while they drift within
      * reach, grid.h): a retried interval and one made directly at the
      * smaller step then sum in the same order, bit for bit */
+    /* an early P2G a caller of kf_step left pending: its colours back first */
+    kf_cpic_early_undo(s);
     kf_grid_invalidate(&s->g);
     /* arrays the model never writes that hold only zeros (after a
      * checkpoint load or a caller's view) go back to untouched pages; out of
@@ -556,7 +587,10 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
         }
         s->fuse_next = 0, s->fuse_cfl = 0, s->guess_dt = 0, s->scan_valid = 0, s->scan_want = 0;
         if (ok) return 0;
-        /* trouble: back to the interval start, half the step, try again */
+        /* trouble: back to the interval start, half the step, try again
+         * (the restored colours are the start's: an early P2G's kept ones
+         * are forgotten) */
+        kf_cpic_early_drop(s);
         if (kf_snapshot_restore(s, time0, substep0)) {
             if (msg) snprintf(msg, msglen, "cannot read the interval start back to retry it");
             return 1;

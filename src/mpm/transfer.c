@@ -217,6 +217,8 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
     const int band = kf_cpic_band(s, r), fields = kf_contact_owner(s, r);
     kf_cpic_owner oc; /* near a rigid surface: the neighbourhood's CDF, once per block */
     if (band) kf_cpic_owner_cdf(s, r, &oc);
+    /* the next substep's, made early: its impulse rows and gΔt, its particles' colours kept */
+    if (band && fused) kf_cpic_early_owner(s, r, &oc);
     memset(cache, 0, sizeof(kf_v4) * CD * CD * CD);
     if (FLIP) memset(mcache, 0, sizeof(kf_v4) * CD * CD * CD);
     if (fields) memset(fcache, 0, sizeof(kf_v4) * KF_CONTACT_CACHE_ROWS * CD * CD * CD);
@@ -918,17 +920,22 @@ static int owner_in_reach(const kf_grid *g, const kf_particles *p, size_t r, kf_
     return !out;
 }
 
-int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p_result *out) {
+int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, double next_dt_d, kf_g2p_result *out) {
     g2p_fn gfn = g2p_variant(m);
     p2g_fn pfn = p2g_variant(m);
     kf_grid *g = &s->g;
     kf_particles *p = &s->p;
     const int KW = m->sim.kernel == KF_KERNEL_CUBIC ? 4 : 3;
-    /* with rigid bodies or contact fields, the next substep's P2G reads
-     * what the next substep makes first (the colored distance field of its
-     * poses, the owners where fields meet, the cut's pieces): G2P and
-     * stress only, and the reach test that spares the next binning */
-    int scatter = next_dt > 0 && !m->nrigid && !m->sim.contact;
+    const kf_real next_dt = (kf_real)next_dt_d;
+    /* where contact fields meet, or with rigid bodies whose next colored
+     * distance field is not this one (a moving body's; cpic/early.c), the
+     * next substep's P2G reads what the next substep makes first (that
+     * field, the owners where fields meet): G2P and stress only, and the
+     * reach test that spares the next binning. Where no fields meet now
+     * the scatter is made, and dropped if they meet at the next substep
+     * (step.c) */
+    int scatter =
+        next_dt > 0 && !(s->contact && s->contact->active) && (!m->nrigid || kf_cpic_early_begin(m, s, next_dt_d));
     /* the next substep's nodes: the same blocks as now (a scatter is usable
      * only if binning will keep every particle where it is) */
     if (scatter && g->node_next_cap < g->nblocks) {
@@ -936,6 +943,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
         g->node_next = aligned_alloc(64, g->node_cap * KF_BLOCK_NODES * sizeof(kf_v4));
         g->node_next_cap = g->node_next ? g->node_cap : 0;
         scatter = g->node_next != NULL;
+        if (!scatter) kf_cpic_early_drop(s); /* nothing written yet */
     }
     kf_mat mat_buf[KF_MAX_MATERIALS];
     const kf_mat *mats = stress_mats(m, mat_buf);
@@ -1032,6 +1040,9 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, kf_real next_dt, kf_g2p
     s->stress_model = m;
     out->trouble = total.trouble;
     out->max_cells = total.max_cells;
+    const int scattered = !total.trouble.found && usable && !give_up && reach;
+    /* a dropped early P2G in the band: its particles' colours back as G2P left them */
+    if (scatter && m->nrigid && !scattered) kf_cpic_early_undo(s);
     if (total.trouble.found) return 0;
-    return (reach ? KF_FUSED_REACH : 0) | (usable && !give_up && reach ? KF_FUSED_SCATTER : 0);
+    return (reach ? KF_FUSED_REACH : 0) | (scattered ? KF_FUSED_SCATTER : 0);
 }
