@@ -44,6 +44,7 @@ typedef struct kf_frame {
     float view[16], proj[16], viewproj[16], light_vp[16];
     float viewproj_next[16]; /* the camera one frame later (motion vectors) */
     float eye[3], center[3], rad, ground_y, fade0, fade1;
+    float znear; /* the camera's near plane */
     float key[3], fill[3], rim[3];
     int shadows, draw_ground, empty;
 } kf_frame;

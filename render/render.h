@@ -46,6 +46,9 @@ typedef struct kf_render_mesh {
     const float *motion; /* (nverts x 3) world-space displacement over one frame, m (NULL = still):
                             motion vectors and motion blur */
     int id;              /* the ID matte's value, 1..2047 (0 = none: counts as background) */
+    int closed;          /* 1 = a closed surface, wound as above (a level set's mesh): its back faces
+                            are skipped while the camera's near plane is clear of it (they are hidden
+                            then, but for the odd silhouette pixel) */
 } kf_render_mesh;
 
 typedef struct kf_render_scene {

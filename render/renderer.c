@@ -563,7 +563,7 @@ int kf_frame_begin(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera 
 
 /* the near and far planes and the projection for camera c */
 static int camera_matrices(const kf_render_ctx *r, const kf_frame *f, const kf_camera *c, float view[16],
-                           float viewproj[16], float proj[16], char *err, size_t errlen) {
+                           float viewproj[16], float proj[16], float *near, char *err, size_t errlen) {
     if (kf_m4_look_at(view, c->eye, c->target, c->up) != 0) {
         snprintf(err, errlen, "render: degenerate camera (eye == target, or up parallel to the view)");
         return -1;
@@ -582,15 +582,16 @@ static int camera_matrices(const kf_render_ctx *r, const kf_frame *f, const kf_c
     }
     kf_m4_perspective(proj, c->fov_deg, (float)r->w / r->h, znear, zfar);
     kf_m4_mul(viewproj, proj, view);
+    *near = znear;
     return 0;
 }
 
 int kf_frame_camera(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera *cam, const kf_camera *cam_next,
                     kf_frame *f, char *err, size_t errlen) {
-    float view_n[16], proj_n[16];
-    if (camera_matrices(r, f, cam, f->view, f->viewproj, f->proj, err, errlen) != 0) return -1;
+    float view_n[16], proj_n[16], near_n;
+    if (camera_matrices(r, f, cam, f->view, f->viewproj, f->proj, &f->znear, err, errlen) != 0) return -1;
     if (!cam_next) memcpy(f->viewproj_next, f->viewproj, sizeof f->viewproj);
-    else if (camera_matrices(r, f, cam_next, view_n, f->viewproj_next, proj_n, err, errlen) != 0) return -1;
+    else if (camera_matrices(r, f, cam_next, view_n, f->viewproj_next, proj_n, &near_n, err, errlen) != 0) return -1;
     memcpy(f->eye, cam->eye, sizeof f->eye);
     /* lights in world space */
     to_world(f->key, sc->key_dir, f->view, sc->lights_in_world);
@@ -629,6 +630,32 @@ void kf_frame_shadow(kf_render_ctx *r, const kf_render_scene *sc, kf_frame *f, f
         gl->DrawElements(GL_TRIANGLES, (GLsizei)(me->ntris * 3), GL_UNSIGNED_INT, NULL);
     }
     gl->Disable(GL_POLYGON_OFFSET_FILL);
+}
+
+/* Whether a closed mesh's back faces can be skipped: each is hidden behind
+ * the mesh's own front faces wherever the camera sees it from outside, which
+ * holds when the mesh (at every time of the frame: positions and positions +
+ * motion) lies wholly beyond the near plane, so that nothing of it is cut
+ * open there. Llvmpipe sets up and rasterises every triangle it is given:
+ * half of a level set's mesh faces away. (The one exception: a silhouette
+ * pixel whose centre a facet folding away covers and no front facet does;
+ * one such pixel in the 1080p and demo frames checked.) */
+static int cull_back_faces(const kf_render_mesh *me, const kf_frame *f) {
+    if (!me->closed || me->nverts == 0) return 0;
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int pass = 0; pass < (me->motion ? 2 : 1); pass++)
+        for (size_t v = 0; v < me->nverts; v++)
+            for (int a = 0; a < 3; a++) {
+                const float x = me->positions[3 * v + a] + (pass ? me->motion[3 * v + a] : 0.f);
+                lo[a] = fminf(lo[a], x), hi[a] = fmaxf(hi[a], x);
+            }
+    /* the view's depth of each corner of the box (the view looks down -z) */
+    for (int k = 0; k < 8; k++) {
+        const float p[3] = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
+        const float z = f->view[2] * p[0] + f->view[6] * p[1] + f->view[10] * p[2] + f->view[14];
+        if (!(-z > f->znear)) return 0;
+    }
+    return 1;
 }
 
 void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame *f, GLuint fbo, int linear, float t) {
@@ -689,7 +716,10 @@ void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame
         gl->Uniform1i(u_flat, me->normals == NULL);
         kf_bind_mesh(gl, r->vbo_pos[m], r->vbo_nrm[m], me->normals != NULL, r->vbo_mot[m], me->motion != NULL,
                      r->ebo[m]);
+        const int cull = cull_back_faces(me, f);
+        if (cull) gl->Enable(GL_CULL_FACE); /* back faces, counter-clockwise fronts: GL's defaults */
         gl->DrawElements(GL_TRIANGLES, (GLsizei)(me->ntris * 3), GL_UNSIGNED_INT, NULL);
+        if (cull) gl->Disable(GL_CULL_FACE);
     }
     if (f->draw_ground) {
         gl->Uniform1i(u_ground, 1);

@@ -83,7 +83,7 @@ static test_mesh make_sphere(const float c[3], float rad, int stacks, int slices
 }
 
 static kf_render_mesh as_render(const test_mesh *m, float r, float g, float b, float spec, float rough) {
-    kf_render_mesh rm = {m->pos, m->nrm, m->nv, m->tri, m->nt, {{r, g, b}, spec, rough}, NULL, 0};
+    kf_render_mesh rm = {m->pos, m->nrm, m->nv, m->tri, m->nt, {{r, g, b}, spec, rough}, NULL, 0, 0};
     return rm;
 }
 
@@ -677,6 +677,45 @@ static void test_shadow_size(void) {
     kf_render_destroy(r);
 }
 
+/* A closed mesh's back faces are skipped only where none can show: the
+ * picture is the same byte for byte with the flag and without, from
+ * outside, from inside the cube, and with the near plane cutting it open
+ * (where the inside's faces show, and must still be drawn). */
+static void test_closed_meshes(void) {
+    char err[256] = "";
+    enum { W = 64, H = 48 };
+    kf_render_ctx *r = kf_render_create(W, H, 1, err, sizeof err);
+    KT_CHECK(r != NULL, "%s", err);
+    if (!r) return;
+    float c[3] = {0, 0, 0};
+    test_mesh cube = make_cube(c, 0.5f);
+    kf_render_mesh m = as_render(&cube, 0.8f, 0.6f, 0.4f, 0.2f, 0.5f);
+    kf_render_scene sc = kf_render_scene_default();
+    sc.meshes = &m;
+    sc.nmeshes = 1;
+    sc.ground = 0;
+    const kf_camera cams[3] = {{{0.8f, 0.9f, 3}, {0, 0, 0}, {0, 1, 0}, 40, 0, 0},
+                               {{0.1f, 0.05f, 0.2f}, {1, 0.2f, -0.3f}, {0, 1, 0}, 60, 0, 0},
+                               {{0.3f, 0.4f, 3}, {0, 0, 0}, {0, 1, 0}, 40, 2.7f, 10}};
+    const char *what[3] = {"outside", "inside", "near plane through it"};
+    static uint8_t open[W * H * 4], closed[W * H * 4];
+    for (int k = 0; k < 3; k++) {
+        m.closed = 0;
+        int rc = kf_render_frame(r, &sc, &cams[k], open, err, sizeof err);
+        m.closed = 1;
+        rc |= kf_render_frame(r, &sc, &cams[k], closed, err, sizeof err);
+        KT_CHECK(rc == 0, "%s: %s", what[k], err);
+        KT_CHECK(memcmp(open, closed, sizeof open) == 0, "%s: the closed flag changed the picture (mean diff %g)",
+                 what[k], mean_abs_diff(open, closed, sizeof open));
+        /* the cube is in the picture: not every pixel is the background's */
+        int varied = 0;
+        for (int i = 1; i < W * H && !varied; i++) varied = memcmp(closed + 4 * i, closed, 4) != 0;
+        KT_CHECK(varied, "%s: the cube is drawn", what[k]);
+    }
+    test_mesh_free(&cube);
+    kf_render_destroy(r);
+}
+
 int main(int argc, char **argv) {
     KT_RUN(test_silhouette_and_upright, argc, argv);
     KT_RUN(test_golden, argc, argv);
@@ -687,5 +726,6 @@ int main(int argc, char **argv) {
     KT_RUN(test_errors, argc, argv);
     KT_RUN(test_preview_and_timing, argc, argv);
     KT_RUN(test_shadow_size, argc, argv);
+    KT_RUN(test_closed_meshes, argc, argv);
     return KT_EXIT();
 }

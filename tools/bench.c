@@ -226,8 +226,9 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
         /* render.antialias' default: edges when there are samples (src/pipeline/stages.c) */
         if (ctx && q->samples > 1 && kf_render_set_antialias(ctx, KF_RENDER_AA_EDGES, err, sizeof err)) rc = -1;
         uint8_t *rgba = malloc((size_t)1920 * 1080 * 4);
+        /* closed: a level set's mesh, as the pipeline renders it */
         kf_render_mesh rm = {
-            mesh.verts, mesh.normals, mesh.nverts, mesh.tris, mesh.ntris, {{0.8f, 0.3f, 0.3f}, 0.3f, 0.5f}, NULL, 0};
+            mesh.verts, mesh.normals, mesh.nverts, mesh.tris, mesh.ntris, {{0.8f, 0.3f, 0.3f}, 0.3f, 0.5f}, NULL, 0, 1};
         kf_render_scene scene = kf_render_scene_default();
         scene.meshes = &rm;
         scene.nmeshes = 1;

@@ -629,6 +629,7 @@ int kf_pipeline_render(const kf_shot *shot, const kf_scene *sc, const char *vdb,
         rm[nm].nverts = meshes[nm].nverts;
         rm[nm].tris = meshes[nm].tris;
         rm[nm].ntris = meshes[nm].ntris;
+        rm[nm].closed = 1; /* a level set's zero set */
         surface_look(shot, name, &rm[nm].mat);
         /* ids: a surfaced group is 1 + its place in the shot's materials (or objects) */
         int gi = surface_index(shot, name);
