@@ -428,11 +428,17 @@ static double clamp_dt(const kf_model *m, double dt) {
 /* whether kf_advance picks each substep's length under the CFL rule before
  * the substep before it ends its G2P (kf_step's guess_next_dt): the
  * explicit integrator with APIC, PIC or polypic, whose particle velocities
- * are weighted means of the grid's (no FLIP, no rigid bodies' ghost
- * velocities, no contact fields' own velocities) */
+ * are weighted means of the grid's (no FLIP), in scenes whose bodies all
+ * stand still (the only ones whose next P2G the sweep makes early). Near a
+ * static body, or where contact fields meet, a particle's velocity need not
+ * be such a mean; the guess may then be the longer, and kf_advance takes
+ * the rule's (dropping the early P2G): the look-ahead never lengthens a
+ * substep, it only shortens one to the length the sweep scattered at. */
 static int looks_ahead(const kf_model *m) {
-    return m->sim.integrator == KF_INTEGRATOR_EXPLICIT && m->sim.transfer != KF_TRANSFER_FLIP && !m->nrigid &&
-           !m->sim.contact && !(m->sim.dt_fixed > 0);
+    int moving = 0;
+    for (int r = 0; r < m->nrigid; r++) moving |= m->rigid[r].def.motion != KF_RIGID_STATIC;
+    return m->sim.integrator == KF_INTEGRATOR_EXPLICIT && m->sim.transfer != KF_TRANSFER_FLIP && !moving &&
+           !(m->sim.dt_fixed > 0);
 }
 
 static inline double node_v2(const kf_v4 v) {
