@@ -82,15 +82,19 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
      * particle within its owner's reach and nothing edited them since */
     kf_grid *g = &s->g;
     const int fusable = kf_fuse_applies(m, s);
-    /* with rigid bodies the last sweep's early P2G (kf_g2p2g) rewrote its
-     * band particles' colours: if this substep will not use it (the
-     * conditions below, and its Δt to the bit: gΔt is a double), they go
-     * back now, while the particles are where the sweep left them */
+    /* the last substep's fused end (kf_g2p2g) scattered this one's P2G
+     * already: usable when it was made for this substep and this Δt, nothing
+     * edited the particles, and (as the sweep reports a scatter only with
+     * every particle in reach) binning below keeps every particle where it
+     * is. With rigid bodies that early P2G also rewrote its band particles'
+     * colours: usable only at its Δt to the bit (gΔt is a double), else the
+     * colours go back now, while the particles are where the sweep left them */
     double early_dt = 0;
     const int early = m->nrigid && kf_cpic_early_pending(s, &early_dt);
-    if (early && !(fusable && g->fused_ready && g->fused_substep == s->substep && g->fused_rebins == g->rebins &&
-                   g->valid && s->tau_valid && g->fused_dt == rdt && early_dt == dt))
-        kf_cpic_early_undo(s);
+    int scattered = fusable && g->fused_ready && g->fused_substep == s->substep && g->fused_rebins == g->rebins &&
+                    g->valid && s->tau_valid && g->fused_dt == rdt && (!m->nrigid || (early && early_dt == dt));
+    g->fused_ready = 0;
+    if (early && !scattered) kf_cpic_early_undo(s);
     const int in_reach =
         fusable && g->valid && s->tau_valid && g->reach_substep == s->substep && g->reach_rebins == g->rebins;
     g->reach_substep = -1;
@@ -102,13 +106,6 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     if (s->dist ? kf_dist_agree(s, rc != 0, trouble) : rc != 0) return 1;
     t1 = kf_now_ms();
     if (st) st->ms[KF_STAGE_SORT] += t1 - t0;
-
-    /* the last substep's fused end (kf_g2p2g) scattered this one's P2G
-     * already: usable when it was made for this substep and this Δt, binning
-     * kept every particle where it was, and nothing edited the particles */
-    int scattered = fusable && g->fused_ready && g->fused_substep == s->substep && g->fused_rebins == g->rebins &&
-                    g->valid && s->tau_valid && g->fused_dt == rdt && (!m->nrigid || (early && early_dt == dt));
-    g->fused_ready = 0;
 
     /* testing the recovery path: one particle's velocity goes bad, once */
     if (m->fault_substep > 0 && s->substep == m->fault_substep && !s->fault_done && s->p.n &&
