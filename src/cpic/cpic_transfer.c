@@ -301,7 +301,8 @@ typedef struct cdf_fit {
     int rstar[KF_CHUNK], mixed[KF_CHUNK], idx[KF_CHUNK], n;
 } cdf_fit;
 
-/* solve4 for the fits queued in f, eight at a time. Each lane does what
+/* solve4 for the fits queued in f, eight at a time (AVX-512; four with
+ * AVX2, below; one by one elsewhere). Each lane does what
  * solve4 does, in its order and with its roundings: the pivot by the same
  * strict comparisons, rows swapped where the lane's pivot says, every
  * x -= a b as one fused multiply-add (as solve4 compiles: the compiler
@@ -361,6 +362,66 @@ static void solve4_lanes(cdf_fit *f) {
         det = _mm512_mask_mov_pd(det, zero, _mm512_setzero_pd());
         _mm512_mask_storeu_pd(&f->det[q0], live, det);
         for (int k = 0; k < 4; k++) _mm512_mask_storeu_pd(&f->coef[k][q0], live, cf[k]);
+    }
+}
+#elif defined(__AVX2__) && defined(__FMA__)
+#include <immintrin.h>
+/* The same lanes four at a time in AVX2's 256-bit registers (no mask
+ * registers: the comparisons give all-ones lanes, blends and ands use them).
+ * Bit for bit with solve4, as the AVX-512 lanes above. */
+static void solve4_lanes(cdf_fit *f) {
+    for (int q0 = 0; q0 < f->n; q0 += 4) {
+        const int nl = f->n - q0 < 4 ? f->n - q0 : 4;
+        const __m256i live = _mm256_cmpgt_epi64(_mm256_set1_epi64x(nl), _mm256_setr_epi64x(0, 1, 2, 3));
+        /* the lanes' matrices and right-hand sides (the unused lanes: the identity) */
+        __m256d M[4][4], y[4];
+        for (int r = 0; r < 4; r++) {
+            for (int c = 0; c < 4; c++)
+                M[r][c] = _mm256_blendv_pd(_mm256_set1_pd(r == c), _mm256_maskload_pd(&f->M[r][c][q0], live),
+                                           _mm256_castsi256_pd(live));
+            y[r] = _mm256_maskload_pd(&f->y[r][q0], live);
+        }
+        const __m256d sign = _mm256_set1_pd(-0.0);
+        __m256d det = _mm256_set1_pd(1), zero = _mm256_setzero_pd();
+        for (int k = 0; k < 4; k++) {
+            /* the pivot: the first largest |M[i][k]|, by strict comparisons in row order */
+            __m256d piv = _mm256_set1_pd(k);
+            __m256d big = _mm256_andnot_pd(sign, M[k][k]);
+            for (int i = k + 1; i < 4; i++) {
+                const __m256d a = _mm256_andnot_pd(sign, M[i][k]);
+                const __m256d gt = _mm256_cmp_pd(a, big, _CMP_GT_OQ);
+                piv = _mm256_blendv_pd(piv, _mm256_set1_pd(i), gt);
+                big = _mm256_blendv_pd(big, a, gt);
+            }
+            for (int i = k + 1; i < 4; i++) {
+                const __m256d sw = _mm256_cmp_pd(piv, _mm256_set1_pd(i), _CMP_EQ_OQ);
+                for (int j = 0; j < 4; j++) {
+                    const __m256d t = M[k][j];
+                    M[k][j] = _mm256_blendv_pd(M[k][j], M[i][j], sw);
+                    M[i][j] = _mm256_blendv_pd(M[i][j], t, sw);
+                }
+                const __m256d t = y[k];
+                y[k] = _mm256_blendv_pd(y[k], y[i], sw);
+                y[i] = _mm256_blendv_pd(y[i], t, sw);
+                det = _mm256_xor_pd(det, _mm256_and_pd(sw, sign));
+            }
+            det = _mm256_mul_pd(det, M[k][k]);
+            zero = _mm256_or_pd(zero, _mm256_cmp_pd(M[k][k], _mm256_setzero_pd(), _CMP_EQ_OQ));
+            for (int i = k + 1; i < 4; i++) {
+                const __m256d fk = _mm256_div_pd(M[i][k], M[k][k]);
+                for (int j = k; j < 4; j++) M[i][j] = _mm256_fnmadd_pd(fk, M[k][j], M[i][j]);
+                y[i] = _mm256_fnmadd_pd(fk, y[k], y[i]);
+            }
+        }
+        __m256d cf[4];
+        for (int k = 3; k >= 0; k--) {
+            __m256d sum = y[k];
+            for (int j = k + 1; j < 4; j++) sum = _mm256_fnmadd_pd(M[k][j], cf[j], sum);
+            cf[k] = _mm256_div_pd(sum, M[k][k]);
+        }
+        det = _mm256_andnot_pd(zero, det);
+        _mm256_maskstore_pd(&f->det[q0], live, det);
+        for (int k = 0; k < 4; k++) _mm256_maskstore_pd(&f->coef[k][q0], live, cf[k]);
     }
 }
 #else
