@@ -4,6 +4,8 @@
  * and cubic kernels and for the MLS and classic force. */
 #include "kt.h"
 #include "mpm/model.h"
+#include "mpm/transfer_chunk.h"
+#include "random_util.h"
 #include "scene_util.h"
 
 #include <float.h>
@@ -187,10 +189,98 @@ static void affine_field_all(void) {
         for (int f = 0; f < 2; f++) affine_field((kf_kernel)k, (kf_force)f);
 }
 
+#if defined(KF_ROWS512) || defined(KF_SCATTER256)
+/* one particle's MLS scatter with the roundings the vector paths promise
+ * (scatter_one as GCC compiles it with FMA): h_a = m v + d_a Q:,0 and
+ * h_ab = h_a + d_b Q:,1 as multiply-adds, t = h_ab + d_c Q:,2 with the
+ * product rounded apart, w = (w_a w_b) w_c, node += w t as a multiply-add.
+ * Contraction off, so that only the fmaf calls fuse: two inlined copies of
+ * scatter_one itself may contract differently, and are no reference. */
+__attribute__((noinline, optimize("fp-contract=off"))) static void scatter_reference(int KW, const chunk *ck, int j,
+                                                                                     kf_v4 *cache) {
+    const int CD = CD_MAX;
+    kf_v4 *origin = &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
+    for (int a = 0; a < KW; a++)
+        for (int b = 0; b < KW; b++)
+            for (int c = 0; c < KW; c++) {
+                const kf_real w = (ck->w[0][a][j] * ck->w[1][b][j]) * ck->w[2][c][j];
+                kf_v4 *node = &origin[(a * CD + b) * CD + c];
+                for (int k = 0; k < 4; k++) {
+                    const kf_real q0 = k < 3 ? ck->q[3 * k][j] : 0, q1 = k < 3 ? ck->q[3 * k + 1][j] : 0;
+                    const kf_real q2 = k < 3 ? ck->q[3 * k + 2][j] : 0;
+                    const kf_real ha = fmaf(ck->d[0][a][j], q0, ck->mv[k][j]);
+                    const kf_real hab = fmaf(ck->d[1][b][j], q1, ha);
+                    const kf_real dq = ck->d[2][c][j] * q2;
+                    (*node)[k] = fmaf(w, hab + dq, (*node)[k]);
+                }
+            }
+}
+
+/* A chunk's MLS scatter in register runs (scatter_chunk_n: AVX-512, or
+ * AVX2 with the quadratic kernel) adds exactly the reference's sums, bit
+ * for bit: runs of one to sixteen particles on one base node, consecutive
+ * runs one node apart in z (the overlapping rows the binning's order
+ * gives) or anywhere, full chunks and a short last one, into a cache that
+ * already holds sums. */
+static void scatter_chunk_bits(int KW, int run, int n, int far) {
+    const kf_real dx = KF_R(0.01), inv_dx = 1 / dx;
+    const int span = CD_MAX - KW; /* base nodes 0..span keep the stencil in the cache */
+    chunk ck;
+    memset(&ck, 0, sizeof ck);
+    ck.n = n;
+    kf_real x[3][KF_CHUNK];
+    kf_real *xp[3] = {x[0], x[1], x[2]};
+    int base[3] = {0, 0, 0};
+    for (int j = 0; j < n; j++) {
+        if (j % run == 0) {
+            if (far)
+                for (int a = 0; a < 3; a++) base[a] = (int)(urand() * (span + 1));
+            else if (++base[2] > span) base[2] = 0, base[1] = (base[1] + 1) % (span + 1);
+        }
+        /* a position whose stencil base is base: fx in [0.5, 1.5) (quadratic) or [1, 2) (cubic) */
+        for (int a = 0; a < 3; a++)
+            x[a][j] = ((kf_real)base[a] + (KW == 4 ? 1 : KF_R(0.5)) + (kf_real)(0.02 + 0.96 * urand())) * dx;
+    }
+    const int32_t bc[3] = {0, 0, 0};
+    stencil_phase_n(KW, 0, 1, 0, n, &ck, xp, 0, bc, inv_dx, dx);
+    for (int j = 0; j < n; j++) {
+        for (int k = 0; k < 4; k++) ck.mv[k][j] = (kf_real)(k == 3 ? 0.1 + urand() : srand1());
+        for (int k = 0; k < 9; k++) ck.q[k][j] = (kf_real)(100 * srand1());
+    }
+    static kf_v4 by_chunk[CD_MAX * CD_MAX * CD_MAX], by_particle[CD_MAX * CD_MAX * CD_MAX];
+    for (int i = 0; i < CD_MAX * CD_MAX * CD_MAX; i++)
+        for (int c = 0; c < 4; c++) by_chunk[i][c] = by_particle[i][c] = (kf_real)srand1();
+    if (n == KF_CHUNK) scatter_chunk_n(KW, 0, KF_CHUNK, &ck, by_chunk);
+    else scatter_chunk(KW, 0, &ck, by_chunk);
+    for (int j = 0; j < n; j++) scatter_reference(KW, &ck, j, by_particle);
+    KT_CHECK(memcmp(by_chunk, by_particle, sizeof by_chunk) == 0, "KW %d, runs of %d, %d particles, %s", KW, run, n,
+             far ? "runs anywhere" : "runs one node apart");
+}
+#endif
+static void scatter_chunk_matches_particles(void) {
+#if defined(KF_ROWS512) || defined(KF_SCATTER256)
+    const int runs[] = {1, 2, 3, 4, 5, 8, 16};
+#ifdef KF_ROWS512
+    const int kw_last = 4;
+#else
+    const int kw_last = 3; /* the AVX2 rows: quadratic only */
+#endif
+    for (int KW = 3; KW <= kw_last; KW++)
+        for (int r = 0; r < (int)(sizeof runs / sizeof runs[0]); r++)
+            for (int far = 0; far < 2; far++) {
+                scatter_chunk_bits(KW, runs[r], KF_CHUNK, far);
+                scatter_chunk_bits(KW, runs[r], 11, far);
+            }
+#else
+    printf("  (no scatter in register runs in this build: particle by particle only)\n");
+#endif
+}
+
 int main(int argc, char **argv) {
     KT_RUN(kernel_moments_quadratic, argc, argv);
     KT_RUN(kernel_moments_cubic, argc, argv);
     KT_RUN(p2g_conservation_all, argc, argv);
     KT_RUN(affine_field_all, argc, argv);
+    KT_RUN(scatter_chunk_matches_particles, argc, argv);
     return KT_EXIT();
 }

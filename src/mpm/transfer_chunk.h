@@ -387,13 +387,25 @@ KF_INLINE void scatter_chunk512(int KW, int n, const chunk *ck, kf_v4 *cache) {
 }
 #endif
 
+/* the AVX2 scatter in stencil rows (float builds without AVX-512) */
+#include "scatter256.h"
+
 /* a chunk's P2G contributions of n particles (ck->n, or the constant
  * KF_CHUNK) to the owner's node cache: with AVX-512 (MLS) in register
- * runs (scatter_chunk512), else particle by particle */
+ * runs (scatter_chunk512), with AVX2 (MLS, quadratic) in runs of rows
+ * (scatter_chunk256), else particle by particle */
 KF_INLINE void scatter_chunk_n(int KW, int CLASSIC, int n, const chunk *ck, kf_v4 *cache) {
 #ifdef KF_ROWS512
     if (!CLASSIC) {
         scatter_chunk512(KW, n, ck, cache);
+        return;
+    }
+#endif
+#ifdef KF_SCATTER256
+    /* quadratic only: with KW 4 the rows' registers spill and the runs'
+     * loads and stores cost what the wider rows save (measured even) */
+    if (!CLASSIC && KW == 3) {
+        scatter_chunk256(KW, n, ck, cache);
         return;
     }
 #endif
