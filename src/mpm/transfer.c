@@ -491,11 +491,8 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
     prefetch_planes(p->v, 3, i0, 1);
     prefetch_planes(p->C, 9, i0, 1);
     prefetch_planes(p->F, 9, i0, 1);
-#ifdef KF_ROWS512
-    const int WD = !CLASSIC; /* the MLS gather in rows (band particles' gather_one too) */
-#else
-    const int WD = 0;
-#endif
+    /* the MLS gather in rows (band particles' gather_one too) reads w d */
+    const int WD = KF_GATHER_ROWS && !CLASSIC;
     /* the offsets d for every reader but the MLS gather in rows */
     if (CLASSIC || band) stencil_phase_n(KW, 1, 1, WD, n, ck, p->x, i0, bc, inv_dx, dx);
     else if (fields || poly || !WD) stencil_phase_n(KW, 0, 1, WD, n, ck, p->x, i0, bc, inv_dx, dx);

@@ -526,12 +526,29 @@ KF_INLINE void gather_chunk512(int KW, int n, chunk *ck, const kf_v4 *cache) {
 }
 #endif
 
+/* AVX2 + FMA without AVX-512: the same rows in 256-bit registers */
+#include "gather256.h"
+
+/* whether the MLS gather runs in rows, reading the stencil's products w d
+ * (the stencil phase's WD) rather than the offsets d */
+#if defined(KF_ROWS512) || defined(KF_GATHER256)
+#define KF_GATHER_ROWS 1
+#else
+#define KF_GATHER_ROWS 0
+#endif
+
 /* one particle's G2P gather from the owner's node cache into the chunk's v, B (and G) */
 KF_INLINE void gather_one(int KW, int CLASSIC, chunk *ck, int j, const kf_v4 *cache) {
     const int CD = CD_MAX;
 #ifdef KF_ROWS512
     if (!CLASSIC) {
         gather_rows512(KW, ck, j, cache);
+        return;
+    }
+#endif
+#ifdef KF_GATHER256
+    if (!CLASSIC) {
+        gather_rows256(KW, ck, j, cache);
         return;
     }
 #endif
@@ -577,11 +594,17 @@ KF_INLINE void gather_one(int KW, int CLASSIC, chunk *ck, int j, const kf_v4 *ca
 }
 
 /* a chunk's G2P gathers of n particles (ck->n, or the constant KF_CHUNK),
- * particle by particle or (AVX-512, MLS) as one block */
+ * particle by particle or (MLS: AVX-512, or AVX2 + FMA) as one block */
 KF_INLINE void gather_chunk(int KW, int CLASSIC, int n, chunk *ck, const kf_v4 *cache) {
 #ifdef KF_ROWS512
     if (!CLASSIC) {
         gather_chunk512(KW, n, ck, cache);
+        return;
+    }
+#endif
+#ifdef KF_GATHER256
+    if (!CLASSIC) {
+        gather_chunk256(KW, n, ck, cache);
         return;
     }
 #endif
