@@ -14,10 +14,39 @@
 #include "material.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #define BATCH 16
 #define SWEEPS 8
+
+/* x·y + z, fused where the target has FMA. The polar sweep's update
+ * ζX + ζ⁻¹X⁻ᵀ names which product it rounds: these are the forms GCC
+ * contracted the expression to when the sweep stored X in place (masked
+ * stores), kept so the results stay what they were bit for bit. */
+#ifdef __FMA__
+#define MB_FMA(x, y, z) kf_fma(x, y, z)
+#else
+#define MB_FMA(x, y, z) ((x) * (y) + (z))
+#endif
+
+/* c ? x : y by bits, for a select stored back where y was read: written
+ * as ?: GCC turns that into a store under the mask c (a masked store,
+ * microcoded on AMD); as bit operations it is an ordinary store */
+#ifdef KF_DOUBLE
+typedef uint64_t mb_bits;
+#else
+typedef uint32_t mb_bits;
+#endif
+static inline kf_real mb_pick(int c, kf_real x, kf_real y) {
+    mb_bits bx, by, m = (mb_bits)0 - (mb_bits)(c != 0);
+    memcpy(&bx, &x, sizeof bx);
+    memcpy(&by, &y, sizeof by);
+    mb_bits r = (bx & m) | (by & ~m);
+    kf_real out;
+    memcpy(&out, &r, sizeof out);
+    return out;
+}
 
 /* the robust path for particle i: update F and ps in place, τ to slot j */
 static void scalar_one(const kf_mat *m, kf_real *const F[9], kf_real *const ps[2], int project, size_t i,
@@ -48,8 +77,13 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
     kf_real F[9][BATCH], X[9][BATCH], K[9][BATCH];
     int ok[BATCH];
     const kf_real mu = m->mu, la = m->lambda;
-    for (int k = 0; k < 9; k++)
-        for (int j = 0; j < n; j++) X[k][j] = F[k][j] = Fp[k][first + (size_t)j];
+    /* the planes' pointers first, the lanes in the outer loop: GCC
+     * vectorises across the lanes (contiguous loads), where the plane loop
+     * outside would vectorise across the planes (gathers) */
+    const kf_real *src[9];
+    for (int k = 0; k < 9; k++) src[k] = Fp[k] + first;
+    for (int j = 0; j < n; j++)
+        for (int k = 0; k < 9; k++) X[k][j] = F[k][j] = src[k][j];
 
     /* X⁻ᵀ = cof(X)/det X; ζ = (‖X⁻¹‖/‖X‖)^½ speeds up the first sweeps */
     /* stop when no lane moved more than ~√tol: quadratic convergence then
@@ -62,7 +96,7 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
     int live[BATCH];
     for (int j = 0; j < n; j++) live[j] = 1;
     for (int sweep = 0; sweep < SWEEPS; sweep++) {
-        kf_real step[BATCH];
+        kf_real step[BATCH], XN[9][BATCH], XS[9][BATCH];
         for (int j = 0; j < n; j++) {
             K[0][j] = X[4][j] * X[8][j] - X[5][j] * X[7][j];
             K[1][j] = X[5][j] * X[6][j] - X[3][j] * X[8][j];
@@ -82,12 +116,19 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
             z = z > 0 ? z : 1;
             kf_real a = KF_R(0.5) * z, b = KF_R(0.5) * id / z, st = 0;
             for (int k = 0; k < 9; k++) {
-                kf_real xn = a * X[k][j] + b * K[k][j];
+                kf_real xn = (k >= 4) & (k <= 7) ? MB_FMA(b, K[k][j], a * X[k][j]) : MB_FMA(a, X[k][j], b * K[k][j]);
                 st += (xn - X[k][j]) * (xn - X[k][j]);
-                X[k][j] = live[j] ? xn : X[k][j];
+                XN[k][j] = xn;
             }
             step[j] = st;
         }
+        /* the lanes still live take the new X: selected into a third array
+         * and copied back, since a select stored back where it was read
+         * compiles to masked stores (microcoded on AMD) */
+        for (int k = 0; k < 9; k++)
+            for (int j = 0; j < n; j++) XS[k][j] = live[j] ? XN[k][j] : X[k][j];
+        for (int k = 0; k < 9; k++)
+            for (int j = 0; j < n; j++) X[k][j] = XS[k][j];
         /* a separate pass: float max-reductions would block vectorisation */
         int done = 1;
         for (int j = 0; j < n; j++) {
@@ -221,16 +262,16 @@ static inline kf_real hb_exp(kf_real x) {
         kf_real inv = 1 / kf_sqrt(live ? rw : 1);                                                                      \
         kf_real c = live ? w * inv : 1, s = live ? (d >= 0 ? 2 * g : -2 * g) * inv : 0;                                \
         kf_real cs = c * s;                                                                                            \
-        app[j] = act[j] ? c * c * a - 2 * cs * g + s * s * b : a;                                                      \
-        aqq[j] = act[j] ? s * s * a + 2 * cs * g + c * c * b : b;                                                      \
-        apq[j] = act[j] ? 0 : g;                                                                                       \
+        app[j] = mb_pick(act[j], c * c * a - 2 * cs * g + s * s * b, a);                                                \
+        aqq[j] = mb_pick(act[j], s * s * a + 2 * cs * g + c * c * b, b);                                                \
+        apq[j] = mb_pick(act[j], 0, g);                                                                                 \
         kf_real xp = arp[j], xq = arq[j];                                                                              \
-        arp[j] = act[j] ? c * xp - s * xq : xp;                                                                        \
-        arq[j] = act[j] ? s * xp + c * xq : xq;                                                                        \
+        arp[j] = mb_pick(act[j], c * xp - s * xq, xp);                                                                  \
+        arq[j] = mb_pick(act[j], s * xp + c * xq, xq);                                                                  \
         for (int i = 0; i < 3; i++) {                                                                                  \
             kf_real vp = V[3 * i + P][j], vq = V[3 * i + Q][j];                                                        \
-            V[3 * i + P][j] = act[j] ? c * vp - s * vq : vp;                                                           \
-            V[3 * i + Q][j] = act[j] ? s * vp + c * vq : vq;                                                           \
+            V[3 * i + P][j] = mb_pick(act[j], c * vp - s * vq, vp);                                                     \
+            V[3 * i + Q][j] = mb_pick(act[j], s * vp + c * vq, vq);                                                     \
         }                                                                                                              \
     }
 
@@ -240,12 +281,12 @@ static inline kf_real hb_exp(kf_real x) {
     for (int j = 0; j < n; j++) {                                                                                      \
         kf_real sp = S2[P][j], sq = S2[Q][j];                                                                          \
         int sw = sq > sp;                                                                                              \
-        S2[P][j] = sw ? sq : sp;                                                                                       \
-        S2[Q][j] = sw ? sp : sq;                                                                                       \
+        S2[P][j] = mb_pick(sw, sq, sp);                                                                                    \
+        S2[Q][j] = mb_pick(sw, sp, sq);                                                                                    \
         for (int i = 0; i < 3; i++) {                                                                                  \
             kf_real vp = V[3 * i + P][j], vq = V[3 * i + Q][j];                                                        \
-            V[3 * i + P][j] = sw ? vq : vp;                                                                            \
-            V[3 * i + Q][j] = sw ? -vp : vq;                                                                           \
+            V[3 * i + P][j] = mb_pick(sw, vq, vp);                                                                         \
+            V[3 * i + Q][j] = mb_pick(sw, -vp, vq);                                                                        \
         }                                                                                                              \
     }
 
@@ -529,6 +570,11 @@ static inline void copy_lanes(kf_real *restrict dst, const kf_real *restrict src
  * depends on its own F and state alone. */
 static int lanes_batch(const kf_mat *m, int c, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
                        kf_real *const tau6[6]) {
+    /* a full corotated batch changes neither F nor ps: it reads the
+     * particles' planes and writes τ in place (no copies through the
+     * local planes, whose 16-byte stores the next 32-byte loads could not
+     * take forwarded) */
+    if (c == BATCH && m->model == KF_MAT_COROTATED) return corotated_batch(m, BATCH, Fp, ps, first, tau6);
     kf_real F[9][BATCH] __attribute__((aligned(64))), P[2][BATCH] __attribute__((aligned(64)));
     kf_real T[6][BATCH] __attribute__((aligned(64)));
     /* the pads at rest: snow's Jp 1, the Hencky models' corrections 0 */
