@@ -1150,12 +1150,17 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt) {
         c->cap_near = cap;
     }
     /* worth it only where the particles far outnumber the short runs: a
-     * run's marks cost about what the scan of 30 particles' positions does
-     * (a preview's knife of fine triangles has more runs than that) */
+     * run's marks (up to 64 block lookups, 8 times that seed by seed where
+     * the run is wide, as on a turning blade) cost about what the scan of a
+     * few hundred particles' positions does. The marks are conservative, so
+     * with or without them the CDF is the same. 32 here cost sand_stir at
+     * --scale 4 (81k particles, under 2,600 short runs of the stirrer) half its
+     * "cdf" stage on an AMD Zen 3 (perf_results.md section 25); a preview's
+     * knife of fine triangles has more runs than that either way. */
     size_t nsub = 0;
     for (int r = 0; r < m->nrigid; r++)
         if (!(from_store && is_static(m, r))) nsub += m->rigid[r].nseed / (KF_CPIC_RUN / 8) + 1;
-    int all_near = 32 * nsub > s->p.n;
+    int all_near = 256 * nsub > s->p.n;
     if (!all_near) memset(c->near_blk, 0, g->nblocks);
     for (int r = 0; r < m->nrigid && !all_near; r++)
         if (!(from_store && is_static(m, r)) && m->rigid[r].nseed > 0) {
