@@ -10,14 +10,12 @@
 #include <immintrin.h>
 #define KF_SCATTER256 1
 
-/* a value the compiler may not look through: a product passed through it
+/* a value the compiler may not look through. A product passed through it
  * is never contracted with the add that uses it into one multiply-add
  * (-ffp-contract=fast would otherwise be free to), so it rounds apart as
- * scatter_one's hoisted d_c q2 does */
+ * scatter_one's hoisted d_c q2 does; an operand passed through it stays in
+ * a register instead of being reloaded as a memory operand */
 #define KF_OPAQUE256(v) __asm__("" : "+x"(v))
-/* the same barrier where a value should stay in a register: GCC then
- * keeps it there instead of reloading it as a memory operand */
-#define KF_PIN256(v) __asm__("" : "+x"(v))
 
 /* four planes of 8 floats (particles 0-7 of a half chunk) as records,
  * rec[j] = particle j's four values in plane order: the planes' particles
@@ -35,10 +33,9 @@ KF_INLINE void records256(__m256 p0, __m256 p1, __m256 p2, __m256 p3, float (*re
     _mm256_store_ps(rec[6], _mm256_shuffle_ps(t1, t3, 0xEE));
 }
 
-/* two z-nodes' scalars (c and c + 1, the second 0 where the row has no
- * such node) spread over the 4 lanes of each node */
+/* two z-nodes' scalars (c and c + 1) spread over the 4 lanes of each node */
 static inline __m256 znodes256(const kf_real *lo, const kf_real *hi) {
-    return _mm256_set_m128(hi ? _mm_broadcast_ss(hi) : _mm_setzero_ps(), _mm_broadcast_ss(lo));
+    return _mm256_set_m128(_mm_broadcast_ss(hi), _mm_broadcast_ss(lo));
 }
 
 /* a stencil row's nodes 0-1 (or 2-3) as one register, loaded and stored
@@ -54,8 +51,10 @@ static inline void nodes2_store(float *at, __m256 v) { _mm256_storeu2_m128(at + 
  * not hold the run's KW² rows (two registers each), so a run goes row
  * plane by row plane (a), each particle's KW rows of that plane in turn:
  * every row still gets the run's particles in chunk order, from the same
- * start, so every node's sum is scatter_one's. A row is z-nodes 0-1 in one
- * register and 2-3 in a second (KW 3: node 2 in a 128-bit one). Per lane
+ * start, so every node's sum is scatter_one's. Quadratic kernel only (with
+ * KW 4 the rows' registers spill and the runs cost what the wider rows
+ * save: measured even): a row is z-nodes 0-1 in one register and node 2 in
+ * a 128-bit one. Per lane
  * the operations are scatter_one's as GCC compiles it: h_a = m v + d_a Q:,0
  * and h_ab = h_a + d_b Q:,1 as multiply-adds, t = h_ab + d_c Q:,2 with
  * d_c Q:,2 rounded apart (once per particle), w = (w_a w_b) w_c, and the
@@ -63,8 +62,8 @@ static inline void nodes2_store(float *at, __m256 v) { _mm256_storeu2_m128(at + 
  * come from: each particle's [m v, m], Q:,0, Q:,1, Q:,2 as records (one
  * transpose per four planes and half chunk), h_a, d_c Q:,2 and the
  * z-weights once per particle, w_a w_b for the whole chunk at once. */
-KF_INLINE void scatter_chunk256(int KW, int n, const chunk *ck, kf_v4 *cache) {
-    const int CD = CD_MAX;
+KF_INLINE void scatter_chunk256(int n, const chunk *ck, kf_v4 *cache) {
+    const int CD = CD_MAX, KW = 3;
     const __m256 zero = _mm256_setzero_ps();
     /* records: group 0 [m v, m], 1 Q:,0, 2 Q:,1, 3 Q:,2 (fourth lane 0) */
     float rec[4][KF_CHUNK][4] __attribute__((aligned(32)));
@@ -84,9 +83,11 @@ KF_INLINE void scatter_chunk256(int KW, int n, const chunk *ck, kf_v4 *cache) {
                 _mm256_store_ps(wab[a * KW + b] + 8 * h, _mm256_mul_ps(_mm256_loadu_ps(ck->w[0][a] + 8 * h),
                                                                        _mm256_loadu_ps(ck->w[1][b] + 8 * h)));
     /* per particle, once: h_a in both halves, Q:,1 in both, the z-weights
-     * w_c and the products d_c Q:,2 in the row's node lanes (nodes 0-1,
-     * 2-3), and its base node */
-    __m256 ha[4][KF_CHUNK], q1[KF_CHUNK], wk[KF_CHUNK][2], dq[KF_CHUNK][2];
+     * w_c and the products d_c Q:,2 in the row's node lanes (nodes 0-1 in
+     * 256 bits, node 2 in 128), and its base node */
+    __m256 ha[3][KF_CHUNK], q1[KF_CHUNK], wk[KF_CHUNK];
+    __m128 wk2[KF_CHUNK], dq2[KF_CHUNK];
+    __m256 dq[KF_CHUNK];
     int key[KF_CHUNK];
     KF_SIMD
     for (int j = 0; j < n; j++) key[j] = (ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j];
@@ -97,61 +98,47 @@ KF_INLINE void scatter_chunk256(int KW, int n, const chunk *ck, kf_v4 *cache) {
         q1[j] = _mm256_broadcast_ps((const __m128 *)rec[2][j]);
         const __m256 q2 = _mm256_broadcast_ps((const __m128 *)rec[3][j]);
         __m256 dq01 = _mm256_mul_ps(znodes256(&ck->d[2][0][j], &ck->d[2][1][j]), q2);
-        __m256 dq23 = _mm256_mul_ps(znodes256(&ck->d[2][2][j], KW == 4 ? &ck->d[2][3][j] : NULL), q2);
+        __m128 dq_2 = _mm_mul_ps(_mm_broadcast_ss(&ck->d[2][2][j]), _mm256_castps256_ps128(q2));
         KF_OPAQUE256(dq01);
-        KF_OPAQUE256(dq23);
-        dq[j][0] = dq01, dq[j][1] = dq23;
-        wk[j][0] = znodes256(&ck->w[2][0][j], &ck->w[2][1][j]);
-        wk[j][1] = znodes256(&ck->w[2][2][j], KW == 4 ? &ck->w[2][3][j] : NULL);
+        KF_OPAQUE256(dq_2);
+        dq[j] = dq01, dq2[j] = dq_2;
+        wk[j] = znodes256(&ck->w[2][0][j], &ck->w[2][1][j]);
+        wk2[j] = _mm_broadcast_ss(&ck->w[2][2][j]);
     }
     for (int j0 = 0, j1; j0 < n; j0 = j1) {
         for (j1 = j0 + 1; j1 < n && key[j1] == key[j0];) j1++;
         float *origin = (float *)&cache[key[j0]];
         for (int a = 0; a < KW; a++) {
-            /* the plane's KW rows: nodes 0-1 in lo, 2-3 in hi (KW 3: node 2 in hi3) */
-            __m256 lo[4], hi[4];
-            __m128 hi3[4];
+            /* the plane's KW rows: nodes 0-1 in lo, node 2 in hi */
+            __m256 lo[3];
+            __m128 hi[3];
             for (int b = 0; b < KW; b++) {
                 const float *row = origin + 4 * (a * CD + b) * CD;
                 lo[b] = nodes2_load(row);
-                if (KW == 4) hi[b] = nodes2_load(row + 8);
-                else hi3[b] = _mm_loadu_ps(row + 8);
+                hi[b] = _mm_loadu_ps(row + 8);
             }
             for (int j = j0; j < j1; j++) {
                 /* the particle's operands, once per plane, in registers */
-                __m256 haj = ha[a][j], q1j = q1[j], wk0 = wk[j][0], dq0 = dq[j][0];
-                __m256 wk1 = wk[j][1], dq1 = dq[j][1];
-                KF_PIN256(haj);
-                KF_PIN256(q1j);
-                KF_PIN256(wk0);
-                KF_PIN256(dq0);
-                if (KW == 3) {
-                    __m128 wk2 = _mm256_castps256_ps128(wk1), dq2 = _mm256_castps256_ps128(dq1);
-                    KF_PIN256(wk2);
-                    KF_PIN256(dq2);
-                    for (int b = 0; b < KW; b++) {
-                        const __m256 hab = _mm256_fmadd_ps(_mm256_broadcast_ss(&ck->d[1][b][j]), q1j, haj);
-                        const __m256 w = _mm256_broadcast_ss(&wab[a * KW + b][j]);
-                        lo[b] = _mm256_fmadd_ps(_mm256_mul_ps(w, wk0), _mm256_add_ps(hab, dq0), lo[b]);
-                        hi3[b] = _mm_fmadd_ps(_mm_mul_ps(_mm256_castps256_ps128(w), wk2),
-                                              _mm_add_ps(_mm256_castps256_ps128(hab), dq2), hi3[b]);
-                    }
-                } else {
-                    KF_PIN256(wk1);
-                    KF_PIN256(dq1);
-                    for (int b = 0; b < KW; b++) {
-                        const __m256 hab = _mm256_fmadd_ps(_mm256_broadcast_ss(&ck->d[1][b][j]), q1j, haj);
-                        const __m256 w = _mm256_broadcast_ss(&wab[a * KW + b][j]);
-                        lo[b] = _mm256_fmadd_ps(_mm256_mul_ps(w, wk0), _mm256_add_ps(hab, dq0), lo[b]);
-                        hi[b] = _mm256_fmadd_ps(_mm256_mul_ps(w, wk1), _mm256_add_ps(hab, dq1), hi[b]);
-                    }
+                __m256 haj = ha[a][j], q1j = q1[j], wk0 = wk[j], dq0 = dq[j];
+                __m128 wkz = wk2[j], dqz = dq2[j];
+                KF_OPAQUE256(haj);
+                KF_OPAQUE256(q1j);
+                KF_OPAQUE256(wk0);
+                KF_OPAQUE256(dq0);
+                KF_OPAQUE256(wkz);
+                KF_OPAQUE256(dqz);
+                for (int b = 0; b < KW; b++) {
+                    const __m256 hab = _mm256_fmadd_ps(_mm256_broadcast_ss(&ck->d[1][b][j]), q1j, haj);
+                    const __m256 w = _mm256_broadcast_ss(&wab[a * KW + b][j]);
+                    lo[b] = _mm256_fmadd_ps(_mm256_mul_ps(w, wk0), _mm256_add_ps(hab, dq0), lo[b]);
+                    hi[b] = _mm_fmadd_ps(_mm_mul_ps(_mm256_castps256_ps128(w), wkz),
+                                         _mm_add_ps(_mm256_castps256_ps128(hab), dqz), hi[b]);
                 }
             }
             for (int b = 0; b < KW; b++) {
                 float *row = origin + 4 * (a * CD + b) * CD;
                 nodes2_store(row, lo[b]);
-                if (KW == 4) nodes2_store(row + 8, hi[b]);
-                else _mm_storeu_ps(row + 8, hi3[b]);
+                _mm_storeu_ps(row + 8, hi[b]);
             }
         }
     }

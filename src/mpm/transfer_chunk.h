@@ -402,10 +402,9 @@ KF_INLINE void scatter_chunk_n(int KW, int CLASSIC, int n, const chunk *ck, kf_v
     }
 #endif
 #ifdef KF_SCATTER256
-    /* quadratic only: with KW 4 the rows' registers spill and the runs'
-     * loads and stores cost what the wider rows save (measured even) */
+    /* quadratic only (scatter256.h says why) */
     if (!CLASSIC && KW == 3) {
-        scatter_chunk256(KW, n, ck, cache);
+        scatter_chunk256(n, ck, cache);
         return;
     }
 #endif
