@@ -104,6 +104,13 @@ void kf_mat_update(const kf_mat *m, kf_real F[9], kf_real ps[2], int project, kf
 int kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
                         kf_real *const tau6[6]);
 
+/* the batch path's hardening for n <= 16 lanes, rounded to kf_real as
+ * kf_mat_update_batch rounds it: snow's e^{ξ(1 − Jp)} from state = Jp (no
+ * state limit), sand's hardened friction coefficient from state = q; 1 for
+ * other models. For tests: the batch takes these across the lanes
+ * (core/vmath.h) and must keep the library's bits. */
+void kf_mat_batch_hardening(const kf_mat *m, int n, const kf_real *state, kf_real *out);
+
 /* Return mapping after F ← (I + Δt C) F: replaces F by its elastic part and
  * updates ps. Does nothing for elastic models and water. */
 void kf_mat_project(const kf_mat *m, kf_real F[9], kf_real ps[2]);

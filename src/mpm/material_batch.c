@@ -12,6 +12,7 @@
  * stress in lock step the same way (hencky_batch, snow_batch), in either
  * precision. */
 #include "material.h"
+#include "../core/vmath.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -361,28 +362,88 @@ static inline __attribute__((always_inline)) void hb_svd(int n, kf_real (*F)[BAT
     }
 }
 
-/* the new F out, shared by the Hencky models and snow: only lanes that
- * stayed in the window (the scalar path writes the others) and changed */
-static inline __attribute__((always_inline)) void hb_store_F(int n, kf_real (*G)[BATCH], const int *ok, const int *chg,
-                                                             kf_real *const Fp[9], size_t first) {
-    for (int k = 0; k < 9; k++)
-        for (int j = 0; j < n; j++)
-            if (ok[j] & chg[j]) Fp[k][first + (size_t)j] = G[k][j];
+/* n lanes of a particle plane into a local one, as a copy: a loop over
+ * Fp[k][first + j] GCC vectorises across the planes (gathers); n is BATCH
+ * here, a fixed-size copy is two vector moves */
+static inline __attribute__((always_inline)) void mb_load(int n, kf_real *restrict dst, const kf_real *restrict src) {
+    memcpy(dst, src, (size_t)n * sizeof *src);
+}
+
+/* dst = ok ? a : b for n lanes, selected by bits and stored plainly: a
+ * store under a condition compiles to a branch per lane (scalar) or to
+ * masked stores (microcoded on AMD) */
+static inline __attribute__((always_inline)) void mb_store_pick(int n, kf_real *restrict dst, const int *ok,
+                                                                const kf_real *a, const kf_real *b) {
+    for (int j = 0; j < n; j++) dst[j] = mb_pick(ok[j], a[j], b[j]);
+}
+
+/* the new F out, shared by the Hencky models and snow: G (equal to F where
+ * F did not change) for lanes that stayed in the window, the untouched F
+ * (the copy read from Fp, the same bits) for the others, which the scalar
+ * path then reads and writes. Every lane is stored (mb_store_pick). */
+static inline __attribute__((always_inline)) void hb_store_F(int n, kf_real (*G)[BATCH], kf_real (*F)[BATCH],
+                                                             const int *ok, kf_real *const Fp[9], size_t first) {
+    for (int k = 0; k < 9; k++) mb_store_pick(n, Fp[k] + first, ok, G[k], F[k]);
+}
+
+/* sand's hardened friction coefficient for n lanes of hardening state q,
+ * with kf_mat_update's float bits: φ = h0 + (h1 q − h3) e^{−h2 q} clamped
+ * to [0, π/2 − 1e-6], c_f = √(2/3) 2 sin φ / (3 − sin φ), in double.
+ * Across the lanes with vmath.h's exp and sin; a lane whose float could
+ * differ from the library route's within the error bound below takes that
+ * route (rare, see vmath.h). The clamps are fmax and fmin exactly: φ is
+ * never −0 (h0 > 0), and NaN clamps to 0 as fmax(NaN, 0) does. Bound on
+ * this route's double against the library route's, u = 2^-53:
+ *   e^x: 3u + 0.51 ulp ≤ 4.1u relative, so
+ *   Δφ ≤ 4.1u |a e| + 2u (|a e| + |h0 + a e|) ≤ 8.1u |a e| + 2u h0
+ *        (a = h1 q − h3; the roundings of a e and of the sum, fused or
+ *        not; the clamps do not widen it);
+ *   Δ sin φ ≤ Δφ + 40u φ + 2u φ (vmath.h's sin, the library's ≤ 1 ulp);
+ *   Δc_f ≤ (3 · 1.64 / 4) Δ sin φ + 4u c_f (d c_f / d sin φ ≤ 3c/4 with
+ *        3 − sin φ ≥ 2, and the three roundings).
+ * The check takes twice that. */
+static inline __attribute__((always_inline)) void sand_friction(const kf_mat *m, int n, const kf_real *P1,
+                                                                kf_real *cf) {
+    const double cap = 0.5 * 3.14159265358979323846 - 1e-6, u = 0x1p-53;
+    int safe[BATCH];
+    for (int j = 0; j < n; j++) {
+#ifdef KF_DOUBLE
+        /* no float rounding to hide the difference in: the library's */
+        safe[j] = 0;
+        continue;
+#endif
+        double q = P1[j], x = -(double)m->h2 * q, a = m->h1 * q - m->h3;
+        double ae = a * kf_vm_exp(x), phi = m->h0 + ae;
+        phi = phi > 0 ? phi : 0.0;
+        phi = phi < cap ? phi : cap;
+        double sp = kf_vm_sin(phi), c = sqrt(2.0 / 3.0) * 2 * sp / (3 - sp);
+        double aae = ae < 0 ? -ae : ae, dphi = 8.1 * u * aae + 2 * u * m->h0;
+        double dsp = dphi + 42 * u * phi, dcf = 1.25 * dsp + 4 * u * c;
+        safe[j] = (x >= -KF_VM_EXP_MAX) & (x <= KF_VM_EXP_MAX) & kf_vm_float_safe(c, 2 * dcf);
+        cf[j] = (kf_real)c;
+    }
+    for (int j = 0; j < n; j++)
+        if (!safe[j]) {
+            double q = P1[j];
+            double phi = m->h0 + (m->h1 * q - m->h3) * exp(-(double)m->h2 * q);
+            phi = fmin(fmax(phi, 0.0), 0.5 * 3.14159265358979323846 - 1e-6);
+            double sp = sin(phi);
+            cf[j] = (kf_real)(sqrt(2.0 / 3.0) * 2 * sp / (3 - sp));
+        }
 }
 
 static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
                          kf_real *const tau[6]) {
     kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], E[3][BATCH];
     int ok[BATCH];
-    for (int k = 0; k < 9; k++)
-        for (int j = 0; j < n; j++) F[k][j] = Fp[k][first + (size_t)j];
+    for (int k = 0; k < 9; k++) mb_load(n, F[k], Fp[k] + first);
     /* log σ */
     hb_svd(n, F, U, V, E, ok, HB_LO, HB_HI);
     for (int j = 0; j < n; j++) E[0][j] = hb_log(E[0][j]), E[1][j] = hb_log(E[1][j]), E[2][j] = hb_log(E[2][j]);
 
     /* the return map in principal space: E ← H; chg = F must change */
     int chg[BATCH];
-    kf_real ps0[BATCH], ps1[BATCH];
+    kf_real ps0[BATCH], ps1[BATCH], VC[BATCH], P1[BATCH];
     for (int j = 0; j < n; j++) chg[j] = 0;
     if (project && m->model == KF_MAT_VON_MISES) {
         const kf_real ry = m->tau_y / (2 * m->mu);
@@ -399,19 +460,13 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
     } else if (project && m->model == KF_MAT_SAND) {
         const kf_real mu = m->mu, la = m->lambda, c = m->cohesion, kk = (3 * la + 2 * mu) / (2 * mu);
         const int vcorr = m->volume_correction, hard = m->hardening;
-        kf_real cf[BATCH], VC[BATCH], P1[BATCH];
-        for (int j = 0; j < n; j++) VC[j] = vcorr ? ps[0][first + (size_t)j] : 0, P1[j] = ps[1][first + (size_t)j];
-        if (hard) {
-            /* the hardened friction coefficient needs exp and sin of an
-             * unbounded q: a scalar loop in double, as kf_mat_update */
-            for (int j = 0; j < n; j++) {
-                double q = P1[j];
-                double phi = m->h0 + (m->h1 * q - m->h3) * exp(-(double)m->h2 * q);
-                phi = fmin(fmax(phi, 0.0), 0.5 * 3.14159265358979323846 - 1e-6);
-                double sp = sin(phi);
-                cf[j] = (kf_real)(sqrt(2.0 / 3.0) * 2 * sp / (3 - sp));
-            }
-        } else {
+        kf_real cf[BATCH];
+        mb_load(n, P1, ps[1] + first);
+        if (vcorr) mb_load(n, VC, ps[0] + first);
+        else
+            for (int j = 0; j < n; j++) VC[j] = 0;
+        if (hard) sand_friction(m, n, P1, cf);
+        else {
             for (int j = 0; j < n; j++) cf[j] = m->c_f;
         }
         for (int j = 0; j < n; j++) {
@@ -424,15 +479,21 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
             kf_real dg = nh + kk * tr * cf[j];
             int tension = tr >= 0, elastic = !tension & (dg <= 0);
             kf_real f = dg / (nh > 0 ? nh : 1);
-            kf_real H0 = tension ? c : elastic ? s0 + c : s0 - f * h0 + c;
-            kf_real H1 = tension ? c : elastic ? s1 + c : s1 - f * h1 + c;
-            kf_real H2 = tension ? c : elastic ? s2 + c : s2 - f * h2 + c;
-            kf_real dq = tension ? kf_sqrt(s0 * s0 + s1 * s1 + s2 * s2) : elastic ? 0 : dg;
+            /* every candidate computed, then picked by bits: nested ?:
+             * (and a root under a condition) GCC if-converts into masked
+             * stores, microcoded on AMD */
+            kf_real H0 = mb_pick(tension, c, mb_pick(elastic, s0 + c, s0 - f * h0 + c));
+            kf_real H1 = mb_pick(tension, c, mb_pick(elastic, s1 + c, s1 - f * h1 + c));
+            kf_real H2 = mb_pick(tension, c, mb_pick(elastic, s2 + c, s2 - f * h2 + c));
+            /* |s| in tension, the products fused as GCC fused them under
+             * the condition (where it was taken before) */
+            kf_real st = kf_sqrt(MB_FMA(s2, s2, MB_FMA(s1, s1, s0 * s0)));
+            kf_real dq = mb_pick(tension, st, mb_pick(elastic, 0, dg));
             ps1[j] = P1[j] + dq; /* stored only with hardening */
             /* an elastic state with nothing to correct keeps F bit for bit */
             int ch = !(elastic & (vc == 0));
-            ps0[j] = ch ? vc + trt - (H0 + H1 + H2) : vc; /* stored only with volume correction */
-            E[0][j] = ch ? H0 : e0, E[1][j] = ch ? H1 : e1, E[2][j] = ch ? H2 : e2;
+            ps0[j] = mb_pick(ch, vc + trt - (H0 + H1 + H2), vc); /* stored only with volume correction */
+            E[0][j] = mb_pick(ch, H0, e0), E[1][j] = mb_pick(ch, H1, e1), E[2][j] = mb_pick(ch, H2, e2);
             chg[j] = ch;
         }
     }
@@ -462,17 +523,37 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
     }
     for (int k = 0; k < 6; k++)
         for (int j = 0; j < n; j++) tau[k][j] = T[k][j];
+    /* VC and P1 hold the states' bits where they are stored (volume
+     * correction, hardening): rejected lanes get them back unchanged */
     if (project) {
-        hb_store_F(n, G, ok, chg, Fp, first);
+        hb_store_F(n, G, F, ok, Fp, first);
         if (m->model == KF_MAT_SAND && m->volume_correction)
-            for (int j = 0; j < n; j++)
-                if (ok[j]) ps[0][first + (size_t)j] = ps0[j];
+            mb_store_pick(n, ps[0] + first, ok, ps0, VC);
         if (m->model == KF_MAT_SAND && m->hardening)
-            for (int j = 0; j < n; j++)
-                if (ok[j]) ps[1][first + (size_t)j] = ps1[j];
+            mb_store_pick(n, ps[1] + first, ok, ps1, P1);
     }
     for (int j = 0; j < n; j++)
         if (!ok[j]) scalar_one(m, Fp, ps, project, first + (size_t)j, tau, j);
+}
+
+/* H = (float)e^x for n lanes with the library's bits: kf_vm_exp across
+ * the lanes (≤ 3u, the library ≤ 0.51 ulp: within 16u of each other), the
+ * library's exp for a lane whose float could round either way within
+ * that (vmath.h), or whose x is out of range */
+static inline __attribute__((always_inline)) void snow_hardening(int n, const double *X, kf_real *H) {
+#ifdef KF_DOUBLE
+    /* no float rounding to hide the difference in: the library's */
+    for (int j = 0; j < n; j++) H[j] = exp(X[j]);
+    return;
+#endif
+    int safe[BATCH];
+    for (int j = 0; j < n; j++) {
+        double x = X[j], y = kf_vm_exp(x);
+        safe[j] = (x >= -KF_VM_EXP_MAX) & (x <= KF_VM_EXP_MAX) & kf_vm_float_safe(y, y * 0x1p-49);
+        H[j] = (kf_real)y;
+    }
+    for (int j = 0; j < n; j++)
+        if (!safe[j]) H[j] = (kf_real)exp(X[j]);
 }
 
 /* Snow (Stomakhin et al. 2013), as kf_mat_update: σ clamped to
@@ -491,14 +572,14 @@ static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *
 #define SNOW_HI KF_R(1.1)
 static int snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
                       kf_real *const tau[6]) {
-    kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], S[3][BATCH], D[3][BATCH], JP[BATCH], H[BATCH];
+    kf_real F[9][BATCH], V[9][BATCH], U[9][BATCH], S[3][BATCH], D[3][BATCH], JP[BATCH], JP0[BATCH], H[BATCH];
     int ok[BATCH], chg[BATCH];
-    for (int k = 0; k < 9; k++)
-        for (int j = 0; j < n; j++) F[k][j] = Fp[k][first + (size_t)j];
+    for (int k = 0; k < 9; k++) mb_load(n, F[k], Fp[k] + first);
+    mb_load(n, JP0, ps[0] + first);
     hb_svd(n, F, U, V, S, ok, SNOW_LO, SNOW_HI);
     const kf_real lo = 1 - m->theta_c, hi = 1 + m->theta_s;
     for (int j = 0; j < n; j++) {
-        kf_real jp = ps[0][first + (size_t)j], ratio = 1;
+        kf_real jp = JP0[j], ratio = 1;
         int c = 0;
         for (int i = 0; i < 3; i++) {
             kf_real si = S[i][j], di = project ? (si < lo ? lo : si > hi ? hi : si) : si;
@@ -509,15 +590,20 @@ static int snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *con
         chg[j] = c;
         JP[j] = c ? jp * ratio : jp;
     }
-    /* the hardening's exponent is unbounded: the library's exp, per lane;
-     * under a fixed step at most the stiffness the step resolves (Jp below
-     * state_limit hardens as at state_limit, material.h: kf_mat_limit) */
+    /* the hardening e^{ξ(1 − Jp)} in double, rounded to float as
+     * kf_mat_update's; under a fixed step at most the stiffness the step
+     * resolves (Jp below state_limit hardens as at state_limit, material.h:
+     * kf_mat_limit) */
     int limited = 0;
+    double X[BATCH];
     for (int j = 0; j < n; j++) {
         double jp = (double)JP[j];
-        if (m->c_limit > 0 && jp < m->state_limit) jp = m->state_limit, limited += ok[j];
-        H[j] = (kf_real)exp((double)m->xi * (1.0 - jp));
+        int lim = (m->c_limit > 0) & (jp < m->state_limit);
+        jp = lim ? m->state_limit : jp;
+        limited += lim & ok[j];
+        X[j] = (double)m->xi * (1.0 - jp);
     }
+    snow_hardening(n, X, H);
     const kf_real mu2 = 2 * m->mu, la = m->lambda;
     kf_real T[6][BATCH], G[9][BATCH];
     for (int j = 0; j < n; j++) {
@@ -541,9 +627,8 @@ static int snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *con
     for (int k = 0; k < 6; k++)
         for (int j = 0; j < n; j++) tau[k][j] = T[k][j];
     if (project) {
-        hb_store_F(n, G, ok, chg, Fp, first);
-        for (int j = 0; j < n; j++)
-            if (ok[j]) ps[0][first + (size_t)j] = JP[j];
+        hb_store_F(n, G, F, ok, Fp, first);
+        mb_store_pick(n, ps[0] + first, ok, JP, JP0);
     }
     for (int j = 0; j < n; j++)
         if (!ok[j]) {
@@ -553,13 +638,9 @@ static int snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *con
     return limited;
 }
 
-/* c <= BATCH lanes out of a batch's plane: a full batch as one fixed-size
- * copy (a vector move; a variable length compiles to a string copy, whose
- * start-up costs more than the copy) */
+/* c < BATCH lanes out of a short batch's plane */
 static inline void copy_lanes(kf_real *restrict dst, const kf_real *restrict src, int c) {
-    if (c == BATCH) memcpy(dst, src, BATCH * sizeof *src);
-    else
-        for (int j = 0; j < c; j++) dst[j] = src[j];
+    for (int j = 0; j < c; j++) dst[j] = src[j];
 }
 
 /* One batch of c <= BATCH particles from index first, through lanes of a
@@ -570,26 +651,28 @@ static inline void copy_lanes(kf_real *restrict dst, const kf_real *restrict src
  * depends on its own F and state alone. */
 static int lanes_batch(const kf_mat *m, int c, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
                        kf_real *const tau6[6]) {
-    /* a full corotated batch changes neither F nor ps: it reads the
-     * particles' planes and writes τ in place (no copies through the
-     * local planes, whose 16-byte stores the next 32-byte loads could not
-     * take forwarded) */
-    if (c == BATCH && m->model == KF_MAT_COROTATED) return corotated_batch(m, BATCH, Fp, ps, first, tau6);
+    /* a full batch reads the particles' planes and writes τ, F and the
+     * states in place (no copies through the local planes, whose 16-byte
+     * stores the next 32-byte loads could not take forwarded): every model
+     * loads its inputs into locals first and stores whole planes last, so
+     * the arithmetic is that of the local planes. The corotated model
+     * changes neither F nor ps. */
+    if (c == BATCH) {
+        int proj = project && m->plastic;
+        if (m->model == KF_MAT_COROTATED) return corotated_batch(m, BATCH, Fp, ps, first, tau6);
+        if (m->model == KF_MAT_SNOW) return snow_batch(m, BATCH, Fp, ps, proj, first, tau6);
+        hencky_batch(m, BATCH, Fp, ps, proj, first, tau6);
+        return 0;
+    }
     kf_real F[9][BATCH] __attribute__((aligned(64))), P[2][BATCH] __attribute__((aligned(64)));
     kf_real T[6][BATCH] __attribute__((aligned(64)));
     /* the pads at rest: snow's Jp 1, the Hencky models' corrections 0 */
     const kf_real rest = m->model == KF_MAT_SNOW ? 1 : 0;
-    /* a full batch as fixed-size copies (vector moves); a short one padded
-     * lane by lane */
-    if (c == BATCH) {
-        for (int k = 0; k < 9; k++) memcpy(F[k], Fp[k] + first, sizeof F[k]);
-        for (int k = 0; k < 2; k++) memcpy(P[k], ps[k] + first, sizeof P[k]);
-    } else {
-        for (int k = 0; k < 9; k++)
-            for (int j = 0; j < BATCH; j++) F[k][j] = j < c ? Fp[k][first + (size_t)j] : (kf_real)(k % 4 == 0);
-        for (int k = 0; k < 2; k++)
-            for (int j = 0; j < BATCH; j++) P[k][j] = j < c ? ps[k][first + (size_t)j] : k == 0 ? rest : 0;
-    }
+    /* a short batch padded lane by lane */
+    for (int k = 0; k < 9; k++)
+        for (int j = 0; j < BATCH; j++) F[k][j] = j < c ? Fp[k][first + (size_t)j] : (kf_real)(k % 4 == 0);
+    for (int k = 0; k < 2; k++)
+        for (int j = 0; j < BATCH; j++) P[k][j] = j < c ? ps[k][first + (size_t)j] : k == 0 ? rest : 0;
     kf_real *const Fl[9] = {F[0], F[1], F[2], F[3], F[4], F[5], F[6], F[7], F[8]};
     kf_real *const Pl[2] = {P[0], P[1]};
     kf_real *const Tl[6] = {T[0], T[1], T[2], T[3], T[4], T[5]};
@@ -630,4 +713,17 @@ int kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *co
         if (m->c_limit > 0) limited += limited_at(m, F, ps, i);
     }
     return limited;
+}
+
+void kf_mat_batch_hardening(const kf_mat *m, int n, const kf_real *state, kf_real *out) {
+    if (n > BATCH) n = BATCH;
+    if (m->model == KF_MAT_SNOW) {
+        double X[BATCH];
+        for (int j = 0; j < n; j++) X[j] = (double)m->xi * (1.0 - (double)state[j]);
+        snow_hardening(n, X, out);
+    } else if (m->model == KF_MAT_SAND && m->hardening) {
+        sand_friction(m, n, state, out);
+    } else {
+        for (int j = 0; j < n; j++) out[j] = 1;
+    }
 }
