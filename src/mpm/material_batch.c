@@ -94,7 +94,10 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
      * mates do: a particle's stress depends on its F alone, so any grouping
      * of particles into batches (the fused transfer's owner blocks, the
      * stress pass's runs) gives the same bits */
-    int live[BATCH];
+    /* live flags as kf_real (1 or 0): a select on them is a mask of the
+     * planes' own width, where an int flag costs the double build lane
+     * permutations in every select */
+    kf_real live[BATCH];
     for (int j = 0; j < n; j++) live[j] = 1;
     for (int sweep = 0; sweep < SWEEPS; sweep++) {
         kf_real step[BATCH], XN[9][BATCH], XS[9][BATCH];
@@ -127,14 +130,14 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
          * and copied back, since a select stored back where it was read
          * compiles to masked stores (microcoded on AMD) */
         for (int k = 0; k < 9; k++)
-            for (int j = 0; j < n; j++) XS[k][j] = live[j] ? XN[k][j] : X[k][j];
+            for (int j = 0; j < n; j++) XS[k][j] = live[j] != 0 ? XN[k][j] : X[k][j];
         for (int k = 0; k < 9; k++)
             for (int j = 0; j < n; j++) X[k][j] = XS[k][j];
         /* a separate pass: float max-reductions would block vectorisation */
         int done = 1;
         for (int j = 0; j < n; j++) {
-            live[j] &= !(step[j] < stop2);
-            done &= !live[j];
+            live[j] = (live[j] != 0) & !(step[j] < stop2) ? 1 : 0;
+            done &= live[j] == 0;
         }
         if (done) break;
     }
@@ -638,9 +641,15 @@ static int snow_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *con
     return limited;
 }
 
-/* c < BATCH lanes out of a short batch's plane */
+/* c < BATCH lanes of a short batch's plane, as at most four fixed-size
+ * copies (vector moves): a loop of variable length compiles to a call to
+ * memmove, whose start-up costs more than the copy */
 static inline void copy_lanes(kf_real *restrict dst, const kf_real *restrict src, int c) {
-    for (int j = 0; j < c; j++) dst[j] = src[j];
+    int o = 0;
+    if (c & 8) memcpy(dst + o, src + o, 8 * sizeof *src), o += 8;
+    if (c & 4) memcpy(dst + o, src + o, 4 * sizeof *src), o += 4;
+    if (c & 2) memcpy(dst + o, src + o, 2 * sizeof *src), o += 2;
+    if (c & 1) dst[o] = src[o];
 }
 
 /* One batch of c <= BATCH particles from index first, through lanes of a
@@ -668,11 +677,15 @@ static int lanes_batch(const kf_mat *m, int c, kf_real *const Fp[9], kf_real *co
     kf_real T[6][BATCH] __attribute__((aligned(64)));
     /* the pads at rest: snow's Jp 1, the Hencky models' corrections 0 */
     const kf_real rest = m->model == KF_MAT_SNOW ? 1 : 0;
-    /* a short batch padded lane by lane */
-    for (int k = 0; k < 9; k++)
-        for (int j = 0; j < BATCH; j++) F[k][j] = j < c ? Fp[k][first + (size_t)j] : (kf_real)(k % 4 == 0);
-    for (int k = 0; k < 2; k++)
-        for (int j = 0; j < BATCH; j++) P[k][j] = j < c ? ps[k][first + (size_t)j] : k == 0 ? rest : 0;
+    /* a short batch: the pads first, then the particles over them */
+    for (int k = 0; k < 9; k++) {
+        for (int j = 0; j < BATCH; j++) F[k][j] = (kf_real)(k % 4 == 0);
+        copy_lanes(F[k], Fp[k] + first, c);
+    }
+    for (int k = 0; k < 2; k++) {
+        for (int j = 0; j < BATCH; j++) P[k][j] = k == 0 ? rest : 0;
+        copy_lanes(P[k], ps[k] + first, c);
+    }
     kf_real *const Fl[9] = {F[0], F[1], F[2], F[3], F[4], F[5], F[6], F[7], F[8]};
     kf_real *const Pl[2] = {P[0], P[1]};
     kf_real *const Tl[6] = {T[0], T[1], T[2], T[3], T[4], T[5]};
