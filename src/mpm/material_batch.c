@@ -94,10 +94,10 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
      * mates do: a particle's stress depends on its F alone, so any grouping
      * of particles into batches (the fused transfer's owner blocks, the
      * stress pass's runs) gives the same bits */
-    /* live flags as kf_real (1 or 0): a select on them is a mask of the
-     * planes' own width, where an int flag costs the double build lane
-     * permutations in every select */
-    kf_real live[BATCH];
+    /* live flags of the planes' own width (mb_bits): a select on them is
+     * one blend, where an int flag cost the double build lane permutations
+     * in every select (and a kf_real flag the float build a compare) */
+    mb_bits live[BATCH];
     for (int j = 0; j < n; j++) live[j] = 1;
     for (int sweep = 0; sweep < SWEEPS; sweep++) {
         kf_real step[BATCH], XN[9][BATCH], XS[9][BATCH];
@@ -130,14 +130,14 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
          * and copied back, since a select stored back where it was read
          * compiles to masked stores (microcoded on AMD) */
         for (int k = 0; k < 9; k++)
-            for (int j = 0; j < n; j++) XS[k][j] = live[j] != 0 ? XN[k][j] : X[k][j];
+            for (int j = 0; j < n; j++) XS[k][j] = live[j] ? XN[k][j] : X[k][j];
         for (int k = 0; k < 9; k++)
             for (int j = 0; j < n; j++) X[k][j] = XS[k][j];
         /* a separate pass: float max-reductions would block vectorisation */
         int done = 1;
         for (int j = 0; j < n; j++) {
-            live[j] = (live[j] != 0) & !(step[j] < stop2) ? 1 : 0;
-            done &= live[j] == 0;
+            live[j] &= !(step[j] < stop2);
+            done &= !live[j];
         }
         if (done) break;
     }
