@@ -120,7 +120,7 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
             z = z > 0 ? z : 1;
             kf_real a = KF_R(0.5) * z, b = KF_R(0.5) * id / z, st = 0;
             for (int k = 0; k < 9; k++) {
-                kf_real xn = (k >= 4) & (k <= 7) ? MB_FMA(b, K[k][j], a * X[k][j]) : MB_FMA(a, X[k][j], b * K[k][j]);
+                kf_real xn = ((k >= 4) & (k <= 7)) ? MB_FMA(b, K[k][j], a * X[k][j]) : MB_FMA(a, X[k][j], b * K[k][j]);
                 st += (xn - X[k][j]) * (xn - X[k][j]);
                 XN[k][j] = xn;
             }
