@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <ctime>
 #include <stdexcept>
 #include <unordered_map>
@@ -229,6 +230,14 @@ struct binned {
     std::vector<uint64_t> key; // distinct bins, ascending
     std::vector<uint32_t> at;  // (nbins + 1)
     int reach = 1;             // leaves a kernel reaches beyond its own
+    // the voxels each kernel is evaluated on lie in its box (x lo, y lo,
+    // z lo, x hi, y hi, z hi: ceil(c - ext), floor(c + ext)); a bin's box
+    // is their union, its core box the union of its deep balls' cores
+    // (the same with `core` for ext). A leaf tests a bin's box, then its
+    // kernels' (small, contiguous), before it reads a kernel: most kernels
+    // of the 27 bins around a leaf do not reach it.
+    std::vector<int32_t> box;               // 6 per kernel
+    std::vector<int32_t> bin_box, bin_cbox; // 6 per bin
     long find(uint64_t q) const {
         auto it = std::lower_bound(key.begin(), key.end(), q);
         return it == key.end() || *it != q ? -1 : long(it - key.begin());
@@ -242,17 +251,76 @@ inline int64_t leaf_of(float c) { return int64_t(std::floor(c)) >> LEAF_LOG2; }
 // The bits of a row's voxels za..zb (leaf offsets 0..7)
 inline unsigned row_bits(int za, int zb) { return (0xFFu >> (7 - (zb - za))) << za & 0xFFu; }
 
+// The rows of a leaf's x plane (y = 0..7) as the bytes of a word, each
+// 0x80 where wanted. span_bytes: rows ya..yb. rows_to_do: the rows whose
+// core bits (one byte each, cores[0..7]) do not hold every bit of zmask.
+inline uint64_t span_bytes(int ya, int yb) {
+    return (~uint64_t(0) >> (8 * (7 - (yb - ya)))) << (8 * ya) & 0x8080808080808080ull;
+}
+inline uint64_t rows_to_do(const uint8_t *cores, unsigned zmask) {
+    uint64_t w;
+    std::memcpy(&w, cores, sizeof w);
+    const uint64_t z = uint64_t(zmask) * 0x0101010101010101ull, t = (w & z) ^ z; // a byte: zmask's bits missing
+    const uint64_t lo7 = 0x7F7F7F7F7F7F7F7Full;
+    return (((t & lo7) + lo7) | t) & ~lo7; // 0x80 in each nonzero byte
+}
+inline int kf_ctz64(uint64_t v) { return __builtin_ctzll(v); }
+
+// whether box (lo x y z, hi x y z) meets the leaf's voxels o .. o + 7
+inline bool box_meets(const int32_t *bx, const int o[3]) {
+    return bx[0] <= o[0] + LEAF_DIM - 1 && bx[3] >= o[0] && bx[1] <= o[1] + LEAF_DIM - 1 && bx[4] >= o[1] &&
+           bx[2] <= o[2] + LEAF_DIM - 1 && bx[5] >= o[2];
+}
+
 // Calls fn(q) for every kernel binned in the leaves within the bins' reach
-// of leaf lc, leaf by leaf in a fixed order (x, then y, then z offsets).
-template <class Fn> void for_each_kernel_near(const binned &b, Coord lc, Fn &&fn) {
+// of leaf lc whose bin's box (bin_boxes) and own box (boxes, if given)
+// meet the leaf, leaf by leaf in a fixed order (x, then y, then z offsets).
+// The others have no voxel there: fn would return at once.
+template <class Fn>
+void for_each_kernel_near(const binned &b, Coord lc, const int32_t *boxes, const std::vector<int32_t> &bin_boxes,
+                          Fn &&fn) {
     const int r = b.reach;
+    const int o[3] = {lc.x() * LEAF_DIM, lc.y() * LEAF_DIM, lc.z() * LEAF_DIM};
     for (int i = -r; i <= r; i++)
         for (int j = -r; j <= r; j++)
             for (int l = -r; l <= r; l++) {
                 const long bi = b.find(leaf_key(lc.x() + i, lc.y() + j, lc.z() + l));
-                if (bi < 0) continue;
-                for (uint32_t q = b.at[size_t(bi)]; q < b.at[size_t(bi) + 1]; q++) fn(q);
+                if (bi < 0 || !box_meets(bin_boxes.data() + 6 * size_t(bi), o)) continue;
+                for (uint32_t q = b.at[size_t(bi)]; q < b.at[size_t(bi) + 1]; q++)
+                    if (!boxes || box_meets(boxes + 6 * size_t(q), o)) fn(q);
             }
+}
+
+// the kernels' boxes, and their bins' boxes and core boxes (binned's
+// comment): the same integers splat_leaf and core_rows compute from each kernel
+void make_boxes(binned &b) {
+    const size_t n = b.k.size(), nbin = b.key.size();
+    b.box.resize(6 * n), b.bin_box.resize(6 * nbin), b.bin_cbox.resize(6 * nbin);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t q = rg.begin(); q != rg.end(); q++) {
+            const kernel &K = b.k[q];
+            int32_t *x = b.box.data() + 6 * q;
+            for (int a = 0; a < 3; a++)
+                x[a] = int32_t(std::ceil(K.c[a] - K.ext[a])), x[a + 3] = int32_t(std::floor(K.c[a] + K.ext[a]));
+        }
+    });
+    const float rc = b.core;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nbin, 256), [&](const tbb::blocked_range<size_t> &rg) {
+        for (size_t bi = rg.begin(); bi != rg.end(); bi++) {
+            int32_t *bb = b.bin_box.data() + 6 * bi, *bc = b.bin_cbox.data() + 6 * bi;
+            for (int a = 0; a < 3; a++) bb[a] = bc[a] = INT32_MAX, bb[a + 3] = bc[a + 3] = INT32_MIN;
+            for (uint32_t q = b.at[bi]; q < b.at[bi + 1]; q++) {
+                const int32_t *x = b.box.data() + 6 * size_t(q);
+                for (int a = 0; a < 3; a++) bb[a] = std::min(bb[a], x[a]), bb[a + 3] = std::max(bb[a + 3], x[a + 3]);
+                // core_rows' test: no core voxel unless rc > 0 and the kernel is deep
+                if (!b.deep[q] || !(rc > 0)) continue;
+                const float *c = b.k[q].c;
+                for (int a = 0; a < 3; a++)
+                    bc[a] = std::min(bc[a], int32_t(std::ceil(c[a] - rc))),
+                    bc[a + 3] = std::max(bc[a + 3], int32_t(std::floor(c[a] + rc)));
+            }
+        }
+    });
 }
 
 // The voxels of one leaf within b.core of a deep ball's centre (a bit per
@@ -263,7 +331,7 @@ bool core_rows(const binned &b, Coord lc, uint8_t core[LEAF_DIM * LEAF_DIM]) {
     std::fill(core, core + LEAF_DIM * LEAF_DIM, uint8_t(0));
     const int ox = lc.x() * LEAF_DIM, oy = lc.y() * LEAF_DIM, oz = lc.z() * LEAF_DIM;
     const float rc = b.core, rc2 = rc * rc;
-    for_each_kernel_near(b, lc, [&](uint32_t q) {
+    for_each_kernel_near(b, lc, nullptr, b.bin_cbox, [&](uint32_t q) {
         if (!b.deep[q]) return;
         const float *c = b.k[q].c;
         const int x0 = std::max(ox, int(std::ceil(c[0] - rc))),
@@ -317,42 +385,50 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
         for (int v = 0; v < LEAF_SIZE; v++)
             if (core[v >> LEAF_LOG2] >> (v & (LEAF_DIM - 1)) & 1) F[v] = 1.f;
     }
-    for_each_kernel_near(b, lc, [&](uint32_t q) {
+    for_each_kernel_near(b, lc, b.box.data(), b.bin_box, [&](uint32_t q) {
         const kernel &K = b.k[q];
-        const int x0 = std::max(ox, int(std::ceil(K.c[0] - K.ext[0]))),
-                  x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(K.c[0] + K.ext[0])));
-        const int y0 = std::max(oy, int(std::ceil(K.c[1] - K.ext[1]))),
-                  y1 = std::min(oy + LEAF_DIM - 1, int(std::floor(K.c[1] + K.ext[1])));
-        const int z0 = std::max(oz, int(std::ceil(K.c[2] - K.ext[2]))),
-                  z1 = std::min(oz + LEAF_DIM - 1, int(std::floor(K.c[2] + K.ext[2])));
+        const int32_t *bx = b.box.data() + 6 * size_t(q);
+        const int x0 = std::max(ox, int(bx[0])), x1 = std::min(ox + LEAF_DIM - 1, int(bx[3]));
+        const int y0 = std::max(oy, int(bx[1])), y1 = std::min(oy + LEAF_DIM - 1, int(bx[4]));
+        const int z0 = std::max(oz, int(bx[2])), z1 = std::min(oz + LEAF_DIM - 1, int(bx[5]));
         if (x0 > x1 || y0 > y1 || z0 > z1) return;
         const unsigned zmask = row_bits(z0 - oz, z1 - oz);
+        // the rows y0..y1 as bytes of a word; with the cores, those whose
+        // voxels in reach are not all cores (the others: nothing to do)
+        const uint64_t yspan = span_bytes(y0 - oy, y1 - oy);
+        const float inv2 = 0.5f / K.P[5];
         for (int x = x0; x <= x1; x++) {
+            const uint64_t todo = cull ? rows_to_do(core + ((x - ox) << LEAF_LOG2), zmask) & yspan : yspan;
+            if (!todo) continue;
             const float dx = float(x) - K.c[0];
-            for (int y = y0; y <= y1; y++) {
-                // a row whose voxels in reach are all cores: nothing to do
-                const unsigned cr = cull ? core[((x - ox) << LEAF_LOG2) + (y - oy)] : 0u;
-                if (cr == 0xFFu || (cr && (cr & zmask) == zmask)) continue;
-                const float dy = float(y) - K.c[1];
-                // the row's span inside the grown ellipsoid: P5 dz^2 + pb dz + pa <= 1
+            // the eight rows' spans inside the grown ellipsoid (P5 dz^2 + pb
+            // dz + pa <= 1) and their quadratics, at once (a vector each; the
+            // same floats row by row); a row outside has disc < 0
+            float qa[LEAF_DIM], qb[LEAF_DIM], disc[LEAF_DIM];
+            int za[LEAF_DIM], zb[LEAF_DIM];
+            for (int j = 0; j < LEAF_DIM; j++) {
+                const float dy = float(oy + j) - K.c[1];
                 const float pa = K.P[0] * dx * dx + 2 * K.P[1] * dx * dy + K.P[3] * dy * dy;
                 const float pb = 2 * (K.P[2] * dx + K.P[4] * dy);
-                const float disc = pb * pb - 4 * K.P[5] * (pa - 1);
-                if (disc < 0) continue;
-                const float sq = std::sqrt(disc), inv2 = 0.5f / K.P[5];
-                const int za = std::max(z0, int(std::floor(K.c[2] + (-pb - sq) * inv2))),
-                          zb = std::min(z1, int(std::ceil(K.c[2] + (-pb + sq) * inv2)));
-                const float qa = K.M[0] * dx * dx + 2 * K.M[1] * dx * dy + K.M[3] * dy * dy;
-                const float qb = 2 * (K.M[2] * dx + K.M[4] * dy);
-                if (za > zb) continue;
+                disc[j] = pb * pb - 4 * K.P[5] * (pa - 1);
+                const float sq = std::sqrt(std::max(disc[j], 0.f));
+                za[j] = std::max(z0, int(std::floor(K.c[2] + (-pb - sq) * inv2)));
+                zb[j] = std::min(z1, int(std::ceil(K.c[2] + (-pb + sq) * inv2)));
+                qa[j] = K.M[0] * dx * dx + 2 * K.M[1] * dx * dy + K.M[3] * dy * dy;
+                qb[j] = 2 * (K.M[2] * dx + K.M[4] * dy);
+            }
+            for (uint64_t rows = todo; rows; rows &= rows - 1) {
+                const int j = kf_ctz64(rows) >> 3, y = oy + j;
+                if (disc[j] < 0 || za[j] > zb[j]) continue;
+                const unsigned cr = cull ? core[((x - ox) << LEAF_LOG2) + j] : 0u;
                 if (cr) {
-                    const unsigned m = row_bits(za - oz, zb - oz);
+                    const unsigned m = row_bits(za[j] - oz, zb[j] - oz);
                     if ((cr & m) == m) continue;
                 }
                 const int row = ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2);
-                const int ma = za - oz, mb = zb - oz;
+                const int ma = za[j] - oz, mb = zb[j] - oz;
                 float *d = F + row;
-                const float cz = K.c[2], m5 = K.M[5], am = K.amin;
+                const float cz = K.c[2], m5 = K.M[5], am = K.amin, qaj = qa[j], qbj = qb[j];
                 if (!who) {
                     // the whole 8-voxel row, branch-free so that it
                     // vectorises; voxels outside [za, zb] keep theirs
@@ -362,7 +438,7 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
 #pragma GCC unroll 1
                     for (int z = 0; z < LEAF_DIM; z++) {
                         const float dz = float(oz + z) - cz;
-                        const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
+                        const float val = am * (1 - std::sqrt(std::max(qaj + dz * (qbj + m5 * dz), 0.f)));
                         d[z] = z >= ma && z <= mb && val > d[z] ? val : d[z];
                     }
                 } else {
@@ -371,7 +447,7 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
                     int32_t *w = who + row;
                     for (int z = ma; z <= mb; z++) {
                         const float dz = float(oz + z) - cz;
-                        const float val = am * (1 - std::sqrt(std::max(qa + dz * (qb + m5 * dz), 0.f)));
+                        const float val = am * (1 - std::sqrt(std::max(qaj + dz * (qbj + m5 * dz), 0.f)));
                         if (val > d[z]) {
                             d[z] = val;
                             w[z] = int32_t(q);
@@ -504,6 +580,7 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
         },
         [](float x, float y) { return std::max(x, y); });
     b.reach = int(std::ceil(double(emax) / LEAF_DIM));
+    make_boxes(b);
     // the leaves within reach of a bin holding a particle near a face: the
     // surface lies in them; the others are wholly inside or outside (each
     // bin's in its own slots, NONE where it holds none: the same set)
