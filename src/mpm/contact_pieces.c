@@ -53,22 +53,58 @@ static int reserve(void **p, size_t *cap, size_t n, size_t size) {
     return 0;
 }
 
-/* The common case, decided without the per-particle union-find: no particle
- * has affinity to a body (no blade in the material: every two particles are
- * compatible) and all share one field. Then the parts are the connected sets
- * of the nodes particles are nearest to (two particles at one node, or at
- * nodes next to each other along an axis, are linked), so one flood over
- * each block's 64-bit mask of such nodes tells whether the field is whole.
- * Returns 1 when it is (the full pass would find one part and change
- * nothing), 0 when the full pass must decide, -1 out of memory. */
+/* A block's 64 nodes as one mask (bit x << 4 | y << 2 | z) and its faces:
+ * X0 the nodes at x = 0 .. Z3 those at z = 3. */
+#define PC_X0 0xFFFFull
+#define PC_X3 (PC_X0 << 48)
+#define PC_Y0 0x000F000F000F000Full
+#define PC_Y3 (PC_Y0 << 12)
+#define PC_Z0 0x1111111111111111ull
+#define PC_Z3 (PC_Z0 << 3)
+
+/* the nodes of mask r and those next to them along an axis, within the block */
+static inline uint64_t pc_grow(uint64_t r) {
+    return r | ((r & ~PC_X3) << 16) | ((r & ~PC_X0) >> 16) | ((r & ~PC_Y3) << 4) | ((r & ~PC_Y0) >> 4) |
+           ((r & ~PC_Z3) << 1) | ((r & ~PC_Z0) >> 1);
+}
+
+/* the nodes of block b next to a node of mask m (per block) in a face neighbour */
+static inline uint64_t pc_from_faces(const uint64_t *m, const int32_t *x) {
+    uint64_t r = 0;
+    if (x[0] >= 0) r |= (m[x[0]] & PC_X3) >> 48;
+    if (x[1] >= 0) r |= (m[x[1]] & PC_X0) << 48;
+    if (x[2] >= 0) r |= (m[x[2]] & PC_Y3) >> 12;
+    if (x[3] >= 0) r |= (m[x[3]] & PC_Y0) << 12;
+    if (x[4] >= 0) r |= (m[x[4]] & PC_Z3) >> 3;
+    if (x[5] >= 0) r |= (m[x[5]] & PC_Z0) << 3;
+    return r;
+}
+
+/* The common case, decided without the per-particle union-find: all
+ * particles share one field and at most one body colours them. Two
+ * particles at one node, or at nodes next to each other along an axis, are
+ * linked when compatible, and with one body a particle is of one of three
+ * kinds: without affinity (compatible with every particle), or with
+ * affinity on the body's front or back (compatible with its own side and
+ * the first kind). So the parts are the connected sets of (node, kind)
+ * pairs some particle holds, linked as the particles are, and one flood
+ * over each block's three 64-bit masks of such nodes tells whether the
+ * field is whole: the same answer as the full pass's union-find, which
+ * would then find one part and change nothing. With no blade in the
+ * material only the first kind is there. Returns 1 when the field is
+ * whole, 0 when the full pass must decide, -1 out of memory. */
 static int whole_at_once(const kf_state *s, kf_contact *c, const uint32_t *node_of, uint32_t aff, int one) {
     const kf_particles *p = &s->p;
     const kf_grid *g = &s->g;
     const size_t n = p->n, nb = g->nblocks;
-    if ((aff & 0xAAAAAAAu) || !one) return 0;
+    const uint32_t A = aff & 0xAAAAAAAu;
+    /* more than one body's affinity: the kinds are no longer three */
+    if ((A & (A - 1)) || !one || !n) return 0;
+    const int kinds = A ? 3 : 1;
+    const uint32_t side = A >> 1; /* the body's side bit */
     if (nb > c->pc_occ_cap) {
         size_t cap = nb + nb / 4 + 64;
-        uint64_t *o = realloc(c->pc_occ, cap * sizeof *o), *r = o ? realloc(c->pc_seen, cap * sizeof *r) : NULL;
+        uint64_t *o = realloc(c->pc_occ, 3 * cap * sizeof *o), *r = o ? realloc(c->pc_seen, 3 * cap * sizeof *r) : NULL;
         if (o) c->pc_occ = o;
         if (r) c->pc_seen = r;
         int32_t(*x)[6] = r ? realloc(c->pc_next, cap * sizeof *x) : NULL;
@@ -76,50 +112,60 @@ static int whole_at_once(const kf_state *s, kf_contact *c, const uint32_t *node_
         c->pc_next = x;
         c->pc_occ_cap = cap;
     }
+    /* per kind k, occ[k * nb + b]: block b's nodes a particle of kind k is nearest to; seen: those reached */
     uint64_t *occ = c->pc_occ, *seen = c->pc_seen;
     int32_t(*next)[6] = c->pc_next;
-    memset(occ, 0, nb * sizeof *occ);
-    memset(seen, 0, nb * sizeof *seen);
-    for (size_t i = 0; i < n; i++) occ[node_of[i] / KF_BLOCK_NODES] |= 1ull << (node_of[i] % KF_BLOCK_NODES);
+    memset(occ, 0, (size_t)kinds * nb * sizeof *occ);
+    memset(seen, 0, (size_t)kinds * nb * sizeof *seen);
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t col = p->colour[i];
+        const size_t k = !(col & A) ? 0 : (col & side) ? 2 : 1;
+        occ[k * nb + node_of[i] / KF_BLOCK_NODES] |= 1ull << (node_of[i] % KF_BLOCK_NODES);
+    }
     for (size_t b = 0; b < nb; b++) {
         const int32_t *bc = &g->bcoord[3 * b];
+        uint64_t any = 0;
+        for (int k = 0; k < kinds; k++) any |= occ[(size_t)k * nb + b];
         for (int e = 0; e < 6; e++) {
             int a = e / 2, d = e % 2 ? 1 : -1;
-            next[b][e] =
-                occ[b] ? kf_grid_find(g, bc[0] + d * (a == 0), bc[1] + d * (a == 1), bc[2] + d * (a == 2)) : -1;
+            next[b][e] = any ? kf_grid_find(g, bc[0] + d * (a == 0), bc[1] + d * (a == 1), bc[2] + d * (a == 2)) : -1;
         }
     }
-    /* a node's bit is x << 4 | y << 2 | z; the faces of a block: X0 (x = 0) .. Z3 (z = 3) */
-    const uint64_t X0 = 0xFFFFull, X3 = X0 << 48, Y0 = 0x000F000F000F000Full, Y3 = Y0 << 12, Z0 = 0x1111111111111111ull,
-                   Z3 = Z0 << 3;
-    size_t b0 = node_of[0] / KF_BLOCK_NODES;
-    seen[b0] = 1ull << (node_of[0] % KF_BLOCK_NODES);
+    {
+        const size_t k0 = !(p->colour[0] & A) ? 0 : (p->colour[0] & side) ? 2 : 1;
+        seen[k0 * nb + node_of[0] / KF_BLOCK_NODES] = 1ull << (node_of[0] % KF_BLOCK_NODES);
+    }
+    uint64_t *sN = seen, *s1 = seen + nb, *s2 = seen + 2 * nb;
+    const uint64_t *oN = occ, *o1 = occ + nb, *o2 = occ + 2 * nb;
     /* sweeps up and down the blocks until nothing more is reached */
     for (int changed = 1, pass = 0; changed; pass++) {
         changed = 0;
         for (size_t q = 0; q < nb; q++) {
             size_t b = pass % 2 ? nb - 1 - q : q;
-            if (!occ[b]) continue;
-            uint64_t r = seen[b];
             const int32_t *x = next[b];
-            if (x[0] >= 0) r |= (seen[x[0]] & X3) >> 48;
-            if (x[1] >= 0) r |= (seen[x[1]] & X0) << 48;
-            if (x[2] >= 0) r |= (seen[x[2]] & Y3) >> 12;
-            if (x[3] >= 0) r |= (seen[x[3]] & Y0) << 12;
-            if (x[4] >= 0) r |= (seen[x[4]] & Z3) >> 3;
-            if (x[5] >= 0) r |= (seen[x[5]] & Z0) << 3;
-            r &= occ[b];
-            if (!r) continue;
-            for (uint64_t was = 0; was != r;) {
-                was = r;
-                r |= ((r & ~X3) << 16) | ((r & ~X0) >> 16) | ((r & ~Y3) << 4) | ((r & ~Y0) >> 4) | ((r & ~Z3) << 1) |
-                     ((r & ~Z0) >> 1);
-                r &= occ[b];
+            if (kinds == 1) {
+                if (!oN[b]) continue;
+                uint64_t r = (sN[b] | pc_from_faces(sN, x)) & oN[b];
+                if (!r) continue;
+                for (uint64_t was = 0; was != r;) was = r, r = pc_grow(r) & oN[b];
+                if (r != sN[b]) sN[b] = r, changed = 1;
+                continue;
             }
-            if (r != seen[b]) seen[b] = r, changed = 1;
+            if (!(oN[b] | o1[b] | o2[b])) continue;
+            /* what each kind links to: the first kind every kind, a side its own and the first */
+            const uint64_t fN = pc_from_faces(sN, x), f1 = pc_from_faces(s1, x), f2 = pc_from_faces(s2, x);
+            uint64_t rN = (sN[b] | fN | f1 | f2) & oN[b], r1 = (s1[b] | fN | f1) & o1[b], r2 = (s2[b] | fN | f2) & o2[b];
+            uint64_t wN, w1, w2;
+            do {
+                wN = rN, w1 = r1, w2 = r2;
+                rN |= pc_grow(wN | w1 | w2) & oN[b];
+                r1 |= pc_grow(wN | w1) & o1[b];
+                r2 |= pc_grow(wN | w2) & o2[b];
+            } while (wN != rN || w1 != r1 || w2 != r2);
+            if (rN != sN[b] || r1 != s1[b] || r2 != s2[b]) sN[b] = rN, s1[b] = r1, s2[b] = r2, changed = 1;
         }
     }
-    for (size_t b = 0; b < nb; b++)
+    for (size_t b = 0; b < (size_t)kinds * nb; b++)
         if (seen[b] != occ[b]) return 0;
     return 1;
 }
