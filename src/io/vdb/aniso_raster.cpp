@@ -292,35 +292,37 @@ void for_each_kernel_near(const binned &b, Coord lc, const int32_t *boxes, const
 }
 
 // the kernels' boxes, and their bins' boxes and core boxes (binned's
-// comment): the same integers splat_leaf and core_rows compute from each kernel
-void make_boxes(binned &b) {
+// comment): the same integers splat_leaf and core_rows compute from each
+// kernel. In one pass over the kernels, bin by bin, which also returns the
+// largest extent (a maximum, the same in any order).
+float make_boxes(binned &b) {
     const size_t n = b.k.size(), nbin = b.key.size();
     b.box.resize(6 * n), b.bin_box.resize(6 * nbin), b.bin_cbox.resize(6 * nbin);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
-        for (size_t q = rg.begin(); q != rg.end(); q++) {
-            const kernel &K = b.k[q];
-            int32_t *x = b.box.data() + 6 * q;
-            for (int a = 0; a < 3; a++)
-                x[a] = int32_t(std::ceil(K.c[a] - K.ext[a])), x[a + 3] = int32_t(std::floor(K.c[a] + K.ext[a]));
-        }
-    });
     const float rc = b.core;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nbin, 256), [&](const tbb::blocked_range<size_t> &rg) {
-        for (size_t bi = rg.begin(); bi != rg.end(); bi++) {
-            int32_t *bb = b.bin_box.data() + 6 * bi, *bc = b.bin_cbox.data() + 6 * bi;
-            for (int a = 0; a < 3; a++) bb[a] = bc[a] = INT32_MAX, bb[a + 3] = bc[a + 3] = INT32_MIN;
-            for (uint32_t q = b.at[bi]; q < b.at[bi + 1]; q++) {
-                const int32_t *x = b.box.data() + 6 * size_t(q);
-                for (int a = 0; a < 3; a++) bb[a] = std::min(bb[a], x[a]), bb[a + 3] = std::max(bb[a + 3], x[a + 3]);
-                // core_rows' test: no core voxel unless rc > 0 and the kernel is deep
-                if (!b.deep[q] || !(rc > 0)) continue;
-                const float *c = b.k[q].c;
-                for (int a = 0; a < 3; a++)
-                    bc[a] = std::min(bc[a], int32_t(std::ceil(c[a] - rc))),
-                    bc[a + 3] = std::max(bc[a + 3], int32_t(std::floor(c[a] + rc)));
+    return tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, nbin, 64), 0.f,
+        [&](const tbb::blocked_range<size_t> &rg, float e) {
+            for (size_t bi = rg.begin(); bi != rg.end(); bi++) {
+                int32_t *bb = b.bin_box.data() + 6 * bi, *bc = b.bin_cbox.data() + 6 * bi;
+                for (int a = 0; a < 3; a++) bb[a] = bc[a] = INT32_MAX, bb[a + 3] = bc[a + 3] = INT32_MIN;
+                for (uint32_t q = b.at[bi]; q < b.at[bi + 1]; q++) {
+                    const kernel &K = b.k[q];
+                    e = std::max(e, std::max(K.ext[0], std::max(K.ext[1], K.ext[2])));
+                    int32_t *x = b.box.data() + 6 * size_t(q);
+                    for (int a = 0; a < 3; a++) {
+                        x[a] = int32_t(std::ceil(K.c[a] - K.ext[a])), x[a + 3] = int32_t(std::floor(K.c[a] + K.ext[a]));
+                        bb[a] = std::min(bb[a], x[a]), bb[a + 3] = std::max(bb[a + 3], x[a + 3]);
+                    }
+                    // core_rows' test: no core voxel unless rc > 0 and the kernel is deep
+                    if (!b.deep[q] || !(rc > 0)) continue;
+                    for (int a = 0; a < 3; a++)
+                        bc[a] = std::min(bc[a], int32_t(std::ceil(K.c[a] - rc))),
+                        bc[a + 3] = std::max(bc[a + 3], int32_t(std::floor(K.c[a] + rc)));
+                }
             }
-        }
-    });
+            return e;
+        },
+        [](float x, float y) { return std::max(x, y); });
 }
 
 // The voxels of one leaf within b.core of a deep ball's centre (a bit per
@@ -570,17 +572,9 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t q = rg.begin(); q != rg.end(); q++) b.deep[q] = deep[b.src[q]];
     });
-    // (the largest extent: a maximum, the same in any order)
-    const float emax = tbb::parallel_reduce(
-        tbb::blocked_range<size_t>(0, n, 4096), 0.f,
-        [&](const tbb::blocked_range<size_t> &rg, float e) {
-            for (size_t i = rg.begin(); i != rg.end(); i++)
-                e = std::max(e, std::max(b.k[i].ext[0], std::max(b.k[i].ext[1], b.k[i].ext[2])));
-            return e;
-        },
-        [](float x, float y) { return std::max(x, y); });
+    // the boxes, and the largest extent
+    const float emax = make_boxes(b);
     b.reach = int(std::ceil(double(emax) / LEAF_DIM));
-    make_boxes(b);
     // the leaves within reach of a bin holding a particle near a face: the
     // surface lies in them; the others are wholly inside or outside (each
     // bin's in its own slots, NONE where it holds none: the same set)
