@@ -154,7 +154,7 @@ static void *cut_to(void *a, size_t bytes) {
 void kf_dist_shrink(kf_particles *p) {
     size_t c = p->n ? p->n : 1;
     if (c >= p->cap) return;
-    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) p->plane[k] = cut_to(p->plane[k], c * sizeof(kf_real));
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) kf_particles_plane_resize(p, k, c); /* kept where it fails */
     p->mat = cut_to(p->mat, c * sizeof *p->mat);
     p->obj = cut_to(p->obj, c * sizeof *p->obj);
     p->colour = cut_to(p->colour, c * sizeof *p->colour);

@@ -12,8 +12,21 @@
 /* the union in kf_particles must cover every named plane exactly */
 _Static_assert(sizeof(((kf_particles *)0)->plane) == 34 * sizeof(kf_real *), "plane count");
 
+/* Each real plane starts KF_PLANE_STAGGER x k bytes into its allocation.
+ * Large planes are mmapped, and glibc puts every such block 16 bytes past
+ * a page boundary: element i of all 34 planes then sat at one address
+ * modulo 4096, in one set of the 8-way L1 cache (64 sets of 64-byte
+ * lines), and a transfer's chunk, which touches two dozen planes at the
+ * same particles, evicted its own lines (and the lines prefetched ahead)
+ * from the L1 on every pass. Staggered by one line per plane, the planes'
+ * lines at one particle fall in 34 different sets. */
+#define KF_PLANE_STAGGER 64
+static size_t plane_pad(int k) { return (size_t)k * KF_PLANE_STAGGER; }
+/* the allocation a plane lives in (NULL for none) */
+static void *plane_block(kf_real *plane, int k) { return plane ? (char *)plane - plane_pad(k) : NULL; }
+
 void kf_particles_free(kf_particles *p) {
-    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) free(p->plane[k]);
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++) free(plane_block(p->plane[k], k));
     free(p->mat);
     free(p->obj);
     free(p->colour);
@@ -60,6 +73,20 @@ static int grow_zero(void **ptr, size_t elem, size_t cap) {
     return 0;
 }
 
+/* real plane k resized to cap elements (zero: a zero array, all of it
+ * zeros again), at its stagger inside the allocation; the contents up to
+ * the smaller size kept otherwise */
+static int grow_plane(kf_particles *p, int k, size_t cap, int zero) {
+    const size_t pad = plane_pad(k), bytes = sizeof(kf_real) * (cap ? cap : 1);
+    char *q = realloc(plane_block(p->plane[k], k), pad + bytes);
+    if (!q) return -1;
+    if (zero) zero_untouched(q + pad, bytes);
+    p->plane[k] = (kf_real *)(q + pad);
+    return 0;
+}
+
+int kf_particles_plane_resize(kf_particles *p, int k, size_t cap) { return grow_plane(p, k, cap, 0); }
+
 _Static_assert(offsetof(kf_particles, ps) == offsetof(kf_particles, plane) + KF_PLANE_PS * sizeof(kf_real *),
                "ps plane");
 #define plane_zero kf_particles_plane_zero
@@ -69,7 +96,7 @@ int kf_particles_reserve(kf_particles *p, size_t cap) {
     size_t c = p->cap ? p->cap : 1024;
     while (c < cap) c *= 2;
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
-        if ((plane_zero(p, k) ? grow_zero : grow)((void **)&p->plane[k], sizeof(kf_real), c)) return -1;
+        if (grow_plane(p, k, c, plane_zero(p, k))) return -1;
     if (((p->zero & KF_ZERO_MAT) ? grow_zero : grow)((void **)&p->mat, sizeof *p->mat, c) ||
         grow((void **)&p->id, sizeof *p->id, c) ||
         ((p->zero & KF_ZERO_OBJ) ? grow_zero : grow)((void **)&p->obj, sizeof *p->obj, c) ||
@@ -91,8 +118,8 @@ int kf_particles_zero(kf_particles *p, unsigned which) {
     size_t n = p->n;
     if ((which & KF_ZERO_PS) && !(p->zero & KF_ZERO_PS) && p->cap && all_zero(p->ps[0], n * sizeof(kf_real)) &&
         all_zero(p->ps[1], n * sizeof(kf_real))) {
-        if (grow_zero((void **)&p->ps[0], sizeof(kf_real), p->cap) ||
-            grow_zero((void **)&p->ps[1], sizeof(kf_real), p->cap))
+        if (grow_plane(p, KF_PLANE_PS, p->cap, 1) ||
+            grow_plane(p, KF_PLANE_PS + 1, p->cap, 1))
             return -1;
         p->zero |= KF_ZERO_PS;
     }
@@ -113,7 +140,7 @@ int kf_particles_zero(kf_particles *p, unsigned which) {
      * hold goes, and the transfers evaluate the stress from F from now on */
     if ((which & KF_ZERO_TAU) && !(p->zero & KF_ZERO_TAU) && p->cap) {
         for (int k = 0; k < 6; k++)
-            if (grow_zero((void **)&p->tau[k], sizeof(kf_real), p->cap)) return -1;
+            if (grow_plane(p, KF_PLANE_TAU + k, p->cap, 1)) return -1;
         p->zero |= KF_ZERO_TAU;
     }
     /* an empty set: the arrays come zeroed when reserved */
@@ -125,15 +152,15 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
     /* the source's zero arrays are fresh zeroed ones in the copy */
     unsigned z = src->zero;
     if ((z & KF_ZERO_PS) && !(dst->zero & KF_ZERO_PS) && dst->cap &&
-        (grow_zero((void **)&dst->ps[0], sizeof(kf_real), dst->cap) ||
-         grow_zero((void **)&dst->ps[1], sizeof(kf_real), dst->cap)))
+        (grow_plane(dst, KF_PLANE_PS, dst->cap, 1) ||
+         grow_plane(dst, KF_PLANE_PS + 1, dst->cap, 1)))
         return -1;
     if ((z & KF_ZERO_COLOUR) && !(dst->zero & KF_ZERO_COLOUR) && dst->cap &&
         grow_zero((void **)&dst->colour, sizeof *dst->colour, dst->cap))
         return -1;
     for (int k = 0; k < 6; k++)
         if ((z & KF_ZERO_TAU) && !(dst->zero & KF_ZERO_TAU) && dst->cap &&
-            grow_zero((void **)&dst->tau[k], sizeof(kf_real), dst->cap))
+            grow_plane(dst, KF_PLANE_TAU + k, dst->cap, 1))
             return -1;
     if ((z & KF_ZERO_MAT) && !(dst->zero & KF_ZERO_MAT) && dst->cap &&
         grow_zero((void **)&dst->mat, sizeof *dst->mat, dst->cap))

@@ -106,6 +106,10 @@ static inline double kf_particle_bytes_binning(void) {
 void kf_particles_free(kf_particles *p);
 /* Make room for at least cap particles. Returns 0 or -1 (out of memory). */
 int kf_particles_reserve(kf_particles *p, size_t cap);
+/* Real plane k reallocated to cap elements, its contents kept up to the
+ * smaller size (planes sit staggered in their allocations: resize and free
+ * them only through these functions). Returns 0 or -1 (out of memory). */
+int kf_particles_plane_resize(kf_particles *p, int k, size_t cap);
 /* dst becomes an exact copy of src (capacity grows as needed). */
 int kf_particles_copy(kf_particles *dst, const kf_particles *src);
 /* Reorder: new[dest[p]] = old[p]. scratch holds kf_particles_permute_bytes(n). */
