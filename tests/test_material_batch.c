@@ -289,11 +289,7 @@ static void test_hardening_bits(void) {
         kf_mat_batch_hardening(&sand, 16, q, cf);
         for (int j = 0; j < 16; j++) {
             kf_real rh = (kf_real)exp((double)snow.xi * (1.0 - (double)jp[j]));
-            double qq = q[j];
-            double phi = sand.h0 + (sand.h1 * qq - sand.h3) * exp(-(double)sand.h2 * qq);
-            phi = fmin(fmax(phi, 0.0), 0.5 * 3.14159265358979323846 - 1e-6);
-            double sp = sin(phi);
-            kf_real rc = (kf_real)(sqrt(2.0 / 3.0) * 2 * sp / (3 - sp));
+            kf_real rc = (kf_real)kf_mat_friction_hardened(&sand, q[j]); /* kf_mat_update's route */
             differ += !same_bits(h[j], rh) + !same_bits(cf[j], rc);
             if (differ && differ < 4 && (!same_bits(h[j], rh) || !same_bits(cf[j], rc)))
                 printf("  Jp %.9g: %.9g vs %.9g; q %.9g: %.9g vs %.9g\n", (double)jp[j], (double)h[j], (double)rh,

@@ -140,6 +140,16 @@ static double corotated_psi(double mu, double la, double jc, const kf_real F[9])
 /* fixed corotated's limited state J_c (kf_corot_volume), 0 for none */
 static double corot_jc(const kf_mat *m) { return m->model == KF_MAT_COROTATED ? m->state_limit : 0.0; }
 
+/* sand's hardened friction coefficient at hardening state q (Klár 2016):
+ * φ = h0 + (h1 q − h3) e^{−h2 q} clamped to [0, π/2 − 1e-6],
+ * c_f = √(2/3) 2 sin φ / (3 − sin φ); the library's exp and sin, in double */
+double kf_mat_friction_hardened(const kf_mat *m, double q) {
+    double phi = m->h0 + (m->h1 * q - m->h3) * exp(-(double)m->h2 * q);
+    phi = fmin(fmax(phi, 0.0), 0.5 * KF_PI - 1e-6);
+    double sp = sin(phi);
+    return sqrt(2.0 / 3.0) * 2 * sp / (3 - sp);
+}
+
 /* snow's hardening factor e^{ξ(1 − Jp)}; under a fixed step, at most the
  * stiffness the step resolves (Jp below state_limit: the factor there) */
 static double snow_hardening(const kf_mat *m, const kf_real ps[2]) {
@@ -280,14 +290,7 @@ static int return_sand(const kf_mat *m, double e[3], kf_real ps[2]) {
     double tr_trial = e[0] + e[1] + e[2];
 
     /* friction coefficient: fixed, or hardened by the plastic strain q */
-    double cf = m->c_f;
-    if (m->hardening) {
-        double q = ps[1];
-        double phi = m->h0 + (m->h1 * q - m->h3) * exp(-(double)m->h2 * q);
-        phi = fmin(fmax(phi, 0.0), 0.5 * KF_PI - 1e-6);
-        double sp = sin(phi);
-        cf = sqrt(2.0 / 3.0) * 2 * sp / (3 - sp);
-    }
+    double cf = m->hardening ? kf_mat_friction_hardened(m, ps[1]) : m->c_f;
 
     double es[3], tr = 0; /* strain relative to the cone tip */
     for (int i = 0; i < 3; i++) {

@@ -104,6 +104,10 @@ void kf_mat_update(const kf_mat *m, kf_real F[9], kf_real ps[2], int project, kf
 int kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
                         kf_real *const tau6[6]);
 
+/* sand's hardened friction coefficient c_f at hardening state q, the
+ * library route in double (kf_mat_update's; the batch's lanes match it) */
+double kf_mat_friction_hardened(const kf_mat *m, double q);
+
 /* the batch path's hardening for n <= 16 lanes, rounded to kf_real as
  * kf_mat_update_batch rounds it: snow's e^{ξ(1 − Jp)} from state = Jp (no
  * state limit), sand's hardened friction coefficient from state = q; 1 for

@@ -426,13 +426,7 @@ static inline __attribute__((always_inline)) void sand_friction(const kf_mat *m,
         cf[j] = (kf_real)c;
     }
     for (int j = 0; j < n; j++)
-        if (!safe[j]) {
-            double q = P1[j];
-            double phi = m->h0 + (m->h1 * q - m->h3) * exp(-(double)m->h2 * q);
-            phi = fmin(fmax(phi, 0.0), 0.5 * 3.14159265358979323846 - 1e-6);
-            double sp = sin(phi);
-            cf[j] = (kf_real)(sqrt(2.0 / 3.0) * 2 * sp / (3 - sp));
-        }
+        if (!safe[j]) cf[j] = (kf_real)kf_mat_friction_hardened(m, P1[j]);
 }
 
 static void hencky_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], int project, size_t first,
