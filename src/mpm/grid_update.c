@@ -47,10 +47,54 @@ void kf_grid_node_boundaries(const kf_model *m, const kf_collider_frame *frame, 
     node_boundaries(&m->sim, frame, near, nnear, x, vd);
 }
 
+/* Whether a wall plane can constrain a node of the block at bc: node
+ * positions grow with their index, so the block's first and last node along
+ * each axis bound the others, computed as node_boundaries computes x */
+static inline int block_meets_walls(const kf_sim_def *sd, const int32_t bc[3], double dx) {
+    if (!sd->walls) return 0;
+    for (int a = 0; a < 3; a++) {
+        const double lo = (bc[a] * KF_BLOCK) * dx, hi = (bc[a] * KF_BLOCK + KF_BLOCK - 1) * dx;
+        if (lo <= sd->domain_min[a] || hi >= sd->domain_max[a]) return 1;
+    }
+    return 0;
+}
+
+/* One block's nodes: momentum to velocity, gravity, then the walls and
+ * colliders where the block can meet them (elsewhere node_boundaries would
+ * change nothing: the double round trip of a float is exact) */
+static void update_block(const kf_sim_def *sd, const kf_collider_frame *frame, int ncol, kf_v4 *node,
+                         const int32_t bc[3], kf_v4 gdt) {
+    const double dx = sd->dx;
+    /* the colliders this block's nodes may be inside of */
+    int near[KF_MAX_COLLIDERS], nnear = kf_colliders_near_block(frame, ncol, bc, dx, near);
+    const int bounded = nnear || block_meets_walls(sd, bc, dx);
+    for (int l = 0; l < KF_BLOCK_NODES; l++) {
+        kf_real mass = node[l][3];
+        if (mass <= 0) {
+            node[l] = (kf_v4){0, 0, 0, 0};
+            continue;
+        }
+        kf_v4 v = node[l] / mass + gdt;
+        v[3] = mass;
+        if (bounded) {
+            double x[3] = {(bc[0] * KF_BLOCK + (l >> 4)) * dx, (bc[1] * KF_BLOCK + ((l >> 2) & 3)) * dx,
+                           (bc[2] * KF_BLOCK + (l & 3)) * dx};
+            double vd[3] = {v[0], v[1], v[2]};
+            node_boundaries(sd, frame, near, nnear, x, vd);
+            v = (kf_v4){(kf_real)vd[0], (kf_real)vd[1], (kf_real)vd[2], mass};
+        }
+        node[l] = v;
+    }
+}
+
+/* Blocks below this many go through the update on one thread: the work is
+ * a few microseconds, less than handing it to a second thread and back */
+#define KF_UPDATE_SERIAL_BLOCKS 64
+
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
     kf_grid *g = &s->g;
     const kf_sim_def *sd = &m->sim;
-    const double dx = sd->dx, t1 = s->time + dt;
+    const double t1 = s->time + dt;
     const kf_v4 gdt = {(kf_real)(dt * sd->gravity[0]), (kf_real)(dt * sd->gravity[1]), (kf_real)(dt * sd->gravity[2]),
                        0};
 
@@ -58,32 +102,23 @@ void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
     kf_collider_frame frame[KF_MAX_COLLIDERS];
     for (int c = 0; c < m->ncol; c++) kf_collider_frame_at(&m->col[c], t1, &frame[c]);
 
-    size_t nb = g->nblocks;
-#pragma omp parallel for schedule(static) num_threads(m->nthreads)
-    for (size_t b = 0; b < nb; b++) {
+    /* one parallel region for the update and the walls' ghost passes (one
+     * hand-off to the threads a substep, not seven): the update gathers
+     * which planes have blocks within a cell, so only those passes run, and
+     * the barrier after the update lets each pass read its neighbours' nodes */
+    const size_t nb = g->nblocks;
+    const int nthreads = nb < KF_UPDATE_SERIAL_BLOCKS ? 1 : m->nthreads;
+    unsigned passes = 0;
+#pragma omp parallel num_threads(nthreads)
+    {
         kf_ftz();
-        kf_v4 *node = &g->node[b * KF_BLOCK_NODES];
-        const int32_t *bc = &g->bcoord[3 * b];
-        /* the colliders this block's nodes may be inside of */
-        int near[KF_MAX_COLLIDERS], nnear = kf_colliders_near_block(frame, m->ncol, bc, dx, near);
-        for (int l = 0; l < KF_BLOCK_NODES; l++) {
-            kf_real mass = node[l][3];
-            if (mass <= 0) {
-                node[l] = (kf_v4){0, 0, 0, 0};
-                continue;
-            }
-            kf_v4 v = node[l] / mass + gdt;
-            v[3] = mass;
-            if (sd->walls || nnear) {
-                double x[3] = {(bc[0] * KF_BLOCK + (l >> 4)) * dx, (bc[1] * KF_BLOCK + ((l >> 2) & 3)) * dx,
-                               (bc[2] * KF_BLOCK + (l & 3)) * dx};
-                double vd[3] = {v[0], v[1], v[2]};
-                node_boundaries(sd, frame, near, nnear, x, vd);
-                v = (kf_v4){(kf_real)vd[0], (kf_real)vd[1], (kf_real)vd[2], mass};
-            }
-            node[l] = v;
+#pragma omp for schedule(static) reduction(| : passes)
+        for (size_t b = 0; b < nb; b++) {
+            const int32_t *bc = &g->bcoord[3 * b];
+            update_block(sd, frame, m->ncol, &g->node[b * KF_BLOCK_NODES], bc, gdt);
+            passes |= kf_wall_ghost_passes(m, bc);
         }
+        /* walls between nodes: the nodes within a cell of each plane take a linear profile through zero on it */
+        kf_wall_ghosts(m, s, passes);
     }
-    /* walls between nodes: the nodes within a cell of each plane take a linear profile through zero on it */
-    kf_wall_ghosts(m, s);
 }

@@ -228,10 +228,15 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
  * backward Euler or explicit) */
 void kf_implicit_g2p_finish(const kf_model *m, kf_state *s);
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt);
-/* after the walls' projection: the first node past a wall plane that lies
- * between nodes mirrors its inner neighbour, so material stops at the plane
- * (wall_ghost.c) */
-void kf_wall_ghosts(const kf_model *m, kf_state *s);
+/* after the walls' projection: the nodes within a cell of a wall plane
+ * that lies between nodes take a linear profile through zero on it, so
+ * material stops at the plane (wall_ghost.c). The passes named in `passes`
+ * (bit 2a: axis a's lower plane, 2a+1 its upper; the union of
+ * kf_wall_ghost_passes over the blocks) run as worksharing loops of the
+ * calling parallel region (every thread of it calls this), after a barrier
+ * that follows the update of every node. */
+void kf_wall_ghosts(const kf_model *m, kf_state *s, unsigned passes);
+unsigned kf_wall_ghost_passes(const kf_model *m, const int32_t bc[3]);
 void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out);
 /* The fused substep end (transfer.c): G2P, the stress pass and the next
  * substep's P2G in one sweep over the owner blocks, the P2G at the next
