@@ -401,6 +401,7 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
         }
         return;
     }
+    const int colour_chunk = kf_grid_colour_chunk(g, m->nthreads); /* grid.h */
 #pragma omp parallel num_threads(m->nthreads)
     {
         kf_ftz();
@@ -413,7 +414,7 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
         kf_v4 fcache[KF_CONTACT_CACHE_ROWS * CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));
         /* one colour at a time: same-colour owners write disjoint nodes */
         for (int c = 0; c < 8; c++) {
-#pragma omp for schedule(dynamic, 4)
+#pragma omp for schedule(dynamic, colour_chunk)
             for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
                 size_t r = (size_t)g->owner[k];
                 int lohi[6];
@@ -976,6 +977,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, double next_dt_d, kf_g2
     double scan_v2 = 0;
     kf_real scan_state[KF_MAX_MATERIALS];
     for (int k = 0; k < nmat; k++) scan_state[k] = 1;
+    const int colour_chunk = kf_grid_colour_chunk(g, m->nthreads); /* grid.h */
 #pragma omp parallel num_threads(m->nthreads) reduction(+ : limited)
     {
         kf_ftz();
@@ -994,7 +996,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, double next_dt_d, kf_g2
                 memset(&g->node_next[b * KF_BLOCK_NODES], 0, KF_BLOCK_NODES * sizeof(kf_v4));
             /* one colour at a time, as kf_p2g: same-colour owners write disjoint nodes */
             for (int c = 0; c < 8; c++) {
-#pragma omp for schedule(dynamic, 4)
+#pragma omp for schedule(dynamic, colour_chunk)
                 for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
                     size_t r = (size_t)g->owner[k];
                     if (keep) prefetch_tau_head(p, g->pstart[r], g->pstart[r + 1]);
