@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 namespace kf_vdb {
@@ -23,6 +24,9 @@ constexpr int LANES = 16;
 constexpr float SUPPORT = 0.25f;
 // a leaf with a two-voxel apron: the normals of the apron's first layer
 constexpr int P2 = LEAF_DIM + 4;
+// a candidate this far beyond the reach (squared, relative) weighs 0 for
+// every target however its distances round (cands::gather)
+constexpr float FAR_MARGIN = 1.001f;
 
 // the unit gradient at voxel q of a leaf padded to edge E (central
 // differences); false if flat
@@ -48,11 +52,25 @@ inline void sub_box(const openvdb::Coord &lc, int s, float lo[3]) {
     lo[2] = float(lc.z() * LEAF_DIM + (s & 1) * SB);
 }
 
+// d[k] = s[k] - o for k < n (one loop the compiler vectorises)
+inline void copy_less(float *__restrict d, const float *__restrict s, size_t n, float o) {
+    for (size_t k = 0; k < n; k++) d[k] = s[k] - o;
+}
+
 // the samples within r of sub-block box lo..lo+SB-1 (box distance), copied
-// relative to o into the candidate arrays
+// relative to o into the candidate arrays. The weighted sums run in LANES
+// lanes, candidate m in lane m % LANES: a row of LANES candidates whose every
+// one lies beyond the reach from all the targets (box tlo..thi, with a margin
+// over the roundings) adds +0 or -0 to each lane's sum, which is never -0,
+// and is left out: every sum stays the same. The sub-block granularity of
+// the ranges puts about 5x more candidates in the list than lie within the
+// reach of a voxel; on the bench's frame 40% of the voxel pass's rows are
+// that far (19.3 -> 11.5 a sub-block), 23% of the normals' (30.4 -> 23.4).
 struct cands {
     std::vector<float> x, y, z, nx, ny, nz;
-    void gather(const dense_band &b, const samples &S, size_t i, const float lo[3], float r, const float o[3]) {
+    size_t count = 0; // the candidates (a multiple of LANES) at the arrays' start
+    void gather(const dense_band &b, const samples &S, size_t i, const float lo[3], float r, const float o[3],
+                const float tlo[3], const float thi[3], float reach) {
         // the ranges of samples to copy first (consecutive sub-blocks of a
         // leaf merged), then one copy into arrays sized once: the same
         // candidates in the same order as appending them one by one
@@ -82,18 +100,47 @@ struct cands {
                 tot += a1 - a0;
             }
         }
-        // padded to whole blocks of LANES with points far away (weight 0)
+        // padded to whole rows with points far away (weight 0)
         const size_t padded = (tot + LANES - 1) / LANES * LANES;
-        x.resize(padded), y.resize(padded), z.resize(padded), nx.resize(padded), ny.resize(padded), nz.resize(padded);
+        // (the arrays only grow: filling what a shorter list left is wasted)
+        if (x.size() < padded)
+            for (std::vector<float> *v : {&x, &y, &z, &nx, &ny, &nz}) v->resize(padded);
+        // (through pointers that alias nothing, so that the copies vectorise)
+        float *__restrict px = x.data(), *__restrict py = y.data(), *__restrict pz = z.data();
+        float *__restrict pnx = nx.data(), *__restrict pny = ny.data(), *__restrict pnz = nz.data();
+        const float ox = o[0], oy = o[1], oz = o[2];
         size_t m = 0;
         for (int q = 0; q < nr; q++) {
-            const uint32_t a0 = rg[2 * q], a1 = rg[2 * q + 1];
-            for (uint32_t a = a0; a < a1; a++, m++) {
-                x[m] = S.x[a] - o[0], y[m] = S.y[a] - o[1], z[m] = S.z[a] - o[2];
-                nx[m] = S.nx[a], ny[m] = S.ny[a], nz[m] = S.nz[a];
-            }
+            const uint32_t a0 = rg[2 * q], n = rg[2 * q + 1] - a0;
+            copy_less(px + m, S.x.data() + a0, n, ox);
+            copy_less(py + m, S.y.data() + a0, n, oy);
+            copy_less(pz + m, S.z.data() + a0, n, oz);
+            std::copy(S.nx.data() + a0, S.nx.data() + a0 + n, pnx + m);
+            std::copy(S.ny.data() + a0, S.ny.data() + a0 + n, pny + m);
+            std::copy(S.nz.data() + a0, S.nz.data() + a0 + n, pnz + m);
+            m += n;
         }
-        for (; m < padded; m++) x[m] = y[m] = z[m] = 1e17f, nx[m] = ny[m] = nz[m] = 0.f;
+        for (; m < padded; m++) px[m] = py[m] = pz[m] = 1e17f, pnx[m] = pny[m] = pnz[m] = 0.f;
+        // the rows with a candidate within reach of the targets' box, moved
+        // down over the others (a target's offset from a candidate rounds to
+        // at least its distance from the box: rounding is monotonic)
+        const float lim = FAR_MARGIN * reach * reach;
+        size_t kept = 0;
+        for (size_t m0 = 0; m0 < padded; m0 += LANES) {
+            int near = 0;
+            for (int j = 0; j < LANES; j++) {
+                const size_t c = m0 + size_t(j);
+                const float gx = std::max(0.f, std::max(tlo[0] - x[c], x[c] - thi[0])),
+                            gy = std::max(0.f, std::max(tlo[1] - y[c], y[c] - thi[1])),
+                            gz = std::max(0.f, std::max(tlo[2] - z[c], z[c] - thi[2]));
+                near |= gx * gx + gy * gy + gz * gz < lim;
+            }
+            if (!near) continue;
+            if (kept != m0) // (the rows do not overlap: kept <= m0 - LANES)
+                for (float *v : {px, py, pz, pnx, pny, pnz}) std::memcpy(v + kept, v + m0, LANES * sizeof(float));
+            kept += LANES;
+        }
+        count = kept;
     }
 };
 
@@ -212,8 +259,15 @@ void band_flatten(dense_band &b, float W, float radius, float sigma, float ns) {
                     if (a0 == a1) continue;
                     float lo[3];
                     sub_box(lc, s, lo);
-                    C.gather(b, S, i, lo, ns + 0.5f, lo);
-                    const size_t nc = C.x.size();
+                    // the targets: this sub-block's points, relative to lo as below
+                    float tlo[3] = {INFINITY, INFINITY, INFINITY}, thi[3] = {-INFINITY, -INFINITY, -INFINITY};
+                    for (uint32_t q = a0; q < a1; q++) {
+                        const float X = S.x[q] - lo[0], Y = S.y[q] - lo[1], Z = S.z[q] - lo[2];
+                        tlo[0] = std::min(tlo[0], X), tlo[1] = std::min(tlo[1], Y), tlo[2] = std::min(tlo[2], Z);
+                        thi[0] = std::max(thi[0], X), thi[1] = std::max(thi[1], Y), thi[2] = std::max(thi[2], Z);
+                    }
+                    C.gather(b, S, i, lo, ns + 0.5f, lo, tlo, thi, ns);
+                    const size_t nc = C.count;
                     for (uint32_t q = a0; q < a1; q++) {
                         const float X = S.x[q] - lo[0], Y = S.y[q] - lo[1], Z = S.z[q] - lo[2];
                         const float n0 = S.nx[q], n1 = S.ny[q], n2 = S.nz[q];
@@ -259,8 +313,10 @@ void band_flatten(dense_band &b, float W, float radius, float sigma, float ns) {
                 if (!near) continue;
                 float lo[3];
                 sub_box(lc, s, lo);
-                C.gather(b, S, i, lo, radius, lo);
-                const size_t nc = C.x.size();
+                // the targets: the sub-block's voxels (offsets 0..SB-1 from lo)
+                const float tlo[3] = {0, 0, 0}, thi[3] = {SB - 1, SB - 1, SB - 1};
+                C.gather(b, S, i, lo, radius, lo, tlo, thi, radius);
+                const size_t nc = C.count;
                 if (!nc) continue;
                 for (int x = x0; x < x0 + SB; x++)
                     for (int y = y0; y < y0 + SB; y++)
