@@ -662,119 +662,361 @@ static inline int all_compatible(const uint32_t *col, int o, uint32_t cp) {
     return ok;
 }
 
+#if defined(__AVX2__) && defined(__FMA__) && !defined(KF_DOUBLE)
+/* Lane l of a per-axis plane of the chunk (weights w, offsets d) for the
+ * lanes' particles jl[0..3], as doubles */
+static inline __m256d lanes_of(const kf_real *plane, const int jl[4]) {
+    return _mm256_cvtps_pd(_mm_setr_ps(plane[jl[0]], plane[jl[1]], plane[jl[2]], plane[jl[3]]));
+}
+#endif
+
+/* What an across particle's P2G gives each node of its stencil (node n =
+ * 9a + 3b + k) in ordinary MLS-MPM (or classic MPM): momentum and mass, by
+ * lane of up to 4 particles. */
+typedef struct scatter_adds {
+    double add[27][4][4];
+} scatter_adds;
+
+/* One particle's adds into lane `lane` of sa (the particle's terms in
+ * locals, once: the compiler would load the chunk's floats again at every
+ * node otherwise) */
+static void node_adds(const chunk *ck, int j, int classic, scatter_adds *sa, int lane) {
+    const double mass = ck->mv[3][j];
+    double mvj[3], qj[9];
+    for (int e = 0; e < 3; e++) mvj[e] = ck->mv[e][j];
+    for (int e = 0; e < 9; e++) qj[e] = ck->q[e][j];
+    int n = 0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            for (int k = 0; k < 3; k++, n++) {
+                const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
+                const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
+                for (int r = 0; r < 3; r++) {
+                    double add = w * (mvj[r] + qj[3 * r] * d[0] + qj[3 * r + 1] * d[1] + qj[3 * r + 2] * d[2]);
+                    if (classic) {
+                        double gw[3] = {(double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j],
+                                        (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j],
+                                        (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->dw[2][k][j]};
+                        add += ck->t[3 * r][j] * gw[0] + ck->t[3 * r + 1][j] * gw[1] + ck->t[3 * r + 2][j] * gw[2];
+                    }
+                    sa->add[n][r][lane] = add;
+                }
+                sa->add[n][3][lane] = w * mass;
+            }
+}
+
+#if defined(__AVX2__) && defined(__FMA__) && !defined(KF_DOUBLE)
+/* node_adds (MLS) for up to 4 particles, one per lane, each lane the
+ * scalar code's operations as the compiler contracts them there:
+ * w (fma(q_r2, d_z, fma(q_r1, d_y, fma(q_r0, d_x, mv_r)))), and w m, with w the
+ * rounded product (w_x w_y) w_z. Bit for bit with node_adds. */
+static void node_adds_lanes(const chunk *ck, const int jl[4], scatter_adds *sa) {
+    __m256d W[3][3], D[3][3], mv[4], q[9];
+    for (int ax = 0; ax < 3; ax++)
+        for (int t = 0; t < 3; t++) {
+            W[ax][t] = lanes_of(ck->w[ax][t], jl);
+            D[ax][t] = lanes_of(ck->d[ax][t], jl);
+        }
+    for (int e = 0; e < 4; e++) mv[e] = lanes_of(ck->mv[e], jl);
+    for (int e = 0; e < 9; e++) q[e] = lanes_of(ck->q[e], jl);
+    int n = 0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++) {
+            const __m256d wab = _mm256_mul_pd(W[0][a], W[1][b]);
+            for (int k = 0; k < 3; k++, n++) {
+                const __m256d w = _mm256_mul_pd(wab, W[2][k]);
+                for (int r = 0; r < 3; r++) {
+                    __m256d t = _mm256_fmadd_pd(q[3 * r], D[0][a], mv[r]);
+                    t = _mm256_fmadd_pd(q[3 * r + 1], D[1][b], t);
+                    t = _mm256_fmadd_pd(q[3 * r + 2], D[2][k], t);
+                    _mm256_storeu_pd(sa->add[n][r], _mm256_mul_pd(w, t));
+                }
+                _mm256_storeu_pd(sa->add[n][3], _mm256_mul_pd(w, mv[3]));
+            }
+        }
+}
+#define KF_CPIC_SCATTER_LANES 1
+#endif
+
+/* One across particle's scatter from its adds (lane `lane` of sa), node by
+ * node: compatible nodes get them; an incompatible node gets nothing, and
+ * its closest body takes all it would have received (§5.4); G2P takes back
+ * the velocity the particle keeps there, computed once, there. */
+static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const chunk *ck,
+                           int j, size_t i, kf_v4 *cache, const scatter_adds *sa, int lane, const uint8_t *thin_body) {
+    const kf_cpic *c = s->cpic;
+    const uint32_t *col = oc->col;
+    const int32_t *bc = &s->g.bcoord[3 * owner];
+    const double dx = m->sim.dx, *gdt = oc->gdt;
+    double *imp = oc->imp;
+    const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
+    const uint32_t cp = s->p.colour[i];
+    const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+    double Cj[9];
+    for (int e = 0; e < 9; e++) Cj[e] = apic ? s->p.C[e][i] : 0;
+    int n = 0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            for (int k = 0; k < 3; k++, n++) {
+                const double add[4] = {sa->add[n][0][lane], sa->add[n][1][lane], sa->add[n][2][lane],
+                                       sa->add[n][3][lane]};
+                const int q = o + (a * NB + b) * NB + k;
+                if (compatible(col[q], cp)) {
+                    kf_v4 v4 = {(kf_real)add[0], (kf_real)add[1], (kf_real)add[2], (kf_real)add[3]};
+                    cache[q] += v4;
+                    continue;
+                }
+                const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
+                int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
+                double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
+                                (4 * bc[2] + ck->l[2][j] + k) * dx};
+                double J[3], cd[3];
+                affine_velocity_of(Cj, apic, d, cd);
+                for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (gdt[e] - cd[e]);
+                double at[3] = {xi[0], xi[1], xi[2]};
+                if (!thin_body[r]) {
+                    const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};
+                    contact_point(col, oc->dist, q, l3, s3, bc, c->obox[owner], r, cp, xi, s->rigid[r].com, dx, at);
+                }
+                kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], at, J);
+            }
+}
+
 void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck, size_t i0,
                        void *cache_v, int classic) {
     kf_cpic *c = s->cpic;
     kf_particles *p = &s->p;
-    const kf_grid *g = &s->g;
     kf_v4 *cache = cache_v;
     const uint32_t *col = oc->col;
     const float *dist = oc->dist;
-    double *imp = oc->imp;
-    const double *gdt = oc->gdt;
-    const int32_t *bc = &g->bcoord[3 * owner];
     const double dx = m->sim.dx;
-    const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
     uint8_t thin_body[KF_MAX_RIGIDS];
     for (int r = 0; r < m->nrigid; r++) thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
     /* the colours first (they read the owner's CDF alone, not the cache):
      * a chunk with no particle across a surface scatters as outside the
      * band, the same sums in the same order */
-    uint8_t across[KF_CHUNK];
-    int any_across = 0;
+    int across[KF_CHUNK], nacross = 0;
     cdf_fit fit;
     fit.n = 0;
     for (int j = 0; j < ck->n; j++) particle_cdf(c, p, i0 + (size_t)j, ck, j, col, dist, oc->aff, dx, thin_body, &fit);
     solve4_lanes(&fit);
     for (int q = 0; q < fit.n; q++) particle_cdf_finish(c, p, i0 + (size_t)fit.idx[q], &fit, q, dx, thin_body);
     for (int j = 0; j < ck->n; j++) {
-        size_t i = i0 + (size_t)j;
-        const uint32_t cp = p->colour[i];
+        const uint32_t cp = p->colour[i0 + (size_t)j];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        across[j] = (cp & AFF) && !all_compatible(col, o, cp);
-        any_across |= across[j];
+        if ((cp & AFF) && !all_compatible(col, o, cp)) across[nacross++] = j;
     }
-    if (!any_across) {
+    if (!nacross) {
         if (classic) scatter_chunk(3, 1, ck, cache);
         else scatter_chunk(3, 0, ck, cache);
         return;
     }
-    for (int j = 0; j < ck->n; j++) {
-        size_t i = i0 + (size_t)j;
-        const uint32_t cp = p->colour[i];
-        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+    /* particle by particle in order (the nodes' sums in the order of the
+     * ordinary scatter); the across particles' adds made four at a time,
+     * ahead of the first of them */
+    scatter_adds sa;
+    for (int j = 0, g = 0; j < ck->n; j++) {
         /* no affinity to any body, or no node across a surface: the ordinary scatter */
-        if (!across[j]) {
+        if (g == nacross || across[g] != j) {
             if (classic) scatter_one(3, 1, ck, j, cache);
             else scatter_one(3, 0, ck, j, cache);
             continue;
         }
-        const double mass = ck->mv[3][j];
-        /* the particle's terms in locals, once: the cache stores below may
-         * alias the chunk's floats, and the compiler would load them again
-         * at every node (the same values, so the same sums) */
-        double mvj[3], qj[9], Cj[9];
-        for (int e = 0; e < 3; e++) mvj[e] = ck->mv[e][j];
-        for (int e = 0; e < 9; e++) qj[e] = ck->q[e][j], Cj[e] = apic ? p->C[e][i] : 0;
-        for (int a = 0; a < 3; a++)
-            for (int b = 0; b < 3; b++)
-                for (int k = 0; k < 3; k++) {
+        if (g % 4 == 0) {
+            const int nl = nacross - g < 4 ? nacross - g : 4;
+            int jl[4];
+            for (int l = 0; l < 4; l++) jl[l] = across[g + (l < nl ? l : 0)];
+#ifdef KF_CPIC_SCATTER_LANES
+            if (!classic) node_adds_lanes(ck, jl, &sa);
+            else
+#endif
+                for (int l = 0; l < nl; l++) node_adds(ck, jl[l], classic, &sa, l);
+        }
+        scatter_across(m, s, owner, oc, ck, j, i0 + (size_t)j, cache, &sa, g % 4, thin_body);
+        g++;
+    }
+}
+
+/* What the gather of a particle across a surface reads at each node of its
+ * stencil (node n = 9a + 3b + k): the velocity vi (the grid's, or at an
+ * incompatible node the ghost velocity) and the affine velocity cd added
+ * there (0 at a compatible node), by lane of up to 4 particles. */
+typedef struct gather_reads {
+    double vi[27][3][4], cd[27][3][4];
+} gather_reads;
+
+/* The constants a chunk's ghosts need, made once per chunk. */
+typedef struct ghost_ctx {
+    const kf_model *m;
+    kf_state *s;
+    const kf_cpic_owner *oc;
+    const kf_v4 *cache;
+    double *imp;
+    const int32_t *bc;
+    size_t owner;
+    double dx, dt;
+    int apic, classic, need_tau;
+    uint8_t uniform[KF_MAX_RIGIDS], thin_body[KF_MAX_RIGIDS];
+} ghost_ctx;
+
+/* One particle across a surface, at every node of its stencil: the velocity
+ * the gather reads there, into lane `lane` of gr. At an incompatible node,
+ * the ghost (Eq. 27): the velocity P2G let the particle keep, plus the
+ * push, whose reactions go to the body (in node order: the impulse sums
+ * are the same for any grouping of the particles). */
+static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, gather_reads *gr, int lane) {
+    const kf_model *m = x->m;
+    kf_state *s = x->s;
+    kf_cpic *c = s->cpic;
+    const kf_particles *p = &s->p;
+    const uint32_t *col = x->oc->col;
+    const int32_t *bc = x->bc;
+    const double dx = x->dx, dt = x->dt;
+    static const int SYM[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ef in the xx yy zz xy xz yz planes */
+    const uint32_t cp = p->colour[i];
+    const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+    const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
+    const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
+    const double mass = p->mass[i];
+    double ur[KF_MAX_RIGIDS][3], Cj[9];
+    uint32_t have = 0;
+    for (int e = 0; e < 9; e++) Cj[e] = x->apic ? p->C[e][i] : 0;
+    /* the particle's stress as P2G scatters it: −Δt V⁰ τ */
+    double T[9] = {0};
+    for (int e = 0; e < (x->need_tau ? 9 : 0); e++) T[e] = -dt * (double)p->vol0[i] * (double)ck->tau[SYM[e]][j];
+    const uint32_t held = pressed_bodies(m, s, ck, j, col, o, cp, bc, vp, np, T, mass, x->classic);
+    int n = 0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            for (int k = 0; k < 3; k++, n++) {
+                const int q = o + (a * NB + b) * NB + k;
+                double vi[3], cd[3] = {0, 0, 0};
+                if (compatible(col[q], cp)) {
+                    for (int e = 0; e < 3; e++) vi[e] = x->cache[q][e];
+                } else {
                     const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
                     const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
-                    /* what the node receives in ordinary MLS-MPM (or classic MPM) */
-                    double add[4];
-                    for (int r = 0; r < 3; r++) {
-                        add[r] = w * (mvj[r] + qj[3 * r] * d[0] + qj[3 * r + 1] * d[1] + qj[3 * r + 2] * d[2]);
-                        if (classic) {
-                            double gw[3] = {(double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j],
-                                            (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j],
-                                            (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->dw[2][k][j]};
-                            add[r] +=
-                                ck->t[3 * r][j] * gw[0] + ck->t[3 * r + 1][j] * gw[1] + ck->t[3 * r + 2][j] * gw[2];
-                        }
-                    }
-                    add[3] = w * mass;
-                    const int q = o + (a * NB + b) * NB + k;
-                    if (compatible(col[q], cp)) {
-                        kf_v4 v4 = {(kf_real)add[0], (kf_real)add[1], (kf_real)add[2], (kf_real)add[3]};
-                        cache[q] += v4;
-                        continue;
-                    }
-                    /* incompatible: the closest body takes all the node would
-                     * have received (§5.4); G2P takes back the velocity the
-                     * particle keeps there, computed once, there */
                     int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
                     double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
                                     (4 * bc[2] + ck->l[2][j] + k) * dx};
-                    double J[3], cd[3];
-                    affine_velocity_of(Cj, apic, d, cd);
-                    for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (gdt[e] - cd[e]);
-                    double at[3] = {xi[0], xi[1], xi[2]};
-                    if (!thin_body[r]) {
+                    kept_velocity_at(m, s, r, xi, vp, np, (int)(held >> r & 1), x->uniform, &have, ur, vi);
+                    affine_velocity_of(Cj, x->apic, d, cd);
+                    /* the body gave P2G's whole share: the kept velocity comes back from it, where P2G's went */
+                    double K[3] = {-w * mass * vi[0], -w * mass * vi[1], -w * mass * vi[2]}, at[3] = {xi[0], xi[1], xi[2]};
+                    if (!x->thin_body[r]) {
                         const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};
-                        contact_point(col, dist, q, l3, s3, bc, c->obox[owner], r, cp, xi, s->rigid[r].com, dx, at);
+                        contact_point(col, x->oc->dist, q, l3, s3, bc, c->obox[x->owner], r, cp, xi, s->rigid[r].com,
+                                      dx, at);
                     }
-                    kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], at, J);
+                    kf_cpic_add_impulse(x->imp + 6 * r, &s->rigid[r], at, K);
+                    double push = m->rigid[r].def.push;
+                    if (push == KF_RIGID_AUTO) push = 0;
+                    if (push != 0 && c->near[i]) {
+                        double J[3];
+                        for (int e = 0; e < 3; e++) {
+                            vi[e] += dt * push * np[e];
+                            J[e] = -w * mass * dt * push * np[e];
+                        }
+                        kf_cpic_add_impulse(x->imp + 6 * r, &s->rigid[r], at, J);
+                    }
                 }
+                for (int e = 0; e < 3; e++) {
+                    gr->vi[n][e][lane] = vi[e];
+                    gr->cd[n][e][lane] = cd[e];
+                }
+            }
+}
+
+/* The gather's sums of one particle from its reads (lane `lane` of gr):
+ * v = Σ w (vi + cd), B = Σ w vi dᵀ, classic G = Σ vi ∇wᵀ, in node order. */
+static void gather_sums(chunk *ck, int j, const gather_reads *gr, int lane, int classic) {
+    double v[3] = {0}, B[9] = {0}, G[9] = {0};
+    int n = 0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            for (int k = 0; k < 3; k++, n++) {
+                const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
+                const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
+                const double gw[3] = {(double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j],
+                                      (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j],
+                                      (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->dw[2][k][j]};
+                for (int e = 0; e < 3; e++) {
+                    const double vi = gr->vi[n][e][lane];
+                    v[e] += w * (vi + gr->cd[n][e][lane]);
+                    for (int f = 0; f < 3; f++) {
+                        B[3 * e + f] += w * vi * d[f];
+                        if (classic) G[3 * e + f] += vi * gw[f];
+                    }
+                }
+            }
+    for (int e = 0; e < 3; e++) ck->v[e][j] = (kf_real)v[e];
+    for (int e = 0; e < 9; e++) {
+        ck->b[e][j] = (kf_real)B[e];
+        if (classic) ck->g[e][j] = (kf_real)G[e];
     }
 }
+
+#if defined(__AVX2__) && defined(__FMA__) && !defined(KF_DOUBLE)
+/* gather_sums (MLS) for up to 4 particles at once, one per lane: each lane
+ * does the scalar sums' operations in their order, and as the compiler
+ * contracts them there: v = fma(w, vi + cd, v), B = fma(w vi, d, B), w the
+ * rounded product (w_x w_y) w_z. Bit for bit with gather_sums. */
+static void gather_sums_lanes(chunk *ck, const int jl[4], int nl, const gather_reads *gr) {
+    __m256d W[3][3], D[3][3];
+    for (int ax = 0; ax < 3; ax++)
+        for (int t = 0; t < 3; t++) {
+            W[ax][t] = lanes_of(ck->w[ax][t], jl);
+            D[ax][t] = lanes_of(ck->d[ax][t], jl);
+        }
+    __m256d v[3], B[9];
+    for (int e = 0; e < 3; e++) v[e] = _mm256_setzero_pd();
+    for (int e = 0; e < 9; e++) B[e] = _mm256_setzero_pd();
+    int n = 0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++) {
+            const __m256d wab = _mm256_mul_pd(W[0][a], W[1][b]);
+            for (int k = 0; k < 3; k++, n++) {
+                const __m256d w = _mm256_mul_pd(wab, W[2][k]);
+                const __m256d d[3] = {D[0][a], D[1][b], D[2][k]};
+                for (int e = 0; e < 3; e++) {
+                    const __m256d vi = _mm256_loadu_pd(gr->vi[n][e]);
+                    v[e] = _mm256_fmadd_pd(w, _mm256_add_pd(vi, _mm256_loadu_pd(gr->cd[n][e])), v[e]);
+                    const __m256d wv = _mm256_mul_pd(w, vi);
+                    for (int f = 0; f < 3; f++) B[3 * e + f] = _mm256_fmadd_pd(wv, d[f], B[3 * e + f]);
+                }
+            }
+        }
+    float out[12][4];
+    for (int e = 0; e < 3; e++) _mm_storeu_ps(out[e], _mm256_cvtpd_ps(v[e]));
+    for (int e = 0; e < 9; e++) _mm_storeu_ps(out[3 + e], _mm256_cvtpd_ps(B[e]));
+    for (int l = 0; l < nl; l++) {
+        for (int e = 0; e < 3; e++) ck->v[e][jl[l]] = out[e][l];
+        for (int e = 0; e < 9; e++) ck->b[e][jl[l]] = out[3 + e][l];
+    }
+}
+#define KF_CPIC_GATHER_LANES 1
+#endif
 
 void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck, size_t i0,
                        const void *cache_v, int classic) {
     kf_cpic *c = s->cpic;
     kf_particles *p = &s->p;
-    const kf_grid *g = &s->g;
-    const kf_v4 *cache = cache_v;
+    ghost_ctx x = {.m = m,
+                   .s = s,
+                   .oc = oc,
+                   .cache = cache_v,
+                   .imp = &c->imp[c->slot[owner]][0][0],
+                   .bc = &s->g.bcoord[3 * owner],
+                   .owner = owner,
+                   .dx = m->sim.dx,
+                   .dt = c->dt,
+                   .apic = m->sim.transfer != KF_TRANSFER_PIC, /* APIC and FLIP carry C */
+                   .classic = classic};
     const uint32_t *col = oc->col;
-    double *imp = &c->imp[c->slot[owner]][0][0];
-    const int32_t *bc = &g->bcoord[3 * owner];
-    const double dx = m->sim.dx, dt = c->dt;
-    const int apic = m->sim.transfer != KF_TRANSFER_PIC;   /* APIC and FLIP carry C */
-    static const int SYM[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ef in the xx yy zz xy xz yz planes */
-    uint8_t uniform[KF_MAX_RIGIDS], thin_body[KF_MAX_RIGIDS], separate[KF_MAX_RIGIDS];
+    uint8_t separate[KF_MAX_RIGIDS];
     for (int r = 0; r < m->nrigid; r++) {
-        uniform[r] = (uint8_t)uniform_velocity(&s->rigid[r]);
-        thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
+        x.uniform[r] = (uint8_t)uniform_velocity(&s->rigid[r]);
+        x.thin_body[r] = (uint8_t)(m->rigid[r].def.thin != 0);
         separate[r] = (uint8_t)(m->rigid[r].def.boundary == KF_BOUNDARY_SEPARATE);
     }
     /* Which particles see a node across a surface (the rest gather as
@@ -783,22 +1025,24 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
      * the stress P2G scattered. Where the stress is not kept it is
      * evaluated again from F (not yet updated by this chunk), which is a
      * whole batch of lanes: most chunks of the band need none of it. */
-    uint8_t across[KF_CHUNK];
+    int across[KF_CHUNK], nacross = 0;
     int need_tau = 0;
     for (int j = 0; j < ck->n; j++) {
         const uint32_t cp = p->colour[i0 + (size_t)j];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        across[j] = 0;
+        int is_across = 0;
         if (!(cp & AFF)) continue;
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
                 for (int k = 0; k < 3; k++) {
                     const uint32_t cn = col[o + (a * NB + b) * NB + k];
                     if (compatible(cn, cp)) continue;
-                    across[j] = 1;
+                    is_across = 1;
                     need_tau |= separate[(cn >> KF_CPIC_RSTAR_SHIFT) - 1];
                 }
+        if (is_across) across[nacross++] = j;
     }
+    x.need_tau = need_tau;
     kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
     if (need_tau && (p->zero & KF_ZERO_TAU)) {
         kf_real *const out[6] = {tbuf[0], tbuf[1], tbuf[2], tbuf[3], tbuf[4], tbuf[5]};
@@ -809,76 +1053,28 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     }
     /* every particle's ordinary gather as one chunk (the rows of the
      * particles outside the band's, the same sums); those across a surface
-     * then write theirs over it */
-    if (classic) gather_chunk(3, 1, ck->n, ck, cache);
-    else gather_chunk(3, 0, ck->n, ck, cache);
-    for (int j = 0; j < ck->n; j++) {
-        size_t i = i0 + (size_t)j;
-        const uint32_t cp = p->colour[i];
-        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        if (!across[j]) continue;
-        const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
-        const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
-        const double mass = p->mass[i];
-        double v[3] = {0}, B[9] = {0}, G[9] = {0}, ur[KF_MAX_RIGIDS][3], Cj[9];
-        uint32_t have = 0;
-        for (int e = 0; e < 9; e++) Cj[e] = apic ? p->C[e][i] : 0;
-        /* the particle's stress as P2G scatters it: −Δt V⁰ τ */
-        double T[9] = {0};
-        for (int e = 0; e < (need_tau ? 9 : 0); e++) T[e] = -dt * (double)p->vol0[i] * (double)ck->tau[SYM[e]][j];
-        const uint32_t held = pressed_bodies(m, s, ck, j, col, o, cp, bc, vp, np, T, mass, classic);
-        for (int a = 0; a < 3; a++)
-            for (int b = 0; b < 3; b++)
-                for (int k = 0; k < 3; k++) {
-                    const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
-                    const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
-                    const int q = o + (a * NB + b) * NB + k;
-                    double vi[3], cd[3] = {0, 0, 0};
-                    if (compatible(col[q], cp)) {
-                        for (int e = 0; e < 3; e++) vi[e] = cache[q][e];
-                    } else {
-                        /* ghost: the velocity P2G let the particle keep, plus the push (Eq. 27) */
-                        int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
-                        double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
-                                        (4 * bc[2] + ck->l[2][j] + k) * dx};
-                        kept_velocity_at(m, s, r, xi, vp, np, (int)(held >> r & 1), uniform, &have, ur, vi);
-                        affine_velocity_of(Cj, apic, d, cd);
-                        /* the body gave P2G's whole share: the kept velocity comes back from it, where P2G's went */
-                        double K[3] = {-w * mass * vi[0], -w * mass * vi[1], -w * mass * vi[2]},
-                               at[3] = {xi[0], xi[1], xi[2]};
-                        if (!thin_body[r]) {
-                            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};
-                            contact_point(col, oc->dist, q, l3, s3, bc, c->obox[owner], r, cp, xi, s->rigid[r].com, dx,
-                                          at);
-                        }
-                        kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], at, K);
-                        double push = m->rigid[r].def.push;
-                        if (push == KF_RIGID_AUTO) push = 0;
-                        if (push != 0 && c->near[i]) {
-                            double J[3];
-                            for (int e = 0; e < 3; e++) {
-                                vi[e] += dt * push * np[e];
-                                J[e] = -w * mass * dt * push * np[e];
-                            }
-                            kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], at, J);
-                        }
-                    }
-                    const double gw[3] = {(double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j],
-                                          (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j],
-                                          (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->dw[2][k][j]};
-                    for (int e = 0; e < 3; e++) {
-                        v[e] += w * (vi[e] + cd[e]);
-                        for (int f = 0; f < 3; f++) {
-                            B[3 * e + f] += w * vi[e] * d[f];
-                            if (classic) G[3 * e + f] += vi[e] * gw[f];
-                        }
-                    }
-                }
-        for (int e = 0; e < 3; e++) ck->v[e][j] = (kf_real)v[e];
-        for (int e = 0; e < 9; e++) {
-            ck->b[e][j] = (kf_real)B[e];
-            if (classic) ck->g[e][j] = (kf_real)G[e];
+     * then write theirs over it, four at a time: their reads (and the
+     * bodies' impulses) particle by particle in order, then their sums in
+     * lanes */
+    if (classic) gather_chunk(3, 1, ck->n, ck, x.cache);
+    else gather_chunk(3, 0, ck->n, ck, x.cache);
+    gather_reads gr;
+    for (int g0 = 0; g0 < nacross; g0 += 4) {
+        const int nl = nacross - g0 < 4 ? nacross - g0 : 4;
+        int jl[4];
+        for (int l = 0; l < 4; l++) jl[l] = across[g0 + (l < nl ? l : 0)];
+        for (int l = 0; l < nl; l++) ghost_reads(&x, ck, jl[l], i0 + (size_t)jl[l], &gr, l);
+#ifdef KF_CPIC_GATHER_LANES
+        if (!classic) {
+            /* the unused lanes repeat lane 0's reads (their sums are not stored) */
+            for (int l = nl; l < 4; l++)
+                for (int n = 0; n < 27; n++)
+                    for (int e = 0; e < 3; e++) gr.vi[n][e][l] = gr.vi[n][e][0], gr.cd[n][e][l] = gr.cd[n][e][0];
+            gather_sums_lanes(ck, jl, nl, &gr);
+            continue;
         }
+#endif
+        for (int l = 0; l < nl; l++) gather_sums(ck, jl[l], &gr, l, classic);
     }
 }
 
