@@ -17,6 +17,9 @@
 #include "../mpm/collider.h"
 #include "cpic.h"
 #include "../dist/dist.h"
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
 
 #define NB KF_CPIC_NB
 #define AFF KF_CPIC_AFFINITY
@@ -532,6 +535,46 @@ static int acquire_side(const chunk *ck, int j, const uint32_t *col, const float
     return -1;
 }
 
+/* Over a particle's stencil (base node o), the or of the nodes' colours
+ * (B), and per bit of them whether some node has it with the particle's
+ * (old) next lower bit (agree) or with the other (across): bit operations
+ * alone, so a row of 3 nodes at once where AVX2 is (a zero fourth lane
+ * changes none of the ors) gives the same words as node by node. */
+static inline void stencil_sides(const uint32_t *col, int o, uint32_t old, uint32_t *B, uint32_t *agree,
+                                 uint32_t *across) {
+#if defined(__AVX2__)
+    const __m128i three = _mm_setr_epi32(-1, -1, -1, 0), vold = _mm_set1_epi32((int)old);
+    __m128i b = _mm_setzero_si128(), ag = b, ac = b;
+    for (int a = 0; a < 3; a++)
+        for (int r = 0; r < 3; r++) {
+            const __m128i cn = _mm_maskload_epi32((const int *)&col[o + (a * NB + r) * NB], three);
+            const __m128i other = _mm_slli_epi32(_mm_xor_si128(cn, vold), 1);
+            b = _mm_or_si128(b, cn);
+            ac = _mm_or_si128(ac, _mm_and_si128(cn, other));
+            ag = _mm_or_si128(ag, _mm_andnot_si128(other, cn));
+        }
+    /* the four lanes' ors */
+    uint32_t w[3][4];
+    _mm_storeu_si128((__m128i *)w[0], b);
+    _mm_storeu_si128((__m128i *)w[1], ag);
+    _mm_storeu_si128((__m128i *)w[2], ac);
+    *B = w[0][0] | w[0][1] | w[0][2] | w[0][3];
+    *agree = w[1][0] | w[1][1] | w[1][2] | w[1][3];
+    *across = w[2][0] | w[2][1] | w[2][2] | w[2][3];
+#else
+    uint32_t bs = 0, ag = 0, ac = 0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            for (int k = 0; k < 3; k++) {
+                const uint32_t cn = col[o + (a * NB + b) * NB + k], other = (cn ^ old) << 1;
+                bs |= cn;
+                ac |= cn & other;
+                ag |= cn & ~other;
+            }
+    *B = bs, *agree = ag, *across = ac;
+#endif
+}
+
 /* §5.3.1–5.3.3: the particle's colour (kept, dropped, acquired), then the
  * sums of its distance fit (the solve and the rest follow in
  * particle_cdf_finish). Writes the colour, and resets pd, pn and near (r*+1
@@ -552,15 +595,8 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
      * to, and per body (at its A bit) whether some close node is on the
      * particle's recorded side (agree) and some on the other (across) */
     const uint32_t old = p->colour[i];
-    uint32_t B = 0, agree = 0, across = 0;
-    for (int a = 0; a < 3; a++)
-        for (int b = 0; b < 3; b++)
-            for (int k = 0; k < 3; k++) {
-                const uint32_t cn = col[o + (a * NB + b) * NB + k], other = (cn ^ old) << 1;
-                B |= cn;
-                across |= cn & other;
-                agree |= cn & ~other;
-            }
+    uint32_t B, agree, across;
+    stencil_sides(col, o, old, &B, &agree, &across);
     B &= AFF;
     /* drop bodies no kernel node is close to; keep the rest as they are */
     uint32_t cp = old & ((B | B >> 1));
@@ -864,7 +900,7 @@ typedef struct ghost_ctx {
  * the ghost (Eq. 27): the velocity P2G let the particle keep, plus the
  * push, whose reactions go to the body (in node order: the impulse sums
  * are the same for any grouping of the particles). */
-static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, gather_reads *gr, int lane) {
+static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, int presses, gather_reads *gr, int lane) {
     const kf_model *m = x->m;
     kf_state *s = x->s;
     kf_cpic *c = s->cpic;
@@ -884,7 +920,8 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, gather_r
     /* the particle's stress as P2G scatters it: −Δt V⁰ τ */
     double T[9] = {0};
     for (int e = 0; e < (x->need_tau ? 9 : 0); e++) T[e] = -dt * (double)p->vol0[i] * (double)ck->tau[SYM[e]][j];
-    const uint32_t held = pressed_bodies(m, s, ck, j, col, o, cp, bc, vp, np, T, mass, x->classic);
+    /* (a particle with no separate body's node across its surface presses on none) */
+    const uint32_t held = presses ? pressed_bodies(m, s, ck, j, col, o, cp, bc, vp, np, T, mass, x->classic) : 0;
     int n = 0;
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++)
@@ -1025,12 +1062,12 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
      * the stress P2G scattered. Where the stress is not kept it is
      * evaluated again from F (not yet updated by this chunk), which is a
      * whole batch of lanes: most chunks of the band need none of it. */
-    int across[KF_CHUNK], nacross = 0;
+    int across[KF_CHUNK], presses[KF_CHUNK], nacross = 0;
     int need_tau = 0;
     for (int j = 0; j < ck->n; j++) {
         const uint32_t cp = p->colour[i0 + (size_t)j];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        int is_across = 0;
+        int is_across = 0, sep = 0;
         if (!(cp & AFF)) continue;
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 3; b++)
@@ -1038,9 +1075,10 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
                     const uint32_t cn = col[o + (a * NB + b) * NB + k];
                     if (compatible(cn, cp)) continue;
                     is_across = 1;
-                    need_tau |= separate[(cn >> KF_CPIC_RSTAR_SHIFT) - 1];
+                    sep |= separate[(cn >> KF_CPIC_RSTAR_SHIFT) - 1];
                 }
-        if (is_across) across[nacross++] = j;
+        need_tau |= sep;
+        if (is_across) presses[nacross] = sep, across[nacross++] = j;
     }
     x.need_tau = need_tau;
     kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
@@ -1063,7 +1101,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         const int nl = nacross - g0 < 4 ? nacross - g0 : 4;
         int jl[4];
         for (int l = 0; l < 4; l++) jl[l] = across[g0 + (l < nl ? l : 0)];
-        for (int l = 0; l < nl; l++) ghost_reads(&x, ck, jl[l], i0 + (size_t)jl[l], &gr, l);
+        for (int l = 0; l < nl; l++) ghost_reads(&x, ck, jl[l], i0 + (size_t)jl[l], presses[g0 + l], &gr, l);
 #ifdef KF_CPIC_GATHER_LANES
         if (!classic) {
             /* the unused lanes repeat lane 0's reads (their sums are not stored) */
