@@ -45,6 +45,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->seed_x);
     free(c->seed_bin);
     free(c->seed_order);
+    free(c->seed_sb);
     free(c->run_kept);
     free(c->aff);
     free(c->near_blk);
@@ -773,7 +774,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
     if (ns > c->cap_seed) {
         size_t cap = ns + ns / 4 + 64;
         if (grow((void **)&c->seed_x, 3 * sizeof(double), cap) || grow((void **)&c->seed_bin, sizeof(int32_t), cap) ||
-            grow((void **)&c->seed_order, sizeof(int32_t), cap))
+            grow((void **)&c->seed_order, sizeof(int32_t), cap) || grow(&c->seed_sb, sizeof(seed_box), cap))
             return -1;
         c->cap_seed = cap;
     }
@@ -790,6 +791,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
     for (int a = 0; a < 3; a++) slo[a] = glo[a] - (reach + 1) * dx, shi[a] = ghi[a] + (reach + 1) * dx;
     double *sx = c->seed_x;
     int32_t *sbin = c->seed_bin;
+    seed_box *sbox = c->seed_sb;
     /* small bodies stay on one thread: waking a sleeping team costs more
      * than their seeds (the bins' order, hence the result, is the same) */
     if (run_spheres(c, b, r)) return -1;
@@ -829,9 +831,10 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
             int out = 0;
             seed_world(st, o, x);
             for (int a = 0; a < 3; a++) out |= x[a] < slo[a] || x[a] > shi[a];
-            seed_box sb;
-            if (out || !seed_box_of(c, g, x, inv_dx, reach, &sb) || !box_reads(c, g, &sb)) continue;
-            int bin = sb.b0[0] - bin0;
+            /* the box is kept for the splat below (the grid does not change in between) */
+            seed_box *sb = &sbox[e];
+            if (out || !seed_box_of(c, g, x, inv_dx, reach, sb) || !box_reads(c, g, sb)) continue;
+            int bin = sb->b0[0] - bin0;
             sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1; /* outside: no block there either */
             if (sbin[e] >= 0) kept[k] = 1, nkept++;
         }
@@ -873,9 +876,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
             for (int32_t q = bs[k]; q < bs[k + 1]; q++) {
                 size_t e = (size_t)order[q];
                 int tri = b->seed_tri[e];
-                seed_box sb;
-                seed_box_of(c, g, &sx[3 * e], inv_dx, reach, &sb);
-                splat_box(&L, &c->tri[r][tri], tid0 + (uint32_t)tri, &sb, r, inv_dx, dx);
+                splat_box(&L, &c->tri[r][tri], tid0 + (uint32_t)tri, &sbox[e], r, inv_dx, dx);
             }
     }
     return 0;

@@ -70,6 +70,7 @@ typedef struct kf_cpic {
     double *seed_x;      /* (3 x seeds) world position */
     int32_t *seed_bin;   /* x-block bin of its node box, -1: touches no block */
     int32_t *seed_order; /* seeds grouped by bin, in seed order within one */
+    void *seed_sb;       /* (seeds) a kept seed's node box and its blocks, as found when it was kept (cdf.c) */
     int32_t *bin_start;  /* (bins + 1) */
     /* this substep's blocks by coordinate, dense over the grid's box of
      * blocks (-1: none; all -1 between splats), where that box is small
