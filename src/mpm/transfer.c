@@ -464,10 +464,28 @@ typedef struct g2p_owner {
     /* the CFL figures (acc->scan): 0 no corotated material, 1 only
      * material corot_k (corotated), 2 some corotated among others */
     int corot, corot_k;
+    /* the prefetch stream: the owner's particles end at pend, and this
+     * thread's next ones begin at next (another owner's, in the fused
+     * sweep's colour order); p2g: the fused scatter follows, so its
+     * planes G2P does not touch (mass, V⁰) are asked for too */
+    size_t pend, next;
+    int p2g;
     const kf_cpic_owner *oc;
     const kf_v4 *cache, *ocache;
     step_acc *acc;
 } g2p_owner;
+
+/* the particle KF_PREFETCH ahead of i0 in this thread's order: past the
+ * owner's end, the next owner's head, a line (KF_CHUNK particles) per
+ * chunk from its first particle (the owner's own prefetches begin
+ * KF_PREFETCH in; without this its head came from memory unasked, and the
+ * lines past the owner's end, another colour's, were fetched for nothing) */
+KF_INLINE size_t g2p_ahead(const g2p_owner *o, size_t i0) {
+    const size_t ahead = i0 + KF_PREFETCH;
+    if (ahead < o->pend) return ahead;
+    const size_t past = ahead - o->pend;
+    return o->next + (past - past % KF_CHUNK);
+}
 
 /* one chunk of an owner's particles from i0: n of them, a constant
  * KF_CHUNK for every full chunk (each per-particle loop is then one
@@ -487,11 +505,17 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
     step_acc *acc = o->acc;
     kf_real max_v2 = 0;
     ck->n = n;
-    /* the planes this chunk's successors read or write */
-    prefetch_planes(p->x, 3, i0, 1);
-    prefetch_planes(p->v, 3, i0, 1);
-    prefetch_planes(p->C, 9, i0, 1);
-    prefetch_planes(p->F, 9, i0, 1);
+    /* the planes this chunk's successors read or write (and the fused
+     * scatter's mass and V⁰) */
+    const size_t ahead = g2p_ahead(o, i0);
+    prefetch_planes_at(p->x, 3, ahead, 1);
+    prefetch_planes_at(p->v, 3, ahead, 1);
+    prefetch_planes_at(p->C, 9, ahead, 1);
+    prefetch_planes_at(p->F, 9, ahead, 1);
+    if (o->p2g) {
+        prefetch_planes_at(&p->mass, 1, ahead, 0);
+        prefetch_planes_at(&p->vol0, 1, ahead, 0);
+    }
     /* the MLS gather in rows (band particles' gather_one too) reads w d */
     const int WD = KF_GATHER_ROWS && !CLASSIC;
     /* the offsets d for every reader but the MLS gather in rows */
@@ -680,8 +704,10 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
     return max_v2;
 }
 
-KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, kf_real dt,
-                         kf_v4 *cache, kf_v4 *ocache, chunk *ck, step_acc *acc) {
+/* owner r's G2P; next: where this thread's particles continue after
+ * it, p2g: whether the fused scatter follows (g2p_owner's) */
+KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, size_t next,
+                         int p2g, kf_real dt, kf_v4 *cache, kf_v4 *ocache, chunk *ck, step_acc *acc) {
     kf_grid *g = &s->g;
     /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
     const kf_real dx = (kf_real)m->sim.dx, inv_dx = kf_model_inv_dx(m);
@@ -728,6 +754,9 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
                          .flip = flip,
                          .corot = corot,
                          .corot_k = corot_k,
+                         .pend = g->pstart[r + 1],
+                         .next = next,
+                         .p2g = p2g,
                          .oc = band ? &oc : NULL,
                          .cache = cache,
                          .ocache = ocache,
@@ -744,9 +773,9 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
 }
 
 #define G2P_VARIANT(name, KW, CLASSIC, FLIP)                                                                           \
-    __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,     \
-                                               kf_v4 *ocache, chunk *ck, step_acc *acc) {                              \
-        g2p_block(KW, CLASSIC, FLIP, m, s, r, dt, cache, ocache, ck, acc);                                             \
+    __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, size_t next, int p2g,        \
+                                               kf_real dt, kf_v4 *cache, kf_v4 *ocache, chunk *ck, step_acc *acc) {    \
+        g2p_block(KW, CLASSIC, FLIP, m, s, r, next, p2g, dt, cache, ocache, ck, acc);                                  \
     }
 G2P_VARIANT(g2p_q_mls, 3, 0, 0)
 G2P_VARIANT(g2p_q_classic, 3, 1, 0)
@@ -757,7 +786,8 @@ G2P_VARIANT(g2p_q_classic_flip, 3, 1, 1)
 G2P_VARIANT(g2p_c_mls_flip, 4, 0, 1)
 G2P_VARIANT(g2p_c_classic_flip, 4, 1, 1)
 
-typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, kf_v4 *, chunk *, step_acc *);
+typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, size_t, int, kf_real, kf_v4 *, kf_v4 *, chunk *,
+                       step_acc *);
 static g2p_fn g2p_variant(const kf_model *m) {
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     if (m->sim.transfer == KF_TRANSFER_FLIP)
@@ -778,7 +808,7 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
         chunk ck __attribute__((aligned(64)));
         step_acc acc = {0};
 #pragma omp for schedule(dynamic, 4)
-        for (size_t k = 0; k < g->nowner; k++) fn(m, s, k, dt, cache, ocache, &ck, &acc);
+        for (size_t k = 0; k < g->nowner; k++) fn(m, s, k, g->pstart[k + 1], 0, dt, cache, ocache, &ck, &acc);
 #pragma omp critical
         {
             if (acc.trouble.found && (!total.trouble.found || acc.trouble.particle < total.trouble.particle))
@@ -1000,13 +1030,16 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, double next_dt_d, kf_g2
                 for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
                     size_t r = (size_t)g->owner[k];
                     if (keep) prefetch_tau_head(p, g->pstart[r], g->pstart[r + 1]);
-                    /* the next owner of the colour (this thread's next, mostly): its nodes */
+                    /* the next owner of the colour (this thread's next, mostly): its
+                     * nodes, and its particles' head in G2P's prefetch stream */
+                    size_t next = g->pstart[r + 1];
                     if (k + 1 < g->colour_start[c + 1]) {
                         const int32_t *nb1 = g->nb[g->owner[k + 1]];
                         prefetch_owner_nodes(g->node, nb1, 0);
                         prefetch_owner_nodes(g->node_next, nb1, 1);
+                        next = g->pstart[g->owner[k + 1]];
                     }
-                    gfn(m, s, r, dt, cache, NULL, &ck, &acc);
+                    gfn(m, s, r, next, ok, dt, cache, NULL, &ck, &acc);
                     if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
                     if (scan && scan_states) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min, 1);
                     in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
@@ -1031,7 +1064,7 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, double next_dt_d, kf_g2
             for (size_t r = 0; r < nowner; r++) {
                 if (keep) prefetch_tau_head(p, g->pstart[r], g->pstart[r + 1]);
                 if (r + 1 < nowner) prefetch_owner_nodes(g->node, g->nb[r + 1], 0);
-                gfn(m, s, r, dt, cache, NULL, &ck, &acc);
+                gfn(m, s, r, g->pstart[r + 1], 0, dt, cache, NULL, &ck, &acc);
                 if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
                 if (scan && scan_states) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min, 1);
                 in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);

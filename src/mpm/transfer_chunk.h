@@ -143,11 +143,15 @@ static inline void nb_gather(kf_v4 *node, const int32_t *nb, kf_v4 *cache) {
 #ifndef KF_PREFETCH
 #define KF_PREFETCH 64
 #endif
-KF_INLINE void prefetch_planes(kf_real *const *plane, int count, size_t i, int write) {
+/* element i of each plane asked for (write: for ownership) */
+KF_INLINE void prefetch_planes_at(kf_real *const *plane, int count, size_t i, int write) {
     for (int k = 0; k < count; k++) {
-        if (write) __builtin_prefetch(plane[k] + i + KF_PREFETCH, 1, 3);
-        else __builtin_prefetch(plane[k] + i + KF_PREFETCH, 0, 3);
+        if (write) __builtin_prefetch(plane[k] + i, 1, 3);
+        else __builtin_prefetch(plane[k] + i, 0, 3);
     }
+}
+KF_INLINE void prefetch_planes(kf_real *const *plane, int count, size_t i, int write) {
+    prefetch_planes_at(plane, count, i + KF_PREFETCH, write);
 }
 
 /* ---- trouble: the first (lowest id) particle in trouble, per thread ---- */
