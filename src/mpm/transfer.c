@@ -453,6 +453,33 @@ KF_INLINE void plane_out(kf_real *restrict dst, const kf_real *restrict src, int
     else memcpy(dst, src, sizeof(kf_real) * (size_t)n);
 }
 
+/* what follows an owner in this thread's order, for the prefetches made
+ * while it runs: the next particles' first index, the next owner's
+ * neighbourhood of blocks (NULL: none), the node arrays its G2P reads
+ * (node) and its fused scatter adds to (next_nodes, or NULL), and whether
+ * this owner's fused scatter follows its G2P (p2g) */
+typedef struct g2p_follow {
+    size_t first;
+    const int32_t *nb;
+    const kf_v4 *node;
+    kf_v4 *next_nodes;
+    int p2g;
+} g2p_follow;
+
+/* lines l0..l1-1 of the 2x2x2 neighbourhood nb of node blocks (16 lines a
+ * block, 128 in all) asked for into L2 (write: for ownership). A prefetch
+ * changes no result. */
+#define KF_NB_LINES (8 * KF_BLOCK_NODES * (int)sizeof(kf_v4) / 64)
+static inline void prefetch_nb_lines(const kf_v4 *node, const int32_t *nb, int l0, int l1, int write) {
+    const int per_block = KF_NB_LINES / 8;
+    for (int l = l0; l < l1; l++) {
+        const char *line =
+            (const char *)&node[(size_t)nb[l / per_block] * KF_BLOCK_NODES] + (size_t)(l % per_block) * 64;
+        if (write) __builtin_prefetch(line, 1, 2);
+        else __builtin_prefetch(line, 0, 2);
+    }
+}
+
 /* what one owner's chunks share (g2p_block) */
 typedef struct g2p_owner {
     const kf_model *m;
@@ -704,10 +731,9 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
     return max_v2;
 }
 
-/* owner r's G2P; next: where this thread's particles continue after
- * it, p2g: whether the fused scatter follows (g2p_owner's) */
-KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, size_t next,
-                         int p2g, kf_real dt, kf_v4 *cache, kf_v4 *ocache, chunk *ck, step_acc *acc) {
+/* owner r's G2P; f: what follows it in this thread's order */
+KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, const g2p_follow *f,
+                         kf_real dt, kf_v4 *cache, kf_v4 *ocache, chunk *ck, step_acc *acc) {
     kf_grid *g = &s->g;
     /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
     const kf_real dx = (kf_real)m->sim.dx, inv_dx = kf_model_inv_dx(m);
@@ -755,14 +781,26 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
                          .corot = corot,
                          .corot_k = corot_k,
                          .pend = g->pstart[r + 1],
-                         .next = next,
-                         .p2g = p2g,
+                         .next = f->first,
+                         .p2g = f->p2g,
                          .oc = band ? &oc : NULL,
                          .cache = cache,
                          .ocache = ocache,
                          .acc = acc};
     kf_real max_v2 = 0;
+    /* the following owner's nodes (its cache fill reads them, its fused
+     * scatter's flush adds to them) asked for a slice before each chunk:
+     * asked for at once, the 256 requests filled the miss buffers */
+    const size_t nchunks = (g->pstart[r + 1] - g->pstart[r] + KF_CHUNK - 1) / KF_CHUNK;
+    const int per = nchunks ? (int)((KF_NB_LINES + nchunks - 1) / nchunks) : 0;
+    int l0 = 0;
     for (size_t i0 = g->pstart[r]; i0 < g->pstart[r + 1]; i0 += KF_CHUNK) {
+        if (f->nb) {
+            const int l1 = l0 + per < KF_NB_LINES ? l0 + per : KF_NB_LINES;
+            prefetch_nb_lines(f->node, f->nb, l0, l1, 0);
+            if (f->next_nodes) prefetch_nb_lines(f->next_nodes, f->nb, l0, l1, 1);
+            l0 = l1;
+        }
         const size_t left = g->pstart[r + 1] - i0;
         const kf_real v2 = left >= KF_CHUNK ? g2p_chunk(KW, CLASSIC, FLIP, KF_CHUNK, &o, ck, i0)
                                             : g2p_chunk(KW, CLASSIC, FLIP, (int)left, &o, ck, i0);
@@ -773,9 +811,9 @@ KF_INLINE void g2p_block(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_st
 }
 
 #define G2P_VARIANT(name, KW, CLASSIC, FLIP)                                                                           \
-    __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, size_t next, int p2g,        \
+    __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, const g2p_follow *f,          \
                                                kf_real dt, kf_v4 *cache, kf_v4 *ocache, chunk *ck, step_acc *acc) {    \
-        g2p_block(KW, CLASSIC, FLIP, m, s, r, next, p2g, dt, cache, ocache, ck, acc);                                  \
+        g2p_block(KW, CLASSIC, FLIP, m, s, r, f, dt, cache, ocache, ck, acc);                                          \
     }
 G2P_VARIANT(g2p_q_mls, 3, 0, 0)
 G2P_VARIANT(g2p_q_classic, 3, 1, 0)
@@ -786,7 +824,7 @@ G2P_VARIANT(g2p_q_classic_flip, 3, 1, 1)
 G2P_VARIANT(g2p_c_mls_flip, 4, 0, 1)
 G2P_VARIANT(g2p_c_classic_flip, 4, 1, 1)
 
-typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, size_t, int, kf_real, kf_v4 *, kf_v4 *, chunk *,
+typedef void (*g2p_fn)(const kf_model *, kf_state *, size_t, const g2p_follow *, kf_real, kf_v4 *, kf_v4 *, chunk *,
                        step_acc *);
 static g2p_fn g2p_variant(const kf_model *m) {
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
@@ -808,7 +846,10 @@ void kf_g2p(const kf_model *m, kf_state *s, kf_real dt, kf_g2p_result *out) {
         chunk ck __attribute__((aligned(64)));
         step_acc acc = {0};
 #pragma omp for schedule(dynamic, 4)
-        for (size_t k = 0; k < g->nowner; k++) fn(m, s, k, g->pstart[k + 1], 0, dt, cache, ocache, &ck, &acc);
+        for (size_t k = 0; k < g->nowner; k++) {
+            const g2p_follow f = {.first = g->pstart[k + 1]};
+            fn(m, s, k, &f, dt, cache, ocache, &ck, &acc);
+        }
 #pragma omp critical
         {
             if (acc.trouble.found && (!total.trouble.found || acc.trouble.particle < total.trouble.particle))
@@ -948,21 +989,6 @@ static int owner_in_reach(const kf_grid *g, const kf_particles *p, size_t r, kf_
     return !out;
 }
 
-/* an owner's 2x2x2 neighbourhood of nodes (8 blocks, 128 lines) asked for
- * into L2 one owner ahead: G2P's cache fill (nb_gather) and the fused
- * scatter's flush read them, and a large scene's grid has left the caches
- * since the grid update; the requests run while the owner before it works.
- * A prefetch changes no result. */
-static inline void prefetch_owner_nodes(const kf_v4 *node, const int32_t nb[8], int write) {
-    for (int k = 0; k < 8; k++) {
-        const char *blk = (const char *)&node[(size_t)nb[k] * KF_BLOCK_NODES];
-        for (size_t l = 0; l < KF_BLOCK_NODES * sizeof(kf_v4); l += 64) {
-            if (write) __builtin_prefetch(blk + l, 1, 2);
-            else __builtin_prefetch(blk + l, 0, 2);
-        }
-    }
-}
-
 int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, double next_dt_d, kf_g2p_result *out) {
     g2p_fn gfn = g2p_variant(m);
     p2g_fn pfn = p2g_variant(m);
@@ -1031,15 +1057,15 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, double next_dt_d, kf_g2
                     size_t r = (size_t)g->owner[k];
                     if (keep) prefetch_tau_head(p, g->pstart[r], g->pstart[r + 1]);
                     /* the next owner of the colour (this thread's next, mostly): its
-                     * nodes, and its particles' head in G2P's prefetch stream */
-                    size_t next = g->pstart[r + 1];
+                     * nodes (one owner ahead: a large scene's grid has left the
+                     * caches since the grid update) and its particles' head, asked
+                     * for while G2P runs */
+                    g2p_follow f = {.first = g->pstart[r + 1], .node = g->node, .p2g = ok};
                     if (k + 1 < g->colour_start[c + 1]) {
-                        const int32_t *nb1 = g->nb[g->owner[k + 1]];
-                        prefetch_owner_nodes(g->node, nb1, 0);
-                        prefetch_owner_nodes(g->node_next, nb1, 1);
-                        next = g->pstart[g->owner[k + 1]];
+                        const size_t r1 = (size_t)g->owner[k + 1];
+                        f.first = g->pstart[r1], f.nb = g->nb[r1], f.next_nodes = g->node_next;
                     }
-                    gfn(m, s, r, next, ok, dt, cache, NULL, &ck, &acc);
+                    gfn(m, s, r, &f, dt, cache, NULL, &ck, &acc);
                     if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
                     if (scan && scan_states) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min, 1);
                     in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
@@ -1063,8 +1089,9 @@ int kf_g2p2g(const kf_model *m, kf_state *s, kf_real dt, double next_dt_d, kf_g2
 #pragma omp for schedule(dynamic, 4)
             for (size_t r = 0; r < nowner; r++) {
                 if (keep) prefetch_tau_head(p, g->pstart[r], g->pstart[r + 1]);
-                if (r + 1 < nowner) prefetch_owner_nodes(g->node, g->nb[r + 1], 0);
-                gfn(m, s, r, g->pstart[r + 1], 0, dt, cache, NULL, &ck, &acc);
+                const g2p_follow f = {
+                    .first = g->pstart[r + 1], .nb = r + 1 < nowner ? g->nb[r + 1] : NULL, .node = g->node};
+                gfn(m, s, r, &f, dt, cache, NULL, &ck, &acc);
                 if (keep) limited += stress_owner(mats, p, g->pstart[r], g->pstart[r + 1]);
                 if (scan && scan_states) kf_cfl_scan(m, p, g->pstart[r], g->pstart[r + 1], &v2max, state_min, 1);
                 in_reach &= owner_in_reach(g, p, r, inv_dx, KW == 4);
