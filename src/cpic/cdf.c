@@ -29,6 +29,9 @@
 #include "../core/mat3.h"
 #include "cpic.h"
 #include "../dist/dist.h"
+#if defined(__AVX2__) && defined(__FMA__)
+#include <immintrin.h>
+#endif
 
 int kf_cpic_band(const kf_state *s, size_t owner) {
     return s->cpic && owner < s->cpic->cap_owner && s->cpic->slot[owner] >= 0;
@@ -678,6 +681,81 @@ static int run_far(const kf_cpic *c, const kf_grid *g, const double xc[3], const
     return 1;
 }
 
+/* What node `node` (of the layer) takes from a triangle of body r whose
+ * plane lies at signed distance u (m) from it, the projection inside the
+ * triangle: affinity, the side from the body's closest primitive, and the
+ * closest body (ties to the smaller index, as when the bodies are splatted
+ * in index order with strict minima, whatever order they come in) */
+static inline void splat_node(const cdf_layer *c, size_t node, double u, uint32_t abit, uint32_t tbit, int r,
+                              double inv_dx) {
+    float au = (float)(fabs(u) * inv_dx);
+    uint32_t w = c->c[node] | abit;
+    if (au < c->best[node]) {
+        /* the body's closest primitive decides the side */
+        c->best[node] = au;
+        w = u < 0 ? (w | tbit) : (w & ~tbit);
+    }
+    uint32_t rs = w >> KF_CPIC_RSTAR_SHIFT;
+    if (au < c->d[node] || (au == c->d[node] && rs > (uint32_t)(r + 1))) {
+        c->d[node] = au;
+        w = (w & KF_CPIC_BITS_MASK) | (uint32_t)(r + 1) << KF_CPIC_RSTAR_SHIFT;
+    }
+    c->c[node] = w;
+}
+
+#if defined(__AVX2__) && defined(__FMA__)
+/* the nodes lo..hi of one block blk, projected onto triangle t (splat_box).
+ * A row along z of one block is at most 4 nodes: their projections (α, β)
+ * in the 4 lanes of one AVX2 register, and only the nodes whose projection
+ * lands inside the triangle (a few in a hundred) go on one by one. Each
+ * lane does the scalar loop's arithmetic as the compiler contracts it
+ * there (below, #else): q = fma(i, Δx, −v0), d1 = fma(q_z, e1_z, fma(q_y,
+ * e1_y, q_x e1_x)) (d2 and u alike), α = fma(d1, g11, g12 d2), β = fma(d1,
+ * g12, g22 d2), and the same three strict tests: bit for bit. A node whose
+ * projection is outside is not marked: a later seed of the same triangle
+ * projects it again to the same outcome (the mark only saves that work). */
+static inline void splat_nodes(const cdf_layer *c, const kf_cpic_tri *t, uint32_t tid, int32_t blk, const int lo[3],
+                               const int hi[3], uint32_t abit, uint32_t tbit, int r, double inv_dx, double dx) {
+    const kf_cpic_tri T = *t;
+    const double eps = 1e-6; /* shared edges must not fall between two triangles */
+    const int nk = hi[2] - lo[2] + 1;
+    const __m256d kz = _mm256_add_pd(_mm256_set1_pd(lo[2]), _mm256_setr_pd(0, 1, 2, 3));
+    const __m256d qz = _mm256_fmsub_pd(kz, _mm256_set1_pd(dx), _mm256_set1_pd(T.v0[2]));
+    const __m256d e1z = _mm256_set1_pd(T.e1[2]), e2z = _mm256_set1_pd(T.e2[2]);
+    const __m256d g11 = _mm256_set1_pd(T.g11), g12 = _mm256_set1_pd(T.g12), g22 = _mm256_set1_pd(T.g22);
+    const __m256d lo_eps = _mm256_set1_pd(-eps), hi_eps = _mm256_set1_pd(1 + eps);
+    const int live = (1 << nk) - 1;
+    double qzl[4];
+    _mm256_storeu_pd(qzl, qz);
+    for (int i = lo[0]; i <= hi[0]; i++) {
+        const double qx = fma((double)i, dx, -(double)T.v0[0]);
+        const double x1 = qx * T.e1[0], x2 = qx * T.e2[0], xu = qx * T.n[0];
+        for (int j = lo[1]; j <= hi[1]; j++) {
+            const double qy = fma((double)j, dx, -(double)T.v0[1]);
+            const double y1 = fma(qy, (double)T.e1[1], x1), y2 = fma(qy, (double)T.e2[1], x2);
+            const __m256d d1 = _mm256_fmadd_pd(qz, e1z, _mm256_set1_pd(y1));
+            const __m256d d2 = _mm256_fmadd_pd(qz, e2z, _mm256_set1_pd(y2));
+            const __m256d al = _mm256_fmadd_pd(d1, g11, _mm256_mul_pd(g12, d2));
+            const __m256d be = _mm256_fmadd_pd(d1, g12, _mm256_mul_pd(g22, d2));
+            /* outside: al < −eps, or be < −eps, or al + be > 1 + eps (a NaN is inside, as in the scalar tests) */
+            const __m256d out = _mm256_or_pd(
+                _mm256_or_pd(_mm256_cmp_pd(al, lo_eps, _CMP_LT_OQ), _mm256_cmp_pd(be, lo_eps, _CMP_LT_OQ)),
+                _mm256_cmp_pd(_mm256_add_pd(al, be), hi_eps, _CMP_GT_OQ));
+            int in = ~_mm256_movemask_pd(out) & live;
+            if (!in) continue;
+            const double yu = fma(qy, (double)T.n[1], xu);
+            const size_t row = 64 * (size_t)blk + (size_t)((i & 3) << 4 | (j & 3) << 2);
+            for (; in; in &= in - 1) {
+                const int l = __builtin_ctz((unsigned)in);
+                const size_t node = row + (size_t)((lo[2] + l) & 3);
+                if (c->mark[node] == tid) continue;
+                c->mark[node] = tid;
+                splat_node(c, node, fma(qzl[l], (double)T.n[2], yu), abit, tbit, r, inv_dx);
+            }
+        }
+    }
+}
+#else
 /* the nodes lo..hi of one block blk, projected onto triangle t (splat_box) */
 static inline void splat_nodes(const cdf_layer *c, const kf_cpic_tri *t, uint32_t tid, int32_t blk, const int lo[3],
                                const int hi[3], uint32_t abit, uint32_t tbit, int r, double inv_dx, double dx) {
@@ -698,24 +776,10 @@ static inline void splat_nodes(const cdf_layer *c, const kf_cpic_tri *t, uint32_
                 const double eps = 1e-6; /* shared edges must not fall between two triangles */
                 if (al < -eps || be < -eps || al + be > 1 + eps) continue;
                 double u = q[0] * T.n[0] + q[1] * T.n[1] + q[2] * T.n[2];
-                float au = (float)(fabs(u) * inv_dx);
-                uint32_t w = c->c[node] | abit;
-                if (au < c->best[node]) {
-                    /* the body's closest primitive decides the side */
-                    c->best[node] = au;
-                    w = u < 0 ? (w | tbit) : (w & ~tbit);
-                }
-                /* the closest body, ties to the smaller index (as when the
-                 * bodies are splatted in index order with strict minima,
-                 * whatever order they come in) */
-                uint32_t rs = w >> KF_CPIC_RSTAR_SHIFT;
-                if (au < c->d[node] || (au == c->d[node] && rs > (uint32_t)(r + 1))) {
-                    c->d[node] = au;
-                    w = (w & KF_CPIC_BITS_MASK) | (uint32_t)(r + 1) << KF_CPIC_RSTAR_SHIFT;
-                }
-                c->c[node] = w;
+                splat_node(c, node, u, abit, tbit, r, inv_dx);
             }
 }
+#endif
 
 /* the nodes of one seed's box, projected onto its triangle t of body r.
  * What a node gets from a triangle depends on the node and the triangle
