@@ -26,8 +26,11 @@
  *
  * The body's pose at the end of the substep is known for static and
  * kinematic bodies; a dynamic body's is predicted from its velocity at the
- * start (gravity included), which the material's impulses change by a small
- * fraction of a cell; the penalty of Eq. 22 takes care of that remainder.
+ * start (gravity included), which the material's impulses, its joints and
+ * contacts change by a small fraction of a cell: once the bodies have
+ * moved, each particle is followed from the predicted pose to the body's
+ * own too (kf_cpic_guard_settle, below), so no leg of its path goes
+ * unguarded.
  *
  * Colours are untouched: a particle that never crosses keeps the side its
  * colour records. */
@@ -84,27 +87,15 @@ static inline void tri_plane(const kf_rigid_body *b, int k, double n[3], double 
     *off = kf_v3d_dot(n, a);
 }
 
-/* Follow one particle's path relative to body r; fix it if it crossed.
- * Returns the depth it would have been behind (m), or 0 when it did not cross. */
-static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, const double xold[3], double *imp) {
-    const kf_rigid_body *b = &m->rigid[r];
-    const kf_cpic *c = s->cpic;
-    kf_particles *p = &s->p;
-    double x1[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, p0[3], p1[3], t;
-    /* thin bodies only: around a solid the colored distance field reaches
-     * 2.5 cells inside and the penalty keeps the material out; guarding a
-     * solid too removes the slight penetrations that carry a loaded face's
-     * support (docs/lab-notes.md, "The guard around solids") */
-    if (!b->bvh || !b->def.thin) return 0;
-    to_mesh(&s->rigid[r], xold, p0);
-    to_mesh(&c->end[r], x1, p1);
-    /* farther from the surface than its path is long (the MLS fit's distance
-     * at the start, a quarter cell to spare for a curved surface): it cannot
-     * have reached it, and the query is skipped (most of the narrow band) */
-    if (c->near[i] == r + 1) {
-        double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-        if (c->pd[i] > sqrt(kf_v3d_dot(d, d)) + 0.25 * m->sim.dx) return 0;
-    }
+/* Where the segment p0 -> p1 (mesh frame) passes through body b's surface,
+ * p1 put back on p0's side (eps: the least distance from the plane; vol0:
+ * the particle's volume, for its spacing). Returns 0 when it does not cross
+ * (p1 kept); else 1, with the depth p1 was behind the first triangle it
+ * hit, the side it is on now (1: the triangle's normal's, -1: behind) and
+ * that side's normal. */
+static int put_back(const kf_rigid_body *b, const double p0[3], double p1[3], double eps, double vol0, double *depth,
+                    double side_n[3], double *side_out) {
+    double t;
     int k = kf_rigid_bvh_first_hit(b->bvh, p0, p1, &t);
     if (k < 0) return 0;
     /* a particle that got between the two faces of a blade (through its
@@ -117,13 +108,14 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
             if (kf_rigid_bvh_first_hit(b->bvh, p0, back, &tb) >= 0) return 0;
         }
     }
-    const double eps = 0.01 * m->sim.dx, half = 0.5 * cbrt((double)p->vol0[i]);
-    double n[3], off, depth = 0, side_n[3], side = 1;
+    const double half = 0.5 * cbrt(vol0);
+    double n[3], off, side = 1;
+    *depth = 0;
     for (int tries = 0; k >= 0; tries++) {
         tri_plane(b, b->guard_tri[k], n, &off);
         double s0 = kf_v3d_dot(n, p0) - off, s1 = kf_v3d_dot(n, p1) - off;
         side = s0 >= 0 ? 1 : -1;
-        if (tries == 0) depth = fabs(s1);
+        if (tries == 0) *depth = fabs(s1);
         for (int a = 0; a < 3; a++) side_n[a] = side * n[a];
         if (tries == 4) {
             /* a fold it keeps crossing: it stays where it was relative to the body */
@@ -141,6 +133,33 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
         for (int a = 0; a < 3; a++) p1[a] -= (s1 - side * place) * n[a];
         k = kf_rigid_bvh_first_hit(b->bvh, p0, p1, &t);
     }
+    *side_out = side;
+    return 1;
+}
+
+/* Follow one particle's path relative to body r; fix it if it crossed.
+ * Returns the depth it would have been behind (m), or 0 when it did not cross. */
+static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, const double xold[3], double *imp) {
+    const kf_rigid_body *b = &m->rigid[r];
+    const kf_cpic *c = s->cpic;
+    kf_particles *p = &s->p;
+    double x1[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, p0[3], p1[3];
+    /* thin bodies only: around a solid the colored distance field reaches
+     * 2.5 cells inside and the penalty keeps the material out; guarding a
+     * solid too removes the slight penetrations that carry a loaded face's
+     * support (docs/lab-notes.md, "The guard around solids") */
+    if (!b->bvh || !b->def.thin) return 0;
+    to_mesh(&s->rigid[r], xold, p0);
+    to_mesh(&c->end[r], x1, p1);
+    /* farther from the surface than its path is long (the MLS fit's distance
+     * at the start, a quarter cell to spare for a curved surface): it cannot
+     * have reached it, and the query is skipped (most of the narrow band) */
+    if (c->near[i] == r + 1) {
+        double d[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+        if (c->pd[i] > sqrt(kf_v3d_dot(d, d)) + 0.25 * m->sim.dx) return 0;
+    }
+    double depth, side_n[3], side;
+    if (!put_back(b, p0, p1, 0.01 * m->sim.dx, (double)p->vol0[i], &depth, side_n, &side)) return 0;
     /* its colour for r names the side it is on, as a node's would (T = behind
      * the triangle's normal, cdf.c): the guard knows it exactly, where the
      * colour was voted from the grid when the particle came near */
@@ -238,17 +257,28 @@ static int sides_tri(void *ctx, int k) {
     return x->front && x->behind; /* mixed: the rest cannot change that */
 }
 
-int kf_cpic_sides_at(const struct kf_cpic_sides *sd, const kf_rigid_body *b, const double pm[3]) {
-    if (!sd->v) return KF_SIDES_MIXED;
+/* the lattice cell of mesh-frame point pm (flat index), or SIDES_BEYOND:
+ * outside the lattice, beyond the reach of every triangle */
+#define SIDES_BEYOND ((size_t)-1)
+static size_t sides_cell(const struct kf_cpic_sides *sd, const double pm[3]) {
     int ix[3];
     for (int a = 0; a < 3; a++) {
         const double f = floor((pm[a] - sd->lo[a]) / sd->h);
-        if (!(f >= 0 && f < sd->dim[a])) return KF_SIDES_NONE; /* beyond the reach of every triangle */
+        if (!(f >= 0 && f < sd->dim[a])) return SIDES_BEYOND;
         ix[a] = (int)f;
     }
-    const size_t at = ((size_t)ix[0] * (size_t)sd->dim[1] + (size_t)ix[1]) * (size_t)sd->dim[2] + (size_t)ix[2];
+    return ((size_t)ix[0] * (size_t)sd->dim[1] + (size_t)ix[1]) * (size_t)sd->dim[2] + (size_t)ix[2];
+}
+
+/* the value of lattice cell `at`, made on first asking */
+static int sides_value(const struct kf_cpic_sides *sd, const kf_rigid_body *b, size_t at) {
+    if (at == SIDES_BEYOND) return KF_SIDES_NONE;
     int v = __atomic_load_n(&sd->v[at], __ATOMIC_RELAXED);
     if (v) return v;
+    int ix[3];
+    size_t rest = at;
+    ix[2] = (int)(rest % (size_t)sd->dim[2]), rest /= (size_t)sd->dim[2];
+    ix[1] = (int)(rest % (size_t)sd->dim[1]), ix[0] = (int)(rest / (size_t)sd->dim[1]);
     /* the same value whichever thread makes it first */
     sides_ctx x = {b, {0, 0, 0}, {0, 0, 0}, sd->tol, 0, 0};
     double d2 = 0;
@@ -273,6 +303,11 @@ int kf_cpic_sides_at(const struct kf_cpic_sides *sd, const kf_rigid_body *b, con
     return v;
 }
 
+int kf_cpic_sides_at(const struct kf_cpic_sides *sd, const kf_rigid_body *b, const double pm[3]) {
+    if (!sd->v) return KF_SIDES_MIXED;
+    return sides_value(sd, b, sides_cell(sd, pm));
+}
+
 /* A particle near thin body r that did not cross it takes the side of the
  * exact closest triangle, as a node takes the side of its closest primitive
  * (cdf.c). With the guard nothing is behind a thin body for real (its path
@@ -286,17 +321,17 @@ int kf_cpic_sides_at(const struct kf_cpic_sides *sd, const kf_rigid_body *b, con
  * is the distance to the nearer plate, positive on the tag's side of either,
  * and a particle with too few nodes for a fit, or closer to another body,
  * has none for r. So every particle the guard followed is re-synced unless
- * the fit puts it beyond the audit's reach. */
-static void retag(const kf_model *m, kf_state *s, int r, size_t i) {
+ * the fit puts it beyond the audit's reach. pose: the body's pose at the
+ * substep's end the particle is placed against. */
+/* the same at mesh point pm of the pose it is placed against, whose
+ * lattice cell says `known` */
+static void retag_at(const kf_model *m, kf_state *s, int r, size_t i, const double pm[3], int known) {
     const kf_rigid_body *b = &m->rigid[r];
-    if (!b->bvh || !b->def.thin) return;
     kf_particles *p = &s->p;
-    double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, pm[3], q[3], nrm[3], off;
-    to_mesh(&s->cpic->end[r], x, pm);
+    double q[3], nrm[3], off;
     const uint32_t tbit = 1u << (2 * r);
     /* the answer known without a query: no triangle within reach, or the
      * side the tag already names */
-    const int known = kf_cpic_sides_at(&s->cpic->sides[r], b, pm);
     if (known == KF_SIDES_NONE || (known == KF_SIDES_FRONT && !(p->colour[i] & tbit)) ||
         (known == KF_SIDES_BEHIND && (p->colour[i] & tbit)))
         return;
@@ -306,6 +341,16 @@ static void retag(const kf_model *m, kf_state *s, int r, size_t i) {
     const double u = kf_v3d_dot(nrm, pm) - off;
     if (u < 0) p->colour[i] |= tbit;
     else if (u > 0) p->colour[i] &= ~tbit;
+}
+
+/* the particle where it is, against pose */
+static void retag(const kf_model *m, kf_state *s, int r, size_t i, const kf_rigid_state *pose) {
+    const kf_rigid_body *b = &m->rigid[r];
+    if (!b->bvh || !b->def.thin) return;
+    const kf_particles *p = &s->p;
+    double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, pm[3];
+    to_mesh(pose, x, pm);
+    retag_at(m, s, r, i, pm, kf_cpic_sides_at(&s->cpic->sides[r], b, pm));
 }
 
 void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const chunk *ck, size_t i0,
@@ -329,9 +374,111 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
             /* one put back took the side of the triangle it hit; in a fold's
              * corner the closest triangle may be the other plate's */
             if (depth > 0 || c->near[i0 + (size_t)j] != r + 1 || c->pd[i0 + (size_t)j] < 1.5 * m->sim.dx)
-                retag(m, s, r, i0 + (size_t)j);
+                retag(m, s, r, i0 + (size_t)j, &c->end[r]);
         }
     }
+}
+
+/* ---- the last leg: the guard's pose against the body's own -------------------
+ * The guard follows each path to the body's pose at the substep's end, and
+ * a dynamic body's is predicted from its velocity (kf_cpic_guard_poses);
+ * the material's impulses, its joints and contacts then move it a little
+ * differently. A paddle hinged at its centre of mass is predicted to fall
+ * g Δt² in a substep (1e-7 m at Δt 1e-4 s) and does not, so between the
+ * pose the guard placed a particle against and the one the body takes, the
+ * particle moves that much in the body's frame, unguarded: one that ended
+ * closer to the surface than that (in sand_paddles, a grain sliding into a
+ * paddle ended 6e-8 m in front of its predicted plane, 3e-8 m behind its
+ * real one) ends on the far side, and the next substep's guard, starting
+ * there, sees no crossing. So after the bodies have moved, each particle
+ * with affinity to a body that did not end at the guard's pose is followed
+ * along that last leg too, from where it is in the frame of the pose the
+ * guard used to where it is in the body's own, and put back as the guard
+ * puts back (on its own side, at least a hundredth of a cell from the
+ * plane: far above the float rounding of its position); no velocity
+ * changes (the body has taken its impulses; the next substep's guard
+ * stops any approach). Its tag is then re-synced at the body's own pose,
+ * where the audit and the next substep read it. Every particle's path
+ * relative to a body is then guarded without a gap, substep after substep.
+ * Static and kinematic bodies end exactly at the pose the guard used. */
+
+/* whether a body ended exactly at the pose the guard placed particles against */
+static int pose_kept(const kf_rigid_state *own, const kf_rigid_state *guarded) {
+    for (int k = 0; k < 9; k++)
+        if (own->R[k] != guarded->R[k]) return 0;
+    for (int a = 0; a < 3; a++)
+        if (own->t[a] != guarded->t[a]) return 0;
+    return 1;
+}
+
+/* One particle's last leg relative to thin body r; 1 when it crossed there
+ * (and was put back; *depth: how far behind it would have been, m). */
+static int settle_particle(const kf_model *m, kf_state *s, int r, size_t i, double *depth) {
+    const kf_rigid_body *b = &m->rigid[r];
+    const kf_cpic *c = s->cpic;
+    const kf_rigid_state *own = &s->rigid[r];
+    kf_particles *p = &s->p;
+    double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, pg[3], po[3], d[3];
+    to_mesh(&c->end[r], x, pg);
+    to_mesh(own, x, po);
+    for (int a = 0; a < 3; a++) d[a] = po[a] - pg[a];
+    /* a leg no longer than half a lattice cell's side, between two cells
+     * that each lie strictly on one side of every triangle that can be
+     * closest to them (the same side), or that have none within reach,
+     * crosses nothing: a triangle it crosses is within its length of both
+     * ends, so it is among both cells' candidates, with both ends in front
+     * of its plane (or behind it) */
+    const struct kf_cpic_sides *sd = &c->sides[r];
+    int known = KF_SIDES_MIXED, clean = 0;
+    if (sd->v) {
+        const size_t at = sides_cell(sd, po);
+        known = sides_value(sd, b, at);
+        if (known != KF_SIDES_MIXED && kf_v3d_dot(d, d) <= 0.25 * sd->h * sd->h) {
+            const size_t from = sides_cell(sd, pg);
+            clean = from == at || sides_value(sd, b, from) == known;
+        }
+    }
+    double side_n[3], side;
+    if (clean || !put_back(b, pg, po, 0.01 * m->sim.dx, (double)p->vol0[i], depth, side_n, &side)) {
+        /* it stays: its tag against the body's own pose (known: its cell's value there) */
+        retag_at(m, s, r, i, po, known);
+        return 0;
+    }
+    const uint32_t bits = 3u << (2 * r), want = (2u << (2 * r)) | (side < 0 ? 1u << (2 * r) : 0);
+    p->colour[i] = (p->colour[i] & ~bits) | want;
+    double xw[3];
+    kf_m3d_mv(xw, own->R, po);
+    for (int a = 0; a < 3; a++) p->x[a][i] = (kf_real)(xw[a] + own->t[a]);
+    retag(m, s, r, i, own);
+    return 1;
+}
+
+void kf_cpic_guard_settle(const kf_model *m, kf_state *s) {
+    kf_cpic *c = s->cpic;
+    if (!c) return;
+    /* the affinity bits of the thin bodies that did not end where the guard placed them */
+    uint32_t moved = 0;
+    for (int r = 0; r < m->nrigid; r++) {
+        const kf_rigid_body *b = &m->rigid[r];
+        if (b->bvh && b->def.thin && !pose_kept(&s->rigid[r], &c->end[r])) moved |= 2u << (2 * r);
+    }
+    if (!moved) return;
+    kf_particles *p = &s->p;
+    const size_t n = p->n;
+    long caught = 0;
+    double deepest = 0;
+#pragma omp parallel for schedule(static) num_threads(m->nthreads) reduction(+ : caught) reduction(max : deepest)
+    for (size_t i = 0; i < n; i++)
+        for (uint32_t B = p->colour[i] & moved; B; B &= B - 1) {
+            double depth = 0;
+            if (!settle_particle(m, s, __builtin_ctz(B) / 2, i, &depth)) continue;
+            caught++;
+            if (depth > deepest) deepest = depth;
+        }
+    /* with the guard's own, in the frame log's count of crossings put back
+     * (across ranks, this rank's) */
+    c->caught += caught;
+    if (deepest > c->caught_depth) c->caught_depth = deepest;
 }
 
 /* ---- the audit: who is on the wrong side now --------------------------------

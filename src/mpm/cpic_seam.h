@@ -94,6 +94,12 @@ int kf_cpic_early_pending(const kf_state *s, double *dt);
 /* Sum the impulses and advance the rigid bodies to t + dt. */
 void kf_cpic_finish(const kf_model *m, kf_state *s, double dt);
 
+/* After kf_cpic_finish (guard.c): where a body did not end at the pose the
+ * guard placed the particles against (a dynamic body's is predicted), each
+ * particle with affinity to it followed from the one to the other, and put
+ * back on its side if that last leg crossed the surface. */
+void kf_cpic_guard_settle(const kf_model *m, kf_state *s);
+
 /* The crossing guard's totals of the substep kf_cpic_finish closed:
  * particles put back, and the deepest crossing (m). */
 void kf_cpic_caught(const kf_state *s, long *caught, double *depth);

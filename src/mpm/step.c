@@ -237,6 +237,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     /* rigid bodies: the material's impulses, contacts, joints, advection */
     if (m->nrigid) {
         kf_cpic_finish(m, s, dt);
+        kf_cpic_guard_settle(m, s); /* the guard's predicted poses against the bodies' own (guard.c) */
         if (st) {
             long caught;
             double depth;
