@@ -4,6 +4,7 @@
 #include "grid.h"
 
 #include <omp.h>
+#include <sched.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,6 +24,9 @@ void kf_grid_free(kf_grid *g) {
     free(g->dest);
     free(g->scratch);
     free(g->count);
+    free(g->turn);
+    free(g->flushes);
+    free(g->touches);
     memset(g, 0, sizeof *g);
 }
 
@@ -423,6 +427,53 @@ oom:
     free(count), free(rec), free(remap), free(old_coord), free(hist);
     g->valid = 0;
     return -1;
+}
+
+/* ---- P2G's flush order (grid.h) --------------------------------------------- */
+
+int kf_grid_flush_order(kf_grid *g) {
+    if (grow((void **)&g->turn, sizeof *g->turn, &g->turn_cap, g->nowner)) return -1;
+    if (grow((void **)&g->flushes, sizeof *g->flushes, &g->flushes_cap, g->nblocks)) return -1;
+    if (grow((void **)&g->touches, sizeof *g->touches, &g->touches_cap, g->nblocks)) return -1;
+    atomic_int *count = g->flushes;
+    for (size_t b = 0; b < g->nblocks; b++) atomic_init(&count[b], 0);
+    /* an owner's turn at a block: the owners before it that touch the block */
+    for (size_t k = 0; k < g->nowner; k++) {
+        const size_t r = (size_t)g->owner[k];
+        for (int j = 0; j < 8; j++) {
+            atomic_int *c = &count[g->nb[r][j]];
+            const int t = atomic_load_explicit(c, memory_order_relaxed);
+            g->turn[r][j] = (uint8_t)t;
+            atomic_store_explicit(c, t + 1, memory_order_relaxed);
+        }
+    }
+    for (size_t b = 0; b < g->nblocks; b++) {
+        g->touches[b] = (uint8_t)atomic_load_explicit(&count[b], memory_order_relaxed);
+        atomic_store_explicit(&count[b], 0, memory_order_relaxed);
+    }
+    return 0;
+}
+
+/* a neighbour's flush is one owner's scatter away at most: spin a little,
+ * then give the core up (on a loaded machine the neighbour may be waiting
+ * for it) */
+void kf_grid_flush_wait(const kf_grid *g, size_t r) {
+    for (int j = 0; j < 8; j++) {
+        const atomic_int *c = &g->flushes[g->nb[r][j]];
+        for (int spins = 0; atomic_load_explicit(c, memory_order_acquire) != g->turn[r][j]; spins++)
+            if (spins >= 256) sched_yield();
+    }
+}
+
+void kf_grid_flush_wait_block(const kf_grid *g, size_t b) {
+    const atomic_int *c = &g->flushes[b];
+    for (int spins = 0; atomic_load_explicit(c, memory_order_acquire) != g->touches[b]; spins++)
+        if (spins >= 256) sched_yield();
+}
+
+/* the owner's nodes are written: the next owner of each block may go */
+void kf_grid_flush_done(kf_grid *g, size_t r) {
+    for (int j = 0; j < 8; j++) atomic_fetch_add_explicit(&g->flushes[g->nb[r][j]], 1, memory_order_release);
 }
 
 /* Grids below this many blocks (256 KB of nodes) are cleared on the calling

@@ -25,6 +25,7 @@
 #ifndef KF_GRID_H
 #define KF_GRID_H
 
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -78,6 +79,12 @@ typedef struct kf_grid {
     size_t *pstart;   /* (nowner + 1) particle range of each owner */
     size_t colour_start[9];
     size_t owner_cap;
+    /* P2G's flush order (kf_grid_flush_order): each owner's turn at each
+     * block of its neighbourhood, and per block the flushes made so far */
+    uint8_t (*turn)[8];    /* (nowner) index as nb */
+    atomic_int *flushes;   /* (nblocks) */
+    uint8_t *touches;      /* (nblocks) the owners that touch each block */
+    size_t turn_cap, flushes_cap, touches_cap;
     /* binning scratch */
     uint32_t *dest; /* (n) */
     void *scratch;  /* permutation scratch, one plane (kf_particles_permute_bytes) */
@@ -131,6 +138,22 @@ static inline int kf_grid_colour_chunk(const kf_grid *g, int threads) {
     const size_t per_thread = g->nowner / (8 * (size_t)(threads > 0 ? threads : 1));
     return per_thread >= 16 ? 4 : per_thread >= 8 ? 2 : 1;
 }
+
+/* P2G without a barrier per colour. Colour turns give every node its
+ * owners' caches in colour order; the same order holds where each owner
+ * adds its cache once every owner before it (in g->owner's order) that
+ * shares one of its 8 blocks has added its own: its turn at each block.
+ * An owner then waits only on neighbours still being flushed, not on the
+ * whole colour, and the sums are those of the colour turns, to the bit,
+ * for any thread count. Owners must be taken in g->owner's order (each
+ * thread's own in increasing order), so the first unfinished owner never
+ * waits. kf_grid_flush_order (serial, before the parallel loop) computes
+ * the turns and zeroes the counts; -1 out of memory. */
+int kf_grid_flush_order(kf_grid *g);
+void kf_grid_flush_wait(const kf_grid *g, size_t r);
+void kf_grid_flush_done(kf_grid *g, size_t r);
+/* block b has every owner's cache that touches it (the grid update's turn) */
+void kf_grid_flush_wait_block(const kf_grid *g, size_t b);
 
 /* Zero every node of every block. */
 void kf_grid_clear(kf_grid *g, int threads);

@@ -91,34 +91,47 @@ static void update_block(const kf_sim_def *sd, const kf_collider_frame *frame, i
  * a few microseconds, less than handing it to a second thread and back */
 #define KF_UPDATE_SERIAL_BLOCKS 64
 
-void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
+/* The update and the walls' ghost passes, by every thread of the calling
+ * parallel region: the update gathers which planes have blocks within a
+ * cell (into *passes, shared, zero on entry), so only those passes run,
+ * and the barrier after the update lets each pass read its neighbours'
+ * nodes. in_turn: inside P2G's region (transfer.c), each block once every
+ * owner has added its cache there (grid.h), with no barrier before. */
+void kf_grid_update_team(const kf_model *m, kf_state *s, kf_real dt, unsigned *passes, int in_turn) {
     kf_grid *g = &s->g;
     const kf_sim_def *sd = &m->sim;
     const double t1 = s->time + dt;
     const kf_v4 gdt = {(kf_real)(dt * sd->gravity[0]), (kf_real)(dt * sd->gravity[1]), (kf_real)(dt * sd->gravity[2]),
                        0};
-
-    /* collider poses at the end of the substep, once per substep */
+    /* collider poses at the end of the substep, once per substep (and thread) */
     kf_collider_frame frame[KF_MAX_COLLIDERS];
     for (int c = 0; c < m->ncol; c++) kf_collider_frame_at(&m->col[c], t1, &frame[c]);
-
-    /* one parallel region for the update and the walls' ghost passes (one
-     * hand-off to the threads a substep, not seven): the update gathers
-     * which planes have blocks within a cell, so only those passes run, and
-     * the barrier after the update lets each pass read its neighbours' nodes */
     const size_t nb = g->nblocks;
-    const int nthreads = nb < KF_UPDATE_SERIAL_BLOCKS ? 1 : m->nthreads;
+    unsigned mine = 0;
+#pragma omp for schedule(static) nowait
+    for (size_t b = 0; b < nb; b++) {
+        const int32_t *bc = &g->bcoord[3 * b];
+        if (in_turn) kf_grid_flush_wait_block(g, b);
+        update_block(sd, frame, m->ncol, &g->node[b * KF_BLOCK_NODES], bc, gdt);
+        mine |= kf_wall_ghost_passes(m, bc);
+    }
+    if (mine) {
+#pragma omp atomic
+        *passes |= mine;
+    }
+#pragma omp barrier
+    /* walls between nodes: the nodes within a cell of each plane take a linear profile through zero on it */
+    kf_wall_ghosts(m, s, *passes);
+}
+
+void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt) {
+    /* one parallel region for the update and the walls' ghost passes (one
+     * hand-off to the threads a substep, not seven) */
+    const int nthreads = s->g.nblocks < KF_UPDATE_SERIAL_BLOCKS ? 1 : m->nthreads;
     unsigned passes = 0;
 #pragma omp parallel num_threads(nthreads)
     {
         kf_ftz();
-#pragma omp for schedule(static) reduction(| : passes)
-        for (size_t b = 0; b < nb; b++) {
-            const int32_t *bc = &g->bcoord[3 * b];
-            update_block(sd, frame, m->ncol, &g->node[b * KF_BLOCK_NODES], bc, gdt);
-            passes |= kf_wall_ghost_passes(m, bc);
-        }
-        /* walls between nodes: the nodes within a cell of each plane take a linear profile through zero on it */
-        kf_wall_ghosts(m, s, passes);
+        kf_grid_update_team(m, s, dt, &passes, 0);
     }
 }

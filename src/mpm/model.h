@@ -228,6 +228,15 @@ int kf_implicit_grid(const kf_model *m, kf_state *s, double dt, kf_step_stats *s
  * backward Euler or explicit) */
 void kf_implicit_g2p_finish(const kf_model *m, kf_state *s);
 void kf_grid_update(const kf_model *m, kf_state *s, kf_real dt);
+/* the same inside a parallel region every thread of which calls it
+ * (grid_update.c; passes: a shared word, zero on entry; in_turn: within
+ * P2G's region, each block once its owners' caches are in, grid.h) */
+void kf_grid_update_team(const kf_model *m, kf_state *s, kf_real dt, unsigned *passes, int in_turn);
+/* one rank without FLIP (kf_p2g_joins_update): P2G and kf_grid_update in
+ * one parallel region, no hand-off between; *p2g_end_ms: when the calling
+ * thread ran out of owners (the frame log's P2G time ends there) */
+int kf_p2g_joins_update(const kf_model *m, const kf_state *s);
+void kf_p2g_update(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble, double *p2g_end_ms);
 /* after the walls' projection: the nodes within a cell of a wall plane
  * that lies between nodes take a linear profile through zero on it, so
  * material stops at the plane (wall_ghost.c). The passes named in `passes`

@@ -161,6 +161,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
             return 1;
         }
     } else {
+        int updated = 0; /* the grid update ran in P2G's parallel region */
         if (scattered) {
             if (st) st->fused++;
             /* the scatter's nodes become the grid's */
@@ -173,8 +174,11 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
             kf_trouble p2g_trouble;
             /* across ranks: the boundary owners' caches to the ranks that share their nodes */
             if (s->dist && kf_dist_halo(m, s, rdt)) kf_dist_abort(1);
-            kf_p2g(m, s, rdt, &p2g_trouble);
-            t0 = kf_now_ms();
+            /* one rank: the grid update in P2G's parallel region, one
+             * hand-off fewer (the P2G stage ends when this thread's owners do) */
+            updated = kf_p2g_joins_update(m, s);
+            if (updated) kf_p2g_update(m, s, rdt, &p2g_trouble, &t0);
+            else kf_p2g(m, s, rdt, &p2g_trouble), t0 = kf_now_ms();
             if (st) st->ms[KF_STAGE_P2G] += t0 - t1;
             if (s->dist ? kf_dist_agree(s, p2g_trouble.found, &p2g_trouble) : p2g_trouble.found) {
                 *trouble = p2g_trouble;
@@ -182,7 +186,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
             }
         }
 
-        kf_grid_update(m, s, rdt);
+        if (!updated) kf_grid_update(m, s, rdt);
         if (m->sim.contact) kf_contact_grid(m, s, rdt);
         /* under the CFL rule's look-ahead (kf_advance): the next substep's
          * length from the grid's new velocities, before G2P, so the sweep

@@ -55,11 +55,13 @@
  * restart begins with them zero. Near rigid surfaces and where objects
  * meet: APIC, as for flip. */
 #include <omp.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "../core/expm.h"
 #include "../core/mat3.h"
+#include "../core/timer.h"
 #include "model.h"
 
 #include "transfer_chunk.h"
@@ -208,9 +210,16 @@ KF_INLINE int p2g_chunk(int KW, int CLASSIC, int FLIP, int n, const p2g_owner *o
     return 0;
 }
 
+/* P2G's flags: the fused sweep's early scatter (p2g_chunk stops where a
+ * particle is out of reach), and caches that arrive zero (kf_p2g's driver
+ * keeps its own so: each flush clears the part it read, some 40% of the
+ * cache, where a memset clears all 512 nodes an owner) */
+enum { P2G_FUSED = 1, P2G_ZEROED = 2 };
+
 KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, kf_state *s, size_t r, kf_real dt,
                               kf_v4 *cache, kf_v4 *mcache, kf_v4 *fcache, chunk *ck, step_acc *acc, int lohi[6],
-                              int fused) {
+                              int flags) {
+    const int fused = flags & P2G_FUSED;
     const int CD = CD_MAX;
     kf_particles *p = &s->p;
     kf_grid *g = &s->g;
@@ -219,8 +228,10 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
     if (band) kf_cpic_owner_cdf(s, r, &oc);
     /* the next substep's, made early: its impulse rows and gΔt, its particles' colours kept */
     if (band && fused) kf_cpic_early_owner(s, r, &oc);
-    memset(cache, 0, sizeof(kf_v4) * CD * CD * CD);
-    if (FLIP) memset(mcache, 0, sizeof(kf_v4) * CD * CD * CD);
+    if (!(flags & P2G_ZEROED)) {
+        memset(cache, 0, sizeof(kf_v4) * CD * CD * CD);
+        if (FLIP) memset(mcache, 0, sizeof(kf_v4) * CD * CD * CD);
+    }
     if (fields) memset(fcache, 0, sizeof(kf_v4) * KF_CONTACT_CACHE_ROWS * CD * CD * CD);
     /* the base offsets the block's particles use: only their nodes are flushed */
     int lo[3] = {CD, CD, CD}, hi[3] = {0, 0, 0};
@@ -255,15 +266,17 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
     return 0;
 }
 
-/* FLIP: the touched part of the momentum cache into the old-velocity nodes */
-KF_INLINE void p2g_flush_old(int KW, kf_grid *g, const int32_t *nb, const kf_v4 *cache, const int lohi[6]) {
+/* FLIP: the touched part of the momentum cache into the old-velocity
+ * nodes, and back to zero for the next owner (kf_p2g's caches stay zero) */
+KF_INLINE void p2g_flush_old(int KW, kf_grid *g, const int32_t *nb, kf_v4 *cache, const int lohi[6]) {
     const int CD = CD_MAX;
     for (int a = lohi[0]; a < lohi[3] + KW; a++)
         for (int b = lohi[1]; b < lohi[4] + KW; b++) {
-            const kf_v4 *row = &cache[(a * CD + b) * CD];
+            kf_v4 *row = &cache[(a * CD + b) * CD];
             for (int c = lohi[2]; c < lohi[5] + KW; c++) {
                 size_t at = (size_t)(nb_node(g, nb, a, b, c) - g->node);
                 g->node_old[at] += row[c];
+                row[c] = (kf_v4){0, 0, 0, 0};
             }
         }
 }
@@ -285,14 +298,29 @@ KF_INLINE void p2g_flush(int KW, kf_v4 *node, const int32_t *nb, const kf_v4 *ca
         }
 }
 
+/* p2g_flush, each row's touched part cleared once added (in L1 still):
+ * kf_p2g's cache is zero again for its next owner, with the same sums */
+KF_INLINE void p2g_flush_clear(int KW, kf_v4 *node, const int32_t *nb, kf_v4 *cache, const int lohi[6]) {
+    const int CD = CD_MAX;
+    const int c0 = lohi[2], c1 = lohi[5] + KW, cm = c1 < KF_BLOCK ? c1 : KF_BLOCK;
+    const int cu = c0 > KF_BLOCK ? c0 : KF_BLOCK;
+    for (int a = lohi[0]; a < lohi[3] + KW; a++)
+        for (int b = lohi[1]; b < lohi[4] + KW; b++) {
+            kf_v4 *row = &cache[(a * CD + b) * CD];
+            kf_v4 *lo = nb_row(node, nb, a, b, 0), *hi = nb_row(node, nb, a, b, 1);
+            for (int c = c0; c < cm; c++) lo[c] += row[c], row[c] = (kf_v4){0, 0, 0, 0};
+            for (int c = cu; c < c1; c++) hi[c - KF_BLOCK] += row[c], row[c] = (kf_v4){0, 0, 0, 0};
+        }
+}
+
 /* The cache of one owner block, one compiled function per variant: the
  * grid's own P2G and another rank's halo (kf_p2g_owner_cache) run the same
  * machine code, so their caches agree to the bit (a second inlined copy may
  * contract multiply-adds differently). */
 #define P2G_VARIANT(name, KW, CLASSIC)                                                                                 \
     __attribute__((noinline)) static int name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,      \
-                                              kf_v4 *fcache, chunk *ck, step_acc *acc, int lohi[6], int fused) {       \
-        return p2g_block_cache(KW, CLASSIC, 0, m, s, r, dt, cache, NULL, fcache, ck, acc, lohi, fused);                \
+                                              kf_v4 *fcache, chunk *ck, step_acc *acc, int lohi[6], int flags) {       \
+        return p2g_block_cache(KW, CLASSIC, 0, m, s, r, dt, cache, NULL, fcache, ck, acc, lohi, flags);                \
     }
 P2G_VARIANT(p2g_q_mls, 3, 0)
 P2G_VARIANT(p2g_q_classic, 3, 1)
@@ -302,15 +330,16 @@ P2G_VARIANT(p2g_c_classic, 4, 1)
 /* FLIP: the same with the momentum cache (one rank only: kf_dist_unsupported) */
 #define P2G_FLIP_VARIANT(name, KW, CLASSIC)                                                                            \
     __attribute__((noinline)) static void name(const kf_model *m, kf_state *s, size_t r, kf_real dt, kf_v4 *cache,     \
-                                               kf_v4 *mcache, kf_v4 *fcache, chunk *ck, step_acc *acc, int lohi[6]) {  \
-        p2g_block_cache(KW, CLASSIC, 1, m, s, r, dt, cache, mcache, fcache, ck, acc, lohi, 0);                         \
+                                               kf_v4 *mcache, kf_v4 *fcache, chunk *ck, step_acc *acc, int lohi[6],    \
+                                               int flags) {                                                            \
+        p2g_block_cache(KW, CLASSIC, 1, m, s, r, dt, cache, mcache, fcache, ck, acc, lohi, flags);                     \
     }
 P2G_FLIP_VARIANT(p2g_q_mls_flip, 3, 0)
 P2G_FLIP_VARIANT(p2g_q_classic_flip, 3, 1)
 P2G_FLIP_VARIANT(p2g_c_mls_flip, 4, 0)
 P2G_FLIP_VARIANT(p2g_c_classic_flip, 4, 1)
 typedef void (*p2g_flip_fn)(const kf_model *, kf_state *, size_t, kf_real, kf_v4 *, kf_v4 *, kf_v4 *, chunk *,
-                            step_acc *, int *);
+                            step_acc *, int *, int);
 static p2g_flip_fn p2g_flip_variant(const kf_model *m) {
     int cubic = m->sim.kernel == KF_KERNEL_CUBIC, classic = m->sim.force == KF_FORCE_CLASSIC;
     return cubic ? (classic ? p2g_c_classic_flip : p2g_c_mls_flip) : (classic ? p2g_q_classic_flip : p2g_q_mls_flip);
@@ -382,9 +411,32 @@ void kf_p2g_add_cache(const kf_model *m, kf_grid *g, const int32_t nb[8], const 
     else p2g_flush(3, g->node, nb, cache, lohi);
 }
 
-void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
+/* One owner's P2G in kf_p2g: its cache (arriving zero) made, added to the
+ * grid's nodes (in the owner's turn at its blocks where ordered, grid.h)
+ * and left zero for the thread's next owner. FLIP (ffn): the momentum
+ * cache into the old-velocity nodes too. */
+static void p2g_owner_turn(const kf_model *m, kf_state *s, p2g_fn fn, p2g_flip_fn ffn, size_t r, kf_real dt,
+                           kf_v4 *cache, kf_v4 *mcache, kf_v4 *fcache, chunk *ck, step_acc *acc, int ordered) {
+    kf_grid *g = &s->g;
+    const int cubic = m->sim.kernel == KF_KERNEL_CUBIC;
+    int lohi[6];
+    if (ffn) ffn(m, s, r, dt, cache, mcache, fcache, ck, acc, lohi, P2G_ZEROED);
+    else fn(m, s, r, dt, cache, fcache, ck, acc, lohi, P2G_ZEROED);
+    if (ordered) kf_grid_flush_wait(g, r);
+    if (ffn) {
+        if (cubic) p2g_flush_old(4, g, g->nb[r], mcache, lohi);
+        else p2g_flush_old(3, g, g->nb[r], mcache, lohi);
+    }
+    if (cubic) p2g_flush_clear(4, g->node, g->nb[r], cache, lohi);
+    else p2g_flush_clear(3, g->node, g->nb[r], cache, lohi);
+    if (kf_contact_owner(s, r)) kf_contact_add_cache(m, s, g->nb[r], fcache, lohi);
+    if (ordered) kf_grid_flush_done(g, r);
+}
+
+/* P2G over the owner blocks; with update (kf_p2g_update) the grid update
+ * follows in the same parallel region */
+static void p2g_run(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble, int update, double *p2g_end_ms) {
     p2g_fn fn = p2g_variant(m);
-    p2g_flip_fn ffn = p2g_flip_variant(m);
     kf_grid *g = &s->g;
     /* particles added or edited since the last substep: their stress first */
     if (!s->tau_valid) kf_stress(m, s, 0);
@@ -392,16 +444,23 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
     step_acc total = {0};
     const int flip = m->sim.transfer == KF_TRANSFER_FLIP;
     const int poly = m->sim.transfer == KF_TRANSFER_POLYPIC;
-    if ((flip && flip_nodes(g, m->nthreads)) || (poly && kf_poly_reserve(s))) {
+    p2g_flip_fn ffn = flip ? p2g_flip_variant(m) : NULL;
+    /* one rank: owners in colour order, each added in its turns (grid.h),
+     * no barrier per colour; across ranks the colour turns, which the
+     * other ranks' owners of each colour join */
+    const int ordered = !s->dist;
+    if ((flip && flip_nodes(g, m->nthreads)) || (poly && kf_poly_reserve(s)) || (ordered && kf_grid_flush_order(g))) {
         if (trouble) {
             memset(trouble, 0, sizeof *trouble);
             trouble->found = 1;
-            snprintf(trouble->what, sizeof trouble->what, "out of memory for the %s transfer",
-                     flip ? "flip" : "polypic");
+            snprintf(trouble->what, sizeof trouble->what, "out of memory for the %s",
+                     flip ? "flip transfer" : poly ? "polypic transfer" : "transfer's order");
         }
         return;
     }
     const int colour_chunk = kf_grid_colour_chunk(g, m->nthreads); /* grid.h */
+    atomic_size_t next_owner = 0;
+    unsigned passes = 0; /* the grid update's ghost passes (kf_grid_update_team) */
 #pragma omp parallel num_threads(m->nthreads)
     {
         kf_ftz();
@@ -412,31 +471,52 @@ void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) {
         kf_v4 mcache[CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));
         /* where objects meet: the owner's share of each field (contact.h) */
         kf_v4 fcache[KF_CONTACT_CACHE_ROWS * CD_MAX * CD_MAX * CD_MAX] __attribute__((aligned(64)));
-        /* one colour at a time: same-colour owners write disjoint nodes */
-        for (int c = 0; c < 8; c++) {
-#pragma omp for schedule(dynamic, colour_chunk)
-            for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++) {
-                size_t r = (size_t)g->owner[k];
-                int lohi[6];
-                if (flip) {
-                    ffn(m, s, r, dt, cache, mcache, fcache, &ck, &acc, lohi);
-                    if (m->sim.kernel == KF_KERNEL_CUBIC) p2g_flush_old(4, g, g->nb[r], mcache, lohi);
-                    else p2g_flush_old(3, g, g->nb[r], mcache, lohi);
-                } else {
-                    fn(m, s, r, dt, cache, fcache, &ck, &acc, lohi, 0);
-                }
-                kf_p2g_add_cache(m, g, g->nb[r], cache, lohi);
-                if (kf_contact_owner(s, r)) kf_contact_add_cache(m, s, g->nb[r], fcache, lohi);
+        /* zero once: each owner's flush clears what it used */
+        memset(cache, 0, sizeof cache);
+        if (flip) memset(mcache, 0, sizeof mcache);
+        if (ordered) {
+            /* runs of owners taken in order: the first unfinished owner never waits */
+            for (;;) {
+                const size_t k0 = atomic_fetch_add_explicit(&next_owner, (size_t)colour_chunk, memory_order_relaxed);
+                if (k0 >= g->nowner) break;
+                const size_t k1 = k0 + (size_t)colour_chunk < g->nowner ? k0 + (size_t)colour_chunk : g->nowner;
+                for (size_t k = k0; k < k1; k++)
+                    p2g_owner_turn(m, s, fn, ffn, (size_t)g->owner[k], dt, cache, mcache, fcache, &ck, &acc, 1);
             }
-            /* other ranks' owners of this colour, in the same turn */
-            if (s->dist) kf_dist_p2g_colour(m, s, c);
+        } else {
+            /* one colour at a time: same-colour owners write disjoint nodes */
+            for (int c = 0; c < 8; c++) {
+#pragma omp for schedule(dynamic, colour_chunk)
+                for (size_t k = g->colour_start[c]; k < g->colour_start[c + 1]; k++)
+                    p2g_owner_turn(m, s, fn, ffn, (size_t)g->owner[k], dt, cache, mcache, fcache, &ck, &acc, 0);
+                /* other ranks' owners of this colour, in the same turn */
+                if (s->dist) kf_dist_p2g_colour(m, s, c);
+            }
         }
 #pragma omp critical
         if (acc.trouble.found && (!total.trouble.found || acc.trouble.particle < total.trouble.particle))
             total.trouble = acc.trouble;
+        if (update) {
+#pragma omp master
+            *p2g_end_ms = kf_now_ms();
+            kf_grid_update_team(m, s, dt, &passes, 1);
+        }
     }
     if (flip) flip_old_velocity(g, m->nthreads);
     if (trouble) *trouble = total.trouble;
+}
+
+void kf_p2g(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble) { p2g_run(m, s, dt, trouble, 0, NULL); }
+
+/* the update waits on the owners' turns (grid.h), which one rank keeps;
+ * FLIP's old velocities come between P2G and the update */
+int kf_p2g_joins_update(const kf_model *m, const kf_state *s) {
+    return !s->dist && m->sim.transfer != KF_TRANSFER_FLIP;
+}
+
+void kf_p2g_update(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *trouble, double *p2g_end_ms) {
+    *p2g_end_ms = kf_now_ms();
+    p2g_run(m, s, dt, trouble, 1, p2g_end_ms);
 }
 
 /* |Δt L|² beyond which G2P steps F by exp(Δt L): 0.1², where the linear
