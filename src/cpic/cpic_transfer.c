@@ -302,6 +302,7 @@ static double solve4(double M[4][4], double y[4], double c[4]) {
 typedef struct cdf_fit {
     double M[4][4][KF_CHUNK], y[4][KF_CHUNK], coef[4][KF_CHUNK], det[KF_CHUNK]; /* by lane */
     int rstar[KF_CHUNK], mixed[KF_CHUNK], idx[KF_CHUNK], n;
+    uint32_t cp[KF_CHUNK]; /* the queued particle's colour, as its fit reads it */
 } cdf_fit;
 
 /* solve4 for the fits queued in f, eight at a time (AVX-512; four with
@@ -575,13 +576,12 @@ static inline void stencil_sides(const uint32_t *col, int o, uint32_t old, uint3
 #endif
 }
 
-/* §5.3.1–5.3.3: the particle's colour (kept, dropped, acquired), then the
- * sums of its distance fit (the solve and the rest follow in
- * particle_cdf_finish). Writes the colour, and resets pd, pn and near (r*+1
- * of the fit's closest node, 0 when the fit failed); queues the fit in f. */
+/* §5.3.1–5.3.3: the particle's colour (kept, dropped, acquired), and its
+ * distance fit queued in f (the sums follow in fit_sums, the solve and the
+ * rest in particle_cdf_finish). Writes the colour, and resets pd, pn and
+ * near (r*+1 of the fit's closest node, 0 when the fit failed). */
 static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck, int j, const uint32_t *col,
                          const float *dist, const uint32_t *oc_aff, double dx, const uint8_t *thin_body, cdf_fit *f) {
-    const double inv_dx = 1 / dx;
     const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
     /* no node of the stencil near a body: only the scar stays */
     if (!oc_aff[o]) {
@@ -626,7 +626,21 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     c->pd[i] = 0;
     c->pn[3 * i] = c->pn[3 * i + 1] = c->pn[3 * i + 2] = 0;
     if (!(cp & AFF)) return;
-    /* MLS fit of the nodes' distances, signed relative to the particle */
+    /* its MLS fit of the nodes' distances, queued (fit_sums) */
+    const int q = f->n++;
+    f->idx[q] = j;
+    f->cp[q] = cp;
+}
+
+#if !(defined(__AVX2__) && defined(__FMA__) && !defined(KF_DOUBLE))
+/* The sums of queued fit q (particle j of the chunk, colour cp): the MLS
+ * fit of the nodes' distances, signed relative to the particle, the
+ * closest node's body and whether the fit's nodes mix bodies. (Where AVX2
+ * is, fit_sums_lanes below does the same four at a time.) */
+static void fit_sums_one(const chunk *ck, const uint32_t *col, const float *dist, double inv_dx, cdf_fit *f, int q) {
+    const int j = f->idx[q];
+    const uint32_t cp = f->cp[q];
+    const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
     fit4 fit;
     fit4_zero(&fit);
     float closest = 1e30f;
@@ -634,20 +648,19 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++)
             for (int k = 0; k < 3; k++) {
-                int q = o + (a * NB + b) * NB + k;
-                uint32_t cn = col[q];
+                const int qn = o + (a * NB + b) * NB + k;
+                uint32_t cn = col[qn];
                 if (!(cn >> KF_CPIC_RSTAR_SHIFT)) continue; /* no distance here */
                 uint32_t shared = (cn & cp & AFF) >> 1, differ = (cn ^ cp) & shared;
                 int flips = __builtin_popcount(differ);
                 if (flips > 1) continue;
-                double sgn = flips ? -dist[q] : dist[q];
+                double sgn = flips ? -dist[qn] : dist[qn];
                 double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
                 fit4_add(&fit, w, sgn, ck, j, a, b, k, inv_dx);
                 if (first_body < 0) first_body = (int)(cn >> KF_CPIC_RSTAR_SHIFT);
                 mixed |= (int)(cn >> KF_CPIC_RSTAR_SHIFT) != first_body;
-                if (dist[q] < closest) closest = dist[q], rstar = (int)(cn >> KF_CPIC_RSTAR_SHIFT) - 1;
+                if (dist[qn] < closest) closest = dist[qn], rstar = (int)(cn >> KF_CPIC_RSTAR_SHIFT) - 1;
             }
-    const int q = f->n++;
     double M[4][4], y[4];
     fit4_out(&fit, M, y);
     for (int r = 0; r < 4; r++) {
@@ -656,8 +669,8 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     }
     f->rstar[q] = rstar;
     f->mixed[q] = mixed;
-    f->idx[q] = j;
 }
+#endif
 
 /* the fit's outcome for queued fit q of particle i (colour cp) */
 static void particle_cdf_finish(kf_cpic *c, kf_particles *p, size_t i, const cdf_fit *f, int q, double dx,
@@ -705,6 +718,135 @@ static inline __m256d lanes_of(const kf_real *plane, const int jl[4]) {
     return _mm256_cvtps_pd(_mm_setr_ps(plane[jl[0]], plane[jl[1]], plane[jl[2]], plane[jl[3]]));
 }
 #endif
+
+#if defined(__AVX2__) && defined(__FMA__) && !defined(KF_DOUBLE)
+/* The row (a, b) of 3 nodes along z of 4 stencils (bases o[l]) as 3
+ * registers of 4 lanes, one per node k: each stencil's row loaded (a zero
+ * fourth element: the last row of the cache may end there), then
+ * transposed */
+static inline void rows_of(const uint32_t *src, const int o[4], int off, __m128i out[3]) {
+    const __m128i three = _mm_setr_epi32(-1, -1, -1, 0);
+    __m128i r[4];
+    for (int l = 0; l < 4; l++) r[l] = _mm_maskload_epi32((const int *)&src[o[l] + off], three);
+    const __m128i t0 = _mm_unpacklo_epi32(r[0], r[1]), t1 = _mm_unpacklo_epi32(r[2], r[3]);
+    const __m128i t2 = _mm_unpackhi_epi32(r[0], r[1]), t3 = _mm_unpackhi_epi32(r[2], r[3]);
+    out[0] = _mm_unpacklo_epi64(t0, t1);
+    out[1] = _mm_unpackhi_epi64(t0, t1);
+    out[2] = _mm_unpacklo_epi64(t2, t3);
+}
+
+/* the product a b as a value of its own: the add it goes into is not
+ * contracted into a fused multiply-add (as in fit4_add) */
+static inline __m256d product(__m256d a, __m256d b) {
+    __m256d t = _mm256_mul_pd(a, b);
+    __asm__("" : "+x"(t));
+    return t;
+}
+
+/* fit_sums_one for the queued fits q0..q0+3, one per lane (lanes past the
+ * queue's end repeat fit q0 and are not read): each lane the scalar sums'
+ * operations in node order, with their roundings. A node the scalar loop
+ * passes over (no distance, or more than one flipped side) adds w = 0 and
+ * value 0: products of ±0, and x + ±0 is x for every sum, which starts at
+ * +0. The sums: w P_r P_c for r, c < 3 (w P_r rounded, then the product),
+ * w P_r (M's last column and row, both the same sums), w (M[3][3]),
+ * (w value) P_c and w value (y). Bit for bit with fit_sums_one. */
+static void fit_sums_lanes(const chunk *ck, const uint32_t *col, const float *dist, double inv_dx, cdf_fit *f,
+                           int q0) {
+    const int nl = f->n - q0 < 4 ? f->n - q0 : 4;
+    int jl[4], o[4];
+    uint32_t cpl[4];
+    for (int l = 0; l < 4; l++) {
+        const int q = q0 + (l < nl ? l : 0);
+        jl[l] = f->idx[q];
+        cpl[l] = f->cp[q];
+        o[l] = (ck->l[0][jl[l]] * NB + ck->l[1][jl[l]]) * NB + ck->l[2][jl[l]];
+    }
+    __m256d W[3][3], P[3][3];
+    const __m256d vinv = _mm256_set1_pd(inv_dx);
+    for (int ax = 0; ax < 3; ax++)
+        for (int t = 0; t < 3; t++) {
+            W[ax][t] = lanes_of(ck->w[ax][t], jl);
+            P[ax][t] = _mm256_mul_pd(lanes_of(ck->d[ax][t], jl), vinv);
+        }
+    const __m128i cp = _mm_loadu_si128((const __m128i *)cpl), aff = _mm_set1_epi32((int)AFF);
+    const __m128i zero = _mm_setzero_si128(), one = _mm_set1_epi32(1);
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    __m256d S[3][3], Sr3[3], S33 = _mm256_setzero_pd(), Y[4];
+    for (int r = 0; r < 3; r++) {
+        for (int c = 0; c < 3; c++) S[r][c] = _mm256_setzero_pd();
+        Sr3[r] = _mm256_setzero_pd();
+    }
+    for (int r = 0; r < 4; r++) Y[r] = _mm256_setzero_pd();
+    __m128 closest = _mm_set1_ps(1e30f);
+    __m128i rstar = _mm_set1_epi32(-1), first = zero, mixed = zero;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++) {
+            __m128i cr[3], dr[3];
+            rows_of(col, o, (a * NB + b) * NB, cr);
+            rows_of((const uint32_t *)dist, o, (a * NB + b) * NB, dr);
+            const __m256d wab = _mm256_mul_pd(W[0][a], W[1][b]);
+            for (int k = 0; k < 3; k++) {
+                const __m128i cn = cr[k], body = _mm_srli_epi32(cn, KF_CPIC_RSTAR_SHIFT);
+                if (_mm_testz_si128(body, body)) continue; /* no lane's node has a distance: nothing changes */
+                const __m128 dn = _mm_castsi128_ps(dr[k]);
+                /* used: a distance here, and at most one shared body's side flipped (neg: one) */
+                const __m128i shared = _mm_srli_epi32(_mm_and_si128(_mm_and_si128(cn, cp), aff), 1);
+                const __m128i differ = _mm_and_si128(_mm_xor_si128(cn, cp), shared);
+                const __m128i single = _mm_cmpeq_epi32(_mm_and_si128(differ, _mm_sub_epi32(differ, one)), zero);
+                const __m128i use = _mm_andnot_si128(_mm_cmpeq_epi32(body, zero), single);
+                const __m128i neg = _mm_andnot_si128(_mm_cmpeq_epi32(differ, zero), use);
+                /* the first used node's body, mixed bodies, the closest node (strict) */
+                first = _mm_blendv_epi8(first, body, _mm_and_si128(use, _mm_cmpeq_epi32(first, zero)));
+                mixed = _mm_or_si128(mixed, _mm_andnot_si128(_mm_cmpeq_epi32(body, first), use));
+                const __m128i closer = _mm_and_si128(use, _mm_castps_si128(_mm_cmplt_ps(dn, closest)));
+                closest = _mm_blendv_ps(closest, dn, _mm_castsi128_ps(closer));
+                rstar = _mm_blendv_epi8(rstar, _mm_sub_epi32(body, one), closer);
+                /* the sums, w and value 0 where unused (a node no lane uses adds nothing) */
+                if (_mm_testz_si128(use, use)) continue;
+                const __m256d use64 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(use));
+                const __m256d neg64 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(neg));
+                const __m256d w = _mm256_and_pd(_mm256_mul_pd(wab, W[2][k]), use64);
+                const __m256d value =
+                    _mm256_and_pd(_mm256_xor_pd(_mm256_cvtps_pd(dn), _mm256_and_pd(neg64, sign)), use64);
+                const __m256d Pn[3] = {P[0][a], P[1][b], P[2][k]};
+                __m256d wp[3];
+                for (int r = 0; r < 3; r++) wp[r] = product(w, Pn[r]);
+                for (int r = 0; r < 3; r++) {
+                    for (int c = 0; c < 3; c++) S[r][c] = _mm256_add_pd(S[r][c], product(wp[r], Pn[c]));
+                    Sr3[r] = _mm256_add_pd(Sr3[r], wp[r]);
+                }
+                S33 = _mm256_add_pd(S33, w);
+                const __m256d wv = product(w, value);
+                for (int c = 0; c < 3; c++) Y[c] = _mm256_add_pd(Y[c], product(wv, Pn[c]));
+                Y[3] = _mm256_add_pd(Y[3], wv);
+            }
+        }
+    /* q0..q0+3 are within the chunk's lanes (KF_CHUNK is a multiple of 4) */
+    for (int r = 0; r < 3; r++) {
+        for (int c = 0; c < 3; c++) _mm256_storeu_pd(&f->M[r][c][q0], S[r][c]);
+        _mm256_storeu_pd(&f->M[r][3][q0], Sr3[r]);
+        _mm256_storeu_pd(&f->M[3][r][q0], Sr3[r]);
+    }
+    _mm256_storeu_pd(&f->M[3][3][q0], S33);
+    for (int r = 0; r < 4; r++) _mm256_storeu_pd(&f->y[r][q0], Y[r]);
+    int rs[4], mx[4];
+    _mm_storeu_si128((__m128i *)rs, rstar);
+    _mm_storeu_si128((__m128i *)mx, mixed);
+    for (int l = 0; l < nl; l++) f->rstar[q0 + l] = rs[l], f->mixed[q0 + l] = mx[l] != 0;
+}
+#define KF_CPIC_FIT_LANES 1
+#endif
+
+/* The queued fits' sums, four at a time where AVX2 is (a chunk's fits are
+ * few: the lanes pass over a node no lane's fit uses) */
+static void fit_sums(const chunk *ck, const uint32_t *col, const float *dist, double inv_dx, cdf_fit *f) {
+#ifdef KF_CPIC_FIT_LANES
+    for (int q0 = 0; q0 < f->n; q0 += 4) fit_sums_lanes(ck, col, dist, inv_dx, f, q0);
+#else
+    for (int q = 0; q < f->n; q++) fit_sums_one(ck, col, dist, inv_dx, f, q);
+#endif
+}
 
 /* What an across particle's P2G gives each node of its stencil (node n =
  * 9a + 3b + k) in ordinary MLS-MPM (or classic MPM): momentum and mass, by
@@ -835,6 +977,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     cdf_fit fit;
     fit.n = 0;
     for (int j = 0; j < ck->n; j++) particle_cdf(c, p, i0 + (size_t)j, ck, j, col, dist, oc->aff, dx, thin_body, &fit);
+    fit_sums(ck, col, dist, 1 / dx, &fit);
     solve4_lanes(&fit);
     for (int q = 0; q < fit.n; q++) particle_cdf_finish(c, p, i0 + (size_t)fit.idx[q], &fit, q, dx, thin_body);
     for (int j = 0; j < ck->n; j++) {
