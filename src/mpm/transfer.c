@@ -551,8 +551,10 @@ typedef struct g2p_follow {
  * changes no result. */
 #define KF_NB_LINES (8 * KF_BLOCK_NODES * (int)sizeof(kf_v4) / 64)
 static inline void prefetch_nb_lines(const kf_v4 *node, const int32_t *nb, int l0, int l1, int write) {
-    const int per_block = KF_NB_LINES / 8;
-    for (int l = l0; l < l1; l++) {
+    /* unsigned: the block and the line in it by a shift and a mask (a
+     * signed l cost a sign fix-up each, some 16 instructions a line) */
+    const unsigned per_block = KF_NB_LINES / 8;
+    for (unsigned l = (unsigned)l0; l < (unsigned)l1; l++) {
         const char *line =
             (const char *)&node[(size_t)nb[l / per_block] * KF_BLOCK_NODES] + (size_t)(l % per_block) * 64;
         if (write) __builtin_prefetch(line, 1, 2);
