@@ -197,13 +197,18 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
     kf_vdb_trimesh mesh = {0};
     kf_vdb_surface_stats st = {0};
     int rc = kf_vdb_levelset_from_particles(n, NULL, x, NULL, NULL, &sp, &g, &st, err, sizeof err);
-    /* the bridge times its phases in process CPU seconds; wall: the phases
-     * share the level set's wall time in proportion to their CPU time */
+    /* the bridge times its phases in process CPU and wall seconds (wall
+     * against CPU: how much of a phase ran on both cores); where it gives no
+     * wall times (spheres) the phases share the level set's wall time in
+     * proportion to their CPU time */
     out->cpu[FS_AVERAGE] = st.cpu_average;
     out->cpu[FS_SORT] = st.cpu_sort, out->cpu[FS_SPLAT] = st.cpu_splat;
     out->cpu[FS_REDISTANCE] = st.cpu_redistance, out->cpu[FS_FILTER] = st.cpu_filter;
-    double cls = st.cpu_average + st.cpu_sort + st.cpu_splat + st.cpu_redistance + st.cpu_filter;
-    for (int k = FS_AVERAGE; k <= FS_FILTER; k++) out->wall[k] = cls > 0 ? st.seconds * out->cpu[k] / cls : 0;
+    const double walls[] = {st.wall_average, st.wall_sort, st.wall_splat, st.wall_redistance, st.wall_filter};
+    double cls = st.cpu_average + st.cpu_sort + st.cpu_splat + st.cpu_redistance + st.cpu_filter, wls = 0;
+    for (int k = FS_AVERAGE; k <= FS_FILTER; k++) wls += walls[k - FS_AVERAGE];
+    for (int k = FS_AVERAGE; k <= FS_FILTER; k++)
+        out->wall[k] = wls > 0 ? walls[k - FS_AVERAGE] : (cls > 0 ? st.seconds * out->cpu[k] / cls : 0);
     out->active_voxels = st.active_voxels;
     double t0 = kf_now_ms(), c0 = cpu_s();
     if (!rc) rc = kf_vdb_mesh(g, 0, 0, &mesh, err, sizeof err);

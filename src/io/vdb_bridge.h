@@ -121,6 +121,9 @@ typedef struct kf_vdb_surface_stats {
     double cpu_average;                    /* process CPU seconds of the centre averaging (surface_params.average) */
     size_t n_average_kept;                 /* particles deep enough to keep their place in it (not averaged) */
     double cpu_sort, cpu_splat, cpu_redistance, cpu_filter; /* process CPU seconds of each phase */
+    /* wall seconds of each phase (anisotropic kernels; 0 for spheres): with
+     * the CPU seconds, how much of each phase ran on more than one core */
+    double wall_average, wall_sort, wall_splat, wall_redistance, wall_filter;
 } kf_vdb_surface_stats;
 
 /* File / grid metadata. */

@@ -34,6 +34,13 @@ double cpu_now() {
     return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
+// wall seconds: beside a phase's CPU time, whether it kept the cores busy
+double wall_now() {
+    timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
 // fewer neighbours than this (within R) and the covariance says little:
 // a small round kernel
 constexpr int FEW_NEIGHBOURS = 6;
@@ -536,7 +543,7 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
     aniso_timing tm{};
     // the kernels' leaf bins, from their centres (ties by index:
     // deterministic), before they are made: each is made in its place
-    double t0 = cpu_now();
+    double t0 = cpu_now(), w0 = wall_now();
     const double inv = 1 / vx;
     std::vector<uint64_t> keys(n);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
@@ -552,16 +559,16 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t q = rg.begin(); q != rg.end(); q++) slot[kb.order[q]] = uint32_t(q);
     });
-    tm.sort_s = cpu_now() - t0;
+    tm.sort_s = cpu_now() - t0, tm.sort_w = wall_now() - w0;
 
-    t0 = cpu_now();
+    t0 = cpu_now(), w0 = wall_now();
     std::vector<uint8_t> deep;
     std::vector<kernel> K = shape_kernels(n, xd, xf, a, vx, slot.data(), deep);
     for (size_t i = 0; i < n; i++) tm.n_deep += deep[i];
     slot.clear(), slot.shrink_to_fit();
-    tm.shape_s = cpu_now() - t0;
+    tm.shape_s = cpu_now() - t0, tm.shape_w = wall_now() - w0;
 
-    t0 = cpu_now();
+    t0 = cpu_now(), w0 = wall_now();
     binned b;
     b.k.swap(K), b.deep.resize(n);
     b.src.swap(kb.order), b.key.swap(kb.key), b.at.swap(kb.at);
@@ -597,12 +604,12 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
     tbb::parallel_sort(targets.begin(), targets.end());
     targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
     if (!targets.empty() && targets.back() == NONE) targets.pop_back();
-    tm.sort_s += cpu_now() - t0;
+    tm.sort_s += cpu_now() - t0, tm.sort_w += wall_now() - w0;
 
     // the union over the targets; then the band: the targets and the 26
     // leaves around each that holds an inside voxel (the deep leaves beside
     // the surface), each leaf in its own buffer
-    t0 = cpu_now();
+    t0 = cpu_now(), w0 = wall_now();
     const bool track = vel && velgrid;
     std::vector<float> F(targets.size() * LEAF_SIZE);
     std::vector<int32_t> who(track ? targets.size() * LEAF_SIZE : 0);
@@ -659,18 +666,18 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
     });
     F.clear(), F.shrink_to_fit(), who.clear(), who.shrink_to_fit();
     band.link();
-    tm.splat_s = cpu_now() - t0;
+    tm.splat_s = cpu_now() - t0, tm.splat_w = wall_now() - w0;
 
-    t0 = cpu_now();
+    t0 = cpu_now(), w0 = wall_now();
     const float W = float(hw + 1 + (f ? f->dilate / vx + f->erode / vx : 0.0));
     if (W > 7) throw std::runtime_error("half width + dilate + erode must stay within 6 voxels");
     distance_from_crossings(band, D, -PAD, W);
     D.clear(), D.shrink_to_fit();
-    tm.redistance_s = cpu_now() - t0;
+    tm.redistance_s = cpu_now() - t0, tm.redistance_w = wall_now() - w0;
 
-    t0 = cpu_now();
+    t0 = cpu_now(), w0 = wall_now();
     openvdb::FloatGrid::Ptr grid = band_to_grid(band, vx, hw, W, f, track ? &bwho : nullptr, vel, velgrid);
-    tm.filter_s = cpu_now() - t0;
+    tm.filter_s = cpu_now() - t0, tm.filter_w = wall_now() - w0;
     if (timing) *timing = tm;
     return grid;
 }

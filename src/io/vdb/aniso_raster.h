@@ -33,6 +33,7 @@ struct aniso_params {
 
 struct aniso_timing {
     double shape_s, sort_s, splat_s, redistance_s, filter_s; // process CPU seconds of each phase
+    double shape_w, sort_w, splat_w, redistance_w, filter_w; // wall seconds of each phase
     size_t n_deep;                                           // particles given a ball unexamined
 };
 

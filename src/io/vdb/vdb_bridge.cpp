@@ -459,6 +459,7 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, 
             if (p.erode < 0) p.dilate -= p.erode, p.erode = 0;
         }
         kf_vdb::raster_timing rt{};
+        double wall[5] = {0, 0, 0, 0, 0}; // the anisotropic phases' wall seconds
         if (hw > 6) throw bridge_error(fmt("half width %g voxels must be <= 6", hw));
         // dilate, mean-curvature smoothing and erode run on the band before
         // it becomes a tree when the band has room for the shifts (within 6
@@ -486,6 +487,8 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, 
             cpu_average = at.shape_s, n_kept = at.n_deep;
             rt.sort_s = at.sort_s, rt.splat_s = at.splat_s, rt.redistance_s = at.redistance_s,
             rt.filter_s = at.filter_s;
+            wall[0] = at.shape_w, wall[1] = at.sort_w, wall[2] = at.splat_w, wall[3] = at.redistance_w,
+            wall[4] = at.filter_w;
         } else {
             h->ls = kf_vdb::rasterise_spheres(ss, voxel, hw, on_band ? &bf : nullptr, vel ? &h->vel : nullptr, &rt);
         }
@@ -520,6 +523,9 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, 
             stats->cpu_splat = rt.splat_s;
             stats->cpu_redistance = rt.redistance_s;
             stats->cpu_filter = rt.filter_s + cpu_seconds() - c1;
+            stats->wall_average = wall[0], stats->wall_sort = wall[1], stats->wall_splat = wall[2];
+            stats->wall_redistance = wall[3];
+            stats->wall_filter = aniso ? wall[4] + stats->seconds_filter : 0;
         }
         *out = hold.release();
     });
