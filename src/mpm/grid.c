@@ -360,7 +360,11 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
         /* inside each owner, particles by their base node (stable): runs of
          * particles with the same stencil, which P2G adds up in registers
          * before it touches the owner's nodes. The slot's particle comes
-         * from the permutation's scratch, used here as the inverse of dest. */
+         * from the permutation's scratch, used here as the inverse of dest;
+         * dest then becomes the final order's inverse (slot d holds particle
+         * dest[d]), which the permutation gathers through in the same
+         * parallel region (the loop's reduction is every thread's after its
+         * barrier, and inv is read no more) */
         uint32_t *inv = g->scratch;
         const int CELLS = KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE;
 #pragma omp parallel num_threads(nt)
@@ -383,16 +387,14 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
                 for (int c = 0; c < CELLS; c++) cnt[c + 1] += cnt[c];
                 for (size_t q = s0; q < s1; q++) {
                     size_t i = inv[q], d = s0 + (size_t)cnt[CELL_KEY(i)]++;
-                    dest[i] = (uint32_t)d;
+                    dest[d] = (uint32_t)i;
                     identity &= d == i;
                 }
 #undef CELL_KEY
             }
+            if (!identity) kf_particles_permute_team(p, dest, g->scratch);
         }
-        if (!identity) {
-            kf_particles_permute(p, g->dest, g->scratch, threads);
-            g->permutes++;
-        }
+        if (!identity) g->permutes++;
     }
 
     /* 6. colour lists: owners grouped by the parity of their coordinate */

@@ -181,26 +181,28 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
     return 0;
 }
 
-/* scatter one array through dest into the scratch, then copy it back; both
- * halves split the particles over the threads (dest is a permutation, so
- * no two threads write one slot), and one scratch plane serves every array */
-#define PERMUTE_PLANE(T, arr)                                                                                          \
+/* gather one array through src into the thread's share of the scratch;
+ * once every thread has read the array (the barrier), copy the share back.
+ * A thread's share of the scratch (bytes lo W .. hi W, W the widest
+ * element, whatever the array's type) is written and read by it alone, so
+ * the next array's gather needs no second barrier: one an array. */
+#define GATHER_PLANE(T, arr)                                                                                           \
     do {                                                                                                               \
-        T *tmp_ = (T *)scratch, *a_ = (T *)(arr);                                                                      \
-        _Pragma("omp for schedule(static)") for (size_t i_ = 0; i_ < n; i_++) tmp_[dest[i_]] = a_[i_];                 \
-        _Pragma("omp for schedule(static)") for (size_t i_ = 0; i_ < n; i_++) a_[i_] = tmp_[i_];                       \
+        T *tmp_ = (T *)(share - lo * sizeof(T)), *a_ = (T *)(arr);                                                     \
+        for (size_t i_ = lo; i_ < hi; i_++) tmp_[i_] = a_[src[i_]];                                                    \
+        _Pragma("omp barrier") for (size_t i_ = lo; i_ < hi; i_++) a_[i_] = tmp_[i_];                                  \
     } while (0)
 
-void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, int threads) {
-    size_t n = p->n;
-#pragma omp parallel num_threads(threads)
-    {
-        /* zero arrays stay as they are: every slot holds +0 */
-        for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
-            if (!plane_zero(p, k)) PERMUTE_PLANE(kf_real, p->plane[k]);
-        if (!(p->zero & KF_ZERO_MAT)) PERMUTE_PLANE(uint16_t, p->mat);
-        PERMUTE_PLANE(uint32_t, p->id);
-        if (!(p->zero & KF_ZERO_OBJ)) PERMUTE_PLANE(uint16_t, p->obj);
-        if (!(p->zero & KF_ZERO_COLOUR)) PERMUTE_PLANE(uint32_t, p->colour);
-    }
+void kf_particles_permute_team(kf_particles *p, const uint32_t *src, void *scratch) {
+    const size_t n = p->n;
+    const size_t t = (size_t)omp_get_thread_num(), nt = (size_t)omp_get_num_threads();
+    const size_t lo = n * t / nt, hi = n * (t + 1) / nt;
+    char *const share = (char *)scratch + lo * kf_particles_permute_bytes(1);
+    /* zero arrays stay as they are: every slot holds +0 */
+    for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
+        if (!plane_zero(p, k)) GATHER_PLANE(kf_real, p->plane[k]);
+    if (!(p->zero & KF_ZERO_MAT)) GATHER_PLANE(uint16_t, p->mat);
+    GATHER_PLANE(uint32_t, p->id);
+    if (!(p->zero & KF_ZERO_OBJ)) GATHER_PLANE(uint16_t, p->obj);
+    if (!(p->zero & KF_ZERO_COLOUR)) GATHER_PLANE(uint32_t, p->colour);
 }

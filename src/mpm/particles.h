@@ -112,7 +112,10 @@ int kf_particles_reserve(kf_particles *p, size_t cap);
 int kf_particles_plane_resize(kf_particles *p, int k, size_t cap);
 /* dst becomes an exact copy of src (capacity grows as needed). */
 int kf_particles_copy(kf_particles *dst, const kf_particles *src);
-/* Reorder: new[dest[p]] = old[p]. scratch holds kf_particles_permute_bytes(n). */
-void kf_particles_permute(kf_particles *p, const uint32_t *dest, void *scratch, int threads);
+/* Reorder: new[i] = old[src[i]] (src a permutation), by every thread of a
+ * parallel region (it holds barriers; the region's end, or a barrier, comes
+ * before the particles are read). scratch holds kf_particles_permute_bytes(n)
+ * and must not be read by another thread meanwhile. */
+void kf_particles_permute_team(kf_particles *p, const uint32_t *src, void *scratch);
 
 #endif
