@@ -13,6 +13,7 @@
 #include "mesh_util.h"
 #include "random_util.h"
 #include "rigid/mass.h"
+#include "rigid/mjcf.h"
 #include "rigid/rigid.h"
 #include "scene/mesh.h"
 
@@ -773,6 +774,58 @@ static void test_walls(void) {
     kf_rigid_body_free(&b);
 }
 
+/* a bar spinning on a hinge to the world at its centre, in a unit box of
+ * walls (mjcf.c walls_out_of_reach):
+ * - hinged at the box's centre the walls are out of its reach: its model
+ *   excludes the world, and its motion is bitwise the one without walls;
+ * - hinged 0.1 m above the floor (the bar reaches 0.15 m) there is no
+ *   exclude, and the floor stops the bar (no corner more than 4.5 mm below
+ *   it, as in test_walls). */
+static void test_hinge_walls(void) {
+    double v[24];
+    kf_rigid_def d = box_def((double[3]){-0.15, -0.02, -0.02}, (double[3]){0.15, 0.02, 0.02}, v, KF_RIGID_DYNAMIC);
+    const double walls[6] = {0, 0, 0, 1, 1, 1}, g[3] = {0, -9.81, 0}, dt = 1e-3;
+    for (int low = 0; low < 2; low++) {
+        d.position[0] = 0.5, d.position[1] = low ? 0.1 : 0.5, d.position[2] = 0.5;
+        d.angular_velocity[2] = 6;
+        kf_rigid_body b;
+        char err[256] = "";
+        KT_CHECK(kf_rigid_compile(&b, &d, 0.05, err, sizeof err) == 0, "%s", err);
+        kf_joint_def j = {.body_a = -1, .body_b = 0, .axis = {0, 0, 1}};
+        memcpy(j.anchor, d.position, sizeof j.anchor);
+        char *xml = kf_rigid_mjcf(&b, 1, &j, 1, g, walls, NULL, err, sizeof err);
+        KT_CHECK(xml != NULL, "%s", err);
+        const int excluded = xml && strstr(xml, "<exclude body1=\"world\" body2=\"b0\"/>") != NULL;
+        KT_CHECK(excluded == !low, "hinged at y %.1f: the walls %s excluded", d.position[1], low ? "not" : "");
+        free(xml);
+        kf_rigid_sim *with = kf_rigid_sim_create(&b, 1, &j, 1, g, walls, err, sizeof err);
+        kf_rigid_sim *without = kf_rigid_sim_create(&b, 1, &j, 1, g, NULL, err, sizeof err);
+        KT_CHECK(with && without, "%s", err);
+        if (with && without) {
+            kf_rigid_state sw, so;
+            kf_rigid_state_at(&b, 0, &sw);
+            so = sw;
+            double lowest = INFINITY;
+            int same = 1;
+            for (int n = 0; n < 500; n++) {
+                kf_rigid_sim_step(with, &b, 1, &sw, n * dt, dt, NULL);
+                kf_rigid_sim_step(without, &b, 1, &so, n * dt, dt, NULL);
+                same &= !memcmp(&sw, &so, sizeof sw);
+                for (int i = 0; i < 8; i++) {
+                    double p[3];
+                    apply(sw.R, v + 3 * i, sw.t, p);
+                    lowest = fmin(lowest, p[1]);
+                }
+            }
+            if (!low) KT_CHECK(same, "out of the walls' reach: bitwise the motion without walls");
+            if (low) KT_CHECK(!same && lowest > -4.5e-3, "the floor stops the bar: lowest corner %g m", lowest);
+        }
+        kf_rigid_sim_destroy(with);
+        kf_rigid_sim_destroy(without);
+        kf_rigid_body_free(&b);
+    }
+}
+
 /* the solver's own refusals come back as messages */
 static void test_sim_errors(void) {
     double v0[24], v1[24];
@@ -890,6 +943,7 @@ int main(int argc, char **argv) {
     KT_RUN(test_rest_in_container, argc, argv);
     KT_RUN(test_conveyor, argc, argv);
     KT_RUN(test_walls, argc, argv);
+    KT_RUN(test_hinge_walls, argc, argv);
     KT_RUN(test_sim_errors, argc, argv);
     KT_RUN(test_save_load_bitwise, argc, argv);
     return KT_EXIT();
