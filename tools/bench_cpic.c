@@ -324,10 +324,12 @@ static int bench_rounds(const rounds_opts *o) {
         /* the slab's first substep untimed, as a single run's (it builds everything) */
         if (L->m) kf_step(L->m, L->s, SLAB_DT, NULL, NULL);
     }
+    /* the threads the simulations run on: a shot's own setting, else OpenMP's */
+    const int shot_threads = o->shot ? kf_model_sim(lanes[0].sc.model)->threads : 0;
+    const int threads = shot_threads > 0 ? shot_threads : omp_get_max_threads();
     printf("CPIC overhead by rounds: %s, %d threads, %d rounds of one batch per mode (%s), order rotated each "
            "round\n",
-           o->shot ? o->shot : "the slab", omp_get_max_threads(), o->rounds,
-           o->shot ? "a span of simulated time" : "substeps");
+           o->shot ? o->shot : "the slab", threads, o->rounds, o->shot ? "a span of simulated time" : "substeps");
     printf("%5s", "round");
     for (int l = 0; l < nl; l++) printf(" | %-7s %4s %9s %9s", lanes[l].name, "sub", "cpu ms", "wall ms");
     for (int l = 1; l < nl; l++) printf(" | %s/none cpu  wall", lanes[l].name);
