@@ -30,7 +30,8 @@ typedef struct variant {
     kf_transfer transfer;
     double dt_fixed, dt_max; /* 0: the CFL rule alone */
     int threads;
-    int bodies;  /* 1: a blade cutting down through the blocks and a falling plate; 2: static bodies */
+    int bodies;  /* 1: a blade cutting down through the blocks and a falling plate; 2: static bodies;
+                    3: a blade coming down from above the blocks */
     int contact; /* 1: each block its own object, in contact with the others (sim.contact); 2: contact on,
                     one object (the cut's pieces become fields) */
 } variant;
@@ -82,6 +83,32 @@ static void add_bodies(kf_model *m, const char *name) {
     d.velocity[1] = -2;
     d.angular_velocity[2] = 3;
     KT_CHECK(kf_model_add_rigid(m, &d, err, sizeof err) >= 0, "%s: plate: %s", name, err);
+}
+
+/* a thin blade, kinematic, that starts above the blocks and comes down
+ * into them in the second frame: while nothing is within its reach the
+ * band is empty and the next P2G (the ordinary one everywhere) is
+ * scattered early; once it arrives, the early scatter made before is
+ * dropped and the band's P2G runs */
+static void add_blade_above(kf_model *m, const char *name) {
+    static const double quad[12] = {0, 0, -0.15, 0, 0, 0.15, 0, 0.3, 0.15, 0, 0.3, -0.15};
+    static const int tri[6] = {0, 1, 2, 0, 2, 3};
+    char err[256];
+    kf_rigid_def d;
+    memset(&d, 0, sizeof d);
+    snprintf(d.name, sizeof d.name, "blade");
+    d.vertices = quad, d.nvertices = 4, d.triangles = tri, d.ntriangles = 2;
+    d.thin = 1;
+    d.motion = KF_RIGID_KINEMATIC;
+    d.boundary = KF_BOUNDARY_SEPARATE;
+    d.friction = 0.2;
+    d.penalty = KF_RIGID_AUTO;
+    d.nkeys = 2;
+    d.keys[0].time = 0, d.keys[1].time = 1;
+    d.keys[0].position[0] = d.keys[1].position[0] = 0.19;
+    d.keys[0].position[1] = 0.3, d.keys[1].position[1] = -5.7; /* 6 m/s down: its edge at y 0.2, then 0.1 */
+    d.keys[0].position[2] = d.keys[1].position[2] = 0.185;
+    KT_CHECK(kf_model_add_rigid(m, &d, err, sizeof err) >= 0, "%s: blade: %s", name, err);
 }
 
 /* CPIC's band with every body static (its distance field the same every
@@ -145,6 +172,7 @@ static run run_scene(const variant *v, int unfused) {
     kf_model_set_unfused(m, unfused);
     if (v->bodies == 1) add_bodies(m, v->name);
     if (v->bodies == 2) add_static_bodies(m, v->name);
+    if (v->bodies == 3) add_blade_above(m, v->name);
     const char *presets[4] = {"jello", "goo", "sand", "snow"};
     kf_state *s = kf_state_create(m);
     for (int k = 0; k < 4; k++) {
@@ -176,7 +204,7 @@ static run run_scene(const variant *v, int unfused) {
     KT_CHECK(v->contact != 1 || fields, "%s: objects met in contact fields", v->name);
     r.fields = fields;
     /* the bodies met the material: each took impulses from it */
-    for (int b = 0; b < (v->bodies ? 2 : 0); b++) {
+    for (int b = 0; b < (v->bodies == 3 ? 1 : v->bodies ? 2 : 0); b++) {
         const double *J = s->cpic->impulse_total[b];
         KT_CHECK(fabs(J[0]) + fabs(J[1]) + fabs(J[2]) > 1e-4, "%s: body %d took an impulse from the material (%g N s)",
                  v->name, b, fabs(J[0]) + fabs(J[1]) + fabs(J[2]));
@@ -325,6 +353,17 @@ static void with_static_bodies(void) {
     compare(&cfl, 1);
 }
 
+/* a moving body away from the material: while the band is empty the next
+ * P2G is the ordinary one and is scattered early (cpic/early.c), taken
+ * only while the band stays empty; the blade's arrival drops it */
+static void with_body_above(void) {
+    const variant vs[] = {
+        {"blade above, 2 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 2, 3, 0},
+        {"blade above, 1 thr", KF_KERNEL_QUADRATIC, KF_FORCE_MLS, KF_TRANSFER_APIC, 2e-4, 0, 1, 3, 0},
+    };
+    for (size_t k = 0; k < sizeof vs / sizeof vs[0]; k++) compare(&vs[k], 1);
+}
+
 static void direct_steps(void) {
     for (int cubic = 0; cubic < 2; cubic++) {
         const kf_kernel kw = cubic ? KF_KERNEL_CUBIC : KF_KERNEL_QUADRATIC;
@@ -351,5 +390,6 @@ int main(int argc, char **argv) {
     KT_RUN(direct_steps, argc, argv);
     KT_RUN(with_bodies, argc, argv);
     KT_RUN(with_static_bodies, argc, argv);
+    KT_RUN(with_body_above, argc, argv);
     return KT_EXIT();
 }

@@ -167,9 +167,12 @@ typedef struct kf_cpic {
     /* The next substep's P2G made early in the fused sweep (early.c): its
      * impulse rows and gΔt, and the colours its band owners' particles had
      * before it (per slot from first[slot], kept where done[slot]), put
-     * back if that substep does not use the scatter. */
+     * back if that substep does not use the scatter; or, with moving
+     * bodies, made over an empty band (no owner in it: every owner's P2G
+     * the ordinary one), usable only if the next band is empty too. */
     struct kf_cpic_early {
         int pending;         /* some owner's particles hold colours of the early P2G */
+        int empty;           /* made over an empty band with a body not static: usable if the next band is empty */
         double dt, gdt[3];   /* the next substep's Δt and gΔt */
         uint32_t epoch;      /* the splat it was made after */
         size_t nslot, nkeep; /* band owners and their particles then */
@@ -182,8 +185,9 @@ typedef struct kf_cpic {
 } kf_cpic;
 
 /* The sides a thin body's surface can give the points of each cell of a
- * lattice in its mesh frame (guard.c): made for cells of a quarter of dx
- * (kf_cpic_sides_make; a body too large for the lattice gets none), each
+ * lattice in its mesh frame (guard.c): made for cells of an eighth of dx,
+ * or a quarter for a larger body (kf_cpic_sides_make; a body too large for
+ * either gets none), each
  * cell's value found when a point first asks (kf_cpic_sides_at, safe from
  * any thread). KF_SIDES_NONE: no triangle within 1.5 dx of any point of the
  * cell; FRONT (BEHIND): the cell strictly in front of (behind) the plane of

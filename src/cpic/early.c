@@ -20,6 +20,17 @@
  * splat only lapses the colours of particles outside the band. The
  * particles' distances and normals are only read by the next substep's G2P.
  *
+ * With a body that moves (or a static one not copied from the store) the
+ * next CDF is not known before its splat, except in one case: no owner in
+ * the band now, so every owner's P2G is the ordinary one, which reads
+ * nothing of the CDF, the bodies or the particles' colours (a blade above
+ * the material, a body that left it). The sweep then scatters the next P2G
+ * as it would without bodies, and the next substep takes it only if its
+ * own splat leaves the band empty too (then its P2G would be the ordinary
+ * one for every owner as well, bit for bit); else it runs its P2G as
+ * usual, the early scatter unused (no colour was written, nothing to put
+ * back). A body that comes within reach costs one unused scatter.
+ *
  * The early P2G rewrites colours before the next substep knows whether it
  * will use the scatter (a particle may leave its owner's reach later in the
  * sweep, Δt may come out different, a caller may edit the particles), so
@@ -40,9 +51,11 @@ static int grow_to(void **p, size_t elem, size_t n) {
 
 int kf_cpic_early_begin(const kf_model *m, kf_state *s, double next_dt) {
     kf_cpic *c = s->cpic;
-    if (!c || !c->static_cdf || !(next_dt > 0) || s->dist) return 0;
+    /* the next CDF foreseen (the store's), or no band now (see above) */
+    if (!c || !(c->static_cdf || c->nslot == 0) || !(next_dt > 0) || s->dist) return 0;
     struct kf_cpic_early *e = &c->early;
     if (e->pending) kf_cpic_early_undo(s); /* not taken by this substep: not reached here, kept safe */
+    e->empty = !c->static_cdf;
     const kf_grid *g = &s->g;
     const size_t nslot = c->nslot;
     if (nslot > e->cap_slot) {
@@ -91,7 +104,8 @@ void kf_cpic_early_owner(kf_state *s, size_t owner, kf_cpic_owner *oc) {
 
 void kf_cpic_early_colours(const kf_state *s, uint32_t *colour) {
     const kf_cpic *c = s->cpic;
-    if (!c || !c->early.pending) return;
+    /* none kept where the band was empty (the slots may be a later splat's) */
+    if (!c || !c->early.pending || !c->early.nslot) return;
     const struct kf_cpic_early *e = &c->early;
     const kf_grid *g = &s->g;
     for (size_t k = 0; k < g->nowner; k++) {
@@ -103,7 +117,7 @@ void kf_cpic_early_colours(const kf_state *s, uint32_t *colour) {
 
 void kf_cpic_early_swap(kf_state *s) {
     kf_cpic *c = s->cpic;
-    if (!c || !c->early.pending) return;
+    if (!c || !c->early.pending || !c->early.nslot) return; /* as above */
     struct kf_cpic_early *e = &c->early;
     const kf_grid *g = &s->g;
     uint32_t *colour = s->p.colour;
@@ -140,8 +154,10 @@ int kf_cpic_early_take(kf_state *s) {
     if (!c || !c->early.pending) return 0;
     struct kf_cpic_early *e = &c->early;
     /* the splat just made must be the one foreseen: the next epoch, the
-     * store's CDF over the same band (it is, with the same blocks) */
-    if (!c->static_cdf || c->nslot != e->nslot || c->epoch != e->epoch + 1 || c->band_particles != (long)e->nkeep) {
+     * store's CDF over the same band (it is, with the same blocks), or
+     * after an empty band an empty band again */
+    const int foreseen = e->empty ? c->nslot == 0 : c->static_cdf && c->nslot == e->nslot;
+    if (!foreseen || c->epoch != e->epoch + 1 || c->band_particles != (long)e->nkeep) {
         kf_cpic_early_undo(s);
         return 0;
     }

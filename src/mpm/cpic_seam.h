@@ -69,7 +69,8 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
 /* The next substep's P2G made early by the fused sweep (early.c), where
  * its CDF is known before the sweep: every body static and this
  * substep's CDF copied from the static store, so the next splat over the
- * same blocks gives it again. kf_cpic_early_begin, before the sweep: 1 if
+ * same blocks gives it again; or no owner in the band now (every owner's
+ * P2G the ordinary one), taken only if the next band is empty too. kf_cpic_early_begin, before the sweep: 1 if
  * the sweep may scatter at next_dt (the impulse rows zeroed). Per band
  * owner, kf_cpic_early_owner after its G2P: keeps its particles' colours
  * and points oc at the next substep's impulse rows and gΔt. The next
