@@ -333,8 +333,15 @@ void kf_rigid_sim_step(kf_rigid_sim *sim, const kf_rigid_body *bodies, int nbodi
     /* the torque each motor gave in the substep (already clipped to its limit) */
     for (int a = 0; a < sim->nact; a++)
         if (fabs(d->actuator_force[a]) > sim->act_peak[a]) sim->act_peak[a] = fabs(d->actuator_force[a]);
-    /* positions and velocities of the new state */
+    /* positions and velocities of the new state: the bodies' only. The
+     * geoms' and sites' poses are the next mj_step's first work (from the
+     * same qpos) and nothing reads them before it, so MuJoCo's kinematics
+     * runs with their counts set to zero for the call (a thin body's 256
+     * pieces made half of it); the bodies' poses are its same code, bit for bit */
+    const int ngeom = sim->m->ngeom, nsite = sim->m->nsite;
+    sim->m->ngeom = 0, sim->m->nsite = 0;
     mj_kinematics(sim->m, d);
+    sim->m->ngeom = ngeom, sim->m->nsite = nsite;
     mj_comPos(sim->m, d);
     mj_comVel(sim->m, d);
     for (int r = 0; r < nbodies; r++)
