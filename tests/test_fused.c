@@ -46,13 +46,10 @@ typedef struct run {
     double impulse[KF_MAX_RIGIDS][6]; /* the bodies' running totals (a static body's move nothing) */
 } run;
 
-/* CPIC's band in the sweep: a thin blade, kinematic, turning as it cuts
- * down through the second and third blocks (a body whose velocity varies
- * along it), and a thin plate, dynamic, falling onto the fourth (its
- * impulses move it, so the sweep's order of impulses shows in its pose) */
-static void add_bodies(kf_model *m, const char *name) {
+/* a thin blade, kinematic, its edge along z at x 0.19: it moves from y0
+ * down to y1 over the first second, turning by rotate degrees about z */
+static void add_blade(kf_model *m, const char *name, double y0, double y1, double rotate) {
     static const double quad[12] = {0, 0, -0.15, 0, 0, 0.15, 0, 0.3, 0.15, 0, 0.3, -0.15};
-    static const double plate[12] = {-0.04, 0, -0.06, 0.04, 0, -0.06, 0.04, 0, 0.06, -0.04, 0, 0.06};
     static const int tri[6] = {0, 1, 2, 0, 2, 3};
     char err[256];
     kf_rigid_def d;
@@ -67,10 +64,22 @@ static void add_bodies(kf_model *m, const char *name) {
     d.nkeys = 2;
     d.keys[0].time = 0, d.keys[1].time = 1;
     d.keys[0].position[0] = d.keys[1].position[0] = 0.19;
-    d.keys[0].position[1] = 0.1, d.keys[1].position[1] = -2.9;
+    d.keys[0].position[1] = y0, d.keys[1].position[1] = y1;
     d.keys[0].position[2] = d.keys[1].position[2] = 0.185;
-    d.keys[1].rotate[2] = 60;
+    d.keys[1].rotate[2] = rotate;
     KT_CHECK(kf_model_add_rigid(m, &d, err, sizeof err) >= 0, "%s: blade: %s", name, err);
+}
+
+/* CPIC's band in the sweep: a thin blade, kinematic, turning as it cuts
+ * down through the second and third blocks (a body whose velocity varies
+ * along it), and a thin plate, dynamic, falling onto the fourth (its
+ * impulses move it, so the sweep's order of impulses shows in its pose) */
+static void add_bodies(kf_model *m, const char *name) {
+    static const double plate[12] = {-0.04, 0, -0.06, 0.04, 0, -0.06, 0.04, 0, 0.06, -0.04, 0, 0.06};
+    static const int tri[6] = {0, 1, 2, 0, 2, 3};
+    char err[256];
+    kf_rigid_def d;
+    add_blade(m, name, 0.1, -2.9, 60);
     memset(&d, 0, sizeof d);
     snprintf(d.name, sizeof d.name, "plate");
     d.vertices = plate, d.nvertices = 4, d.triangles = tri, d.ntriangles = 2;
@@ -89,27 +98,8 @@ static void add_bodies(kf_model *m, const char *name) {
  * into them in the second frame: while nothing is within its reach the
  * band is empty and the next P2G (the ordinary one everywhere) is
  * scattered early; once it arrives, the early scatter made before is
- * dropped and the band's P2G runs */
-static void add_blade_above(kf_model *m, const char *name) {
-    static const double quad[12] = {0, 0, -0.15, 0, 0, 0.15, 0, 0.3, 0.15, 0, 0.3, -0.15};
-    static const int tri[6] = {0, 1, 2, 0, 2, 3};
-    char err[256];
-    kf_rigid_def d;
-    memset(&d, 0, sizeof d);
-    snprintf(d.name, sizeof d.name, "blade");
-    d.vertices = quad, d.nvertices = 4, d.triangles = tri, d.ntriangles = 2;
-    d.thin = 1;
-    d.motion = KF_RIGID_KINEMATIC;
-    d.boundary = KF_BOUNDARY_SEPARATE;
-    d.friction = 0.2;
-    d.penalty = KF_RIGID_AUTO;
-    d.nkeys = 2;
-    d.keys[0].time = 0, d.keys[1].time = 1;
-    d.keys[0].position[0] = d.keys[1].position[0] = 0.19;
-    d.keys[0].position[1] = 0.3, d.keys[1].position[1] = -5.7; /* 6 m/s down: its edge at y 0.2, then 0.1 */
-    d.keys[0].position[2] = d.keys[1].position[2] = 0.185;
-    KT_CHECK(kf_model_add_rigid(m, &d, err, sizeof err) >= 0, "%s: blade: %s", name, err);
-}
+ * dropped and the band's P2G runs. 6 m/s down: its edge at y 0.2, then 0.1 */
+static void add_blade_above(kf_model *m, const char *name) { add_blade(m, name, 0.3, -5.7, 0); }
 
 /* CPIC's band with every body static (its distance field the same every
  * substep, so the next P2G is made in the sweep, band included): a thin
