@@ -136,37 +136,36 @@ static inline void kept_velocity_at(const kf_model *m, const kf_state *s, int r,
  * upright (2.3 judged per particle). A contact force is one-sided as a
  * whole, so the particle's whole exchange with the body decides. */
 static uint32_t pressed_bodies(const kf_model *m, const kf_state *s, const chunk *ck, int j, const uint32_t *col, int o,
-                               uint32_t cp, const int32_t *bc, const double vp[3], const double n[3], const double T[9],
+                               uint32_t xm, const int32_t *bc, const double vp[3], const double n[3], const double T[9],
                                double mass, int classic) {
     const double dx = m->sim.dx, minv = 1.0 / kf_model_dfactor(m);
     double acc[KF_MAX_RIGIDS];
     uint32_t seen = 0, held = 0;
-    for (int a = 0; a < 3; a++)
-        for (int b = 0; b < 3; b++)
-            for (int k = 0; k < 3; k++) {
-                const int q = o + (a * NB + b) * NB + k;
-                if (compatible(col[q], cp)) continue;
-                int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
-                if (m->rigid[r].def.boundary != KF_BOUNDARY_SEPARATE) continue;
-                if (!(seen >> r & 1)) acc[r] = 0, seen |= 1u << r;
-                const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
-                const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
-                double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
-                                (4 * bc[2] + ck->l[2][j] + k) * dx};
-                double V[3], g[3];
-                kf_rigid_point_velocity(&s->rigid[r], xi, V);
-                if (classic) {
-                    g[0] = (double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j] / dx;
-                    g[1] = (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j] / dx;
-                    g[2] = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->dw[2][k][j] / dx;
-                } else {
-                    for (int e = 0; e < 3; e++) g[e] = w * minv * d[e];
-                }
-                for (int e = 0; e < 3; e++)
-                    acc[r] += (w * mass * (vp[e] + s->cpic->gdt[e] - V[e]) + T[3 * e] * g[0] + T[3 * e + 1] * g[1] +
-                               T[3 * e + 2] * g[2]) *
-                              n[e];
-            }
+    /* the nodes across the particle's surface (bits of xm), in node order */
+    for (uint32_t left = xm; left; left &= left - 1) {
+        const int nd = __builtin_ctz(left), a = nd / 9, b = nd / 3 % 3, k = nd % 3;
+        const int q = o + (a * NB + b) * NB + k;
+        int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
+        if (m->rigid[r].def.boundary != KF_BOUNDARY_SEPARATE) continue;
+        if (!(seen >> r & 1)) acc[r] = 0, seen |= 1u << r;
+        const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
+        const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
+        double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
+                        (4 * bc[2] + ck->l[2][j] + k) * dx};
+        double V[3], g[3];
+        kf_rigid_point_velocity(&s->rigid[r], xi, V);
+        if (classic) {
+            g[0] = (double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j] / dx;
+            g[1] = (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j] / dx;
+            g[2] = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->dw[2][k][j] / dx;
+        } else {
+            for (int e = 0; e < 3; e++) g[e] = w * minv * d[e];
+        }
+        for (int e = 0; e < 3; e++)
+            acc[r] += (w * mass * (vp[e] + s->cpic->gdt[e] - V[e]) + T[3 * e] * g[0] + T[3 * e + 1] * g[1] +
+                       T[3 * e + 2] * g[2]) *
+                      n[e];
+    }
     for (uint32_t left = seen; left; left &= left - 1) {
         int r = __builtin_ctz(left);
         if (acc[r] <= 0) held |= 1u << r;
@@ -700,15 +699,38 @@ static void particle_cdf_finish(kf_cpic *c, kf_particles *p, size_t i, const cdf
     }
 }
 
-/* every node of a particle's stencil compatible with it: what it sees of the
- * grid is the ordinary MLS-MPM (most of the band: material near a surface
- * but not across it) */
-static inline int all_compatible(const uint32_t *col, int o, uint32_t cp) {
-    int ok = 1;
-    for (int a = 0; a < 3; a++)
-        for (int b = 0; b < 3; b++)
-            for (int k = 0; k < 3; k++) ok &= compatible(col[o + (a * NB + b) * NB + k], cp);
-    return ok;
+/* The offset in the owner's node cache of stencil node n = 9a + 3b + k from
+ * the particle's base node */
+static const int stencil_off[27] = {
+#define KF_ROW3(a, b) ((a) * NB + (b)) * NB, ((a) * NB + (b)) * NB + 1, ((a) * NB + (b)) * NB + 2
+    KF_ROW3(0, 0), KF_ROW3(0, 1), KF_ROW3(0, 2), KF_ROW3(1, 0), KF_ROW3(1, 1),
+    KF_ROW3(1, 2), KF_ROW3(2, 0), KF_ROW3(2, 1), KF_ROW3(2, 2)
+#undef KF_ROW3
+};
+
+/* The nodes of a particle's stencil (base node o) across a surface from it,
+ * incompatible with its colour cp: bit n = 9a + 3b + k. 0 for most of the
+ * band (material near a surface but not across it): what it sees of the
+ * grid is the ordinary MLS-MPM. Where AVX2 is, a row of 3 nodes per
+ * 128-bit op (bit operations: the same answer as node by node; a zero
+ * fourth lane is compatible and left out). The transfers then visit the
+ * nodes across by their bits, in node order, without a test per node. */
+static inline uint32_t across_nodes(const uint32_t *col, int o, uint32_t cp) {
+    uint32_t xm = 0;
+#if defined(__AVX2__)
+    const __m128i three = _mm_setr_epi32(-1, -1, -1, 0), vcp = _mm_set1_epi32((int)cp);
+    const __m128i aff = _mm_set1_epi32((int)AFF), zero = _mm_setzero_si128();
+    for (int r = 0; r < 9; r++) {
+        const __m128i cn = _mm_maskload_epi32((const int *)&col[o + stencil_off[3 * r]], three);
+        const __m128i shared = _mm_srli_epi32(_mm_and_si128(_mm_and_si128(cn, vcp), aff), 1);
+        const __m128i differ = _mm_and_si128(_mm_xor_si128(cn, vcp), shared);
+        const int ok = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(differ, zero)));
+        xm |= (uint32_t)(~ok & 7) << (3 * r);
+    }
+#else
+    for (int n = 0; n < 27; n++) xm |= (uint32_t)!compatible(col[o + stencil_off[n]], cp) << n;
+#endif
+    return xm;
 }
 
 #if defined(__AVX2__) && defined(__FMA__) && !defined(KF_DOUBLE)
@@ -916,12 +938,16 @@ static void node_adds_lanes(const chunk *ck, const int jl[4], scatter_adds *sa) 
 #define KF_CPIC_SCATTER_LANES 1
 #endif
 
-/* One across particle's scatter from its adds (lane `lane` of sa), node by
- * node: compatible nodes get them; an incompatible node gets nothing, and
- * its closest body takes all it would have received (§5.4); G2P takes back
- * the velocity the particle keeps there, computed once, there. */
+/* One across particle's scatter from its adds (lane `lane` of sa):
+ * compatible nodes get them; an incompatible node (bit of xm) gets nothing,
+ * and its closest body takes all it would have received (§5.4); G2P takes
+ * back the velocity the particle keeps there, computed once, there. A
+ * node's sum and a body's are apart, so the compatible nodes go first and
+ * the nodes across after them, each set in node order: every sum gets its
+ * terms in the order it did node by node. */
 static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const chunk *ck,
-                           int j, size_t i, kf_v4 *cache, const scatter_adds *sa, int lane, const uint8_t *thin_body) {
+                           int j, size_t i, uint32_t xm, kf_v4 *cache, const scatter_adds *sa, int lane,
+                           const uint8_t *thin_body) {
     const kf_cpic *c = s->cpic;
     const uint32_t *col = oc->col;
     const int32_t *bc = &s->g.bcoord[3 * owner];
@@ -930,34 +956,32 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
     const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
     const uint32_t cp = s->p.colour[i];
     const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+    for (uint32_t left = ~xm & ((1u << 27) - 1); left; left &= left - 1) {
+        const int n = __builtin_ctz(left);
+        kf_v4 v4 = {(kf_real)sa->add[n][0][lane], (kf_real)sa->add[n][1][lane], (kf_real)sa->add[n][2][lane],
+                    (kf_real)sa->add[n][3][lane]};
+        cache[o + stencil_off[n]] += v4;
+    }
     double Cj[9];
     for (int e = 0; e < 9; e++) Cj[e] = apic ? s->p.C[e][i] : 0;
-    int n = 0;
-    for (int a = 0; a < 3; a++)
-        for (int b = 0; b < 3; b++)
-            for (int k = 0; k < 3; k++, n++) {
-                const double add[4] = {sa->add[n][0][lane], sa->add[n][1][lane], sa->add[n][2][lane],
-                                       sa->add[n][3][lane]};
-                const int q = o + (a * NB + b) * NB + k;
-                if (compatible(col[q], cp)) {
-                    kf_v4 v4 = {(kf_real)add[0], (kf_real)add[1], (kf_real)add[2], (kf_real)add[3]};
-                    cache[q] += v4;
-                    continue;
-                }
-                const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
-                int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
-                double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
-                                (4 * bc[2] + ck->l[2][j] + k) * dx};
-                double J[3], cd[3];
-                affine_velocity_of(Cj, apic, d, cd);
-                for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (gdt[e] - cd[e]);
-                double at[3] = {xi[0], xi[1], xi[2]};
-                if (!thin_body[r]) {
-                    const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};
-                    contact_point(col, oc->dist, q, l3, s3, bc, c->obox[owner], r, cp, xi, s->rigid[r].com, dx, at);
-                }
-                kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], at, J);
-            }
+    for (uint32_t left = xm; left; left &= left - 1) {
+        const int n = __builtin_ctz(left), a = n / 9, b = n / 3 % 3, k = n % 3;
+        const double add[4] = {sa->add[n][0][lane], sa->add[n][1][lane], sa->add[n][2][lane], sa->add[n][3][lane]};
+        const int q = o + stencil_off[n];
+        const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
+        int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
+        double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
+                        (4 * bc[2] + ck->l[2][j] + k) * dx};
+        double J[3], cd[3];
+        affine_velocity_of(Cj, apic, d, cd);
+        for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (gdt[e] - cd[e]);
+        double at[3] = {xi[0], xi[1], xi[2]};
+        if (!thin_body[r]) {
+            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};
+            contact_point(col, oc->dist, q, l3, s3, bc, c->obox[owner], r, cp, xi, s->rigid[r].com, dx, at);
+        }
+        kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], at, J);
+    }
 }
 
 void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck, size_t i0,
@@ -974,6 +998,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
      * a chunk with no particle across a surface scatters as outside the
      * band, the same sums in the same order */
     int across[KF_CHUNK], nacross = 0;
+    uint32_t xmask[KF_CHUNK];
     cdf_fit fit;
     fit.n = 0;
     for (int j = 0; j < ck->n; j++) particle_cdf(c, p, i0 + (size_t)j, ck, j, col, dist, oc->aff, dx, thin_body, &fit);
@@ -983,7 +1008,9 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     for (int j = 0; j < ck->n; j++) {
         const uint32_t cp = p->colour[i0 + (size_t)j];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        if ((cp & AFF) && !all_compatible(col, o, cp)) across[nacross++] = j;
+        if (!(cp & AFF)) continue;
+        const uint32_t xm = across_nodes(col, o, cp);
+        if (xm) xmask[nacross] = xm, across[nacross++] = j;
     }
     if (!nacross) {
         if (classic) scatter_chunk(3, 1, ck, cache);
@@ -1011,7 +1038,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
 #endif
                 for (int l = 0; l < nl; l++) node_adds(ck, jl[l], classic, &sa, l);
         }
-        scatter_across(m, s, owner, oc, ck, j, i0 + (size_t)j, cache, &sa, g % 4, thin_body);
+        scatter_across(m, s, owner, oc, ck, j, i0 + (size_t)j, xmask[g], cache, &sa, g % 4, thin_body);
         g++;
     }
 }
@@ -1043,7 +1070,8 @@ typedef struct ghost_ctx {
  * the ghost (Eq. 27): the velocity P2G let the particle keep, plus the
  * push, whose reactions go to the body (in node order: the impulse sums
  * are the same for any grouping of the particles). */
-static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, int presses, gather_reads *gr, int lane) {
+static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t xm, int presses, gather_reads *gr,
+                        int lane) {
     const kf_model *m = x->m;
     kf_state *s = x->s;
     kf_cpic *c = s->cpic;
@@ -1064,47 +1092,49 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, int pres
     double T[9] = {0};
     for (int e = 0; e < (x->need_tau ? 9 : 0); e++) T[e] = -dt * (double)p->vol0[i] * (double)ck->tau[SYM[e]][j];
     /* (a particle with no separate body's node across its surface presses on none) */
-    const uint32_t held = presses ? pressed_bodies(m, s, ck, j, col, o, cp, bc, vp, np, T, mass, x->classic) : 0;
-    int n = 0;
-    for (int a = 0; a < 3; a++)
-        for (int b = 0; b < 3; b++)
-            for (int k = 0; k < 3; k++, n++) {
-                const int q = o + (a * NB + b) * NB + k;
-                double vi[3], cd[3] = {0, 0, 0};
-                if (compatible(col[q], cp)) {
-                    for (int e = 0; e < 3; e++) vi[e] = x->cache[q][e];
-                } else {
-                    const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
-                    const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
-                    int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
-                    double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
-                                    (4 * bc[2] + ck->l[2][j] + k) * dx};
-                    kept_velocity_at(m, s, r, xi, vp, np, (int)(held >> r & 1), x->uniform, &have, ur, vi);
-                    affine_velocity_of(Cj, x->apic, d, cd);
-                    /* the body gave P2G's whole share: the kept velocity comes back from it, where P2G's went */
-                    double K[3] = {-w * mass * vi[0], -w * mass * vi[1], -w * mass * vi[2]}, at[3] = {xi[0], xi[1], xi[2]};
-                    if (!x->thin_body[r]) {
-                        const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};
-                        contact_point(col, x->oc->dist, q, l3, s3, bc, c->obox[x->owner], r, cp, xi, s->rigid[r].com,
-                                      dx, at);
-                    }
-                    kf_cpic_add_impulse(x->imp + 6 * r, &s->rigid[r], at, K);
-                    double push = m->rigid[r].def.push;
-                    if (push == KF_RIGID_AUTO) push = 0;
-                    if (push != 0 && c->near[i]) {
-                        double J[3];
-                        for (int e = 0; e < 3; e++) {
-                            vi[e] += dt * push * np[e];
-                            J[e] = -w * mass * dt * push * np[e];
-                        }
-                        kf_cpic_add_impulse(x->imp + 6 * r, &s->rigid[r], at, J);
-                    }
-                }
-                for (int e = 0; e < 3; e++) {
-                    gr->vi[n][e][lane] = vi[e];
-                    gr->cd[n][e][lane] = cd[e];
-                }
+    const uint32_t held = presses ? pressed_bodies(m, s, ck, j, col, o, xm, bc, vp, np, T, mass, x->classic) : 0;
+    /* every node's grid velocity, with no affine term: what a compatible node gives */
+    for (int n = 0; n < 27; n++) {
+        const kf_v4 vg = x->cache[o + stencil_off[n]];
+        for (int e = 0; e < 3; e++) {
+            gr->vi[n][e][lane] = vg[e];
+            gr->cd[n][e][lane] = 0;
+        }
+    }
+    /* then the nodes across (bits of xm) in node order, their ghosts over those */
+    for (uint32_t left = xm; left; left &= left - 1) {
+        const int n = __builtin_ctz(left), a = n / 9, b = n / 3 % 3, k = n % 3;
+        const int q = o + stencil_off[n];
+        double vi[3], cd[3];
+        const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
+        const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
+        int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
+        double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
+                        (4 * bc[2] + ck->l[2][j] + k) * dx};
+        kept_velocity_at(m, s, r, xi, vp, np, (int)(held >> r & 1), x->uniform, &have, ur, vi);
+        affine_velocity_of(Cj, x->apic, d, cd);
+        /* the body gave P2G's whole share: the kept velocity comes back from it, where P2G's went */
+        double K[3] = {-w * mass * vi[0], -w * mass * vi[1], -w * mass * vi[2]}, at[3] = {xi[0], xi[1], xi[2]};
+        if (!x->thin_body[r]) {
+            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};
+            contact_point(col, x->oc->dist, q, l3, s3, bc, c->obox[x->owner], r, cp, xi, s->rigid[r].com, dx, at);
+        }
+        kf_cpic_add_impulse(x->imp + 6 * r, &s->rigid[r], at, K);
+        double push = m->rigid[r].def.push;
+        if (push == KF_RIGID_AUTO) push = 0;
+        if (push != 0 && c->near[i]) {
+            double J[3];
+            for (int e = 0; e < 3; e++) {
+                vi[e] += dt * push * np[e];
+                J[e] = -w * mass * dt * push * np[e];
             }
+            kf_cpic_add_impulse(x->imp + 6 * r, &s->rigid[r], at, J);
+        }
+        for (int e = 0; e < 3; e++) {
+            gr->vi[n][e][lane] = vi[e];
+            gr->cd[n][e][lane] = cd[e];
+        }
+    }
 }
 
 /* The gather's sums of one particle from its reads (lane `lane` of gr):
@@ -1206,22 +1236,19 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
      * evaluated again from F (not yet updated by this chunk), which is a
      * whole batch of lanes: most chunks of the band need none of it. */
     int across[KF_CHUNK], presses[KF_CHUNK], nacross = 0;
+    uint32_t xmask[KF_CHUNK];
     int need_tau = 0;
     for (int j = 0; j < ck->n; j++) {
         const uint32_t cp = p->colour[i0 + (size_t)j];
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        int is_across = 0, sep = 0;
         if (!(cp & AFF)) continue;
-        for (int a = 0; a < 3; a++)
-            for (int b = 0; b < 3; b++)
-                for (int k = 0; k < 3; k++) {
-                    const uint32_t cn = col[o + (a * NB + b) * NB + k];
-                    if (compatible(cn, cp)) continue;
-                    is_across = 1;
-                    sep |= separate[(cn >> KF_CPIC_RSTAR_SHIFT) - 1];
-                }
+        const uint32_t xm = across_nodes(col, o, cp);
+        if (!xm) continue;
+        int sep = 0;
+        for (uint32_t left = xm; left; left &= left - 1)
+            sep |= separate[(col[o + stencil_off[__builtin_ctz(left)]] >> KF_CPIC_RSTAR_SHIFT) - 1];
         need_tau |= sep;
-        if (is_across) presses[nacross] = sep, across[nacross++] = j;
+        presses[nacross] = sep, xmask[nacross] = xm, across[nacross++] = j;
     }
     x.need_tau = need_tau;
     kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
@@ -1244,7 +1271,8 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
         const int nl = nacross - g0 < 4 ? nacross - g0 : 4;
         int jl[4];
         for (int l = 0; l < 4; l++) jl[l] = across[g0 + (l < nl ? l : 0)];
-        for (int l = 0; l < nl; l++) ghost_reads(&x, ck, jl[l], i0 + (size_t)jl[l], presses[g0 + l], &gr, l);
+        for (int l = 0; l < nl; l++)
+            ghost_reads(&x, ck, jl[l], i0 + (size_t)jl[l], xmask[g0 + l], presses[g0 + l], &gr, l);
 #ifdef KF_CPIC_GATHER_LANES
         if (!classic) {
             /* the unused lanes repeat lane 0's reads (their sums are not stored) */
