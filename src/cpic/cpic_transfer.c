@@ -871,10 +871,11 @@ static void fit_sums(const chunk *ck, const uint32_t *col, const float *dist, do
 }
 
 /* What an across particle's P2G gives each node of its stencil (node n =
- * 9a + 3b + k) in ordinary MLS-MPM (or classic MPM): momentum and mass, by
- * lane of up to 4 particles. */
+ * 9a + 3b + k) in ordinary MLS-MPM (or classic MPM): momentum and mass, for
+ * up to 4 particles (lanes), a node's four values side by side: one load
+ * and one conversion per node when the scatter adds them. */
 typedef struct scatter_adds {
-    double add[27][4][4];
+    double add[4][27][4];
 } scatter_adds;
 
 /* One particle's adds into lane `lane` of sa (the particle's terms in
@@ -899,9 +900,9 @@ static void node_adds(const chunk *ck, int j, int classic, scatter_adds *sa, int
                                         (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->dw[2][k][j]};
                         add += ck->t[3 * r][j] * gw[0] + ck->t[3 * r + 1][j] * gw[1] + ck->t[3 * r + 2][j] * gw[2];
                     }
-                    sa->add[n][r][lane] = add;
+                    sa->add[lane][n][r] = add;
                 }
-                sa->add[n][3][lane] = w * mass;
+                sa->add[lane][n][3] = w * mass;
             }
 }
 
@@ -909,7 +910,9 @@ static void node_adds(const chunk *ck, int j, int classic, scatter_adds *sa, int
 /* node_adds (MLS) for up to 4 particles, one per lane, each lane the
  * scalar code's operations as the compiler contracts them there:
  * w (fma(q_r2, d_z, fma(q_r1, d_y, fma(q_r0, d_x, mv_r)))), and w m, with w the
- * rounded product (w_x w_y) w_z. Bit for bit with node_adds. */
+ * rounded product (w_x w_y) w_z. Bit for bit with node_adds. A node's four
+ * values are made by component across the lanes, then transposed to the
+ * particles' rows (moves only). */
 static void node_adds_lanes(const chunk *ck, const int jl[4], scatter_adds *sa) {
     __m256d W[3][3], D[3][3], mv[4], q[9];
     for (int ax = 0; ax < 3; ax++)
@@ -925,13 +928,20 @@ static void node_adds_lanes(const chunk *ck, const int jl[4], scatter_adds *sa) 
             const __m256d wab = _mm256_mul_pd(W[0][a], W[1][b]);
             for (int k = 0; k < 3; k++, n++) {
                 const __m256d w = _mm256_mul_pd(wab, W[2][k]);
+                __m256d c4[4];
                 for (int r = 0; r < 3; r++) {
                     __m256d t = _mm256_fmadd_pd(q[3 * r], D[0][a], mv[r]);
                     t = _mm256_fmadd_pd(q[3 * r + 1], D[1][b], t);
                     t = _mm256_fmadd_pd(q[3 * r + 2], D[2][k], t);
-                    _mm256_storeu_pd(sa->add[n][r], _mm256_mul_pd(w, t));
+                    c4[r] = _mm256_mul_pd(w, t);
                 }
-                _mm256_storeu_pd(sa->add[n][3], _mm256_mul_pd(w, mv[3]));
+                c4[3] = _mm256_mul_pd(w, mv[3]);
+                const __m256d t0 = _mm256_unpacklo_pd(c4[0], c4[1]), t1 = _mm256_unpackhi_pd(c4[0], c4[1]);
+                const __m256d t2 = _mm256_unpacklo_pd(c4[2], c4[3]), t3 = _mm256_unpackhi_pd(c4[2], c4[3]);
+                _mm256_storeu_pd(sa->add[0][n], _mm256_permute2f128_pd(t0, t2, 0x20));
+                _mm256_storeu_pd(sa->add[1][n], _mm256_permute2f128_pd(t1, t3, 0x20));
+                _mm256_storeu_pd(sa->add[2][n], _mm256_permute2f128_pd(t0, t2, 0x31));
+                _mm256_storeu_pd(sa->add[3][n], _mm256_permute2f128_pd(t1, t3, 0x31));
             }
         }
 }
@@ -958,15 +968,20 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
     const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
     for (uint32_t left = ~xm & ((1u << 27) - 1); left; left &= left - 1) {
         const int n = __builtin_ctz(left);
-        kf_v4 v4 = {(kf_real)sa->add[n][0][lane], (kf_real)sa->add[n][1][lane], (kf_real)sa->add[n][2][lane],
-                    (kf_real)sa->add[n][3][lane]};
+        const double *ad = sa->add[lane][n];
+#if defined(__AVX__) && !defined(KF_DOUBLE)
+        /* the four conversions to float in one (each rounded as alone) */
+        kf_v4 v4 = (kf_v4)_mm256_cvtpd_ps(_mm256_loadu_pd(ad));
+#else
+        kf_v4 v4 = {(kf_real)ad[0], (kf_real)ad[1], (kf_real)ad[2], (kf_real)ad[3]};
+#endif
         cache[o + stencil_off[n]] += v4;
     }
     double Cj[9];
     for (int e = 0; e < 9; e++) Cj[e] = apic ? s->p.C[e][i] : 0;
     for (uint32_t left = xm; left; left &= left - 1) {
         const int n = __builtin_ctz(left), a = n / 9, b = n / 3 % 3, k = n % 3;
-        const double add[4] = {sa->add[n][0][lane], sa->add[n][1][lane], sa->add[n][2][lane], sa->add[n][3][lane]};
+        const double *add = sa->add[lane][n];
         const int q = o + stencil_off[n];
         const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
         int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
@@ -1046,7 +1061,9 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
 /* What the gather of a particle across a surface reads at each node of its
  * stencil (node n = 9a + 3b + k): the velocity vi (the grid's, or at an
  * incompatible node the ghost velocity) and the affine velocity cd added
- * there (0 at a compatible node), by lane of up to 4 particles. */
+ * there (0 at a compatible node), by lane of up to 4 particles. (The lanes'
+ * sums, gather_sums_lanes, read the grid's velocities from the node cache
+ * themselves: there only the nodes across are filled.) */
 typedef struct gather_reads {
     double vi[27][3][4], cd[27][3][4];
 } gather_reads;
@@ -1070,8 +1087,8 @@ typedef struct ghost_ctx {
  * the ghost (Eq. 27): the velocity P2G let the particle keep, plus the
  * push, whose reactions go to the body (in node order: the impulse sums
  * are the same for any grouping of the particles). */
-static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t xm, int presses, gather_reads *gr,
-                        int lane) {
+static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t xm, int presses, int fill_grid,
+                        gather_reads *gr, int lane) {
     const kf_model *m = x->m;
     kf_state *s = x->s;
     kf_cpic *c = s->cpic;
@@ -1094,7 +1111,7 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t
     /* (a particle with no separate body's node across its surface presses on none) */
     const uint32_t held = presses ? pressed_bodies(m, s, ck, j, col, o, xm, bc, vp, np, T, mass, x->classic) : 0;
     /* every node's grid velocity, with no affine term: what a compatible node gives */
-    for (int n = 0; n < 27; n++) {
+    for (int n = 0; n < (fill_grid ? 27 : 0); n++) {
         const kf_v4 vg = x->cache[o + stencil_off[n]];
         for (int e = 0; e < 3; e++) {
             gr->vi[n][e][lane] = vg[e];
@@ -1170,8 +1187,14 @@ static void gather_sums(chunk *ck, int j, const gather_reads *gr, int lane, int 
 /* gather_sums (MLS) for up to 4 particles at once, one per lane: each lane
  * does the scalar sums' operations in their order, and as the compiler
  * contracts them there: v = fma(w, vi + cd, v), B = fma(w vi, d, B), w the
- * rounded product (w_x w_y) w_z. Bit for bit with gather_sums. */
-static void gather_sums_lanes(chunk *ck, const int jl[4], int nl, const gather_reads *gr) {
+ * rounded product (w_x w_y) w_z. Bit for bit with gather_sums. A node's
+ * grid velocity comes from the node cache (lane l's stencil at base o[l]:
+ * four rows of 4 floats transposed, then widened, the same values as
+ * ghost_reads' copies), and where lane l's node is across (bit n of xm[l])
+ * its ghost and affine term from gr instead; cd is +0 elsewhere, and
+ * vi + cd is still added (it turns a −0 into +0, as the scalar sum does). */
+static void gather_sums_lanes(chunk *ck, const int jl[4], int nl, const gather_reads *gr, const kf_v4 *cache,
+                              const int o[4], const uint32_t xm[4]) {
     __m256d W[3][3], D[3][3];
     for (int ax = 0; ax < 3; ax++)
         for (int t = 0; t < 3; t++) {
@@ -1181,6 +1204,10 @@ static void gather_sums_lanes(chunk *ck, const int jl[4], int nl, const gather_r
     __m256d v[3], B[9];
     for (int e = 0; e < 3; e++) v[e] = _mm256_setzero_pd();
     for (int e = 0; e < 9; e++) B[e] = _mm256_setzero_pd();
+    const uint32_t some = xm[0] | xm[1] | xm[2] | xm[3];
+    const __m256i xmv = _mm256_setr_epi64x(xm[0], xm[1], xm[2], xm[3]);
+    const float *c0 = (const float *)&cache[o[0]], *c1 = (const float *)&cache[o[1]];
+    const float *c2 = (const float *)&cache[o[2]], *c3 = (const float *)&cache[o[3]];
     int n = 0;
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++) {
@@ -1188,9 +1215,25 @@ static void gather_sums_lanes(chunk *ck, const int jl[4], int nl, const gather_r
             for (int k = 0; k < 3; k++, n++) {
                 const __m256d w = _mm256_mul_pd(wab, W[2][k]);
                 const __m256d d[3] = {D[0][a], D[1][b], D[2][k]};
+                /* the lanes' grid velocities at node n, by component */
+                const int off = 4 * stencil_off[n];
+                __m128 r0 = _mm_loadu_ps(c0 + off), r1 = _mm_loadu_ps(c1 + off);
+                __m128 r2 = _mm_loadu_ps(c2 + off), r3 = _mm_loadu_ps(c3 + off);
+                _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
+                __m256d vg[3] = {_mm256_cvtps_pd(r0), _mm256_cvtps_pd(r1), _mm256_cvtps_pd(r2)};
+                __m256d cd[3] = {_mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd()};
+                if (some >> n & 1) {
+                    /* the lanes whose node n is across: their ghost and affine term */
+                    const __m256i bit = _mm256_set1_epi64x((long long)1 << n);
+                    const __m256d ghost = _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(xmv, bit), bit));
+                    for (int e = 0; e < 3; e++) {
+                        vg[e] = _mm256_blendv_pd(vg[e], _mm256_loadu_pd(gr->vi[n][e]), ghost);
+                        cd[e] = _mm256_and_pd(ghost, _mm256_loadu_pd(gr->cd[n][e]));
+                    }
+                }
                 for (int e = 0; e < 3; e++) {
-                    const __m256d vi = _mm256_loadu_pd(gr->vi[n][e]);
-                    v[e] = _mm256_fmadd_pd(w, _mm256_add_pd(vi, _mm256_loadu_pd(gr->cd[n][e])), v[e]);
+                    const __m256d vi = vg[e];
+                    v[e] = _mm256_fmadd_pd(w, _mm256_add_pd(vi, cd[e]), v[e]);
                     const __m256d wv = _mm256_mul_pd(w, vi);
                     for (int f = 0; f < 3; f++) B[3 * e + f] = _mm256_fmadd_pd(wv, d[f], B[3 * e + f]);
                 }
@@ -1267,19 +1310,27 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     if (classic) gather_chunk(3, 1, ck->n, ck, x.cache);
     else gather_chunk(3, 0, ck->n, ck, x.cache);
     gather_reads gr;
+#ifdef KF_CPIC_GATHER_LANES
+    const int fill_grid = classic; /* the lanes read the grid's velocities themselves */
+#else
+    const int fill_grid = 1;
+#endif
     for (int g0 = 0; g0 < nacross; g0 += 4) {
         const int nl = nacross - g0 < 4 ? nacross - g0 : 4;
         int jl[4];
         for (int l = 0; l < 4; l++) jl[l] = across[g0 + (l < nl ? l : 0)];
         for (int l = 0; l < nl; l++)
-            ghost_reads(&x, ck, jl[l], i0 + (size_t)jl[l], xmask[g0 + l], presses[g0 + l], &gr, l);
+            ghost_reads(&x, ck, jl[l], i0 + (size_t)jl[l], xmask[g0 + l], presses[g0 + l], fill_grid, &gr, l);
 #ifdef KF_CPIC_GATHER_LANES
         if (!classic) {
-            /* the unused lanes repeat lane 0's reads (their sums are not stored) */
-            for (int l = nl; l < 4; l++)
-                for (int n = 0; n < 27; n++)
-                    for (int e = 0; e < 3; e++) gr.vi[n][e][l] = gr.vi[n][e][0], gr.cd[n][e][l] = gr.cd[n][e][0];
-            gather_sums_lanes(ck, jl, nl, &gr);
+            /* the unused lanes repeat lane 0's stencil with no node across (their sums are not stored) */
+            int ol[4];
+            uint32_t xl[4];
+            for (int l = 0; l < 4; l++) {
+                ol[l] = (ck->l[0][jl[l]] * NB + ck->l[1][jl[l]]) * NB + ck->l[2][jl[l]];
+                xl[l] = l < nl ? xmask[g0 + l] : 0;
+            }
+            gather_sums_lanes(ck, jl, nl, &gr, x.cache, ol, xl);
             continue;
         }
 #endif
