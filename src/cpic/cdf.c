@@ -201,10 +201,11 @@ static inline void touch_block(const cdf_layer *L, int32_t b, int r) {
 }
 
 /* the node box of one seed (every node within `reach` cells along each
- * axis) and the at most 3x3x3 blocks it spans, each looked up once */
+ * axis) and the at most 3x3x3 blocks it spans (nbk along each axis), each
+ * looked up once */
 typedef struct seed_box {
-    int lo[3], hi[3], b0[3];
-    int32_t blk[3][3][3]; /* -1: no such block */
+    int lo[3], hi[3], b0[3], nbk[3];
+    int32_t blk[3][3][3]; /* -1: no such block; only [0, nbk) along each axis is set */
 } seed_box;
 
 /* the grid's block at a block coordinate, or -1 */
@@ -261,20 +262,18 @@ static void bmap_clear(kf_cpic *c, const kf_grid *g) {
 /* fills sb; returns whether any block exists there (else no material is near) */
 static int seed_box_of(const kf_cpic *c, const kf_grid *g, const double x[3], double inv_dx, double reach,
                        seed_box *sb) {
-    int nbk[3];
     for (int a = 0; a < 3; a++) {
         sb->lo[a] = (int)ceil(x[a] * inv_dx - reach);
         sb->hi[a] = (int)floor(x[a] * inv_dx + reach);
         sb->b0[a] = kf_block_of(sb->lo[a]);
-        nbk[a] = kf_block_of(sb->hi[a]) - sb->b0[a] + 1; /* <= 6 nodes span <= 3 blocks */
+        sb->nbk[a] = kf_block_of(sb->hi[a]) - sb->b0[a] + 1; /* <= 6 nodes span <= 3 blocks */
     }
+    /* the blocks the box spans only (a thin body's box of 3 or 4 nodes: 1 or 2 along each axis) */
     int any = 0;
-    for (int p = 0; p < 3; p++)
-        for (int q = 0; q < 3; q++)
-            for (int w = 0; w < 3; w++) {
-                int32_t bi = -1;
-                if (p < nbk[0] && q < nbk[1] && w < nbk[2])
-                    bi = find_block(c, g, sb->b0[0] + p, sb->b0[1] + q, sb->b0[2] + w);
+    for (int p = 0; p < sb->nbk[0]; p++)
+        for (int q = 0; q < sb->nbk[1]; q++)
+            for (int w = 0; w < sb->nbk[2]; w++) {
+                const int32_t bi = find_block(c, g, sb->b0[0] + p, sb->b0[1] + q, sb->b0[2] + w);
                 sb->blk[p][q][w] = bi;
                 any |= bi >= 0;
             }
@@ -375,9 +374,9 @@ static inline int clip_reads(const kf_cpic *c, const kf_grid *g, int32_t blk, in
 
 /* does any node of the seed's box lie where particles read? */
 static int box_reads(const kf_cpic *c, const kf_grid *g, const seed_box *sb) {
-    for (int p = 0; p < 3; p++)
-        for (int q = 0; q < 3; q++)
-            for (int w = 0; w < 3; w++) {
+    for (int p = 0; p < sb->nbk[0]; p++)
+        for (int q = 0; q < sb->nbk[1]; q++)
+            for (int w = 0; w < sb->nbk[2]; w++) {
                 int32_t blk = sb->blk[p][q][w];
                 if (blk < 0) continue;
                 int lo[3] = {sb->lo[0], sb->lo[1], sb->lo[2]}, hi[3] = {sb->hi[0], sb->hi[1], sb->hi[2]};
@@ -791,11 +790,9 @@ __attribute__((noinline)) static void splat_box(const cdf_layer *c, const kf_cpi
     if (t->g11 == 0 && t->g22 == 0) return;
     const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
     /* block by block: each block of the box once, then its part of the box */
-    int nbk[3];
-    for (int a = 0; a < 3; a++) nbk[a] = kf_block_of(sb->hi[a]) - sb->b0[a] + 1;
-    for (int bp = 0; bp < nbk[0]; bp++)
-        for (int bq = 0; bq < nbk[1]; bq++)
-            for (int bw = 0; bw < nbk[2]; bw++) {
+    for (int bp = 0; bp < sb->nbk[0]; bp++)
+        for (int bq = 0; bq < sb->nbk[1]; bq++)
+            for (int bw = 0; bw < sb->nbk[2]; bw++) {
                 int32_t blk = sb->blk[bp][bq][bw];
                 if (blk < 0) continue;
                 const int b3[3] = {bp, bq, bw};
@@ -1122,15 +1119,12 @@ static int st_build(const kf_model *m, kf_state *s) {
                 sb.lo[a] = (int)ceil(x[a] * inv_dx - reach);
                 sb.hi[a] = (int)floor(x[a] * inv_dx + reach);
                 sb.b0[a] = kf_block_of(sb.lo[a]);
+                sb.nbk[a] = kf_block_of(sb.hi[a]) - sb.b0[a] + 1;
             }
-            int nbk[3];
-            for (int a = 0; a < 3; a++) nbk[a] = kf_block_of(sb.hi[a]) - sb.b0[a] + 1;
-            for (int p = 0; p < 3; p++)
-                for (int q = 0; q < 3; q++)
-                    for (int w = 0; w < 3; w++)
-                        sb.blk[p][q][w] = p < nbk[0] && q < nbk[1] && w < nbk[2]
-                                              ? st_find(S, sb.b0[0] + p, sb.b0[1] + q, sb.b0[2] + w)
-                                              : -1;
+            for (int p = 0; p < sb.nbk[0]; p++)
+                for (int q = 0; q < sb.nbk[1]; q++)
+                    for (int w = 0; w < sb.nbk[2]; w++)
+                        sb.blk[p][q][w] = st_find(S, sb.b0[0] + p, sb.b0[1] + q, sb.b0[2] + w);
             int tri = b->seed_tri[ord[k].e];
             splat_box(&L, &c->tri[r][tri], tri_base + (uint32_t)tri, &sb, r, inv_dx, dx);
         }
