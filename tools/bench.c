@@ -2,7 +2,7 @@
  *
  *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress]
  *              [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--dump DIR] [--set k=v]
- *              [--substeps N] [--cells N] [--force mls|classic] [--unfused]
+ *              [--substeps N] [--cells N] [--force mls|classic] [--unfused] [--particles N]
  *
  * cube:  the paper's Table 2 setup (grid 125³, a 100³-cell cube, 2x2x2
  *        particles per cell = 8M particles, E = 100, ν = 0.3, Δt = 1e-2, no
@@ -14,7 +14,10 @@
  *        figure comparable with a P2G that evaluates the stress itself.
  * block: a fixed-corotated block of ~1M particles falling onto the floor
  *        (sorting and grid allocation exercised), CFL-adaptive frames:
- *        particle-steps per second, ms per stage, peak memory.
+ *        particle-steps per second, ms per stage, peak memory. --particles N,
+ *        --frames N and --threads T pick its size, frames and threads (a
+ *        small block under callgrind); --hash prints its state hash after
+ *        the frames (a bit-for-bit check of the elastic path, deformed).
  * frame: one frame of the falling block's ~1M particles surfaced (level
  *        set: centre averaging, sort, splat, re-distance, filters; mesh; .vdb
  *        write) and rendered (OSMesa, 1920x1080) at final quality (the shot's
@@ -300,13 +303,14 @@ typedef struct block_result {
     size_t particles;
     int frames;
     long substeps, fused;                                              /* fused: substeps whose P2G came early */
+    unsigned long long hash;                                           /* kf_state_hash after the frames */
     double seconds, cpu_seconds, mpsteps, ms[KF_STAGE_COUNT], peak_mb; /* cpu: process CPU of the frames */
 } block_result;
 
-static int bench_block(long n, int frames, block_result *out) {
+static int bench_block(long n, int frames, int threads, block_result *out) {
     char err[256], msg[512];
     kf_scene sc;
-    if (kf_scene_falling_block(&sc, n, 0, err, sizeof err)) {
+    if (kf_scene_falling_block(&sc, n, threads, err, sizeof err)) {
         fprintf(stderr, "bench: %s\n", err);
         return -1;
     }
@@ -327,6 +331,7 @@ static int bench_block(long n, int frames, block_result *out) {
     out->mpsteps = st.particle_steps / out->seconds / 1e6;
     for (int k = 0; k < KF_STAGE_COUNT; k++) out->ms[k] = st.ms[k] / (st.substeps ? st.substeps : 1);
     out->peak_mb = peak_rss_mb();
+    out->hash = kf_state_hash(sc.state);
     kf_scene_free(&sc);
     return 0;
 }
@@ -338,9 +343,13 @@ int main(int argc, char **argv) {
     int substeps = 3;
     /* the cube: only this size, force (0 MLS, 1 classic) or thread count, when given */
     int only_cells = 0, only_force = -1;
+    /* the falling block: its particle count and frames, when given */
+    long block_particles = 0;
+    int frames_given = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json")) json = 1;
-        else if (!strcmp(argv[i], "--frames") && i + 1 < argc) so.frames = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--frames") && i + 1 < argc) so.frames = atoi(argv[++i]), frames_given = 1;
+        else if (!strcmp(argv[i], "--particles") && i + 1 < argc) block_particles = atol(argv[++i]);
         else if (!strcmp(argv[i], "--scenes") && i + 1 < argc) so.only = argv[++i];
         else if (!strcmp(argv[i], "--paper-dx")) so.paper_dx = 1;
         else if (!strcmp(argv[i], "--hash")) so.hash = 1;
@@ -360,7 +369,7 @@ int main(int argc, char **argv) {
                     "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress]\n"
                     "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] "
                     "[--hash] [--dump DIR] [--set k=v] [--substeps N]\n"
-                    "                  [--cells N] [--force mls|classic] [--unfused]\n");
+                    "                  [--cells N] [--force mls|classic] [--unfused] [--particles N]\n");
             return 2;
         }
     }
@@ -387,7 +396,10 @@ int main(int argc, char **argv) {
     /* the falling block first, so its peak memory is its own */
     block_result blk = {0};
     int have_block = !only || !strcmp(only, "block");
-    if (have_block && bench_block(quick ? 100000 : 1000000, quick ? 1 : 2, &blk)) return 1;
+    if (have_block && bench_block(block_particles > 0 ? block_particles : quick ? 100000 : 1000000,
+                                  frames_given && so.frames > 0 ? so.frames : quick ? 1 : 2,
+                                  so.threads > 0 ? so.threads : 0, &blk))
+        return 1;
 
     frame_result fr = {0};
     int have_frame = !only || !strcmp(only, "frame");
@@ -488,6 +500,7 @@ int main(int argc, char **argv) {
             printf("  ms per substep:");
             for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %s %.2f", kf_stage_name((kf_stage)k), blk.ms[k]);
             printf("\n");
+            if (so.hash) printf("  falling block state hash after %d frame(s): %016llx\n", blk.frames, blk.hash);
         }
         printf("%-6s %-9s %-8s %-2s %8s %8s %8s %8s %8s %9s %10s\n", "cells", "particles", "force", "T", "P2G ns",
                "G2P ns", "P2G+G2P", "stress", "all ns", "step ms", "Mp-step/s");
