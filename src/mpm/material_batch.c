@@ -71,22 +71,68 @@ static int limited_at(const kf_mat *m, kf_real *const F[9], kf_real *const ps[2]
     return kf_mat_is_limited(m, Fi, psi);
 }
 
+/* One sweep of the scaled Newton polar iteration X ← ½(ζX + ζ⁻¹X⁻ᵀ) for n
+ * lanes, X⁻ᵀ = cof(X)/det X, ζ = (‖X⁻¹‖/‖X‖)^½, X's nine rows at X[k]: the
+ * lanes still live take the new iterate into Y, the others copy theirs; a
+ * lane whose step was below stop2 stops (live 0). Returns whether a lane is
+ * still live. Y is not X, so the select is an ordinary store (one selected
+ * back where it was read compiles to masked stores, microcoded on AMD), and
+ * the caller swaps the two instead of copying back; the first sweep reads F
+ * from the particles' planes, not from a local copy (whose 16-byte stores
+ * the sweep's 32-byte loads could not take forwarded). The cofactors stay
+ * in registers, and the live flags and the test for any live lane run
+ * across the lanes in the same loop (a separate pass of per-lane compares
+ * and a reduction over int flags compiled to scalar code, about a third of
+ * a sweep's instructions). The arithmetic is the earlier sweep's,
+ * expression for expression, so every lane's bits are what they were. */
+static inline __attribute__((always_inline)) mb_bits polar_sweep(int n, const kf_real *const X[9],
+                                                                 kf_real (*restrict Y)[BATCH],
+                                                                 mb_bits *restrict live, kf_real stop2) {
+    mb_bits any = 0;
+    for (int j = 0; j < n; j++) {
+        kf_real x[9], K[9];
+        for (int k = 0; k < 9; k++) x[k] = X[k][j];
+        K[0] = x[4] * x[8] - x[5] * x[7];
+        K[1] = x[5] * x[6] - x[3] * x[8];
+        K[2] = x[3] * x[7] - x[4] * x[6];
+        K[3] = x[2] * x[7] - x[1] * x[8];
+        K[4] = x[0] * x[8] - x[2] * x[6];
+        K[5] = x[1] * x[6] - x[0] * x[7];
+        K[6] = x[1] * x[5] - x[2] * x[4];
+        K[7] = x[2] * x[3] - x[0] * x[5];
+        K[8] = x[0] * x[4] - x[1] * x[3];
+        kf_real det = x[0] * K[0] + x[1] * K[1] + x[2] * K[2];
+        kf_real x2 = 0, k2 = 0;
+        for (int k = 0; k < 9; k++) x2 += x[k] * x[k], k2 += K[k] * K[k];
+        /* det > 0 is checked after the sweeps; guard the division for the SIMD lanes */
+        kf_real id = det > 0 ? 1 / det : 0;
+        kf_real z = kf_sqrt(kf_sqrt(k2 * id * id / (x2 > 0 ? x2 : 1)));
+        z = z > 0 ? z : 1;
+        kf_real a = KF_R(0.5) * z, b = KF_R(0.5) * id / z, st = 0;
+        const mb_bits on = live[j];
+        for (int k = 0; k < 9; k++) {
+            kf_real xn = ((k >= 4) & (k <= 7)) ? MB_FMA(b, K[k], a * x[k]) : MB_FMA(a, x[k], b * K[k]);
+            st += (xn - x[k]) * (xn - x[k]);
+            Y[k][j] = on ? xn : x[k];
+        }
+        /* a lane stops once its own step was that small */
+        live[j] = st < stop2 ? 0 : on;
+        any |= live[j];
+    }
+    return any;
+}
+
 /* τ = 2μ sym((F − R)Fᵀ) + λ(J − 1)J I for n <= BATCH particles; returns how
  * many of them the scalar path evaluated at the limited stiffness */
 static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], size_t first,
                            kf_real *const tau[6]) {
-    kf_real F[9][BATCH], X[9][BATCH], K[9][BATCH];
+    kf_real XA[9][BATCH], XB[9][BATCH];
     int ok[BATCH];
     const kf_real mu = m->mu, la = m->lambda;
-    /* the planes' pointers first, the lanes in the outer loop: GCC
-     * vectorises across the lanes (contiguous loads), where the plane loop
-     * outside would vectorise across the planes (gathers) */
-    const kf_real *src[9];
-    for (int k = 0; k < 9; k++) src[k] = Fp[k] + first;
-    for (int j = 0; j < n; j++)
-        for (int k = 0; k < 9; k++) X[k][j] = F[k][j] = src[k][j];
+    /* F read in place from the planes (the first sweep's X, and at the end) */
+    const kf_real *F[9];
+    for (int k = 0; k < 9; k++) F[k] = Fp[k] + first;
 
-    /* X⁻ᵀ = cof(X)/det X; ζ = (‖X⁻¹‖/‖X‖)^½ speeds up the first sweeps */
     /* stop when no lane moved more than ~√tol: quadratic convergence then
      * leaves an error far below round-off */
     const kf_real stop2 = sizeof(kf_real) == 4 ? KF_R(1e-11) : KF_R(1e-26);
@@ -99,47 +145,13 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
      * in every select (and a kf_real flag the float build a compare) */
     mb_bits live[BATCH];
     for (int j = 0; j < n; j++) live[j] = 1;
-    for (int sweep = 0; sweep < SWEEPS; sweep++) {
-        kf_real step[BATCH], XN[9][BATCH], XS[9][BATCH];
-        for (int j = 0; j < n; j++) {
-            K[0][j] = X[4][j] * X[8][j] - X[5][j] * X[7][j];
-            K[1][j] = X[5][j] * X[6][j] - X[3][j] * X[8][j];
-            K[2][j] = X[3][j] * X[7][j] - X[4][j] * X[6][j];
-            K[3][j] = X[2][j] * X[7][j] - X[1][j] * X[8][j];
-            K[4][j] = X[0][j] * X[8][j] - X[2][j] * X[6][j];
-            K[5][j] = X[1][j] * X[6][j] - X[0][j] * X[7][j];
-            K[6][j] = X[1][j] * X[5][j] - X[2][j] * X[4][j];
-            K[7][j] = X[2][j] * X[3][j] - X[0][j] * X[5][j];
-            K[8][j] = X[0][j] * X[4][j] - X[1][j] * X[3][j];
-            kf_real det = X[0][j] * K[0][j] + X[1][j] * K[1][j] + X[2][j] * K[2][j];
-            kf_real x2 = 0, k2 = 0;
-            for (int k = 0; k < 9; k++) x2 += X[k][j] * X[k][j], k2 += K[k][j] * K[k][j];
-            /* det > 0 is checked below; guard the division for the SIMD lanes */
-            kf_real id = det > 0 ? 1 / det : 0;
-            kf_real z = kf_sqrt(kf_sqrt(k2 * id * id / (x2 > 0 ? x2 : 1)));
-            z = z > 0 ? z : 1;
-            kf_real a = KF_R(0.5) * z, b = KF_R(0.5) * id / z, st = 0;
-            for (int k = 0; k < 9; k++) {
-                kf_real xn = ((k >= 4) & (k <= 7)) ? MB_FMA(b, K[k][j], a * X[k][j]) : MB_FMA(a, X[k][j], b * K[k][j]);
-                st += (xn - X[k][j]) * (xn - X[k][j]);
-                XN[k][j] = xn;
-            }
-            step[j] = st;
-        }
-        /* the lanes still live take the new X: selected into a third array
-         * and copied back, since a select stored back where it was read
-         * compiles to masked stores (microcoded on AMD) */
-        for (int k = 0; k < 9; k++)
-            for (int j = 0; j < n; j++) XS[k][j] = live[j] ? XN[k][j] : X[k][j];
-        for (int k = 0; k < 9; k++)
-            for (int j = 0; j < n; j++) X[k][j] = XS[k][j];
-        /* a separate pass: float max-reductions would block vectorisation */
-        int done = 1;
-        for (int j = 0; j < n; j++) {
-            live[j] &= !(step[j] < stop2);
-            done &= !live[j];
-        }
-        if (done) break;
+    mb_bits any = polar_sweep(n, F, XA, live, stop2);
+    kf_real(*X)[BATCH] = XA, (*Y)[BATCH] = XB;
+    for (int sweep = 1; any && sweep < SWEEPS; sweep++) {
+        const kf_real *const rows[9] = {X[0], X[1], X[2], X[3], X[4], X[5], X[6], X[7], X[8]};
+        any = polar_sweep(n, rows, Y, live, stop2);
+        kf_real(*t)[BATCH] = X;
+        X = Y, Y = t;
     }
 
     /* converged means XᵀX = I to a few ulps; otherwise the scalar path.
