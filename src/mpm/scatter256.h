@@ -1,8 +1,8 @@
 /* scatter256.h — a chunk's MLS P2G scatter in AVX2 stencil rows (256-bit
  * vectors and FMA, float builds without AVX-512): scatter_chunk512's
- * counterpart for machines that have no AVX-512. Included by
- * transfer_chunk.h after scatter_one, whose sums it makes, rounding for
- * rounding. Private to the library. */
+ * counterpart for machines that have no AVX-512, in the notes' two
+ * multiply-adds a row (its own rounding, see scatter_chunk256). Included
+ * by transfer_chunk.h after scatter_one. Private to the library. */
 #ifndef KF_SCATTER256_H
 #define KF_SCATTER256_H
 
@@ -10,11 +10,9 @@
 #include <immintrin.h>
 #define KF_SCATTER256 1
 
-/* a value the compiler may not look through. A product passed through it
- * is never contracted with the add that uses it into one multiply-add
- * (-ffp-contract=fast would otherwise be free to), so it rounds apart as
- * scatter_one's hoisted d_c q2 does; an operand passed through it stays in
- * a register instead of being reloaded as a memory operand */
+/* a value the compiler may not look through: an operand passed through it
+ * stays in a register instead of being reloaded as a memory operand by
+ * each row's multiply-add */
 #define KF_OPAQUE256(v) __asm__("" : "+x"(v))
 
 /* four planes of 8 floats (particles 0-7 of a half chunk) as records,
@@ -44,24 +42,27 @@ static inline __m256 znodes256(const kf_real *lo, const kf_real *hi) {
 static inline __m256 nodes2_load(const float *at) { return _mm256_loadu2_m128(at + 4, at); }
 static inline void nodes2_store(float *at, __m256 v) { _mm256_storeu2_m128(at + 4, at, v); }
 
-/* A chunk's MLS scatter, AVX2. As scatter_chunk512: a run of consecutive
- * particles with the same base node (binning orders an owner's particles
- * by base node) adds into its stencil rows held in registers, loaded and
- * stored once per run instead of once per particle. AVX2's 16 registers do
- * not hold the run's KW² rows (two registers each), so a run goes row
- * plane by row plane (a), each particle's KW rows of that plane in turn:
- * every row still gets the run's particles in chunk order, from the same
- * start, so every node's sum is scatter_one's. Quadratic kernel only (with
- * KW 4 the rows' registers spill and the runs cost what the wider rows
- * save: measured even): a row is z-nodes 0-1 in one register and node 2 in
- * a 128-bit one. Per lane
- * the operations are scatter_one's as GCC compiles it: h_a = m v + d_a Q:,0
- * and h_ab = h_a + d_b Q:,1 as multiply-adds, t = h_ab + d_c Q:,2 with
- * d_c Q:,2 rounded apart (once per particle), w = (w_a w_b) w_c, and the
- * node += w t as one multiply-add. What changes is where the operands
- * come from: each particle's [m v, m], Q:,0, Q:,1, Q:,2 as records (one
- * transpose per four planes and half chunk), h_a, d_c Q:,2 and the
- * z-weights once per particle, w_a w_b for the whole chunk at once. */
+/* A chunk's MLS scatter, AVX2, in the 2-multiply-add rows of
+ * performance-notes.md (technique 2). Node (a, b, c) of particle j gets
+ *     w_a w_b (H_a + d_b G_1),   H_a = B + d_a G_0,
+ *     B = WK (m v + d_c Q:,2; m), G_0 = WK Q:,0, G_1 = WK Q:,1,
+ * with WK the z-weights w_c and d_c the z-offsets spread over the row's node
+ * lanes: the z-weights are folded into the particle's terms once, so a row
+ * costs a multiply-add for its terms and one for the node (in a 256-bit
+ * register for z-nodes 0-1 and a 128-bit one for node 2). This rounds
+ * otherwise than scatter_one (which forms (w_a w_b w_c)(h_ab + d_c Q:,2)):
+ * the sums differ from the portable path's and the AVX-512 rows' at
+ * round-off (perf_results.md section 48 measures both against a double
+ * build). Each particle's share is still made on its own and added to each
+ * node in chunk order, so the sums do not depend on how particles are cut
+ * into runs, chunks or threads.
+ * As scatter_chunk512, a run of consecutive particles with the same base
+ * node (binning orders an owner's particles by base node) adds into its
+ * stencil rows held in registers, loaded and stored once per run. AVX2's 16
+ * registers do not hold the run's KW² rows, so a run goes row plane by row
+ * plane (a), each particle's KW rows of that plane in turn. Quadratic kernel
+ * only (with KW 4 the rows' registers spill and the runs cost what the wider
+ * rows save: measured even). */
 KF_INLINE void scatter_chunk256(int n, const chunk *ck, kf_v4 *cache) {
     const int CD = CD_MAX, KW = 3;
     const __m256 zero = _mm256_setzero_ps();
@@ -76,34 +77,38 @@ KF_INLINE void scatter_chunk256(int n, const chunk *ck, kf_v4 *cache) {
                        _mm256_loadu_ps(ck->q[6 + c] + o), zero, rec[1 + c] + o);
     }
     /* w_a w_b of every particle, KW² products a vector at a time */
-    float wab[16][KF_CHUNK] __attribute__((aligned(32)));
+    float wab[9][KF_CHUNK] __attribute__((aligned(32)));
     for (int a = 0; a < KW; a++)
         for (int b = 0; b < KW; b++)
             for (int h = 0; h < (n + 7) / 8; h++)
                 _mm256_store_ps(wab[a * KW + b] + 8 * h, _mm256_mul_ps(_mm256_loadu_ps(ck->w[0][a] + 8 * h),
                                                                        _mm256_loadu_ps(ck->w[1][b] + 8 * h)));
-    /* per particle, once: h_a in both halves, Q:,1 in both, the z-weights
-     * w_c and the products d_c Q:,2 in the row's node lanes (nodes 0-1 in
-     * 256 bits, node 2 in 128), and its base node */
-    __m256 ha[3][KF_CHUNK], q1[KF_CHUNK], wk[KF_CHUNK];
-    __m128 wk2[KF_CHUNK], dq2[KF_CHUNK];
-    __m256 dq[KF_CHUNK];
+    /* per particle, once: H_a and G_1 in the row's node lanes (nodes 0-1
+     * in 256 bits, node 2 in 128), and its base node */
+    __m256 H[3][KF_CHUNK], G1[KF_CHUNK];
+    __m128 H2[3][KF_CHUNK], G12[KF_CHUNK];
     int key[KF_CHUNK];
     KF_SIMD
     for (int j = 0; j < n; j++) key[j] = (ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j];
     for (int j = 0; j < n; j++) {
         const __m256 base = _mm256_broadcast_ps((const __m128 *)rec[0][j]);
         const __m256 q0 = _mm256_broadcast_ps((const __m128 *)rec[1][j]);
-        for (int a = 0; a < KW; a++) ha[a][j] = _mm256_fmadd_ps(_mm256_broadcast_ss(&ck->d[0][a][j]), q0, base);
-        q1[j] = _mm256_broadcast_ps((const __m128 *)rec[2][j]);
+        const __m256 q1 = _mm256_broadcast_ps((const __m128 *)rec[2][j]);
         const __m256 q2 = _mm256_broadcast_ps((const __m128 *)rec[3][j]);
-        __m256 dq01 = _mm256_mul_ps(znodes256(&ck->d[2][0][j], &ck->d[2][1][j]), q2);
-        __m128 dq_2 = _mm_mul_ps(_mm_broadcast_ss(&ck->d[2][2][j]), _mm256_castps256_ps128(q2));
-        KF_OPAQUE256(dq01);
-        KF_OPAQUE256(dq_2);
-        dq[j] = dq01, dq2[j] = dq_2;
-        wk[j] = znodes256(&ck->w[2][0][j], &ck->w[2][1][j]);
-        wk2[j] = _mm_broadcast_ss(&ck->w[2][2][j]);
+        const __m256 wk = znodes256(&ck->w[2][0][j], &ck->w[2][1][j]);
+        const __m128 wk2 = _mm_broadcast_ss(&ck->w[2][2][j]);
+        const __m256 B = _mm256_mul_ps(wk, _mm256_fmadd_ps(znodes256(&ck->d[2][0][j], &ck->d[2][1][j]), q2, base));
+        const __m128 B2 = _mm_mul_ps(wk2, _mm_fmadd_ps(_mm_broadcast_ss(&ck->d[2][2][j]), _mm256_castps256_ps128(q2),
+                                                       _mm256_castps256_ps128(base)));
+        const __m256 G0 = _mm256_mul_ps(wk, q0);
+        const __m128 G02 = _mm_mul_ps(wk2, _mm256_castps256_ps128(q0));
+        G1[j] = _mm256_mul_ps(wk, q1);
+        G12[j] = _mm_mul_ps(wk2, _mm256_castps256_ps128(q1));
+        for (int a = 0; a < KW; a++) {
+            const __m256 da = _mm256_broadcast_ss(&ck->d[0][a][j]);
+            H[a][j] = _mm256_fmadd_ps(da, G0, B);
+            H2[a][j] = _mm_fmadd_ps(_mm256_castps256_ps128(da), G02, B2);
+        }
     }
     for (int j0 = 0, j1; j0 < n; j0 = j1) {
         for (j1 = j0 + 1; j1 < n && key[j1] == key[j0];) j1++;
@@ -118,21 +123,19 @@ KF_INLINE void scatter_chunk256(int n, const chunk *ck, kf_v4 *cache) {
                 hi[b] = _mm_loadu_ps(row + 8);
             }
             for (int j = j0; j < j1; j++) {
-                /* the particle's operands, once per plane, in registers */
-                __m256 haj = ha[a][j], q1j = q1[j], wk0 = wk[j], dq0 = dq[j];
-                __m128 wkz = wk2[j], dqz = dq2[j];
-                KF_OPAQUE256(haj);
-                KF_OPAQUE256(q1j);
-                KF_OPAQUE256(wk0);
-                KF_OPAQUE256(dq0);
-                KF_OPAQUE256(wkz);
-                KF_OPAQUE256(dqz);
+                /* the particle's terms, once per plane, in registers */
+                __m256 Ha = H[a][j], G1j = G1[j];
+                __m128 Ha2 = H2[a][j], G1j2 = G12[j];
+                KF_OPAQUE256(Ha);
+                KF_OPAQUE256(G1j);
+                KF_OPAQUE256(Ha2);
+                KF_OPAQUE256(G1j2);
                 for (int b = 0; b < KW; b++) {
-                    const __m256 hab = _mm256_fmadd_ps(_mm256_broadcast_ss(&ck->d[1][b][j]), q1j, haj);
+                    const __m256 db = _mm256_broadcast_ss(&ck->d[1][b][j]);
                     const __m256 w = _mm256_broadcast_ss(&wab[a * KW + b][j]);
-                    lo[b] = _mm256_fmadd_ps(_mm256_mul_ps(w, wk0), _mm256_add_ps(hab, dq0), lo[b]);
-                    hi[b] = _mm_fmadd_ps(_mm_mul_ps(_mm256_castps256_ps128(w), wkz),
-                                         _mm_add_ps(_mm256_castps256_ps128(hab), dqz), hi[b]);
+                    lo[b] = _mm256_fmadd_ps(w, _mm256_fmadd_ps(db, G1j, Ha), lo[b]);
+                    hi[b] = _mm_fmadd_ps(_mm256_castps256_ps128(w),
+                                         _mm_fmadd_ps(_mm256_castps256_ps128(db), G1j2, Ha2), hi[b]);
                 }
             }
             for (int b = 0; b < KW; b++) {
