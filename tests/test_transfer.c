@@ -190,7 +190,8 @@ static void affine_field_all(void) {
 }
 
 #if defined(KF_ROWS512) || defined(KF_SCATTER256)
-/* one particle's MLS scatter with the roundings the vector paths promise
+#ifdef KF_ROWS512
+/* one particle's MLS scatter with the roundings the AVX-512 rows promise
  * (scatter_one as GCC compiles it with FMA): h_a = m v + d_a Q:,0 and
  * h_ab = h_a + d_b Q:,1 as multiply-adds, t = h_ab + d_c Q:,2 with the
  * product rounded apart, w = (w_a w_b) w_c, node += w t as a multiply-add.
@@ -215,13 +216,40 @@ __attribute__((noinline, optimize("fp-contract=off"))) static void scatter_refer
                 }
             }
 }
+#else
+/* one particle's MLS scatter with the AVX2 rows' roundings
+ * (scatter_chunk256, performance-notes.md's two multiply-adds a row): the
+ * z-weight folded into the particle's terms, B = w_c fma(d_c, Q:,2, m v),
+ * G_0 = w_c Q:,0, G_1 = w_c Q:,1, H_a = fma(d_a, G_0, B), then
+ * node += (w_a w_b) fma(d_b, G_1, H_a) as a multiply-add. Contraction
+ * off, as above. */
+__attribute__((noinline, optimize("fp-contract=off"))) static void scatter_reference256(const chunk *ck, int j,
+                                                                                         kf_v4 *cache) {
+    const int CD = CD_MAX, KW = 3;
+    kf_v4 *origin = &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
+    for (int a = 0; a < KW; a++)
+        for (int b = 0; b < KW; b++)
+            for (int c = 0; c < KW; c++) {
+                const kf_real wab = ck->w[0][a][j] * ck->w[1][b][j], wc = ck->w[2][c][j];
+                kf_v4 *node = &origin[(a * CD + b) * CD + c];
+                for (int k = 0; k < 4; k++) {
+                    const kf_real q0 = k < 3 ? ck->q[3 * k][j] : 0, q1 = k < 3 ? ck->q[3 * k + 1][j] : 0;
+                    const kf_real q2 = k < 3 ? ck->q[3 * k + 2][j] : 0;
+                    const kf_real B = wc * fmaf(ck->d[2][c][j], q2, ck->mv[k][j]);
+                    const kf_real Ha = fmaf(ck->d[0][a][j], wc * q0, B);
+                    const kf_real t = fmaf(ck->d[1][b][j], wc * q1, Ha);
+                    (*node)[k] = fmaf(wab, t, (*node)[k]);
+                }
+            }
+}
+#endif
 
 /* A chunk's MLS scatter in register runs (scatter_chunk_n: AVX-512, or
- * AVX2 with the quadratic kernel) adds exactly the reference's sums, bit
- * for bit: runs of one to sixteen particles on one base node, consecutive
- * runs one node apart in z (the overlapping rows the binning's order
- * gives) or anywhere, full chunks and a short last one, into a cache that
- * already holds sums. */
+ * AVX2 with the quadratic kernel) adds exactly the reference's sums (the
+ * AVX2 rows: scatter_reference256's roundings), bit for bit: runs of one
+ * to sixteen particles on one base node, consecutive runs one node apart
+ * in z (the overlapping rows the binning's order gives) or anywhere, full
+ * chunks and a short last one, into a cache that already holds sums. */
 static void scatter_chunk_bits(int KW, int run, int n, int far) {
     const kf_real dx = KF_R(0.01), inv_dx = 1 / dx;
     const int span = CD_MAX - KW; /* base nodes 0..span keep the stencil in the cache */
@@ -252,7 +280,11 @@ static void scatter_chunk_bits(int KW, int run, int n, int far) {
         for (int c = 0; c < 4; c++) by_chunk[i][c] = by_particle[i][c] = (kf_real)srand1();
     if (n == KF_CHUNK) scatter_chunk_n(KW, 0, KF_CHUNK, &ck, by_chunk);
     else scatter_chunk(KW, 0, &ck, by_chunk);
+#ifdef KF_ROWS512
     for (int j = 0; j < n; j++) scatter_reference(KW, &ck, j, by_particle);
+#else
+    for (int j = 0; j < n; j++) scatter_reference256(&ck, j, by_particle);
+#endif
     KT_CHECK(memcmp(by_chunk, by_particle, sizeof by_chunk) == 0, "KW %d, runs of %d, %d particles, %s", KW, run, n,
              far ? "runs anywhere" : "runs one node apart");
 }
