@@ -153,7 +153,7 @@ typedef struct frame_quality {
 } frame_quality;
 enum { FQ_FINAL, FQ_PREVIEW, FQ_FINAL_SPHERES, FQ_PREVIEW_SPHERES, FQ_COUNT };
 static const frame_quality frame_qualities[FQ_COUNT] = {
-    {"final", 0, 0.75, 2, 3, 2, 1, 3, 4, 0, 2},
+    {"final", 0, 0.75, 2, 3, 2, 1, 3, 4, 0, 3},
     {"preview", 0, KF_VDB_PREVIEW_VOXEL, KF_VDB_PREVIEW_RADIUS, 3, KF_VDB_PREVIEW_ITERATIONS, 1, 3, 1,
      KF_RENDER_PREVIEW_SHADOW, 0},
     {"final_spheres", 1, 0.75, 2, 3, 1, 1, 3, 4, 0, 0},

@@ -107,7 +107,7 @@ typedef struct kf_vdb_surface_params {
     int flatten;           /* passes of a bilateral filter of the zero set after smoothing and erosion:
                               faces flattened, edges kept (0: none; needs smooth NONE or
                               MEAN_CURVATURE and the shifts within the band) */
-    double flatten_radius; /* m, its neighbourhood (default 4.5 x spacing, at most 7.5 voxels) */
+    double flatten_radius; /* m, its neighbourhood (default 3.75 x spacing, at most 7.5 voxels) */
 } kf_vdb_surface_params;
 
 typedef struct kf_vdb_surface_stats {

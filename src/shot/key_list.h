@@ -447,9 +447,9 @@ KF_KEY(SURFACE_SMOOTH, "surface.smooth", KT_ENUM, TOP(s.surface_smooth), ANY, "n
        "mean_curvature", NULL, NULL, 0, "Smoothing filter between dilation and erosion.")
 KF_KEY(SURFACE_ITERATIONS, "surface.iterations", KT_INT, TOP(s.surface_iterations), CC(0, 100), NULL, "2", NULL, NULL,
        0, "Smoothing passes (unset: 1 with surface.kernel: spheres).")
-KF_KEY(SURFACE_FLATTEN, "surface.flatten", KT_INT, TOP(s.surface_flatten), CC(0, 8), NULL, "2", NULL, NULL, 0,
+KF_KEY(SURFACE_FLATTEN, "surface.flatten", KT_INT, TOP(s.surface_flatten), CC(0, 8), NULL, "3", NULL, NULL, 0,
        "Passes of a filter that flattens faces without rounding edges, after the smoothing: each point of the surface "
-       "moves to the mean of its neighbours' tangent planes within 4.5 particle spacings, counting only those whose "
+       "moves to the mean of its neighbours' tangent planes within 3.75 particle spacings, counting only those whose "
        "normals are within 14 degrees of its own (0 = off; unset: 0 with surface.kernel: spheres, "
        "surface.quality: preview or --quality preview; needs surface.smooth none or mean_curvature).")
 KF_KEY(SURFACE_AVERAGE, "surface.average", KT_NUM, TOP(s.surface_average), CC(0, 1), NULL, "1", NULL, NULL, 0,

@@ -467,14 +467,11 @@ int kf_vdb_levelset_from_particles(size_t n, const double *xd, const float *xf, 
         const bool amounts_ok = std::isfinite(p.dilate) && std::isfinite(p.erode) && p.dilate >= 0 && p.erode >= 0;
         const bool on_band = amounts_ok && (p.smooth == KF_VDB_OP_NONE || p.smooth == KF_VDB_OP_MEAN_CURVATURE) &&
                              p.smooth_iterations >= 0 && hw + (p.dilate + p.erode) / voxel <= 6;
-        // the flattening's neighbourhoods: the mean over 4.5 spacings (6
-        // voxels at 0.75), the normals over 1.2 times that. Two passes over
-        // 4.5 flatten a face as much as three over 3.75 did, for about a
-        // fifth less work (perf_results.md section 51: the candidates come in
-        // whole sub-blocks, so the wider reach adds few of them)
+        // the flattening's neighbourhoods: the mean over 3.75 spacings (5
+        // voxels at 0.75), the normals over 1.2 times that
         if (p.flatten < 0) throw bridge_error(fmt("flatten %d passes must be >= 0", p.flatten));
         const double spacing_f = p.spacing > 0 ? p.spacing : r / factor;
-        const double fr = p.flatten_radius > 0 ? p.flatten_radius : 4.5 * spacing_f;
+        const double fr = p.flatten_radius > 0 ? p.flatten_radius : 3.75 * spacing_f;
         kf_vdb::band_filter bf{p.dilate,  p.erode, p.smooth == KF_VDB_OP_MEAN_CURVATURE ? p.smooth_iterations : 0,
                                p.flatten, fr,      1.2 * fr};
         if (aniso) {
