@@ -609,6 +609,61 @@ int kf_frame_camera(kf_render_ctx *r, const kf_render_scene *sc, const kf_camera
     return 0;
 }
 
+/* the box of a mesh at every time of the shutter (t from -1 to 1 frames:
+ * positions and positions -+ motion; the shutter is centred on the frame) */
+static void mesh_box(const kf_render_mesh *me, float lo[3], float hi[3]) {
+    for (int a = 0; a < 3; a++) lo[a] = INFINITY, hi[a] = -INFINITY;
+    for (int pass = 0; pass < (me->motion ? 3 : 1); pass++)
+        for (size_t v = 0; v < me->nverts; v++)
+            for (int a = 0; a < 3; a++) {
+                const float d = pass == 0 ? 0.f : me->motion[3 * v + a];
+                const float x = me->positions[3 * v + a] + (pass == 2 ? -d : d);
+                lo[a] = fminf(lo[a], x), hi[a] = fmaxf(hi[a], x);
+            }
+}
+
+/* Whether a closed mesh's back faces can be skipped: each is hidden behind
+ * the mesh's own front faces wherever the camera sees it from outside, which
+ * holds when the mesh (at every time of the shutter) lies wholly beyond the
+ * near plane, so that nothing of it is cut
+ * open there. Llvmpipe sets up and rasterises every triangle it is given:
+ * half of a level set's mesh faces away. (The one exception: a silhouette
+ * pixel whose centre a facet folding away covers and no front facet does;
+ * one such pixel in the 1080p and demo frames checked.) */
+static int cull_back_faces(const kf_render_mesh *me, const kf_frame *f) {
+    if (!me->closed || me->nverts == 0) return 0;
+    float lo[3], hi[3];
+    mesh_box(me, lo, hi);
+    /* the view's depth of each corner of the box (the view looks down -z) */
+    for (int k = 0; k < 8; k++) {
+        const float p[3] = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
+        const float z = f->view[2] * p[0] + f->view[6] * p[1] + f->view[10] * p[2] + f->view[14];
+        if (!(-z > f->znear)) return 0;
+    }
+    return 1;
+}
+
+/* The same for the shadow map: seen from the key light, a closed mesh's
+ * nearest surface is a front face wherever the light's near plane leaves it
+ * whole (clip z > -w at every corner of its box, the light's projection
+ * being orthographic), so the back faces, half the triangles, give the map
+ * nothing but the odd texel where a facet folding away at the silhouette
+ * covers a texel centre that no front facet does (a texel the polygon
+ * offset and the 3x3 filter blur with its neighbours). */
+static int cull_shadow_back_faces(const kf_render_mesh *me, const kf_frame *f) {
+    if (!me->closed || me->nverts == 0) return 0;
+    float lo[3], hi[3];
+    mesh_box(me, lo, hi);
+    const float *m = f->light_vp;
+    for (int k = 0; k < 8; k++) {
+        const float p[3] = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
+        const float z = m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14];
+        const float w = m[3] * p[0] + m[7] * p[1] + m[11] * p[2] + m[15];
+        if (!(z > -w)) return 0;
+    }
+    return 1;
+}
+
 void kf_frame_shadow(kf_render_ctx *r, const kf_render_scene *sc, kf_frame *f, float t) {
     kf_gl *gl = &r->gl;
     gl->BindFramebuffer(GL_FRAMEBUFFER, r->fbo_shadow);
@@ -627,35 +682,12 @@ void kf_frame_shadow(kf_render_ctx *r, const kf_render_scene *sc, kf_frame *f, f
         const kf_render_mesh *me = &sc->meshes[m];
         if (me->ntris == 0) continue;
         kf_bind_mesh(gl, r->vbo_pos[m], 0, 0, r->vbo_mot[m], me->motion != NULL, r->ebo[m]);
+        const int cull = cull_shadow_back_faces(me, f);
+        if (cull) gl->Enable(GL_CULL_FACE); /* back faces, counter-clockwise fronts: GL's defaults */
         gl->DrawElements(GL_TRIANGLES, (GLsizei)(me->ntris * 3), GL_UNSIGNED_INT, NULL);
+        if (cull) gl->Disable(GL_CULL_FACE);
     }
     gl->Disable(GL_POLYGON_OFFSET_FILL);
-}
-
-/* Whether a closed mesh's back faces can be skipped: each is hidden behind
- * the mesh's own front faces wherever the camera sees it from outside, which
- * holds when the mesh (at every time of the frame: positions and positions +
- * motion) lies wholly beyond the near plane, so that nothing of it is cut
- * open there. Llvmpipe sets up and rasterises every triangle it is given:
- * half of a level set's mesh faces away. (The one exception: a silhouette
- * pixel whose centre a facet folding away covers and no front facet does;
- * one such pixel in the 1080p and demo frames checked.) */
-static int cull_back_faces(const kf_render_mesh *me, const kf_frame *f) {
-    if (!me->closed || me->nverts == 0) return 0;
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (int pass = 0; pass < (me->motion ? 2 : 1); pass++)
-        for (size_t v = 0; v < me->nverts; v++)
-            for (int a = 0; a < 3; a++) {
-                const float x = me->positions[3 * v + a] + (pass ? me->motion[3 * v + a] : 0.f);
-                lo[a] = fminf(lo[a], x), hi[a] = fmaxf(hi[a], x);
-            }
-    /* the view's depth of each corner of the box (the view looks down -z) */
-    for (int k = 0; k < 8; k++) {
-        const float p[3] = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
-        const float z = f->view[2] * p[0] + f->view[6] * p[1] + f->view[10] * p[2] + f->view[14];
-        if (!(-z > f->znear)) return 0;
-    }
-    return 1;
 }
 
 void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame *f, GLuint fbo, int linear, float t) {
