@@ -13,6 +13,7 @@
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -61,6 +62,35 @@ struct kernel {
     float P[6]; // the same for the grown ellipsoid
     float amin;
     float ext[3]; // the grown ellipsoid's half extent along each axis
+};
+
+// A kernel less its centre: what the deep balls share
+struct shape {
+    float M[6], P[6], amin, ext[3];
+};
+
+// The kernels as stored, in slot order: each one's centre, and the entry of
+// its shape in a table whose entry 0 is the deep balls' one shape (most of a
+// block's particles are deep: 16 bytes each instead of 76, written and read)
+struct kernel_table {
+    std::vector<std::array<float, 3>> c;
+    std::vector<uint32_t> of;
+    std::vector<shape> s;
+    const shape &at(size_t q) const { return s[of[q]]; }
+    // kernel k's shape at entry e
+    void put_shape(size_t e, const kernel &k) {
+        shape &d = s[e];
+        std::copy(k.M, k.M + 6, d.M), std::copy(k.P, k.P + 6, d.P), std::copy(k.ext, k.ext + 3, d.ext);
+        d.amin = k.amin;
+    }
+    // kernel k at slot q (its shape at the slot's own entry). Out of line:
+    // inlined into shape_kernels' cell loop it changed which of the
+    // covariance sums' products GCC fuses into multiply-adds (one FMA more;
+    // the level set moved by 9e-7 voxels); out of line they compile as before
+    __attribute__((noinline)) void put(size_t q, const kernel &k) {
+        for (int a = 0; a < 3; a++) c[q][a] = k.c[a];
+        put_shape(of[q], k);
+    }
 };
 
 // eigenvalues (descending) and eigenvectors (columns of V) of a symmetric
@@ -134,30 +164,35 @@ kernel make_kernel(const double c[3], const double a[3], const double V[3][3]) {
 // (the spheres' radius: no gaps inside, on a lattice or after it deforms); the others a disc from the weighted
 // covariance of their neighbours within R (weight 1 - (d/R)^3), gathered in cells of edge R, cell by cell in parallel
 // (each kernel depends only on the input). Particle i's kernel is written
-// at slot[i].
-std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, const aniso_params &a, double vx,
+// at slot[i] (its shape at its own entry of the table, entry 0 if deep).
+kernel_table shape_kernels(size_t n, const double *xd, const float *xf, const aniso_params &a, double vx,
                                   const uint32_t *slot, std::vector<uint8_t> &deep) {
     auto pos = [&](size_t i, int k) { return xd ? xd[3 * i + k] : double(xf[3 * i + k]); };
     const double inv = 1 / vx, R = a.R, invR = 1 / R, R2 = R * R;
     // a full neighbourhood's covariance per axis: the weighted second moment
     // of a uniform ball, int w r^4 dr / int w r^2 dr / 3 = 0.15 R^2
     const double s_full = 0.15 * R2, sup = a.support * inv, t = a.thickness * inv;
-    std::vector<kernel> K(n);
+    kernel_table K;
+    K.c.resize(n), K.of.resize(n);
     const double I3[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     // deep: a ball of rb, at least rb under every face (which the discs put
     // `thickness` beyond the outermost centres)
     const double rb = deep_ball_radius(a);
     deep = deep_particles(n, xd, xf, a.spacing, rb);
+    // the shapes' entries: 0 for the deep, the others numbered in slot order
+    for (size_t i = 0; i < n; i++) K.of[slot[i]] = !deep[i];
+    uint32_t ns = 0;
+    for (size_t q = 0; q < n; q++) K.of[q] = K.of[q] ? ++ns : 0;
+    K.s.resize(size_t(ns) + 1);
     // every deep ball has the same shape: made once, then moved to each
     // centre (the same floats as making each one)
     const double c0[3] = {0, 0, 0}, axb[3] = {rb * inv, rb * inv, rb * inv};
     const kernel ball = make_kernel(c0, axb, I3);
+    K.put_shape(0, ball);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t> &rg) {
         for (size_t i = rg.begin(); i != rg.end(); i++) {
             if (!deep[i]) continue;
-            kernel &k0 = K[slot[i]];
-            k0 = ball;
-            for (int k = 0; k < 3; k++) k0.c[k] = float(pos(i, k) * inv);
+            for (int k = 0; k < 3; k++) K.c[slot[i]][k] = float(pos(i, k) * inv);
         }
     });
     const float fR2 = float(R2), finvR = float(invR);
@@ -206,7 +241,7 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
                 const double c[3] = {pos(i, 0) * inv, pos(i, 1) * inv, pos(i, 2) * inv};
                 if (cnt < FEW_NEIGHBOURS) {
                     const double ax[3] = {2 * t, 2 * t, 2 * t};
-                    K[slot[i]] = make_kernel(c, ax, I3);
+                    K.put(slot[i], make_kernel(c, ax, I3));
                     continue;
                 }
                 for (int k = 0; k < 3; k++) m[k] /= ws; // ws >= 1: the particle itself
@@ -222,7 +257,7 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
                 for (int k = 0; k < 2; k++)
                     ax[k] = std::max(t, sup * std::min(std::max(ev[k], ev[0] / a.kr) / s_full, 1.0));
                 ax[2] = t;
-                K[slot[i]] = make_kernel(c, ax, V);
+                K.put(slot[i], make_kernel(c, ax, V));
             }
         });
     return K;
@@ -230,7 +265,7 @@ std::vector<kernel> shape_kernels(size_t n, const double *xd, const float *xf, c
 
 // kernels in 8^3-voxel leaf bins of their centres
 struct binned {
-    std::vector<kernel> k;
+    kernel_table k;
     std::vector<uint32_t> src;
     std::vector<uint8_t> deep; // 1: a deep particle's ball of radius rb (voxels)
     float core = 0;            // rb - 1, a little less; 0: no culling
@@ -303,7 +338,7 @@ void for_each_kernel_near(const binned &b, Coord lc, const int32_t *boxes, const
 // kernel. In one pass over the kernels, bin by bin, which also returns the
 // largest extent (a maximum, the same in any order).
 float make_boxes(binned &b) {
-    const size_t n = b.k.size(), nbin = b.key.size();
+    const size_t n = b.k.c.size(), nbin = b.key.size();
     b.box.resize(6 * n), b.bin_box.resize(6 * nbin), b.bin_cbox.resize(6 * nbin);
     const float rc = b.core;
     return tbb::parallel_reduce(
@@ -313,18 +348,19 @@ float make_boxes(binned &b) {
                 int32_t *bb = b.bin_box.data() + 6 * bi, *bc = b.bin_cbox.data() + 6 * bi;
                 for (int a = 0; a < 3; a++) bb[a] = bc[a] = INT32_MAX, bb[a + 3] = bc[a + 3] = INT32_MIN;
                 for (uint32_t q = b.at[bi]; q < b.at[bi + 1]; q++) {
-                    const kernel &K = b.k[q];
+                    const shape &K = b.k.at(q);
+                    const float *c = b.k.c[q].data();
                     e = std::max(e, std::max(K.ext[0], std::max(K.ext[1], K.ext[2])));
                     int32_t *x = b.box.data() + 6 * size_t(q);
                     for (int a = 0; a < 3; a++) {
-                        x[a] = int32_t(std::ceil(K.c[a] - K.ext[a])), x[a + 3] = int32_t(std::floor(K.c[a] + K.ext[a]));
+                        x[a] = int32_t(std::ceil(c[a] - K.ext[a])), x[a + 3] = int32_t(std::floor(c[a] + K.ext[a]));
                         bb[a] = std::min(bb[a], x[a]), bb[a + 3] = std::max(bb[a + 3], x[a + 3]);
                     }
                     // core_rows' test: no core voxel unless rc > 0 and the kernel is deep
                     if (!b.deep[q] || !(rc > 0)) continue;
                     for (int a = 0; a < 3; a++)
-                        bc[a] = std::min(bc[a], int32_t(std::ceil(K.c[a] - rc))),
-                        bc[a + 3] = std::max(bc[a + 3], int32_t(std::floor(K.c[a] + rc)));
+                        bc[a] = std::min(bc[a], int32_t(std::ceil(c[a] - rc))),
+                        bc[a + 3] = std::max(bc[a + 3], int32_t(std::floor(c[a] + rc)));
                 }
             }
             return e;
@@ -342,7 +378,7 @@ bool core_rows(const binned &b, Coord lc, uint8_t core[LEAF_DIM * LEAF_DIM]) {
     const float rc = b.core, rc2 = rc * rc;
     for_each_kernel_near(b, lc, nullptr, b.bin_cbox, [&](uint32_t q) {
         if (!b.deep[q]) return;
-        const float *c = b.k[q].c;
+        const float *c = b.k.c[q].data();
         const int x0 = std::max(ox, int(std::ceil(c[0] - rc))),
                   x1 = std::min(ox + LEAF_DIM - 1, int(std::floor(c[0] + rc)));
         const int y0 = std::max(oy, int(std::ceil(c[1] - rc))),
@@ -395,7 +431,8 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
             if (core[v >> LEAF_LOG2] >> (v & (LEAF_DIM - 1)) & 1) F[v] = 1.f;
     }
     for_each_kernel_near(b, lc, b.box.data(), b.bin_box, [&](uint32_t q) {
-        const kernel &K = b.k[q];
+        const shape &K = b.k.at(q);
+        const float *Kc = b.k.c[q].data();
         const int32_t *bx = b.box.data() + 6 * size_t(q);
         const int x0 = std::max(ox, int(bx[0])), x1 = std::min(ox + LEAF_DIM - 1, int(bx[3]));
         const int y0 = std::max(oy, int(bx[1])), y1 = std::min(oy + LEAF_DIM - 1, int(bx[4]));
@@ -409,20 +446,20 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
         for (int x = x0; x <= x1; x++) {
             const uint64_t todo = cull ? rows_to_do(core + ((x - ox) << LEAF_LOG2), zmask) & yspan : yspan;
             if (!todo) continue;
-            const float dx = float(x) - K.c[0];
+            const float dx = float(x) - Kc[0];
             // the eight rows' spans inside the grown ellipsoid (P5 dz^2 + pb
             // dz + pa <= 1) and their quadratics, at once (a vector each; the
             // same floats row by row); a row outside has disc < 0
             float qa[LEAF_DIM], qb[LEAF_DIM], disc[LEAF_DIM];
             int za[LEAF_DIM], zb[LEAF_DIM];
             for (int j = 0; j < LEAF_DIM; j++) {
-                const float dy = float(oy + j) - K.c[1];
+                const float dy = float(oy + j) - Kc[1];
                 const float pa = K.P[0] * dx * dx + 2 * K.P[1] * dx * dy + K.P[3] * dy * dy;
                 const float pb = 2 * (K.P[2] * dx + K.P[4] * dy);
                 disc[j] = pb * pb - 4 * K.P[5] * (pa - 1);
                 const float sq = std::sqrt(std::max(disc[j], 0.f));
-                za[j] = std::max(z0, int(std::floor(K.c[2] + (-pb - sq) * inv2)));
-                zb[j] = std::min(z1, int(std::ceil(K.c[2] + (-pb + sq) * inv2)));
+                za[j] = std::max(z0, int(std::floor(Kc[2] + (-pb - sq) * inv2)));
+                zb[j] = std::min(z1, int(std::ceil(Kc[2] + (-pb + sq) * inv2)));
                 qa[j] = K.M[0] * dx * dx + 2 * K.M[1] * dx * dy + K.M[3] * dy * dy;
                 qb[j] = 2 * (K.M[2] * dx + K.M[4] * dy);
             }
@@ -437,7 +474,7 @@ void splat_leaf(const binned &b, Coord lc, float *F, int32_t *who, unsigned open
                 const int row = ((x - ox) << (2 * LEAF_LOG2)) + ((y - oy) << LEAF_LOG2);
                 const int ma = za[j] - oz, mb = zb[j] - oz;
                 float *d = F + row;
-                const float cz = K.c[2], m5 = K.M[5], am = K.amin, qaj = qa[j], qbj = qb[j];
+                const float cz = Kc[2], m5 = K.M[5], am = K.amin, qaj = qa[j], qbj = qb[j];
                 if (!who) {
                     // the whole 8-voxel row, branch-free so that it
                     // vectorises; voxels outside [za, zb] keep theirs
@@ -563,14 +600,14 @@ openvdb::FloatGrid::Ptr rasterise_anisotropic(size_t n, const double *xd, const 
 
     t0 = cpu_now(), w0 = wall_now();
     std::vector<uint8_t> deep;
-    std::vector<kernel> K = shape_kernels(n, xd, xf, a, vx, slot.data(), deep);
+    kernel_table K = shape_kernels(n, xd, xf, a, vx, slot.data(), deep);
     for (size_t i = 0; i < n; i++) tm.n_deep += deep[i];
     slot.clear(), slot.shrink_to_fit();
     tm.shape_s = cpu_now() - t0, tm.shape_w = wall_now() - w0;
 
     t0 = cpu_now(), w0 = wall_now();
     binned b;
-    b.k.swap(K), b.deep.resize(n);
+    b.k = std::move(K), b.deep.resize(n);
     b.src.swap(kb.order), b.key.swap(kb.key), b.at.swap(kb.at);
     // a deep ball's core: within rb - 1 voxels (less a margin far above
     // rounding) its neighbours are inside the ball
