@@ -19,6 +19,7 @@
     X(PFNGLENABLEPROC, Enable)                                                                                         \
     X(PFNGLDISABLEPROC, Disable)                                                                                       \
     X(PFNGLVIEWPORTPROC, Viewport)                                                                                     \
+    X(PFNGLSCISSORPROC, Scissor)                                                                                       \
     X(PFNGLCLEARPROC, Clear)                                                                                           \
     X(PFNGLCLEARCOLORPROC, ClearColor)                                                                                 \
     X(PFNGLDEPTHFUNCPROC, DepthFunc)                                                                                   \

@@ -16,6 +16,7 @@ struct kf_render_ctx {
     int draw_samples; /* the picture's target: samples, or 1 with edge anti-aliasing */
     char renderer_name[128];
     GLuint prog_main, prog_depth, prog_bg;
+    GLuint prog_unshadowed; /* prog_main without the shadow map's taps: the ground beyond the map */
     GLuint vao;
     GLuint fbo_draw, rb_color, rb_depth; /* multisampled when draw_samples > 1 */
     GLuint fbo_resolve, rb_resolve;      /* single-sample; only when samples > 1 */

@@ -48,6 +48,10 @@ static const char *fs_main =
     "out vec4 o_col;\n"
     "vec3 lin(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }\n"
     "float shadow_at(float ndl) {\n"
+    /* prog_unshadowed: drawn only where the map has nothing (its taps give 1) */
+    "#ifdef KF_UNSHADOWED\n"
+    "  return 1.0;\n"
+    "#endif\n"
     "  if (u_shadows == 0) return 1.0;\n"
     "  vec3 p = v_lpos.xyz / v_lpos.w * 0.5 + 0.5;\n"
     "  if (p.x <= 0.0 || p.x >= 1.0 || p.y <= 0.0 || p.y >= 1.0 || p.z >= 1.0) return 1.0;\n"
@@ -90,6 +94,11 @@ static const char *fs_main =
     /* linear: the same picture decoded, so encoding it gives the PNG back */
     "  o_col = vec4(u_linear != 0 ? pow(c, vec3(2.2)) : c, 1.0);\n"
     "}\n";
+
+/* fs_main compiled without the shadow map's taps (llvmpipe runs every
+ * lane's taps whatever the branch decides): the same arithmetic wherever
+ * shadow_at would return 1 */
+static const char *fs_unshadowed_define = "#define KF_UNSHADOWED\n";
 
 static const char *vs_depth = "#version 330 core\n"
                               "layout(location=0) in vec3 a_pos;\n"
@@ -212,7 +221,18 @@ kf_render_ctx *kf_render_create(int w, int h, int samples, char *err, size_t err
     r->shadow_size = longest < 512 ? 512 : (longest > 2048 ? 2048 : longest);
     if (r->shadow_size > max_tex) r->shadow_size = max_tex;
 
-    if (!(r->prog_main = kf_gl_program(gl, vs_main, fs_main, "mesh", err, errlen)) ||
+    /* fs_main with the define after its #version line */
+    const char *body = strchr(fs_main, '\n') + 1;
+    char *fs_un = malloc(strlen(fs_main) + strlen(fs_unshadowed_define) + 1);
+    if (!fs_un) {
+        snprintf(err, errlen, "render: out of memory");
+        kf_render_destroy(r);
+        return NULL;
+    }
+    sprintf(fs_un, "%.*s%s%s", (int)(body - fs_main), fs_main, fs_unshadowed_define, body);
+    r->prog_unshadowed = kf_gl_program(gl, vs_main, fs_un, "ground", err, errlen);
+    free(fs_un);
+    if (!r->prog_unshadowed || !(r->prog_main = kf_gl_program(gl, vs_main, fs_main, "mesh", err, errlen)) ||
         !(r->prog_depth = kf_gl_program(gl, vs_depth, fs_depth, "shadow", err, errlen)) ||
         !(r->prog_bg = kf_gl_program(gl, vs_bg, fs_bg, "background", err, errlen))) {
         kf_render_destroy(r);
@@ -305,6 +325,7 @@ void kf_render_destroy(kf_render_ctx *r) {
             gl->DeleteTextures(1, &r->tex_shadow);
             gl->DeleteVertexArrays(1, &r->vao);
             if (r->prog_main) gl->DeleteProgram(r->prog_main);
+            if (r->prog_unshadowed) gl->DeleteProgram(r->prog_unshadowed);
             if (r->prog_depth) gl->DeleteProgram(r->prog_depth);
             if (r->prog_bg) gl->DeleteProgram(r->prog_bg);
         }
@@ -690,26 +711,15 @@ void kf_frame_shadow(kf_render_ctx *r, const kf_render_scene *sc, kf_frame *f, f
     gl->Disable(GL_POLYGON_OFFSET_FILL);
 }
 
-void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame *f, GLuint fbo, int linear, float t) {
-    kf_gl *gl = &r->gl;
-    /* background gradient */
-    gl->BindFramebuffer(GL_FRAMEBUFFER, fbo);
-    gl->Viewport(0, 0, r->w, r->h);
-    gl->Enable(GL_MULTISAMPLE);
-    gl->ClearColor(0, 0, 0, 1);
-    gl->Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    gl->Disable(GL_DEPTH_TEST);
-    gl->DepthMask(GL_FALSE);
-    gl->UseProgram(r->prog_bg);
-    gl->Uniform3fv(gl->GetUniformLocation(r->prog_bg, "u_bg_top"), 1, sc->bg_top);
-    gl->Uniform3fv(gl->GetUniformLocation(r->prog_bg, "u_bg_bottom"), 1, sc->bg_bottom);
-    gl->Uniform1i(gl->GetUniformLocation(r->prog_bg, "u_linear"), linear);
-    gl->DrawArrays(GL_TRIANGLES, 0, 3);
-    gl->Enable(GL_DEPTH_TEST);
-    gl->DepthMask(GL_TRUE);
+/* the per-draw uniforms of the mesh shader */
+typedef struct shading {
+    GLint diffuse, spec, rough, flat, ground;
+} shading;
 
-    /* meshes and ground */
-    GLuint p = r->prog_main;
+/* program p (prog_main or prog_unshadowed) in use with the frame's uniforms */
+static shading use_shading(kf_render_ctx *r, GLuint p, const kf_render_scene *sc, const kf_frame *f, int linear,
+                           float t) {
+    kf_gl *gl = &r->gl;
     gl->UseProgram(p);
 #define U(name) gl->GetUniformLocation(p, name)
     gl->UniformMatrix4fv(U("u_viewproj"), 1, GL_FALSE, f->viewproj);
@@ -735,17 +745,111 @@ void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame
     gl->ActiveTexture(GL_TEXTURE0);
     gl->BindTexture(GL_TEXTURE_2D, r->tex_shadow);
     gl->Uniform1i(U("u_shadow"), 0);
-    GLint u_diffuse = U("u_diffuse"), u_spec = U("u_spec"), u_rough = U("u_rough"), u_flat = U("u_flat"),
-          u_ground = U("u_ground");
+    shading u = {U("u_diffuse"), U("u_spec"), U("u_rough"), U("u_flat"), U("u_ground")};
 #undef U
-    gl->Uniform1i(u_ground, 0);
+    return u;
+}
+
+/* The pixels (x0, y0, x1, y1: window coordinates, the pixels x0..x1-1 and
+ * y0..y1-1) outside which no ground fragment reads the shadow map: the
+ * screen box of the ground's parallelogram that the key light's map covers
+ * (its light-space x and y in 0..1), grown by 2 pixels for the roundings
+ * of the fragments' interpolated positions. Outside it shadow_at returns 1
+ * (p.x or p.y out of the map). The whole image where that cannot be had
+ * (the light along the ground, a corner behind the eye). */
+static void ground_shadow_box(const kf_render_ctx *r, const kf_frame *f, int box[4]) {
+    box[0] = 0, box[1] = 0, box[2] = r->w, box[3] = r->h;
+    const float *L = f->light_vp, gy = f->ground_y;
+    /* the map's coordinates on the ground (orthographic: w = 1), affine in x, z */
+    const double ax = 0.5 * L[0], az = 0.5 * L[8], a0 = 0.5 * (L[4] * gy + L[12]) + 0.5;
+    const double bx = 0.5 * L[1], bz = 0.5 * L[9], b0 = 0.5 * (L[5] * gy + L[13]) + 0.5;
+    const double det = ax * bz - az * bx;
+    if (!(fabs(det) > 1e-12 * (fabs(ax * bz) + fabs(az * bx))) || L[3] != 0 || L[7] != 0 || L[11] != 0) return;
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int k = 0; k < 4; k++) {
+        const double u = (k == 1 || k == 2) - a0, v = (k >= 2) - b0;
+        const double x = (bz * u - az * v) / det, z = (ax * v - bx * u) / det;
+        const float *M = f->viewproj;
+        const double cx = M[0] * x + M[4] * gy + M[8] * z + M[12], cy = M[1] * x + M[5] * gy + M[9] * z + M[13];
+        const double cw = M[3] * x + M[7] * gy + M[11] * z + M[15];
+        if (!(cw > 1e-6)) return;
+        const double sx = (cx / cw * 0.5 + 0.5) * r->w, sy = (cy / cw * 0.5 + 0.5) * r->h;
+        lo[0] = fmin(lo[0], sx), hi[0] = fmax(hi[0], sx), lo[1] = fmin(lo[1], sy), hi[1] = fmax(hi[1], sy);
+    }
+    const double lim[2] = {r->w, r->h};
+    for (int a = 0; a < 2; a++) {
+        box[a] = (int)fmax(0, fmin(lim[a], floor(lo[a]) - 2));
+        box[a + 2] = (int)fmax(0, fmin(lim[a], ceil(hi[a]) + 2));
+    }
+}
+
+/* The ground: inside the map's box with the full shader, around it (up to
+ * four bands) with prog_unshadowed, which there gives the same values: the
+ * same quad, so every fragment gets the same interpolated inputs, and the
+ * scissor only picks which program shades it. The map's 9 taps were half
+ * the ground's cost over the 1080p frame, most of which lies beyond the
+ * map. Without shadows the ground is all prog_unshadowed's. */
+static void draw_ground(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame *f, shading u, int linear,
+                        float t) {
+    kf_gl *gl = &r->gl;
+    int box[4] = {0, 0, 0, 0};
+    if (f->shadows) ground_shadow_box(r, f, box);
+    /* the box, then the bands below, above, left and right of it */
+    const int bands[5][4] = {{box[0], box[1], box[2], box[3]},
+                             {0, 0, r->w, box[1]},
+                             {0, box[3], r->w, r->h},
+                             {0, box[1], box[0], box[3]},
+                             {box[2], box[1], r->w, box[3]}};
+    gl->Enable(GL_SCISSOR_TEST);
+    int unshadowed = -1; /* the ground's uniforms not yet set */
+    for (int k = 0; k < 5; k++) {
+        const int *b = bands[k];
+        if (b[2] <= b[0] || b[3] <= b[1]) continue;
+        if ((k > 0) != unshadowed) {
+            /* prog_main (the meshes') for the box, prog_unshadowed around it */
+            if (k > 0) u = use_shading(r, r->prog_unshadowed, sc, f, linear, t);
+            unshadowed = k > 0;
+            gl->Uniform1i(u.ground, 1);
+            gl->Uniform3fv(u.diffuse, 1, sc->ground_mat.diffuse);
+            gl->Uniform1f(u.spec, sc->ground_mat.specular);
+            gl->Uniform1f(u.rough, sc->ground_mat.roughness > 0 ? sc->ground_mat.roughness : 0.8f);
+            gl->Uniform1i(u.flat, 0);
+            kf_bind_mesh(gl, r->ground_vbo[0], r->ground_vbo[1], 1, 0, 0, r->ground_ebo);
+        }
+        gl->Scissor(b[0], b[1], b[2] - b[0], b[3] - b[1]);
+        gl->DrawElements(GL_TRIANGLES, 6, GL_UNSIGNED_INT, NULL);
+    }
+    gl->Disable(GL_SCISSOR_TEST);
+}
+
+void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame *f, GLuint fbo, int linear, float t) {
+    kf_gl *gl = &r->gl;
+    /* background gradient */
+    gl->BindFramebuffer(GL_FRAMEBUFFER, fbo);
+    gl->Viewport(0, 0, r->w, r->h);
+    gl->Enable(GL_MULTISAMPLE);
+    gl->ClearColor(0, 0, 0, 1);
+    gl->Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    gl->Disable(GL_DEPTH_TEST);
+    gl->DepthMask(GL_FALSE);
+    gl->UseProgram(r->prog_bg);
+    gl->Uniform3fv(gl->GetUniformLocation(r->prog_bg, "u_bg_top"), 1, sc->bg_top);
+    gl->Uniform3fv(gl->GetUniformLocation(r->prog_bg, "u_bg_bottom"), 1, sc->bg_bottom);
+    gl->Uniform1i(gl->GetUniformLocation(r->prog_bg, "u_linear"), linear);
+    gl->DrawArrays(GL_TRIANGLES, 0, 3);
+    gl->Enable(GL_DEPTH_TEST);
+    gl->DepthMask(GL_TRUE);
+
+    /* meshes and ground */
+    shading u = use_shading(r, r->prog_main, sc, f, linear, t);
+    gl->Uniform1i(u.ground, 0);
     for (int m = 0; m < sc->nmeshes; m++) {
         const kf_render_mesh *me = &sc->meshes[m];
         if (me->ntris == 0) continue;
-        gl->Uniform3fv(u_diffuse, 1, me->mat.diffuse);
-        gl->Uniform1f(u_spec, me->mat.specular);
-        gl->Uniform1f(u_rough, me->mat.roughness > 0 ? me->mat.roughness : 0.5f);
-        gl->Uniform1i(u_flat, me->normals == NULL);
+        gl->Uniform3fv(u.diffuse, 1, me->mat.diffuse);
+        gl->Uniform1f(u.spec, me->mat.specular);
+        gl->Uniform1f(u.rough, me->mat.roughness > 0 ? me->mat.roughness : 0.5f);
+        gl->Uniform1i(u.flat, me->normals == NULL);
         kf_bind_mesh(gl, r->vbo_pos[m], r->vbo_nrm[m], me->normals != NULL, r->vbo_mot[m], me->motion != NULL,
                      r->ebo[m]);
         const int cull = cull_back_faces(me, f);
@@ -753,15 +857,7 @@ void kf_frame_beauty(kf_render_ctx *r, const kf_render_scene *sc, const kf_frame
         gl->DrawElements(GL_TRIANGLES, (GLsizei)(me->ntris * 3), GL_UNSIGNED_INT, NULL);
         if (cull) gl->Disable(GL_CULL_FACE);
     }
-    if (f->draw_ground) {
-        gl->Uniform1i(u_ground, 1);
-        gl->Uniform3fv(u_diffuse, 1, sc->ground_mat.diffuse);
-        gl->Uniform1f(u_spec, sc->ground_mat.specular);
-        gl->Uniform1f(u_rough, sc->ground_mat.roughness > 0 ? sc->ground_mat.roughness : 0.8f);
-        gl->Uniform1i(u_flat, 0);
-        kf_bind_mesh(gl, r->ground_vbo[0], r->ground_vbo[1], 1, 0, 0, r->ground_ebo);
-        gl->DrawElements(GL_TRIANGLES, 6, GL_UNSIGNED_INT, NULL);
-    }
+    if (f->draw_ground) draw_ground(r, sc, f, u, linear, t);
 }
 
 int kf_frame_read8(kf_render_ctx *r, GLuint fbo, GLuint resolve, uint8_t *out, char *err, size_t errlen) {
