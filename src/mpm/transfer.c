@@ -525,12 +525,95 @@ void kf_p2g_update(const kf_model *m, kf_state *s, kf_real dt, kf_trouble *troub
 
 /* ---- G2P ---------------------------------------------------------------------- */
 
-/* n values of a chunk's plane into a particle plane: a whole chunk as one
- * fixed-size copy (a vector move, not the string copy or the scalar stores
- * a variable length compiles to) */
-KF_INLINE void plane_out(kf_real *restrict dst, const kf_real *restrict src, int n) {
-    if (n == KF_CHUNK) memcpy(dst, src, KF_CHUNK * sizeof(kf_real));
-    else memcpy(dst, src, sizeof(kf_real) * (size_t)n);
+/* C = D⁻¹ B in the chunk (ck->b: MLS's L, read again below) and in the
+ * particles' C planes, classic's L = Σ v_i ∇wᵀ / Δx, and each particle's
+ * |Δt L|² (a2): one pass over the nine planes, each lane the expressions
+ * of the per-plane loops it replaced. Returns whether any |Δt L|² passes
+ * KF_EXPM_FROM2. */
+KF_INLINE int g2p_scale_c(int CLASSIC, int n, chunk *ck, kf_real *const C[9], size_t i0, kf_real minv, kf_real inv_dx,
+                          kf_real dt, kf_real *restrict a2) {
+    kf_real *restrict c0 = C[0] + i0, *restrict c1 = C[1] + i0, *restrict c2 = C[2] + i0;
+    kf_real *restrict c3 = C[3] + i0, *restrict c4 = C[4] + i0, *restrict c5 = C[5] + i0;
+    kf_real *restrict c6 = C[6] + i0, *restrict c7 = C[7] + i0, *restrict c8 = C[8] + i0;
+    kf_real *const restrict out[9] = {c0, c1, c2, c3, c4, c5, c6, c7, c8};
+    int any = 0;
+    KF_SIMD_OR(any)
+    for (int j = 0; j < n; j++) {
+        kf_real sum = 0;
+        /* plane k: C, and L's entry k squared into the sum */
+#define G2P_SCALE_C(k)                                                                                                 \
+    {                                                                                                                  \
+        const kf_real c = ck->b[k][j] * minv;                                                                          \
+        ck->b[k][j] = c;                                                                                               \
+        out[k][j] = c;                                                                                                 \
+        kf_real l = c;                                                                                                 \
+        if (CLASSIC) ck->g[k][j] = l = ck->g[k][j] * inv_dx;                                                           \
+        sum += l * l;                                                                                                  \
+    }
+        G2P_SCALE_C(0) G2P_SCALE_C(1) G2P_SCALE_C(2) G2P_SCALE_C(3) G2P_SCALE_C(4) G2P_SCALE_C(5) G2P_SCALE_C(6)
+        G2P_SCALE_C(7) G2P_SCALE_C(8)
+#undef G2P_SCALE_C
+        a2[j] = sum * dt * dt;
+        any |= a2[j] > (kf_real)KF_EXPM_FROM2;
+    }
+    return any;
+}
+
+/* whether any of a chunk's particles is in trouble: |v|² not finite, or
+ * J = det F outside (jmin, jmax) */
+KF_INLINE int g2p_bad(int n, const kf_real *restrict J, const kf_real *restrict v2s, kf_real jmin, kf_real jmax) {
+    int bad = 0;
+    KF_SIMD_OR(bad)
+    for (int j = 0; j < n; j++) bad |= !(v2s[j] < (kf_real)1e30) | !(J[j] > jmin) | !(J[j] < jmax);
+    return bad;
+}
+
+/* F ← (I + Δt L) F in the particles' planes and J = det F, with MOVE the
+ * velocity out and x += Δt v, and |v|² (v2s): one pass across the chunk,
+ * the F planes read and written once, nothing staged in the chunk. Each
+ * lane is the expression the per-row loops had, so the roundings (and
+ * the multiply-adds they contract to) are theirs. Returns g2p_bad. */
+KF_INLINE int g2p_update(int MOVE, int n, kf_real (*L)[KF_CHUNK], const chunk *ck, kf_particles *p, size_t i0,
+                         kf_real dt, kf_real jmin, kf_real jmax, kf_real *restrict J, kf_real *restrict v2s) {
+    kf_real *restrict F0 = p->F[0] + i0, *restrict F1 = p->F[1] + i0, *restrict F2 = p->F[2] + i0;
+    kf_real *restrict F3 = p->F[3] + i0, *restrict F4 = p->F[4] + i0, *restrict F5 = p->F[5] + i0;
+    kf_real *restrict F6 = p->F[6] + i0, *restrict F7 = p->F[7] + i0, *restrict F8 = p->F[8] + i0;
+    kf_real *restrict x0 = p->x[0] + i0, *restrict x1 = p->x[1] + i0, *restrict x2 = p->x[2] + i0;
+    kf_real *restrict v0 = p->v[0] + i0, *restrict v1 = p->v[1] + i0, *restrict v2 = p->v[2] + i0;
+    const kf_real *restrict u0 = ck->v[0], *restrict u1 = ck->v[1], *restrict u2 = ck->v[2];
+    int bad = 0;
+    KF_SIMD_OR(bad)
+    for (int j = 0; j < n; j++) {
+        /* row r of F is f_r0 f_r1 f_r2 */
+        const kf_real f00 = F0[j], f01 = F1[j], f02 = F2[j];
+        const kf_real f10 = F3[j], f11 = F4[j], f12 = F5[j];
+        const kf_real f20 = F6[j], f21 = F7[j], f22 = F8[j];
+        const kf_real n00 = f00 + dt * (L[0][j] * f00 + L[1][j] * f10 + L[2][j] * f20);
+        const kf_real n01 = f01 + dt * (L[0][j] * f01 + L[1][j] * f11 + L[2][j] * f21);
+        const kf_real n02 = f02 + dt * (L[0][j] * f02 + L[1][j] * f12 + L[2][j] * f22);
+        const kf_real n10 = f10 + dt * (L[3][j] * f00 + L[4][j] * f10 + L[5][j] * f20);
+        const kf_real n11 = f11 + dt * (L[3][j] * f01 + L[4][j] * f11 + L[5][j] * f21);
+        const kf_real n12 = f12 + dt * (L[3][j] * f02 + L[4][j] * f12 + L[5][j] * f22);
+        const kf_real n20 = f20 + dt * (L[6][j] * f00 + L[7][j] * f10 + L[8][j] * f20);
+        const kf_real n21 = f21 + dt * (L[6][j] * f01 + L[7][j] * f11 + L[8][j] * f21);
+        const kf_real n22 = f22 + dt * (L[6][j] * f02 + L[7][j] * f12 + L[8][j] * f22);
+        F0[j] = n00, F1[j] = n01, F2[j] = n02;
+        F3[j] = n10, F4[j] = n11, F5[j] = n12;
+        F6[j] = n20, F7[j] = n21, F8[j] = n22;
+        const kf_real det =
+            n00 * (n11 * n22 - n12 * n21) - n01 * (n10 * n22 - n12 * n20) + n02 * (n10 * n21 - n11 * n20);
+        J[j] = det;
+        if (MOVE) {
+            v0[j] = u0[j], v1[j] = u1[j], v2[j] = u2[j];
+            x0[j] += dt * u0[j];
+            x1[j] += dt * u1[j];
+            x2[j] += dt * u2[j];
+        }
+        const kf_real q = u0[j] * u0[j] + u1[j] * u1[j] + u2[j] * u2[j];
+        v2s[j] = q;
+        bad |= !(q < (kf_real)1e30) | !(det > jmin) | !(det < jmax);
+    }
+    return bad;
 }
 
 /* what follows an owner in this thread's order, for the prefetches made
@@ -648,15 +731,11 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
             else poly_gather(ck, j, inv_dx, cache, md);
         }
 
-    /* C = D⁻¹ B (in place, stored with the other planes below); velocity
-     * gradient L = C (MLS: the one product) or Σ v_i ∇wᵀ (classic) */
-    for (int k = 0; k < 9; k++) {
-        KF_SIMD
-        for (int j = 0; j < n; j++) {
-            ck->b[k][j] *= minv;
-            if (CLASSIC) ck->g[k][j] *= inv_dx;
-        }
-    }
+    /* C = D⁻¹ B, written to the particles' C planes at once, and |Δt L|²,
+     * across the chunk (one pass over the nine planes); velocity gradient
+     * L = C (MLS: the one product) or Σ v_i ∇wᵀ (classic) */
+    kf_real a2[KF_CHUNK];
+    const int any_large = g2p_scale_c(CLASSIC, n, ck, p->C, i0, minv, inv_dx, dt, a2);
     kf_real(*L)[KF_CHUNK] = CLASSIC ? ck->g : ck->b;
 
     /* near a rigid surface, where each particle starts: the guard follows its path */
@@ -677,69 +756,38 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
             }
         }
 
-    /* F ← (I + Δt L) F and its determinant, across the chunk */
-    kf_real Fn[9][KF_CHUNK], J[KF_CHUNK];
-    {
-        kf_real *const *F = p->F;
+    /* where the step deforms by more than a few percent (a body driving
+     * material a large fraction of a cell per substep), the exact step
+     * exp(Δt L) F instead (det stays positive, expm.h): its F before the
+     * in-place update below kept (rare) */
+    kf_real Fold[9][KF_CHUNK];
+    if (any_large)
+        for (int k = 0; k < 9; k++) memcpy(Fold[k], p->F[k] + i0, sizeof(kf_real) * (size_t)n);
+
+    /* F ← (I + Δt L) F in place and its determinant, v out and x advanced
+     * (FLIP did both above), |v|² and the checks: one pass across the chunk */
+    kf_real J[KF_CHUNK], v2s[KF_CHUNK];
+    int bad = flip ? g2p_update(0, n, L, ck, p, i0, dt, jmin, jmax, J, v2s)
+                   : g2p_update(1, n, L, ck, p, i0, dt, jmin, jmax, J, v2s);
+    for (int j = 0; j < (any_large ? n : 0); j++) {
+        if (!(a2[j] > (kf_real)KF_EXPM_FROM2)) continue;
+        size_t i = i0 + (size_t)j;
+        double A[9], E[9];
+        kf_real Fn[9];
+        for (int k = 0; k < 9; k++) A[k] = (double)dt * L[k][j];
+        kf_expm3(A, E);
         for (int rr = 0; rr < 3; rr++)
-            for (int cc = 0; cc < 3; cc++) {
-                const kf_real *restrict f0 = F[cc] + i0, *restrict f1 = F[3 + cc] + i0, *restrict f2 = F[6 + cc] + i0;
-                KF_SIMD
-                for (int j = 0; j < n; j++) {
-                    kf_real fr = (rr == 0 ? f0 : rr == 1 ? f1 : f2)[j];
-                    Fn[3 * rr + cc][j] =
-                        fr + dt * (L[3 * rr][j] * f0[j] + L[3 * rr + 1][j] * f1[j] + L[3 * rr + 2][j] * f2[j]);
-                }
-            }
-        KF_SIMD
-        for (int j = 0; j < n; j++)
-            J[j] = Fn[0][j] * (Fn[4][j] * Fn[8][j] - Fn[5][j] * Fn[7][j]) -
-                   Fn[1][j] * (Fn[3][j] * Fn[8][j] - Fn[5][j] * Fn[6][j]) +
-                   Fn[2][j] * (Fn[3][j] * Fn[7][j] - Fn[4][j] * Fn[6][j]);
-        /* where the step deforms by more than a few percent (a body
-         * driving material a large fraction of a cell per substep), the
-         * exact step exp(Δt L) F instead: det stays positive (expm.h) */
-        kf_real a2[KF_CHUNK];
-        int any_large = 0;
-        KF_SIMD
-        for (int j = 0; j < n; j++) {
-            kf_real sum = 0;
-            for (int k = 0; k < 9; k++) sum += L[k][j] * L[k][j];
-            a2[j] = sum * dt * dt;
-        }
-        KF_SIMD_OR(any_large)
-        for (int j = 0; j < n; j++) any_large |= a2[j] > (kf_real)KF_EXPM_FROM2;
-        for (int j = 0; j < (any_large ? n : 0); j++) {
-            if (!(a2[j] > (kf_real)KF_EXPM_FROM2)) continue;
-            size_t i = i0 + (size_t)j;
-            double A[9], E[9];
-            for (int k = 0; k < 9; k++) A[k] = (double)dt * L[k][j];
-            kf_expm3(A, E);
-            for (int rr = 0; rr < 3; rr++)
-                for (int cc = 0; cc < 3; cc++)
-                    Fn[3 * rr + cc][j] =
-                        (kf_real)(E[3 * rr] * F[cc][i] + E[3 * rr + 1] * F[3 + cc][i] + E[3 * rr + 2] * F[6 + cc][i]);
-            J[j] = Fn[0][j] * (Fn[4][j] * Fn[8][j] - Fn[5][j] * Fn[7][j]) -
-                   Fn[1][j] * (Fn[3][j] * Fn[8][j] - Fn[5][j] * Fn[6][j]) +
-                   Fn[2][j] * (Fn[3][j] * Fn[7][j] - Fn[4][j] * Fn[6][j]);
-        }
+            for (int cc = 0; cc < 3; cc++)
+                Fn[3 * rr + cc] = (kf_real)(E[3 * rr] * Fold[cc][j] + E[3 * rr + 1] * Fold[3 + cc][j] +
+                                            E[3 * rr + 2] * Fold[6 + cc][j]);
+        for (int k = 0; k < 9; k++) p->F[k][i] = Fn[k];
+        J[j] = Fn[0] * (Fn[4] * Fn[8] - Fn[5] * Fn[7]) - Fn[1] * (Fn[3] * Fn[8] - Fn[5] * Fn[6]) +
+               Fn[2] * (Fn[3] * Fn[7] - Fn[4] * Fn[6]);
     }
 
     /* water keeps F = I and tracks J ← (1 + Δt tr L) J instead */
     int any_water = 0;
     for (int j = 0; j < (water ? n : 0); j++) any_water |= m->mat[p->mat[i0 + (size_t)j]].model == KF_MAT_WATER;
-    /* the chunk's planes out, after F's loads: the stores (C and v lines
-     * are written, not read) queue behind the arithmetic, not before it */
-    for (int k = 0; k < 9; k++) plane_out(p->C[k] + i0, ck->b[k], n);
-    /* velocity and advection (FLIP did both above) */
-    for (int a = 0; a < (flip ? 0 : 3); a++) {
-        kf_real *restrict x = p->x[a] + i0;
-        const kf_real *restrict va = ck->v[a];
-        plane_out(p->v[a] + i0, va, n);
-        KF_SIMD
-        for (int j = 0; j < n; j++) x[j] += dt * va[j];
-    }
-    for (int k = 0; k < 9; k++) plane_out(p->F[k] + i0, Fn[k], n);
     if (any_water) {
         for (int j = 0; j < n; j++) {
             size_t i = i0 + (size_t)j;
@@ -751,6 +799,8 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
             for (int k = 0; k < 9; k++) p->F[k][i] = (kf_real)(k % 4 == 0);
         }
     }
+    /* the checks again where J changed after the pass */
+    if (any_large || any_water) bad = g2p_bad(n, J, v2s, jmin, jmax);
 
     /* slightly penetrated particles pushed back out (Eq. 22); then
      * nothing may have passed through a surface (guard.c) */
@@ -759,14 +809,7 @@ KF_INLINE kf_real g2p_chunk(int KW, int CLASSIC, int FLIP, int n, const g2p_owne
         kf_cpic_guard(m, s, r, oc, ck, i0, xold);
     }
 
-    /* numerical trouble: non-finite, volume out of range, too fast */
-    kf_real v2s[KF_CHUNK];
-    KF_SIMD
-    for (int j = 0; j < n; j++)
-        v2s[j] = ck->v[0][j] * ck->v[0][j] + ck->v[1][j] * ck->v[1][j] + ck->v[2][j] * ck->v[2][j];
-    int bad = 0;
-    KF_SIMD_OR(bad)
-    for (int j = 0; j < n; j++) bad |= !(v2s[j] < (kf_real)1e30) | !(J[j] > jmin) | !(J[j] < jmax);
+    /* numerical trouble (bad, above): non-finite, volume out of range, too fast */
     /* all finite and >= 0: the largest in any order */
     if (!bad) {
         KF_SIMD_MAX(max_v2)
