@@ -93,6 +93,56 @@ typedef struct p2g_owner {
     step_acc *acc;
 } p2g_owner;
 
+/* A chunk's per-particle P2G terms in one pass across its particles, each
+ * lane the expressions of the per-plane loops it replaced (so the same
+ * roundings): Q = m C − Δt V⁰ D⁻¹ τ (MLS), or m C and the separate force
+ * term −Δt V⁰ τ / Δx (classic), PIC without m C, FLIP's m C alone; m v
+ * and m. τ (tc: xx yy zz xy xz yz) is read once per entry, six planes for
+ * Q's nine (τ_ij = τ_ji). APIC a constant, as the per-plane loops had it
+ * after the compiler took the test out of them: m C + Δt V⁰ D⁻¹ τ then
+ * contracts to the same multiply-add. Returns whether any τ is not
+ * finite. */
+KF_INLINE int p2g_terms(int CLASSIC, int FLIP, int APIC, int n, chunk *ck, const kf_particles *p, size_t i0,
+                        const kf_real *const tc[6], kf_real dt, kf_real inv_dx, kf_real minv) {
+    const kf_real *restrict mass = p->mass + i0, *restrict vol = p->vol0 + i0;
+    const kf_real *restrict t0 = tc[0], *restrict t1 = tc[1], *restrict t2 = tc[2];
+    const kf_real *restrict t3 = tc[3], *restrict t4 = tc[4], *restrict t5 = tc[5];
+    const kf_real *restrict C0 = p->C[0] + i0, *restrict C1 = p->C[1] + i0, *restrict C2 = p->C[2] + i0;
+    const kf_real *restrict C3 = p->C[3] + i0, *restrict C4 = p->C[4] + i0, *restrict C5 = p->C[5] + i0;
+    const kf_real *restrict C6 = p->C[6] + i0, *restrict C7 = p->C[7] + i0, *restrict C8 = p->C[8] + i0;
+    const kf_real *restrict v0 = p->v[0] + i0, *restrict v1 = p->v[1] + i0, *restrict v2 = p->v[2] + i0;
+    int bad = 0;
+    KF_SIMD_OR(bad)
+    for (int j = 0; j < n; j++) {
+        const kf_real m = mass[j];
+        /* the stress term −Δt V⁰ τ, once per entry of τ */
+        const kf_real st0 = -dt * vol[j] * t0[j], st1 = -dt * vol[j] * t1[j], st2 = -dt * vol[j] * t2[j];
+        const kf_real st3 = -dt * vol[j] * t3[j], st4 = -dt * vol[j] * t4[j], st5 = -dt * vol[j] * t5[j];
+        bad |= !(kf_fabs(t0[j]) < (kf_real)1e30) | !(kf_fabs(t1[j]) < (kf_real)1e30) |
+               !(kf_fabs(t2[j]) < (kf_real)1e30) | !(kf_fabs(t3[j]) < (kf_real)1e30) |
+               !(kf_fabs(t4[j]) < (kf_real)1e30) | !(kf_fabs(t5[j]) < (kf_real)1e30);
+        /* entry k of Q from C's entry k and τ's entry s (row-major ij to xx yy zz xy xz yz) */
+#define P2G_Q(k, s)                                                                                                    \
+    {                                                                                                                  \
+        const kf_real mc = APIC ? m * C##k[j] : 0;                                                                     \
+        if (FLIP) ck->qm[k][j] = mc;                                                                                   \
+        if (CLASSIC) {                                                                                                 \
+            ck->q[k][j] = mc;                                                                                          \
+            ck->t[k][j] = st##s * inv_dx;                                                                              \
+        } else {                                                                                                       \
+            ck->q[k][j] = mc + minv * st##s;                                                                           \
+        }                                                                                                              \
+    }
+        P2G_Q(0, 0) P2G_Q(1, 3) P2G_Q(2, 4) P2G_Q(3, 3) P2G_Q(4, 1) P2G_Q(5, 5) P2G_Q(6, 4) P2G_Q(7, 5) P2G_Q(8, 2)
+#undef P2G_Q
+        ck->mv[0][j] = m * v0[j];
+        ck->mv[1][j] = m * v1[j];
+        ck->mv[2][j] = m * v2[j];
+        ck->mv[3][j] = m;
+    }
+    return bad;
+}
+
 /* one chunk of an owner's particles from i0: n of them, a constant
  * KF_CHUNK for every full chunk (each per-particle loop is then one
  * register per row, with no remainder code or alias checks) or the
@@ -120,14 +170,17 @@ KF_INLINE int p2g_chunk(int KW, int CLASSIC, int FLIP, int n, const p2g_owner *o
      * CPIC's band, the objects' own fields, polypic) */
     if (CLASSIC || band || fields || o->poly) stencil_phase_n(KW, 1, 1, 0, n, ck, p->x, i0, o->bc, inv_dx, o->dx);
     else stencil_phase_n(KW, 0, 1, 0, n, ck, p->x, i0, o->bc, inv_dx, o->dx);
-    for (int a = 0; a < 3; a++) {
-        int la = lo[a], ha = hi[a];
-        const int *restrict l = ck->l[a];
-        KF_SIMD_MIN(la)
-        for (int j = 0; j < n; j++) la = l[j] < la ? l[j] : la;
-        KF_SIMD_MAX(ha)
-        for (int j = 0; j < n; j++) ha = l[j] > ha ? l[j] : ha;
-        lo[a] = la, hi[a] = ha;
+    /* the base offsets' range, all three axes in one pass (min and max are exact in any order) */
+    {
+        const int *restrict l0 = ck->l[0], *restrict l1 = ck->l[1], *restrict l2 = ck->l[2];
+        int lo0 = lo[0], lo1 = lo[1], lo2 = lo[2], hi0 = hi[0], hi1 = hi[1], hi2 = hi[2];
+        _Pragma("omp simd reduction(min : lo0, lo1, lo2) reduction(max : hi0, hi1, hi2)")
+        for (int j = 0; j < n; j++) {
+            lo0 = l0[j] < lo0 ? l0[j] : lo0, hi0 = l0[j] > hi0 ? l0[j] : hi0;
+            lo1 = l1[j] < lo1 ? l1[j] : lo1, hi1 = l1[j] > hi1 ? l1[j] : hi1;
+            lo2 = l2[j] < lo2 ? l2[j] : lo2, hi2 = l2[j] > hi2 ? l2[j] : hi2;
+        }
+        lo[0] = lo0, lo[1] = lo1, lo[2] = lo2, hi[0] = hi0, hi[1] = hi1, hi[2] = hi2;
     }
     /* binned particles fit by construction; after the fused G2P one
      * may have drifted out of reach (binning will re-sort it) */
@@ -136,52 +189,16 @@ KF_INLINE int p2g_chunk(int KW, int CLASSIC, int FLIP, int n, const p2g_owner *o
 
     /* Q = m C − Δt V⁰ D⁻¹ τ (MLS), or m C and the separate force term
      * −Δt V⁰ τ ∇w (classic); PIC drops m C */
-    const kf_real *restrict mass = p->mass + i0, *restrict vol = p->vol0 + i0;
-    int bad = 0;
-    static const int sym[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ij in the xx yy zz xy xz yz planes */
+    const kf_real *restrict mass = p->mass + i0;
     /* the stress not kept (KF_ZERO_TAU): the chunk's evaluated from F here */
     kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
     kf_real *const tout[6] = {tbuf[0], tbuf[1], tbuf[2], tbuf[3], tbuf[4], tbuf[5]};
     const kf_real *tc[6];
     if (eval) kf_stress_eval(m, p, i0, n, tout);
     for (int k = 0; k < 6; k++) tc[k] = eval ? tbuf[k] : p->tau[k] + i0;
-    /* the stress term −Δt V⁰ τ once per entry of τ (six, not nine),
-     * and τ's finiteness in one pass (one reduction, not nine) */
-    kf_real st6[6][KF_CHUNK] __attribute__((aligned(64)));
-    for (int k = 0; k < 6; k++) {
-        const kf_real *restrict tau = tc[k];
-        kf_real *restrict st = st6[k];
-        KF_SIMD
-        for (int j = 0; j < n; j++) st[j] = -dt * vol[j] * tau[j];
-    }
-    KF_SIMD_OR(bad)
-    for (int j = 0; j < n; j++) {
-        int b = 0;
-        for (int k = 0; k < 6; k++) b |= !(kf_fabs(tc[k][j]) < (kf_real)1e30);
-        bad |= b;
-    }
-    for (int k = 0; k < 9; k++) {
-        const kf_real *restrict C = p->C[k] + i0, *restrict st = st6[sym[k]];
-        kf_real *restrict q = ck->q[k], *restrict qm = ck->qm[k], *restrict t = ck->t[k];
-        KF_SIMD
-        for (int j = 0; j < n; j++) {
-            kf_real mc = apic ? mass[j] * C[j] : 0;
-            if (FLIP) qm[j] = mc;
-            if (CLASSIC) {
-                q[j] = mc;
-                t[j] = st[j] * inv_dx;
-            } else {
-                q[j] = mc + minv * st[j];
-            }
-        }
-    }
-    for (int a = 0; a < 3; a++) {
-        const kf_real *restrict v = p->v[a] + i0;
-        kf_real *restrict mv = ck->mv[a];
-        KF_SIMD
-        for (int j = 0; j < n; j++) mv[j] = mass[j] * v[j];
-    }
-    memcpy(ck->mv[3], mass, sizeof(kf_real) * (size_t)n);
+    /* Q, m v and m, and τ's finiteness: one pass across the chunk */
+    int bad = apic ? p2g_terms(CLASSIC, FLIP, 1, n, ck, p, i0, tc, dt, inv_dx, minv)
+                   : p2g_terms(CLASSIC, FLIP, 0, n, ck, p, i0, tc, dt, inv_dx, minv);
     if (bad && fused) return 1;
     if (bad) {
         /* catch non-finite state where it starts, before P2G spreads it */
@@ -283,34 +300,35 @@ KF_INLINE void p2g_flush_old(int KW, kf_grid *g, const int32_t *nb, kf_v4 *cache
 
 /* the touched part of the cache (lohi: base offsets lo, hi per axis) into
  * the 8 blocks of the neighbourhood nb, in the node array (the grid's
- * nodes, or the fused step's next ones) */
-KF_INLINE void p2g_flush(int KW, kf_v4 *node, const int32_t *nb, const kf_v4 *cache, const int lohi[6]) {
+ * nodes, or the fused step's next ones); with CLEAR each row's touched
+ * part cleared once added (in L1 still): kf_p2g's caches are zero again
+ * for their next owner, with the same sums */
+KF_INLINE void p2g_flush_rows(int KW, int CLEAR, kf_v4 *node, const int32_t *nb, kf_v4 *cache, const int lohi[6]) {
     const int CD = CD_MAX;
     /* per cache row, the part in the lower z block, then the upper one */
     const int c0 = lohi[2], c1 = lohi[5] + KW, cm = c1 < KF_BLOCK ? c1 : KF_BLOCK;
     const int cu = c0 > KF_BLOCK ? c0 : KF_BLOCK;
     for (int a = lohi[0]; a < lohi[3] + KW; a++)
         for (int b = lohi[1]; b < lohi[4] + KW; b++) {
-            const kf_v4 *row = &cache[(a * CD + b) * CD];
-            kf_v4 *lo = nb_row(node, nb, a, b, 0), *hi = nb_row(node, nb, a, b, 1);
-            for (int c = c0; c < cm; c++) lo[c] += row[c];
-            for (int c = cu; c < c1; c++) hi[c - KF_BLOCK] += row[c];
-        }
-}
-
-/* p2g_flush, each row's touched part cleared once added (in L1 still):
- * kf_p2g's cache is zero again for its next owner, with the same sums */
-KF_INLINE void p2g_flush_clear(int KW, kf_v4 *node, const int32_t *nb, kf_v4 *cache, const int lohi[6]) {
-    const int CD = CD_MAX;
-    const int c0 = lohi[2], c1 = lohi[5] + KW, cm = c1 < KF_BLOCK ? c1 : KF_BLOCK;
-    const int cu = c0 > KF_BLOCK ? c0 : KF_BLOCK;
-    for (int a = lohi[0]; a < lohi[3] + KW; a++)
-        for (int b = lohi[1]; b < lohi[4] + KW; b++) {
             kf_v4 *row = &cache[(a * CD + b) * CD];
             kf_v4 *lo = nb_row(node, nb, a, b, 0), *hi = nb_row(node, nb, a, b, 1);
-            for (int c = c0; c < cm; c++) lo[c] += row[c], row[c] = (kf_v4){0, 0, 0, 0};
-            for (int c = cu; c < c1; c++) hi[c - KF_BLOCK] += row[c], row[c] = (kf_v4){0, 0, 0, 0};
+            for (int c = c0; c < cm; c++) {
+                lo[c] += row[c];
+                if (CLEAR) row[c] = (kf_v4){0, 0, 0, 0};
+            }
+            for (int c = cu; c < c1; c++) {
+                hi[c - KF_BLOCK] += row[c];
+                if (CLEAR) row[c] = (kf_v4){0, 0, 0, 0};
+            }
         }
+}
+/* the cache left as it is (another rank's, kf_p2g_add_cache): only read */
+KF_INLINE void p2g_flush(int KW, kf_v4 *node, const int32_t *nb, const kf_v4 *cache, const int lohi[6]) {
+    p2g_flush_rows(KW, 0, node, nb, (kf_v4 *)cache, lohi);
+}
+/* the cache zero again after */
+KF_INLINE void p2g_flush_clear(int KW, kf_v4 *node, const int32_t *nb, kf_v4 *cache, const int lohi[6]) {
+    p2g_flush_rows(KW, 1, node, nb, cache, lohi);
 }
 
 /* The cache of one owner block, one compiled function per variant: the
