@@ -407,7 +407,7 @@ int main(int argc, char **argv) {
     int have_block = !only || !strcmp(only, "block");
     if (have_block && bench_block(block_particles > 0 ? block_particles : quick ? 100000 : 1000000,
                                   frames_given && so.frames > 0 ? so.frames : quick ? 1 : 2,
-                                  so.threads > 0 ? so.threads : 0, &blk))
+                                  so.threads, &blk))
         return 1;
 
     frame_result fr = {0};

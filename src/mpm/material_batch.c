@@ -127,7 +127,7 @@ static inline __attribute__((always_inline)) mb_bits polar_sweep(int n, const kf
 static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real *const ps[2], size_t first,
                            kf_real *const tau[6]) {
     kf_real XA[9][BATCH], XB[9][BATCH];
-    int ok[BATCH];
+    mb_bits ok[BATCH];
     const kf_real mu = m->mu, la = m->lambda;
     /* F read in place from the planes (the first sweep's X, and at the end) */
     const kf_real *F[9];
@@ -158,6 +158,10 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
      * Straight-line code per particle so the loop vectorises. */
     const kf_real tol2 = sizeof(kf_real) == 4 ? KF_R(1e-10) : KF_R(1e-24);
     kf_real T[6][BATCH];
+    /* whether any lane failed, reduced across the lanes in the same loop:
+     * the lanes' scalar check after it (16 loads, tests and branches, about
+     * a tenth of a batch's instructions) runs only where one did */
+    mb_bits bad = 0;
     for (int j = 0; j < n; j++) {
         kf_real x0 = X[0][j], x1 = X[1][j], x2 = X[2][j], x3 = X[3][j], x4 = X[4][j], x5 = X[5][j], x6 = X[6][j],
                 x7 = X[7][j], x8 = X[8][j];
@@ -169,7 +173,8 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
         kf_real e = e00 * e00 + e11 * e11 + e22 * e22 + 2 * (e01 * e01 + e02 * e02 + e12 * e12);
         kf_real Jj = f0 * (f4 * f8 - f5 * f7) - f1 * (f3 * f8 - f5 * f6) + f2 * (f3 * f7 - f4 * f6);
         /* below J_b the volume barrier (material.h): the scalar path */
-        ok[j] = (e < tol2) & (Jj > KF_R(KF_COROT_JB));
+        ok[j] = (mb_bits)((e < tol2) & (Jj > KF_R(KF_COROT_JB)));
+        bad |= ok[j] ^ 1;
         /* τ = μ (A + Aᵀ) + λ(J − 1)J I with A = (F − R)Fᵀ = FFᵀ − RFᵀ */
         kf_real vol = la * (Jj - 1) * Jj;
         kf_real ff00 = f0 * f0 + f1 * f1 + f2 * f2, ff11 = f3 * f3 + f4 * f4 + f5 * f5,
@@ -191,11 +196,12 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
     for (int k = 0; k < 6; k++)
         for (int j = 0; j < n; j++) tau[k][j] = T[k][j];
     int limited = 0;
-    for (int j = 0; j < n; j++)
-        if (!ok[j]) {
-            scalar_one(m, Fp, ps, 0, first + (size_t)j, tau, j);
-            if (m->c_limit > 0) limited += limited_at(m, Fp, ps, first + (size_t)j);
-        }
+    if (bad)
+        for (int j = 0; j < n; j++)
+            if (!ok[j]) {
+                scalar_one(m, Fp, ps, 0, first + (size_t)j, tau, j);
+                if (m->c_limit > 0) limited += limited_at(m, Fp, ps, first + (size_t)j);
+            }
     return limited;
 }
 
@@ -721,7 +727,11 @@ int kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *co
              * (memory): their lines asked for four batches ahead */
             if (project)
                 for (int k = 0; k < 6; k++) __builtin_prefetch(out[k] + 4 * BATCH, 1, 3);
-            limited += lanes_batch(m, c, F, ps, project, first + (size_t)j0, out);
+            /* a full corotated batch straight to its lanes (lanes_batch's
+             * own first test, without the call and its dispatch) */
+            if (c == BATCH && m->model == KF_MAT_COROTATED)
+                limited += corotated_batch(m, BATCH, F, ps, first + (size_t)j0, out);
+            else limited += lanes_batch(m, c, F, ps, project, first + (size_t)j0, out);
         }
         return limited;
     }
