@@ -183,7 +183,7 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
     /* 0. nothing to do while every stencil still fits its owner's
      * neighbourhood: the test depends on positions alone, so on no thread count */
     long nmoved = 0, nbad = 0, nout = 0;
-    const int limit = KF_KEY_OFFSET - 2, shift = kf_owner_shift(cubic), lmax = kf_owner_lmax(cubic);
+    const int limit = KF_KEY_OFFSET - 2, shift = kf_owner_shift(cubic);
     uint32_t *dest = g->dest;
     int full = !g->valid;
     /* while the grid is valid, owner r (block id r) holds particles
@@ -191,22 +191,10 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
     const size_t nown = full ? 0 : g->nowner, *pstart = g->pstart;
     const int32_t *bcoord = g->bcoord;
     if (!full) {
-#pragma omp parallel for reduction(+ : nout, nbad) schedule(dynamic, 64) num_threads(threads)
-        for (size_t r = 0; r < nown; r++) {
-            const int32_t *bc = &bcoord[3 * r];
-            for (size_t i = pstart[r]; i < pstart[r + 1]; i++) {
-                int out = 0, ok = 1;
-                for (int a = 0; a < 3; a++) {
-                    kf_real xg = p->x[a][i] * inv_dx;
-                    if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) ok = 0;
-                    int l = ok ? kf_base_node(p->x[a][i], inv_dx, cubic) - KF_BLOCK * bc[a] : 0;
-                    out |= l < 0 || l > lmax;
-                }
-                nbad += !ok;
-                nout += out;
-            }
-        }
-        if (!nbad && !nout) return 0;
+#pragma omp parallel for reduction(+ : nout) schedule(dynamic, 64) num_threads(threads)
+        for (size_t r = 0; r < nown; r++) nout += !kf_grid_owner_fits(g, p, r, inv_dx, cubic);
+        /* step 1 finds the bad particles again */
+        if (!nout) return 0;
             /* each particle's owner until now, for step 1 */
 #pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
         for (size_t r = 0; r < nown; r++)
@@ -367,6 +355,8 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
          * barrier, and inv is read no more) */
         uint32_t *inv = g->scratch;
         const int CELLS = KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE;
+        _Static_assert(KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE <= 65536, "cell keys fit 16 bits");
+        enum { KEEP_KEYS = 4096 };
 #pragma omp parallel num_threads(nt)
         {
 #pragma omp for schedule(static)
@@ -383,10 +373,23 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
       (kf_base_node(p->x[1][i], inv_dx, cubic) - KF_BLOCK * bc[1])) *                                                  \
          KF_CACHE_EDGE +                                                                                               \
      (kf_base_node(p->x[2][i], inv_dx, cubic) - KF_BLOCK * bc[2]))
-                for (size_t q = s0; q < s1; q++) cnt[1 + CELL_KEY(inv[q])]++;
+                /* the keys kept from the count to the placement (three base
+                 * nodes a particle once, not twice), for owners up to
+                 * KEEP_KEYS particles; larger ones compute them again */
+                uint16_t keys[KEEP_KEYS];
+                const int keep = s1 - s0 <= KEEP_KEYS;
+                if (keep)
+                    for (size_t q = s0; q < s1; q++) {
+                        const int key = CELL_KEY(inv[q]);
+                        keys[q - s0] = (uint16_t)key;
+                        cnt[1 + key]++;
+                    }
+                else
+                    for (size_t q = s0; q < s1; q++) cnt[1 + CELL_KEY(inv[q])]++;
                 for (int c = 0; c < CELLS; c++) cnt[c + 1] += cnt[c];
                 for (size_t q = s0; q < s1; q++) {
-                    size_t i = inv[q], d = s0 + (size_t)cnt[CELL_KEY(i)]++;
+                    const size_t i = inv[q];
+                    const size_t d = s0 + (size_t)cnt[keep ? keys[q - s0] : CELL_KEY(i)]++;
                     dest[d] = (uint32_t)i;
                     identity &= d == i;
                 }

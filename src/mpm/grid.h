@@ -174,4 +174,37 @@ static inline int kf_base_node(kf_real x, kf_real inv_dx, int cubic) {
     return cubic ? (int)kf_floor(x * inv_dx) - 1 : (int)kf_floor(kf_fma(x, inv_dx, KF_R(-0.5)));
 }
 
+/* Whether every particle of owner r (of a valid grid) is finite, in range
+ * and has its stencil inside the owner's neighbourhood: binning's test,
+ * also made by the fused sweep while the positions are in cache. The base
+ * node is monotonic in x (one rounding of x/Δx, or of x/Δx − ½, then
+ * floor), so once every position is finite and in range the lowest and
+ * highest per axis stand for all of them: a min, a max and a range test a
+ * particle, vectorised, where a base node each took a floor, a conversion
+ * and two compares. */
+static inline int kf_grid_owner_fits(const kf_grid *g, const kf_particles *p, size_t r, kf_real inv_dx, int cubic) {
+    const int32_t *bc = &g->bcoord[3 * r];
+    const int lmax = kf_owner_lmax(cubic);
+    const size_t lo = g->pstart[r], hi = g->pstart[r + 1];
+    const kf_real far = (kf_real)(KF_BLOCK * (double)(KF_KEY_OFFSET - 2));
+    if (lo == hi) return 1;
+    for (int a = 0; a < 3; a++) {
+        const kf_real *x = p->x[a];
+        kf_real xmin = x[lo], xmax = x[lo];
+        int ok = 1;
+#pragma omp simd reduction(min : xmin) reduction(max : xmax) reduction(& : ok)
+        for (size_t i = lo; i < hi; i++) {
+            const kf_real xi = x[i];
+            /* NaN and far-away positions fail here */
+            ok &= kf_fabs(xi * inv_dx) < far;
+            xmin = xi < xmin ? xi : xmin;
+            xmax = xi > xmax ? xi : xmax;
+        }
+        const int origin = KF_BLOCK * bc[a];
+        if (!ok || kf_base_node(xmin, inv_dx, cubic) - origin < 0 || kf_base_node(xmax, inv_dx, cubic) - origin > lmax)
+            return 0;
+    }
+    return 1;
+}
+
 #endif
