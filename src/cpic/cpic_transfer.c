@@ -24,6 +24,29 @@
 #define NB KF_CPIC_NB
 #define AFF KF_CPIC_AFFINITY
 
+/* The offset in the owner's node cache of stencil node n = 9a + 3b + k from
+ * the particle's base node */
+static const int stencil_off[27] = {
+#define KF_ROW3(a, b) ((a) * NB + (b)) * NB, ((a) * NB + (b)) * NB + 1, ((a) * NB + (b)) * NB + 2
+    KF_ROW3(0, 0), KF_ROW3(0, 1), KF_ROW3(0, 2), KF_ROW3(1, 0), KF_ROW3(1, 1),
+    KF_ROW3(1, 2), KF_ROW3(2, 0), KF_ROW3(2, 1), KF_ROW3(2, 2)
+#undef KF_ROW3
+};
+
+/* particle j's base node in the owner's node cache (its stencil's first) */
+static inline int stencil_base(const chunk *ck, int j) {
+    return (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+}
+
+/* Stencil node n = 9a + 3b + k of particle j in owner block bc: its
+ * offsets s3 = {a, b, k} from the base node and its world position xi (one
+ * place for the across paths of P2G and G2P, so they agree) */
+static inline void stencil_node(const chunk *ck, int j, const int32_t *bc, double dx, int n, int s3[3],
+                                double xi[3]) {
+    s3[0] = n / 9, s3[1] = n / 3 % 3, s3[2] = n % 3;
+    for (int e = 0; e < 3; e++) xi[e] = (KF_BLOCK * bc[e] + ck->l[e][j] + s3[e]) * dx;
+}
+
 void kf_cpic_owner_cdf(const kf_state *s, size_t owner, kf_cpic_owner *oc) {
     const kf_cpic *c = s->cpic;
     const int32_t *nb = s->g.nb[owner];
@@ -143,15 +166,16 @@ static uint32_t pressed_bodies(const kf_model *m, const kf_state *s, const chunk
     uint32_t seen = 0, held = 0;
     /* the nodes across the particle's surface (bits of xm), in node order */
     for (uint32_t left = xm; left; left &= left - 1) {
-        const int nd = __builtin_ctz(left), a = nd / 9, b = nd / 3 % 3, k = nd % 3;
-        const int q = o + (a * NB + b) * NB + k;
-        int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
+        const int nd = __builtin_ctz(left);
+        int r = (int)(col[o + stencil_off[nd]] >> KF_CPIC_RSTAR_SHIFT) - 1;
         if (m->rigid[r].def.boundary != KF_BOUNDARY_SEPARATE) continue;
         if (!(seen >> r & 1)) acc[r] = 0, seen |= 1u << r;
+        int s3[3];
+        double xi[3];
+        stencil_node(ck, j, bc, dx, nd, s3, xi);
+        const int a = s3[0], b = s3[1], k = s3[2];
         const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
         const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
-        double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
-                        (4 * bc[2] + ck->l[2][j] + k) * dx};
         double V[3], g[3];
         kf_rigid_point_velocity(&s->rigid[r], xi, V);
         if (classic) {
@@ -581,7 +605,7 @@ static inline void stencil_sides(const uint32_t *col, int o, uint32_t old, uint3
  * near (r*+1 of the fit's closest node, 0 when the fit failed). */
 static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck, int j, const uint32_t *col,
                          const float *dist, const uint32_t *oc_aff, double dx, const uint8_t *thin_body, cdf_fit *f) {
-    const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+    const int o = stencil_base(ck, j);
     /* no node of the stencil near a body: only the scar stays */
     if (!oc_aff[o]) {
         p->colour[i] = kf_cpic_scar(0, p->colour[i], thin_body);
@@ -639,7 +663,7 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
 static void fit_sums_one(const chunk *ck, const uint32_t *col, const float *dist, double inv_dx, cdf_fit *f, int q) {
     const int j = f->idx[q];
     const uint32_t cp = f->cp[q];
-    const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+    const int o = stencil_base(ck, j);
     fit4 fit;
     fit4_zero(&fit);
     float closest = 1e30f;
@@ -698,15 +722,6 @@ static void particle_cdf_finish(kf_cpic *c, kf_particles *p, size_t i, const cdf
         for (int a = 0; a < 3; a++) c->pn[3 * i + a] = (float)(coef[a] * gn);
     }
 }
-
-/* The offset in the owner's node cache of stencil node n = 9a + 3b + k from
- * the particle's base node */
-static const int stencil_off[27] = {
-#define KF_ROW3(a, b) ((a) * NB + (b)) * NB, ((a) * NB + (b)) * NB + 1, ((a) * NB + (b)) * NB + 2
-    KF_ROW3(0, 0), KF_ROW3(0, 1), KF_ROW3(0, 2), KF_ROW3(1, 0), KF_ROW3(1, 1),
-    KF_ROW3(1, 2), KF_ROW3(2, 0), KF_ROW3(2, 1), KF_ROW3(2, 2)
-#undef KF_ROW3
-};
 
 /* The nodes of a particle's stencil (base node o) across a surface from it,
  * incompatible with its colour cp: bit n = 9a + 3b + k. 0 for most of the
@@ -782,7 +797,7 @@ static void fit_sums_lanes(const chunk *ck, const uint32_t *col, const float *di
         const int q = q0 + (l < nl ? l : 0);
         jl[l] = f->idx[q];
         cpl[l] = f->cp[q];
-        o[l] = (ck->l[0][jl[l]] * NB + ck->l[1][jl[l]]) * NB + ck->l[2][jl[l]];
+        o[l] = stencil_base(ck, jl[l]);
     }
     __m256d W[3][3], P[3][3];
     const __m256d vinv = _mm256_set1_pd(inv_dx);
@@ -965,7 +980,7 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
     double *imp = oc->imp;
     const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
     const uint32_t cp = s->p.colour[i];
-    const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+    const int o = stencil_base(ck, j);
     for (uint32_t left = ~xm & ((1u << 27) - 1); left; left &= left - 1) {
         const int n = __builtin_ctz(left);
         const double *ad = sa->add[lane][n];
@@ -980,19 +995,19 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
     double Cj[9];
     for (int e = 0; e < 9; e++) Cj[e] = apic ? s->p.C[e][i] : 0;
     for (uint32_t left = xm; left; left &= left - 1) {
-        const int n = __builtin_ctz(left), a = n / 9, b = n / 3 % 3, k = n % 3;
+        const int n = __builtin_ctz(left), q = o + stencil_off[n];
         const double *add = sa->add[lane][n];
-        const int q = o + stencil_off[n];
-        const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
+        int s3[3];
+        double xi[3];
+        stencil_node(ck, j, bc, dx, n, s3, xi);
+        const double d[3] = {ck->d[0][s3[0]][j], ck->d[1][s3[1]][j], ck->d[2][s3[2]][j]};
         int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
-        double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
-                        (4 * bc[2] + ck->l[2][j] + k) * dx};
         double J[3], cd[3];
         affine_velocity_of(Cj, apic, d, cd);
         for (int e = 0; e < 3; e++) J[e] = add[e] + add[3] * (gdt[e] - cd[e]);
         double at[3] = {xi[0], xi[1], xi[2]};
         if (!thin_body[r]) {
-            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};
+            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]};
             contact_point(col, oc->dist, q, l3, s3, bc, c->obox[owner], r, cp, xi, s->rigid[r].com, dx, at);
         }
         kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], at, J);
@@ -1022,7 +1037,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     for (int q = 0; q < fit.n; q++) particle_cdf_finish(c, p, i0 + (size_t)fit.idx[q], &fit, q, dx, thin_body);
     for (int j = 0; j < ck->n; j++) {
         const uint32_t cp = p->colour[i0 + (size_t)j];
-        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+        const int o = stencil_base(ck, j);
         if (!(cp & AFF)) continue;
         const uint32_t xm = across_nodes(col, o, cp);
         if (xm) xmask[nacross] = xm, across[nacross++] = j;
@@ -1098,7 +1113,7 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t
     const double dx = x->dx, dt = x->dt;
     static const int SYM[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2}; /* τ_ef in the xx yy zz xy xz yz planes */
     const uint32_t cp = p->colour[i];
-    const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+    const int o = stencil_base(ck, j);
     const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
     const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
     const double mass = p->mass[i];
@@ -1120,20 +1135,20 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t
     }
     /* then the nodes across (bits of xm) in node order, their ghosts over those */
     for (uint32_t left = xm; left; left &= left - 1) {
-        const int n = __builtin_ctz(left), a = n / 9, b = n / 3 % 3, k = n % 3;
-        const int q = o + stencil_off[n];
-        double vi[3], cd[3];
+        const int n = __builtin_ctz(left), q = o + stencil_off[n];
+        int s3[3];
+        double vi[3], cd[3], xi[3];
+        stencil_node(ck, j, bc, dx, n, s3, xi);
+        const int a = s3[0], b = s3[1], k = s3[2];
         const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
         const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
         int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
-        double xi[3] = {(4 * bc[0] + ck->l[0][j] + a) * dx, (4 * bc[1] + ck->l[1][j] + b) * dx,
-                        (4 * bc[2] + ck->l[2][j] + k) * dx};
         kept_velocity_at(m, s, r, xi, vp, np, (int)(held >> r & 1), x->uniform, &have, ur, vi);
         affine_velocity_of(Cj, x->apic, d, cd);
         /* the body gave P2G's whole share: the kept velocity comes back from it, where P2G's went */
         double K[3] = {-w * mass * vi[0], -w * mass * vi[1], -w * mass * vi[2]}, at[3] = {xi[0], xi[1], xi[2]};
         if (!x->thin_body[r]) {
-            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]}, s3[3] = {a, b, k};
+            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]};
             contact_point(col, x->oc->dist, q, l3, s3, bc, c->obox[x->owner], r, cp, xi, s->rigid[r].com, dx, at);
         }
         kf_cpic_add_impulse(x->imp + 6 * r, &s->rigid[r], at, K);
@@ -1283,7 +1298,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     int need_tau = 0;
     for (int j = 0; j < ck->n; j++) {
         const uint32_t cp = p->colour[i0 + (size_t)j];
-        const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
+        const int o = stencil_base(ck, j);
         if (!(cp & AFF)) continue;
         const uint32_t xm = across_nodes(col, o, cp);
         if (!xm) continue;
@@ -1327,7 +1342,7 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
             int ol[4];
             uint32_t xl[4];
             for (int l = 0; l < 4; l++) {
-                ol[l] = (ck->l[0][jl[l]] * NB + ck->l[1][jl[l]]) * NB + ck->l[2][jl[l]];
+                ol[l] = stencil_base(ck, jl[l]);
                 xl[l] = l < nl ? xmask[g0 + l] : 0;
             }
             gather_sums_lanes(ck, jl, nl, &gr, x.cache, ol, xl);
