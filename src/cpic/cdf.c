@@ -56,6 +56,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->obox);
     free(c->bin_start);
     free(c->slot);
+    free(c->xm_epoch);
     free(c->imp);
     for (int r = 0; r < KF_MAX_RIGIDS; r++) free(c->sides[r].v);
     free(c->guard_caught);
@@ -63,6 +64,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->pd);
     free(c->pn);
     free(c->near);
+    free(c->xmask);
     for (int r = 0; r < KF_MAX_RIGIDS; r++)
         free(c->tri[r]), free(c->tri_stamp[r]), free(c->run_sphere[r]), free(c->sub_sphere[r]);
     free(c->bmap);
@@ -105,13 +107,15 @@ static int reserve(kf_cpic *c, const kf_state *s) {
     }
     if (no > c->cap_owner) {
         size_t cap = no + no / 2 + 16;
-        if (grow((void **)&c->slot, sizeof(int32_t), cap)) return -1;
+        if (grow((void **)&c->slot, sizeof(int32_t), cap) || grow((void **)&c->xm_epoch, sizeof(uint32_t), cap))
+            return -1;
+        memset(c->xm_epoch, 0, cap * sizeof(uint32_t)); /* none left yet (epochs start at 1) */
         c->cap_owner = cap;
     }
     if (np > c->cap_p) {
         size_t cap = np + np / 4 + 64;
         if (grow((void **)&c->pd, sizeof(float), cap) || grow((void **)&c->pn, 3 * sizeof(float), cap) ||
-            grow((void **)&c->near, 1, cap))
+            grow((void **)&c->near, 1, cap) || grow((void **)&c->xmask, sizeof(uint32_t), cap))
             return -1;
         c->cap_p = cap;
     }

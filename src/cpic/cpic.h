@@ -104,6 +104,7 @@ typedef struct kf_cpic {
     /* owner blocks in the narrow band and their impulse accumulators */
     size_t cap_owner;
     int32_t *slot; /* per owner: index into imp, or -1 outside the band */
+    uint32_t *xm_epoch; /* per owner: == epoch: P2G left its particles' xmask for G2P */
     size_t nslot, cap_slot;
     double (*imp)[KF_MAX_RIGIDS][6];
     long band_owners; /* for the frame log */
@@ -113,6 +114,7 @@ typedef struct kf_cpic {
     float *pd;     /* d_p, m; valid where near[p] */
     float *pn;     /* (n x 3) n_p */
     uint8_t *near; /* the MLS fit succeeded */
+    uint32_t *xmask; /* P2G's nodes across a surface (a bit per stencil node), where the colour has affinity */
     /* world primitives, per body */
     kf_cpic_tri *tri[KF_MAX_RIGIDS];
     uint32_t *tri_stamp[KF_MAX_RIGIDS]; /* == epoch: tri[r][k] holds this substep's pose */

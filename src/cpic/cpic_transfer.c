@@ -1035,13 +1035,17 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     fit_sums(ck, col, dist, 1 / dx, &fit);
     solve4_lanes(&fit);
     for (int q = 0; q < fit.n; q++) particle_cdf_finish(c, p, i0 + (size_t)fit.idx[q], &fit, q, dx, thin_body);
+    /* the nodes across, kept for G2P (the same colours, the same CDF) */
+    const uint32_t *colour = p->colour + i0;
+    uint32_t *kept = c->xmask + i0;
     for (int j = 0; j < ck->n; j++) {
-        const uint32_t cp = p->colour[i0 + (size_t)j];
-        const int o = stencil_base(ck, j);
+        const uint32_t cp = colour[j];
         if (!(cp & AFF)) continue;
-        const uint32_t xm = across_nodes(col, o, cp);
+        const uint32_t xm = across_nodes(col, stencil_base(ck, j), cp);
+        kept[j] = xm;
         if (xm) xmask[nacross] = xm, across[nacross++] = j;
     }
+    c->xm_epoch[owner] = c->epoch;
     if (!nacross) {
         if (classic) scatter_chunk(3, 1, ck, cache);
         else scatter_chunk(3, 0, ck, cache);
@@ -1296,11 +1300,15 @@ void kf_cpic_g2p_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     int across[KF_CHUNK], presses[KF_CHUNK], nacross = 0;
     uint32_t xmask[KF_CHUNK];
     int need_tau = 0;
+    /* P2G's masks where this substep's P2G left them: between P2G and G2P
+     * no colour and no node of the CDF changes (an early P2G of the
+     * substep before, or none, leaves an older epoch: found again here) */
+    const int kept = c->xm_epoch[owner] == c->epoch;
     for (int j = 0; j < ck->n; j++) {
         const uint32_t cp = p->colour[i0 + (size_t)j];
         const int o = stencil_base(ck, j);
         if (!(cp & AFF)) continue;
-        const uint32_t xm = across_nodes(col, o, cp);
+        const uint32_t xm = kept ? c->xmask[i0 + (size_t)j] : across_nodes(col, o, cp);
         if (!xm) continue;
         int sep = 0;
         for (uint32_t left = xm; left; left &= left - 1)
