@@ -643,6 +643,20 @@ static void mesh_box(const kf_render_mesh *me, float lo[3], float hi[3]) {
             }
 }
 
+/* whether a closed mesh's box (over the shutter) passes `beyond` at all
+ * eight corners: the test both back-face culls below make */
+static int closed_box_passes(const kf_render_mesh *me, const float *m, float znear,
+                             int (*beyond)(const float *, float, const float[3])) {
+    if (!me->closed || me->nverts == 0) return 0;
+    float lo[3], hi[3];
+    mesh_box(me, lo, hi);
+    for (int k = 0; k < 8; k++) {
+        const float p[3] = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
+        if (!beyond(m, znear, p)) return 0;
+    }
+    return 1;
+}
+
 /* Whether a closed mesh's back faces can be skipped: each is hidden behind
  * the mesh's own front faces wherever the camera sees it from outside, which
  * holds when the mesh (at every time of the shutter) lies wholly beyond the
@@ -651,17 +665,13 @@ static void mesh_box(const kf_render_mesh *me, float lo[3], float hi[3]) {
  * half of a level set's mesh faces away. (The one exception: a silhouette
  * pixel whose centre a facet folding away covers and no front facet does;
  * one such pixel in the 1080p and demo frames checked.) */
+static int view_beyond_near(const float *view, float znear, const float p[3]) {
+    /* the view's depth of p (the view looks down -z) */
+    const float z = view[2] * p[0] + view[6] * p[1] + view[10] * p[2] + view[14];
+    return -z > znear;
+}
 static int cull_back_faces(const kf_render_mesh *me, const kf_frame *f) {
-    if (!me->closed || me->nverts == 0) return 0;
-    float lo[3], hi[3];
-    mesh_box(me, lo, hi);
-    /* the view's depth of each corner of the box (the view looks down -z) */
-    for (int k = 0; k < 8; k++) {
-        const float p[3] = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
-        const float z = f->view[2] * p[0] + f->view[6] * p[1] + f->view[10] * p[2] + f->view[14];
-        if (!(-z > f->znear)) return 0;
-    }
-    return 1;
+    return closed_box_passes(me, f->view, f->znear, view_beyond_near);
 }
 
 /* The same for the shadow map: seen from the key light, a closed mesh's
@@ -671,18 +681,14 @@ static int cull_back_faces(const kf_render_mesh *me, const kf_frame *f) {
  * nothing but the odd texel where a facet folding away at the silhouette
  * covers a texel centre that no front facet does (a texel the polygon
  * offset and the 3x3 filter blur with its neighbours). */
+static int light_beyond_near(const float *m, float unused, const float p[3]) {
+    (void)unused;
+    const float z = m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14];
+    const float w = m[3] * p[0] + m[7] * p[1] + m[11] * p[2] + m[15];
+    return z > -w;
+}
 static int cull_shadow_back_faces(const kf_render_mesh *me, const kf_frame *f) {
-    if (!me->closed || me->nverts == 0) return 0;
-    float lo[3], hi[3];
-    mesh_box(me, lo, hi);
-    const float *m = f->light_vp;
-    for (int k = 0; k < 8; k++) {
-        const float p[3] = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
-        const float z = m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14];
-        const float w = m[3] * p[0] + m[7] * p[1] + m[11] * p[2] + m[15];
-        if (!(z > -w)) return 0;
-    }
-    return 1;
+    return closed_box_passes(me, f->light_vp, 0, light_beyond_near);
 }
 
 void kf_frame_shadow(kf_render_ctx *r, const kf_render_scene *sc, kf_frame *f, float t) {
@@ -783,6 +789,17 @@ static void ground_shadow_box(const kf_render_ctx *r, const kf_frame *f, int box
     }
 }
 
+/* the ground's material in program u's uniforms, and its quad bound */
+static void ground_uniforms(kf_render_ctx *r, const kf_render_scene *sc, shading u) {
+    kf_gl *gl = &r->gl;
+    gl->Uniform1i(u.ground, 1);
+    gl->Uniform3fv(u.diffuse, 1, sc->ground_mat.diffuse);
+    gl->Uniform1f(u.spec, sc->ground_mat.specular);
+    gl->Uniform1f(u.rough, sc->ground_mat.roughness > 0 ? sc->ground_mat.roughness : 0.8f);
+    gl->Uniform1i(u.flat, 0);
+    kf_bind_mesh(gl, r->ground_vbo[0], r->ground_vbo[1], 1, 0, 0, r->ground_ebo);
+}
+
 /* The ground: inside the map's box with the full shader, around it (up to
  * four bands) with prog_unshadowed, which there gives the same values: the
  * same quad, so every fragment gets the same interpolated inputs, and the
@@ -801,20 +818,17 @@ static void draw_ground(kf_render_ctx *r, const kf_render_scene *sc, const kf_fr
                              {0, box[1], box[0], box[3]},
                              {box[2], box[1], r->w, box[3]}};
     gl->Enable(GL_SCISSOR_TEST);
-    int unshadowed = -1; /* the ground's uniforms not yet set */
+    /* prog_main (the meshes', in use) for the box, prog_unshadowed around it,
+     * each program's ground uniforms set before its first band */
+    int program_ready[2] = {0, 0};
     for (int k = 0; k < 5; k++) {
         const int *b = bands[k];
         if (b[2] <= b[0] || b[3] <= b[1]) continue;
-        if ((k > 0) != unshadowed) {
-            /* prog_main (the meshes') for the box, prog_unshadowed around it */
-            if (k > 0) u = use_shading(r, r->prog_unshadowed, sc, f, linear, t);
-            unshadowed = k > 0;
-            gl->Uniform1i(u.ground, 1);
-            gl->Uniform3fv(u.diffuse, 1, sc->ground_mat.diffuse);
-            gl->Uniform1f(u.spec, sc->ground_mat.specular);
-            gl->Uniform1f(u.rough, sc->ground_mat.roughness > 0 ? sc->ground_mat.roughness : 0.8f);
-            gl->Uniform1i(u.flat, 0);
-            kf_bind_mesh(gl, r->ground_vbo[0], r->ground_vbo[1], 1, 0, 0, r->ground_ebo);
+        const int around = k > 0;
+        if (!program_ready[around]) {
+            if (around) u = use_shading(r, r->prog_unshadowed, sc, f, linear, t);
+            ground_uniforms(r, sc, u);
+            program_ready[around] = 1;
         }
         gl->Scissor(b[0], b[1], b[2] - b[0], b[3] - b[1]);
         gl->DrawElements(GL_TRIANGLES, 6, GL_UNSIGNED_INT, NULL);
