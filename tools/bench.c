@@ -1,6 +1,6 @@
 /* bench.c — kerf's speed figures, printed, never asserted.
  *
- *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress]
+ *   kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress|pair]
  *              [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] [--hash] [--dump DIR] [--set k=v]
  *              [--substeps N] [--cells N] [--force mls|classic] [--unfused] [--particles N]
  *
@@ -42,6 +42,9 @@
  *        (only with --only memory; bench_memory.c; --scenes cube picks one).
  * stress: ns per particle of the stress pass per solid model, batch path
  *        and scalar path, one thread (only with --only stress; bench_stress.c).
+ * pair:  MLS against classic on one cube (--cells, default 100; --threads,
+ *        default 2), their steps alternating for --runs rounds, and the ratio
+ *        taken within each round (only with --only pair; bench_pair.c).
  * --cells, --force and --threads pick one cube size, force or thread count.
  * --unfused runs G2P, the stress pass and P2G as separate passes (cube,
  *        block and scenes), the reference the fused substep end must equal bit for bit.
@@ -63,6 +66,7 @@
 #include "../src/mpm/model.h" /* kf_model_set_unfused */
 #include "../src/scene/builtin.h"
 #include "bench_memory.h"
+#include "bench_pair.h"
 #include "bench_scenes.h"
 #include "bench_stress.h"
 #include "median.h"
@@ -375,7 +379,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
         else {
             fprintf(stderr,
-                    "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress]\n"
+                    "usage: kerf_bench [--json] [--runs N] [--quick] [--only cube|block|frame|scenes|memory|stress|pair]\n"
                     "                  [--frames N] [--scenes a,b] [--paper-dx] [--scale S] [--threads T] "
                     "[--hash] [--dump DIR] [--set k=v] [--substeps N]\n"
                     "                  [--cells N] [--force mls|classic] [--unfused] [--particles N]\n");
@@ -389,6 +393,8 @@ int main(int argc, char **argv) {
         return bench_memory(&mo);
     }
     if (only && !strcmp(only, "stress")) return bench_stress(runs);
+    if (only && !strcmp(only, "pair"))
+        return bench_pair(only_cells ? only_cells : quick ? 24 : 100, so.threads > 0 ? so.threads : 2, runs);
     if (only && !strcmp(only, "scenes")) {
         if (so.frames < 1 || !(so.scale > 0)) {
             fprintf(stderr, "kerf_bench: --frames must be >= 1 and --scale > 0\n");
