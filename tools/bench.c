@@ -28,7 +28,8 @@
  *        1024-texel shadow map), seconds
  *        per stage (wall and process CPU; the render's a warm context's
  *        second frame, as in a sequence, its first frame's beside it), beside the cost of simulating that
- *        frame at preview quality (2x dx, 1/8 the particles). KERF_BENCH_PNG=dir
+ *        frame at preview quality (2x dx, 1/8 the particles) and of simulating the surfaced
+ *        frame itself (the block's first frame at its own dx). KERF_BENCH_PNG=dir
  *        writes both pictures there. Process CPU seconds are the honest figure
  *        on a shared machine only when idle OpenMP threads sleep: libgomp's
  *        default spins (measured: 4.3 CPU s instead of 0.5 for the preview
@@ -175,8 +176,9 @@ typedef struct frame_post_result {
 
 typedef struct frame_result {
     size_t particles, preview_particles;
-    long preview_substeps;
-    double sim_wall, sim_cpu; /* simulating the frame at preview quality */
+    long preview_substeps, final_substeps;
+    double sim_wall, sim_cpu;             /* simulating the frame at preview quality */
+    double final_sim_wall, final_sim_cpu; /* simulating the surfaced frame itself (its own particles) */
     frame_post_result q[FQ_COUNT];
 } frame_result;
 
@@ -276,7 +278,8 @@ static int frame_post(size_t n, const float *x, double spacing, double dx, const
 
 /* one frame of the falling block's ~n particles, surfaced and rendered at
  * final and at preview quality; beside it, the cost of simulating that
- * frame at preview quality (dx doubled, 1/8 the particles) */
+ * frame at preview quality (dx doubled, 1/8 the particles) and of
+ * simulating the surfaced frame itself (its first frame, from rest) */
 static int bench_frame(long n, frame_result *out) {
     char err[512], msg[512];
     kf_scene sc, pv;
@@ -289,7 +292,11 @@ static int bench_frame(long n, frame_result *out) {
     if (kf_advance(pv.model, pv.state, 1.0 / 24, &pst, msg, sizeof msg)) fprintf(stderr, "bench: %s\n", msg);
     out->sim_wall = (kf_now_ms() - t0) / 1e3, out->sim_cpu = cpu_s() - c0;
     out->preview_substeps = pst.substeps, out->preview_particles = kf_state_count(pv.state);
-    kf_advance(sc.model, sc.state, 1.0 / 24, NULL, msg, sizeof msg);
+    kf_step_stats fst = {0};
+    t0 = kf_now_ms(), c0 = cpu_s();
+    if (kf_advance(sc.model, sc.state, 1.0 / 24, &fst, msg, sizeof msg)) fprintf(stderr, "bench: %s\n", msg);
+    out->final_sim_wall = (kf_now_ms() - t0) / 1e3, out->final_sim_cpu = cpu_s() - c0;
+    out->final_substeps = fst.substeps;
     kf_particles_view p = kf_state_particles_read(sc.state);
     out->particles = p.n;
     float *x = malloc(sizeof(float) * 3 * p.n);
@@ -464,8 +471,10 @@ int main(int argc, char **argv) {
         }
         if (have_frame) {
             printf(",\"frame\":{\"particles\":%zu,\"simulate_preview_s\":%.3f,\"simulate_preview_cpu_s\":%.3f,"
-                   "\"preview_particles\":%zu,\"preview_substeps\":%ld",
-                   fr.particles, fr.sim_wall, fr.sim_cpu, fr.preview_particles, fr.preview_substeps);
+                   "\"preview_particles\":%zu,\"preview_substeps\":%ld,\"simulate_frame_s\":%.3f,"
+                   "\"simulate_frame_cpu_s\":%.3f,\"frame_substeps\":%ld",
+                   fr.particles, fr.sim_wall, fr.sim_cpu, fr.preview_particles, fr.preview_substeps, fr.final_sim_wall,
+                   fr.final_sim_cpu, fr.final_substeps);
             for (int q = 0; q < FQ_COUNT; q++) {
                 const frame_post_result *r = &fr.q[q];
                 printf(",\"%s\":{\"triangles\":%zu,\"active_voxels\":%zu,\"vdb_mb\":%.2f,", frame_qualities[q].name,
@@ -506,6 +515,8 @@ int main(int argc, char **argv) {
             printf("\n  %-18s    %7.3f (%7.3f)   [simulating that frame at preview quality: %zu particles, %ld "
                    "substeps]\n",
                    "simulate_preview", fr.sim_wall, fr.sim_cpu, fr.preview_particles, fr.preview_substeps);
+            printf("  %-18s    %7.3f (%7.3f)   [simulating the surfaced frame itself: %zu particles, %ld substeps]\n",
+                   "simulate_frame", fr.final_sim_wall, fr.final_sim_cpu, fr.particles, fr.final_substeps);
             const char *wp = getenv("OMP_WAIT_POLICY");
             if (!wp || strcasecmp(wp, "passive")) /* OpenMP reads the value case-insensitively */
                 printf("  (OMP_WAIT_POLICY is not passive: idle OpenMP threads spin and inflate simulate_preview's CPU "
