@@ -327,6 +327,7 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
         /* each thread starts its range where the threads before it left off
          * in every owner: the same order a serial stable sort would give */
         int identity = 1;
+        size_t reach = 0; /* how far a particle moves in the array: the permutation's window */
         size_t *first_slot = malloc((size_t)nt * (nb_old + 1) * sizeof *first_slot);
         if (!first_slot) goto oom;
 #pragma omp parallel num_threads(nt)
@@ -361,7 +362,7 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
         {
 #pragma omp for schedule(static)
             for (size_t i = 0; i < n; i++) inv[dest[i]] = (uint32_t)i;
-#pragma omp for schedule(dynamic, 16) reduction(& : identity)
+#pragma omp for schedule(dynamic, 16) reduction(& : identity) reduction(max : reach)
             for (size_t r = 0; r < nowner; r++) {
                 int32_t cnt[KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE + 1];
                 memset(cnt, 0, sizeof cnt);
@@ -392,10 +393,11 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
                     const size_t d = s0 + (size_t)cnt[keep ? keys[q - s0] : CELL_KEY(i)]++;
                     dest[d] = (uint32_t)i;
                     identity &= d == i;
+                    reach = d > i ? (d - i > reach ? d - i : reach) : (i - d > reach ? i - d : reach);
                 }
 #undef CELL_KEY
             }
-            if (!identity) kf_particles_permute_team(p, dest, g->scratch);
+            if (!identity) kf_particles_permute_team(p, dest, reach, g->scratch);
         }
         if (!identity) g->permutes++;
     }

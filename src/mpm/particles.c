@@ -193,16 +193,84 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
         _Pragma("omp barrier") for (size_t i_ = lo; i_ < hi; i_++) a_[i_] = tmp_[i_];                                  \
     } while (0)
 
-void kf_particles_permute_team(kf_particles *p, const uint32_t *src, void *scratch) {
+/* ---- the permutation in place, through a ring --------------------------------
+ * A re-sort moves nearly every particle, but not far (the falling block's
+ * 953k move up to ~5k slots: its owners' columns shift as a whole). With
+ * every source within `reach` slots of its destination, each array is
+ * gathered RING_W slots at a time into a small ring that stays in cache, and
+ * a gathered chunk goes back into the array `lag` slots (>= reach + RING_W)
+ * behind the gather, once no later destination reads its old values: the
+ * array is read and written once, where the gather through the whole
+ * scratch plane and the copy back passed the plane's size through the
+ * scratch twice more. A thread's first `lag` slots (which the thread before
+ * it reads) wait in a head buffer, and its last chunks (which the thread
+ * after it reads) in the ring, until every thread has gathered the array:
+ * the same one barrier an array. */
+#define RING_W 256 /* slots gathered at a time (a power of two) */
+
+#define RING_FUNCTIONS(T, SUFFIX)                                                                                      \
+    /* gather [lo, hi) of a through src; write back what no reader needs */                                          \
+    static void ring_gather_##SUFFIX(T *restrict a, const uint32_t *restrict src, size_t lo, size_t hi, size_t lag,  \
+                                     T *restrict head, T *restrict ring, size_t rmask) {                               \
+        const size_t len = hi - lo;                                                                                    \
+        for (size_t c = 0; c < len; c += RING_W) {                                                                     \
+            const size_t w = len - c < RING_W ? len - c : RING_W;                                                      \
+            T *r = ring + (c & rmask);                                                                                 \
+            const uint32_t *s = src + lo + c;                                                                          \
+            for (size_t j = 0; j < w; j++) r[j] = a[s[j]];                                                             \
+            if (c >= lag) {                                                                                            \
+                /* every source of the chunks still to gather lies past q */                                          \
+                const size_t q = c - lag;                                                                              \
+                memcpy(q < lag ? head + q : a + lo + q, ring + (q & rmask), RING_W * sizeof(T));                       \
+            }                                                                                                          \
+        }                                                                                                              \
+    }                                                                                                                  \
+    /* after the barrier: the head, and the chunks still in the ring */                                              \
+    static void ring_flush_##SUFFIX(T *restrict a, size_t lo, size_t hi, size_t lag, const T *restrict head,         \
+                                    const T *restrict ring, size_t rmask) {                                            \
+        const size_t len = hi - lo, last = (len - 1) / RING_W * RING_W;                                                \
+        memcpy(a + lo, head, lag * sizeof(T));                                                                         \
+        for (size_t q = last - lag + RING_W; q < len; q += RING_W)                                                     \
+            memcpy(a + lo + q, ring + (q & rmask), (len - q < RING_W ? len - q : RING_W) * sizeof(T));                 \
+    }
+
+RING_FUNCTIONS(kf_real, real)
+RING_FUNCTIONS(uint16_t, u16)
+RING_FUNCTIONS(uint32_t, u32)
+
+/* one array through the ring (ring: this thread's range is long enough)
+ * or through the scratch plane */
+#define PERMUTE_ARRAY(T, SUFFIX, arr)                                                                                  \
+    do {                                                                                                               \
+        if (ring) {                                                                                                    \
+            T *head_ = (T *)share, *ring_ = (T *)(share + lag * elem);                                                 \
+            ring_gather_##SUFFIX((arr), src, lo, hi, lag, head_, ring_, rlen - 1);                                     \
+            _Pragma("omp barrier") ring_flush_##SUFFIX((arr), lo, hi, lag, head_, ring_, rlen - 1);                    \
+        } else                                                                                                         \
+            GATHER_PLANE(T, arr);                                                                                      \
+    } while (0)
+
+void kf_particles_permute_team(kf_particles *p, const uint32_t *src, size_t reach, void *scratch) {
     const size_t n = p->n;
     const size_t t = (size_t)omp_get_thread_num(), nt = (size_t)omp_get_num_threads();
     const size_t lo = n * t / nt, hi = n * (t + 1) / nt;
-    char *const share = (char *)scratch + lo * kf_particles_permute_bytes(1);
+    const size_t elem = kf_particles_permute_bytes(1);
+    char *const share = (char *)scratch + lo * elem;
+    /* the ring's lag (a whole number of chunks past reach) and length (a
+     * power of two holding the lag and a chunk); the head and the ring in
+     * this thread's share of the scratch, the head's lag slots delayed, the
+     * ring's last chunks too: they must not overlap. The threads may take
+     * different ways: a thread's gather reads other threads' slots only
+     * within reach of its own, which neither way writes before the barrier. */
+    const size_t lag = reach < n ? (reach / RING_W + 2) * RING_W : n;
+    size_t rlen = RING_W;
+    while (rlen < lag + RING_W) rlen *= 2;
+    const int ring = reach < n && hi - lo >= 2 * lag + RING_W && hi - lo >= lag + rlen;
     /* zero arrays stay as they are: every slot holds +0 */
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
-        if (!plane_zero(p, k)) GATHER_PLANE(kf_real, p->plane[k]);
-    if (!(p->zero & KF_ZERO_MAT)) GATHER_PLANE(uint16_t, p->mat);
-    GATHER_PLANE(uint32_t, p->id);
-    if (!(p->zero & KF_ZERO_OBJ)) GATHER_PLANE(uint16_t, p->obj);
-    if (!(p->zero & KF_ZERO_COLOUR)) GATHER_PLANE(uint32_t, p->colour);
+        if (!plane_zero(p, k)) PERMUTE_ARRAY(kf_real, real, p->plane[k]);
+    if (!(p->zero & KF_ZERO_MAT)) PERMUTE_ARRAY(uint16_t, u16, p->mat);
+    PERMUTE_ARRAY(uint32_t, u32, p->id);
+    if (!(p->zero & KF_ZERO_OBJ)) PERMUTE_ARRAY(uint16_t, u16, p->obj);
+    if (!(p->zero & KF_ZERO_COLOUR)) PERMUTE_ARRAY(uint32_t, u32, p->colour);
 }

@@ -114,8 +114,10 @@ int kf_particles_plane_resize(kf_particles *p, int k, size_t cap);
 int kf_particles_copy(kf_particles *dst, const kf_particles *src);
 /* Reorder: new[i] = old[src[i]] (src a permutation), by every thread of a
  * parallel region (it holds barriers; the region's end, or a barrier, comes
- * before the particles are read). scratch holds kf_particles_permute_bytes(n)
- * and must not be read by another thread meanwhile. */
-void kf_particles_permute_team(kf_particles *p, const uint32_t *src, void *scratch);
+ * before the particles are read). reach bounds |src[i] - i| (SIZE_MAX: not
+ * known): the closer, the less of the scratch it passes through. scratch
+ * holds kf_particles_permute_bytes(n) and must not be read by another thread
+ * meanwhile. The arrays stay where they are: pointers to them stay valid. */
+void kf_particles_permute_team(kf_particles *p, const uint32_t *src, size_t reach, void *scratch);
 
 #endif
