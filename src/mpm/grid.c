@@ -163,19 +163,23 @@ static void release_pages(void *a, size_t bytes) {
     if (lo < hi) madvise((void *)lo, hi - lo, MADV_DONTNEED);
 }
 
-static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle);
+static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, int known_out,
+               size_t *bad_particle);
 
 /* The binning's per-particle scratch (dest and the permutation plane, 8
  * bytes a particle) is needed only while it bins: its pages go back
  * afterwards, so the substep's other passes run without them resident. */
 int kf_grid_bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle) {
-    int rc = bin(g, p, inv_dx, cubic, threads, bad_particle);
+    const int known_out = g->known_out;
+    g->known_out = 0;
+    int rc = bin(g, p, inv_dx, cubic, threads, known_out, bad_particle);
     release_pages(g->dest, g->scratch_n * sizeof *g->dest);
     release_pages(g->scratch, kf_particles_permute_bytes(g->scratch_n));
     return rc;
 }
 
-static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, size_t *bad_particle) {
+static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, int known_out,
+               size_t *bad_particle) {
     size_t n = p->n;
     if (threads < 1) threads = 1;
     if (ensure_particle_scratch(g, n)) return -1;
@@ -191,10 +195,13 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
     const size_t nown = full ? 0 : g->nowner, *pstart = g->pstart;
     const int32_t *bcoord = g->bcoord;
     if (!full) {
+        /* (not where the fused sweep found an owner that does not fit) */
+        if (!known_out) {
 #pragma omp parallel for reduction(+ : nout) schedule(dynamic, 64) num_threads(threads)
-        for (size_t r = 0; r < nown; r++) nout += !kf_grid_owner_fits(g, p, r, inv_dx, cubic);
-        /* step 1 finds the bad particles again */
-        if (!nout) return 0;
+            for (size_t r = 0; r < nown; r++) nout += !kf_grid_owner_fits(g, p, r, inv_dx, cubic);
+            /* step 1 finds the bad particles again */
+            if (!nout) return 0;
+        }
             /* each particle's owner until now, for step 1 */
 #pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
         for (size_t r = 0; r < nown; r++)
@@ -237,9 +244,23 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
     if (nmoved == 0 && g->valid) return 0;
     g->rebins++;
 
-    /* 2. blocks for the particles that moved (the others keep theirs) */
+    /* 2. blocks for the particles that moved (the others keep theirs):
+     * those that exist looked up in parallel (the hash only read), then the
+     * missing ones inserted in particle order, the ids one serial pass gave */
     if (full && hash_reset(g, n / 64 + 64)) return -1;
-    for (size_t i = 0; i < n; i++) {
+    size_t nmissing = full ? nmoved : 0;
+    if (!full) {
+#pragma omp parallel for reduction(+ : nmissing) schedule(static) num_threads(threads)
+        for (size_t i = 0; i < n; i++) {
+            if (dest[i] != DEST_MOVED) continue;
+            int b[3];
+            for (int a = 0; a < 3; a++) b[a] = kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic) - shift);
+            const int32_t id = kf_grid_find(g, b[0], b[1], b[2]);
+            if (id >= 0) dest[i] = (uint32_t)id;
+            else nmissing++;
+        }
+    }
+    for (size_t i = 0; nmissing && i < n; i++) {
         if (dest[i] != DEST_MOVED) continue;
         /* the owner again from the position, as step 1 found it: no
          * per-particle key is kept between the two steps */
@@ -248,6 +269,7 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
         int32_t id = block_get_or_insert(g, b[0], b[1], b[2]);
         if (id < 0) return -1;
         dest[i] = (uint32_t)id;
+        nmissing--;
     }
 
     /* 3. particles per block; blocks with particles become owners, sorted by key

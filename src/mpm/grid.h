@@ -68,6 +68,12 @@ typedef struct kf_grid {
      * before the substep with this number, while rebins had this value:
      * that substep's binning has nothing to do */
     long reach_substep, reach_rebins;
+    /* the same sweep found some particle out of its owner's reach before
+     * the substep with this number, while rebins had this value; step.c
+     * then sets known_out for that substep's kf_grid_bin, which clears it:
+     * binning's own test of every owner would only find that again */
+    long out_substep, out_rebins;
+    int known_out;
     /* hash: block key -> block index */
     size_t hcap;    /* power of two */
     uint64_t *hkey; /* UINT64_MAX = empty */
@@ -119,6 +125,8 @@ static inline void kf_grid_invalidate(kf_grid *g) {
     g->valid = 0;
     g->fused_ready = 0;
     g->reach_substep = -1;
+    g->out_substep = -1;
+    g->known_out = 0;
 }
 
 /* The block with this block coordinate, or -1 if there is none. */

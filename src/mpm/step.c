@@ -97,7 +97,10 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     if (early && !scattered) kf_cpic_early_undo(s);
     const int in_reach =
         fusable && g->valid && s->tau_valid && g->reach_substep == s->substep && g->reach_rebins == g->rebins;
+    /* or found one out of reach: binning skips its own test (block4's hook) */
+    g->known_out = fusable && g->valid && s->tau_valid && g->out_substep == s->substep && g->out_rebins == g->rebins;
     g->reach_substep = -1;
+    g->out_substep = -1;
     size_t bad = 0;
     int rc =
         in_reach ? 0 : kf_grid_bin(g, &s->p, kf_model_inv_dx(m), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad);
@@ -209,6 +212,10 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
         if (got & KF_FUSED_REACH) {
             g->reach_substep = s->substep + 1;
             g->reach_rebins = g->rebins;
+        } else if (!res.trouble.found) {
+            /* no trouble and not in reach: some owner failed the reach test */
+            g->out_substep = s->substep + 1;
+            g->out_rebins = g->rebins;
         }
         if (got & KF_FUSED_SCATTER) {
             g->fused_ready = 1;
