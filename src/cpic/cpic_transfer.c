@@ -282,6 +282,68 @@ static inline void affine_velocity_of(const double C[9], int apic, const double 
     }
 }
 
+#if defined(__AVX2__) && defined(__FMA__) && !defined(KF_DOUBLE)
+/* The across paths' per-node work with the three components of a vector in
+ * the lanes of one register (the fourth lane unused), each lane the scalar
+ * code's operations as the compiler contracts them there: bit for bit. */
+#define KF_CPIC_NODE_LANES 1
+
+/* stencil node n's offsets {a, b, k} from the base node (n = 9a + 3b + k) */
+static const int32_t stencil_s3[27][4] = {
+#define KF_S3(a, b) {a, b, 0, 0}, {a, b, 1, 0}, {a, b, 2, 0}
+    KF_S3(0, 0), KF_S3(0, 1), KF_S3(0, 2), KF_S3(1, 0), KF_S3(1, 1),
+    KF_S3(1, 2), KF_S3(2, 0), KF_S3(2, 1), KF_S3(2, 2)
+#undef KF_S3
+};
+
+/* the first three of v in lanes 0-2, lane 3 zero */
+static inline __m256d lanes3(const double v[3]) {
+    return _mm256_maskload_pd(v, _mm256_setr_epi64x(-1, -1, -1, 0));
+}
+
+/* affine_velocity_of: cd_e = fma(C_e2, d_2, fma(C_e1, d_1, fma(C_e0, d_0, +0)))
+ * in lane e, from C's columns (Ccol[f] lane e: C_ef; all zero under PIC,
+ * which gives +0 as the scalar code's cd = 0 does) */
+static inline __m256d affine_lanes(const __m256d Ccol[3], double d0, double d1, double d2) {
+    __m256d cd = _mm256_fmadd_pd(Ccol[0], _mm256_set1_pd(d0), _mm256_setzero_pd());
+    cd = _mm256_fmadd_pd(Ccol[1], _mm256_set1_pd(d1), cd);
+    return _mm256_fmadd_pd(Ccol[2], _mm256_set1_pd(d2), cd);
+}
+
+/* C's columns in lanes for affine_lanes (lane 3 zero; made by a blend: the
+ * zero-extending move a plain set can compile to is one valgrind 3.19
+ * does not decode) */
+static inline void affine_columns(const double Cj[9], __m256d Ccol[3]) {
+    for (int f = 0; f < 3; f++)
+        Ccol[f] = _mm256_blend_pd(_mm256_setr_pd(Cj[f], Cj[3 + f], Cj[6 + f], Cj[6 + f]), _mm256_setzero_pd(), 8);
+}
+
+/* kf_cpic_add_impulse with J and the point at in lanes: the moment's lane e
+ * is r_{e+1} J_{e+2} fused with the rounded −r_{e+2} J_{e+1}, as the inline
+ * function compiles; imp[0..3] += (J, m_0) and imp[4..5] += (m_1, m_2),
+ * as it stores them */
+static inline void impulse_lanes(double *imp, const kf_rigid_state *st, __m256d at, __m256d J) {
+    const __m256d r = _mm256_sub_pd(at, lanes3(st->com));
+    const __m256d r_yzx = _mm256_permute4x64_pd(r, _MM_SHUFFLE(3, 0, 2, 1));
+    const __m256d r_zxy = _mm256_permute4x64_pd(r, _MM_SHUFFLE(3, 1, 0, 2));
+    const __m256d J_yzx = _mm256_permute4x64_pd(J, _MM_SHUFFLE(3, 0, 2, 1));
+    const __m256d J_zxy = _mm256_permute4x64_pd(J, _MM_SHUFFLE(3, 1, 0, 2));
+    const __m256d mo = _mm256_fmsub_pd(r_yzx, J_zxy, _mm256_mul_pd(r_zxy, J_yzx));
+    const __m256d lo = _mm256_blend_pd(J, _mm256_permute4x64_pd(mo, _MM_SHUFFLE(0, 0, 0, 0)), 8);
+    _mm256_storeu_pd(imp, _mm256_add_pd(_mm256_loadu_pd(imp), lo));
+    const __m128d hi = _mm256_castpd256_pd128(_mm256_permute4x64_pd(mo, _MM_SHUFFLE(3, 3, 2, 1)));
+    _mm_storeu_pd(imp + 4, _mm_add_pd(_mm_loadu_pd(imp + 4), hi));
+}
+
+/* lanes 0-2 of v into out[0], out[stride], out[2 stride] */
+static inline void store3(double *out, int stride, __m256d v) {
+    const __m128d lo = _mm256_castpd256_pd128(v);
+    _mm_store_sd(out, lo);
+    _mm_storeh_pd(out + stride, lo);
+    _mm_store_sd(out + 2 * stride, _mm256_extractf128_pd(v, 1));
+}
+#endif
+
 /* Solve the symmetric 4x4 system M c = y (Gaussian elimination with partial
  * pivoting); returns det M. Each x -= a b is one fused multiply-add, as the
  * compiler contracted it before this was written out (and as the lanes of
@@ -994,6 +1056,35 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
     }
     double Cj[9];
     for (int e = 0; e < 9; e++) Cj[e] = apic ? s->p.C[e][i] : 0;
+#ifdef KF_CPIC_NODE_LANES
+    /* the nodes across with a vector's components in lanes: J = fma(m_i,
+     * gΔt − C d, the node's momentum) as the scalar loop below rounds it */
+    const __m128i base = _mm_setr_epi32(KF_BLOCK * bc[0] + ck->l[0][j], KF_BLOCK * bc[1] + ck->l[1][j],
+                                        KF_BLOCK * bc[2] + ck->l[2][j], 0);
+    const __m256d vdx = _mm256_set1_pd(dx), gdtv = lanes3(gdt);
+    __m256d Ccol[3];
+    affine_columns(Cj, Ccol);
+    for (uint32_t left = xm; left; left &= left - 1) {
+        const int n = __builtin_ctz(left), q = o + stencil_off[n];
+        const int *s3 = stencil_s3[n];
+        const __m256d xi =
+            _mm256_mul_pd(_mm256_cvtepi32_pd(_mm_add_epi32(base, _mm_loadu_si128((const __m128i *)s3))), vdx);
+        const __m256d add = _mm256_loadu_pd(sa->add[lane][n]);
+        const __m256d cd = affine_lanes(Ccol, ck->d[0][s3[0]][j], ck->d[1][s3[1]][j], ck->d[2][s3[2]][j]);
+        const __m256d J =
+            _mm256_fmadd_pd(_mm256_permute4x64_pd(add, _MM_SHUFFLE(3, 3, 3, 3)), _mm256_sub_pd(gdtv, cd), add);
+        const int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
+        __m256d at = xi;
+        if (!thin_body[r]) {
+            double xs[4], as[3];
+            _mm256_storeu_pd(xs, xi);
+            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]};
+            contact_point(col, oc->dist, q, l3, s3, bc, c->obox[owner], r, cp, xs, s->rigid[r].com, dx, as);
+            at = lanes3(as);
+        }
+        impulse_lanes(imp + 6 * r, &s->rigid[r], at, J);
+    }
+#else
     for (uint32_t left = xm; left; left &= left - 1) {
         const int n = __builtin_ctz(left), q = o + stencil_off[n];
         const double *add = sa->add[lane][n];
@@ -1012,6 +1103,7 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
         }
         kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], at, J);
     }
+#endif
 }
 
 void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, chunk *ck, size_t i0,
@@ -1121,7 +1213,10 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t
     const double vp[3] = {p->v[0][i], p->v[1][i], p->v[2][i]};
     const double np[3] = {c->pn[3 * i], c->pn[3 * i + 1], c->pn[3 * i + 2]};
     const double mass = p->mass[i];
-    double ur[KF_MAX_RIGIDS][3], Cj[9];
+    double Cj[9];
+#ifndef KF_CPIC_NODE_LANES
+    double ur[KF_MAX_RIGIDS][3];
+#endif
     uint32_t have = 0;
     for (int e = 0; e < 9; e++) Cj[e] = x->apic ? p->C[e][i] : 0;
     /* the particle's stress as P2G scatters it: −Δt V⁰ τ */
@@ -1138,6 +1233,54 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t
         }
     }
     /* then the nodes across (bits of xm) in node order, their ghosts over those */
+#ifdef KF_CPIC_NODE_LANES
+    /* (a vector's components in lanes: the same operations as the scalar loop below) */
+    const __m128i base = _mm_setr_epi32(KF_BLOCK * bc[0] + ck->l[0][j], KF_BLOCK * bc[1] + ck->l[1][j],
+                                        KF_BLOCK * bc[2] + ck->l[2][j], 0);
+    const __m256d vdx = _mm256_set1_pd(dx), npv = lanes3(np);
+    __m256d Ccol[3];
+    affine_columns(Cj, Ccol);
+    __m256d urv[KF_MAX_RIGIDS]; /* ur in lanes */
+    for (uint32_t left = xm; left; left &= left - 1) {
+        const int n = __builtin_ctz(left), q = o + stencil_off[n];
+        const int *s3 = stencil_s3[n];
+        const __m256d xi =
+            _mm256_mul_pd(_mm256_cvtepi32_pd(_mm_add_epi32(base, _mm_loadu_si128((const __m128i *)s3))), vdx);
+        const double w = (double)ck->w[0][s3[0]][j] * ck->w[1][s3[1]][j] * ck->w[2][s3[2]][j];
+        const int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
+        double xs[4];
+        __m256d vi;
+        if (x->uniform[r] && (have >> r & 1)) {
+            vi = urv[r];
+        } else {
+            double u[3];
+            _mm256_storeu_pd(xs, xi);
+            kept_velocity(m, s, r, xs, vp, np, (int)(held >> r & 1), u);
+            vi = lanes3(u);
+            if (x->uniform[r]) urv[r] = vi, have |= 1u << r;
+        }
+        const __m256d cd = affine_lanes(Ccol, ck->d[0][s3[0]][j], ck->d[1][s3[1]][j], ck->d[2][s3[2]][j]);
+        /* the body gave P2G's whole share: the kept velocity comes back from it, where P2G's went */
+        const double kw = -w * mass;
+        __m256d at = xi;
+        if (!x->thin_body[r]) {
+            double as[3];
+            _mm256_storeu_pd(xs, xi);
+            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]};
+            contact_point(col, x->oc->dist, q, l3, s3, bc, c->obox[x->owner], r, cp, xs, s->rigid[r].com, dx, as);
+            at = lanes3(as);
+        }
+        impulse_lanes(x->imp + 6 * r, &s->rigid[r], at, _mm256_mul_pd(_mm256_set1_pd(kw), vi));
+        double push = m->rigid[r].def.push;
+        if (push == KF_RIGID_AUTO) push = 0;
+        if (push != 0 && c->near[i]) {
+            vi = _mm256_fmadd_pd(_mm256_set1_pd(dt * push), npv, vi);
+            impulse_lanes(x->imp + 6 * r, &s->rigid[r], at, _mm256_mul_pd(_mm256_set1_pd(kw * dt * push), npv));
+        }
+        store3(&gr->vi[n][0][lane], 4, vi);
+        store3(&gr->cd[n][0][lane], 4, cd);
+    }
+#else
     for (uint32_t left = xm; left; left &= left - 1) {
         const int n = __builtin_ctz(left), q = o + stencil_off[n];
         int s3[3];
@@ -1171,6 +1314,7 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t
             gr->cd[n][e][lane] = cd[e];
         }
     }
+#endif
 }
 
 /* The gather's sums of one particle from its reads (lane `lane` of gr):
