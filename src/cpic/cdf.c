@@ -206,10 +206,11 @@ static inline void touch_block(const cdf_layer *L, int32_t b, int r) {
 
 /* the node box of one seed (every node within `reach` cells along each
  * axis) and the at most 3x3x3 blocks it spans (nbk along each axis), each
- * looked up once */
+ * looked up once, with those the splat writes (box_live) */
 typedef struct seed_box {
     int lo[3], hi[3], b0[3], nbk[3];
     int32_t blk[3][3][3]; /* -1: no such block; only [0, nbk) along each axis is set */
+    uint32_t live;        /* bit (p * 3 + q) * 3 + w: blk[p][q][w] holds nodes of the box that particles may read */
 } seed_box;
 
 /* the grid's block at a block coordinate, or -1 */
@@ -376,17 +377,30 @@ static inline int clip_reads(const kf_cpic *c, const kf_grid *g, int32_t blk, in
     return in;
 }
 
-/* does any node of the seed's box lie where particles read? */
-static int box_reads(const kf_cpic *c, const kf_grid *g, const seed_box *sb) {
+/* whether the seed's box holds a node of block blk that particles may
+ * read (clip_reads of the box, without the clipped range) */
+static inline int box_meets_reads(const kf_cpic *c, const kf_grid *g, int32_t blk, const seed_box *sb) {
+    const int8_t *rb = c->rbox[blk];
+    const int32_t *bc = &g->bcoord[3 * (size_t)blk];
+    for (int a = 0; a < 3; a++) {
+        const int first = KF_BLOCK * bc[a], lo = first + rb[a], hi = first + rb[3 + a];
+        if ((lo > sb->lo[a] ? lo : sb->lo[a]) > (hi < sb->hi[a] ? hi : sb->hi[a])) return 0;
+    }
+    return 1;
+}
+
+/* The blocks of the seed's box that hold nodes of it particles may read
+ * (reads NULL: every block there is), as seed_box's live bits: the blocks
+ * the splat touches and writes. 0: no node of the box is read. */
+static uint32_t box_live(const kf_cpic *reads, const kf_grid *g, const seed_box *sb) {
+    uint32_t live = 0;
     for (int p = 0; p < sb->nbk[0]; p++)
         for (int q = 0; q < sb->nbk[1]; q++)
             for (int w = 0; w < sb->nbk[2]; w++) {
-                int32_t blk = sb->blk[p][q][w];
-                if (blk < 0) continue;
-                int lo[3] = {sb->lo[0], sb->lo[1], sb->lo[2]}, hi[3] = {sb->hi[0], sb->hi[1], sb->hi[2]};
-                if (clip_reads(c, g, blk, lo, hi)) return 1;
+                const int32_t blk = sb->blk[p][q][w];
+                if (blk >= 0 && (!reads || box_meets_reads(reads, g, blk, sb))) live |= 1u << ((p * 3 + q) * 3 + w);
             }
-    return 0;
+    return live;
 }
 
 /* the bounding spheres of a body's seeds in runs of `len` (body frame),
@@ -707,53 +721,80 @@ static inline void splat_node(const cdf_layer *c, size_t node, double u, uint32_
 }
 
 #if defined(__AVX2__) && defined(__FMA__)
-/* the nodes lo..hi of one block blk, projected onto triangle t (splat_box).
- * A row along z of one block is at most 4 nodes: their projections (α, β)
- * in the 4 lanes of one AVX2 register, and only the nodes whose projection
- * lands inside the triangle (a few in a hundred) go on one by one. Each
- * lane does the scalar loop's arithmetic as the compiler contracts it
- * there (below, #else): q = fma(i, Δx, −v0), d1 = fma(q_z, e1_z, fma(q_y,
- * e1_y, q_x e1_x)) (d2 and u alike), α = fma(d1, g11, g12 d2), β = fma(d1,
- * g12, g22 d2), and the same three strict tests: bit for bit. A node whose
- * projection is outside is not marked: a later seed of the same triangle
- * projects it again to the same outcome (the mark only saves that work). */
-static inline void splat_nodes(const cdf_layer *c, const kf_cpic_tri *t, uint32_t tid, int32_t blk, const int lo[3],
-                               const int hi[3], uint32_t abit, uint32_t tbit, int r, double inv_dx, double dx) {
+/* The nodes of one seed's box, projected onto its triangle t of body r.
+ * What a node gets from a triangle depends on the node and the triangle
+ * only, not on the seed, and a second visit changes nothing (strict minima,
+ * or-ed bits): a node whose last visitor was this very triangle (tid, from
+ * 1, unique across bodies) is skipped, bit for bit.
+ * The box's live blocks (those holding nodes particles may read) are
+ * touched first, then its nodes are projected in rows along z over the
+ * whole box, whatever block each is in: a box of 3 or 4 nodes along z is
+ * one AVX2 register of 4 lanes (a solid's 5 or 6, two). Only the nodes
+ * whose projection lands inside the triangle (one in thirty on a knife of
+ * fine triangles) go on one by one: to their block, if it is live and
+ * particles read the node (the block's read box), as the block-by-block
+ * loop (#else) clips them. Each lane does the scalar loop's arithmetic as
+ * the compiler contracts it there: q = fma(i, Δx, −v0), d1 = fma(q_z,
+ * e1_z, fma(q_y, e1_y, q_x e1_x)) (d2 and u alike), α = fma(d1, g11, g12
+ * d2), β = fma(d1, g12, g22 d2), and the same three strict tests: bit for
+ * bit. A seed visits each node once, so the order of its nodes changes no
+ * node's sequence of visitors. A node whose projection is outside is not
+ * marked: a later seed of the same triangle projects it again to the same
+ * outcome (the mark only saves that work). */
+__attribute__((noinline)) static void splat_box(const cdf_layer *c, const kf_cpic_tri *t, uint32_t tid,
+                                                const seed_box *sb, int r, double inv_dx, double dx) {
+    if ((t->g11 == 0 && t->g22 == 0) || !sb->live) return;
+    const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
+    for (uint32_t live = sb->live; live; live &= live - 1) {
+        const int bit = __builtin_ctz(live);
+        touch_block(c, sb->blk[bit / 9][bit / 3 % 3][bit % 3], r);
+    }
     const kf_cpic_tri T = *t;
     const double eps = 1e-6; /* shared edges must not fall between two triangles */
-    const int nk = hi[2] - lo[2] + 1;
-    const __m256d kz = _mm256_add_pd(_mm256_set1_pd(lo[2]), _mm256_setr_pd(0, 1, 2, 3));
-    const __m256d qz = _mm256_fmsub_pd(kz, _mm256_set1_pd(dx), _mm256_set1_pd(T.v0[2]));
     const __m256d e1z = _mm256_set1_pd(T.e1[2]), e2z = _mm256_set1_pd(T.e2[2]);
     const __m256d g11 = _mm256_set1_pd(T.g11), g12 = _mm256_set1_pd(T.g12), g22 = _mm256_set1_pd(T.g22);
     const __m256d lo_eps = _mm256_set1_pd(-eps), hi_eps = _mm256_set1_pd(1 + eps);
-    const int live = (1 << nk) - 1;
-    double qzl[4];
-    _mm256_storeu_pd(qzl, qz);
-    for (int i = lo[0]; i <= hi[0]; i++) {
-        const double qx = fma((double)i, dx, -(double)T.v0[0]);
-        const double x1 = qx * T.e1[0], x2 = qx * T.e2[0], xu = qx * T.n[0];
-        for (int j = lo[1]; j <= hi[1]; j++) {
-            const double qy = fma((double)j, dx, -(double)T.v0[1]);
-            const double y1 = fma(qy, (double)T.e1[1], x1), y2 = fma(qy, (double)T.e2[1], x2);
-            const __m256d d1 = _mm256_fmadd_pd(qz, e1z, _mm256_set1_pd(y1));
-            const __m256d d2 = _mm256_fmadd_pd(qz, e2z, _mm256_set1_pd(y2));
-            const __m256d al = _mm256_fmadd_pd(d1, g11, _mm256_mul_pd(g12, d2));
-            const __m256d be = _mm256_fmadd_pd(d1, g12, _mm256_mul_pd(g22, d2));
-            /* outside: al < −eps, or be < −eps, or al + be > 1 + eps (a NaN is inside, as in the scalar tests) */
-            const __m256d out = _mm256_or_pd(
-                _mm256_or_pd(_mm256_cmp_pd(al, lo_eps, _CMP_LT_OQ), _mm256_cmp_pd(be, lo_eps, _CMP_LT_OQ)),
-                _mm256_cmp_pd(_mm256_add_pd(al, be), hi_eps, _CMP_GT_OQ));
-            int in = ~_mm256_movemask_pd(out) & live;
-            if (!in) continue;
-            const double yu = fma(qy, (double)T.n[1], xu);
-            const size_t row = 64 * (size_t)blk + (size_t)((i & 3) << 4 | (j & 3) << 2);
-            for (; in; in &= in - 1) {
-                const int l = __builtin_ctz((unsigned)in);
-                const size_t node = row + (size_t)((lo[2] + l) & 3);
-                if (c->mark[node] == tid) continue;
-                c->mark[node] = tid;
-                splat_node(c, node, fma(qzl[l], (double)T.n[2], yu), abit, tbit, r, inv_dx);
+    for (int k0 = sb->lo[2]; k0 <= sb->hi[2]; k0 += 4) {
+        const int nk = sb->hi[2] - k0 + 1 < 4 ? sb->hi[2] - k0 + 1 : 4;
+        const __m256d kz = _mm256_add_pd(_mm256_set1_pd(k0), _mm256_setr_pd(0, 1, 2, 3));
+        const __m256d qz = _mm256_fmsub_pd(kz, _mm256_set1_pd(dx), _mm256_set1_pd(T.v0[2]));
+        const int lanes = (1 << nk) - 1;
+        double qzl[4];
+        _mm256_storeu_pd(qzl, qz);
+        for (int i = sb->lo[0]; i <= sb->hi[0]; i++) {
+            const double qx = fma((double)i, dx, -(double)T.v0[0]);
+            const double x1 = qx * T.e1[0], x2 = qx * T.e2[0], xu = qx * T.n[0];
+            for (int j = sb->lo[1]; j <= sb->hi[1]; j++) {
+                const double qy = fma((double)j, dx, -(double)T.v0[1]);
+                const double y1 = fma(qy, (double)T.e1[1], x1), y2 = fma(qy, (double)T.e2[1], x2);
+                const __m256d d1 = _mm256_fmadd_pd(qz, e1z, _mm256_set1_pd(y1));
+                const __m256d d2 = _mm256_fmadd_pd(qz, e2z, _mm256_set1_pd(y2));
+                const __m256d al = _mm256_fmadd_pd(d1, g11, _mm256_mul_pd(g12, d2));
+                const __m256d be = _mm256_fmadd_pd(d1, g12, _mm256_mul_pd(g22, d2));
+                /* outside: al < −eps, or be < −eps, or al + be > 1 + eps (a NaN is inside, as in the scalar tests) */
+                const __m256d out = _mm256_or_pd(
+                    _mm256_or_pd(_mm256_cmp_pd(al, lo_eps, _CMP_LT_OQ), _mm256_cmp_pd(be, lo_eps, _CMP_LT_OQ)),
+                    _mm256_cmp_pd(_mm256_add_pd(al, be), hi_eps, _CMP_GT_OQ));
+                int in = ~_mm256_movemask_pd(out) & lanes;
+                if (!in) continue;
+                const double yu = fma(qy, (double)T.n[1], xu);
+                const int p = kf_block_of(i) - sb->b0[0], q = kf_block_of(j) - sb->b0[1];
+                for (; in; in &= in - 1) {
+                    const int l = __builtin_ctz((unsigned)in), k = k0 + l, w = kf_block_of(k) - sb->b0[2];
+                    if (!(sb->live >> ((p * 3 + q) * 3 + w) & 1)) continue;
+                    const int32_t blk = sb->blk[p][q][w];
+                    const int n3[3] = {i & 3, j & 3, k & 3}; /* the node within its block */
+                    if (c->reads) {
+                        const int8_t *rb = c->reads->rbox[blk];
+                        if (n3[0] < rb[0] || n3[0] > rb[3] || n3[1] < rb[1] || n3[1] > rb[4] || n3[2] < rb[2] ||
+                            n3[2] > rb[5])
+                            continue;
+                    }
+                    const size_t node = 64 * (size_t)blk + (size_t)(n3[0] << 4 | n3[1] << 2 | n3[2]);
+                    if (c->mark[node] == tid) continue;
+                    c->mark[node] = tid;
+                    splat_node(c, node, fma(qzl[l], (double)T.n[2], yu), abit, tbit, r, inv_dx);
+                }
             }
         }
     }
@@ -782,7 +823,6 @@ static inline void splat_nodes(const cdf_layer *c, const kf_cpic_tri *t, uint32_
                 splat_node(c, node, u, abit, tbit, r, inv_dx);
             }
 }
-#endif
 
 /* the nodes of one seed's box, projected onto its triangle t of body r.
  * What a node gets from a triangle depends on the node and the triangle
@@ -811,6 +851,7 @@ __attribute__((noinline)) static void splat_box(const cdf_layer *c, const kf_cpi
                 splat_nodes(c, t, tid, blk, lo, hi, abit, tbit, r, inv_dx, dx);
             }
 }
+#endif
 
 /* a seed's world position: one function for the grid's splat and the
  * static store, so both round alike */
@@ -898,7 +939,7 @@ static int splat_body(const kf_model *m, kf_state *s, int r, uint32_t tid0, cons
             for (int a = 0; a < 3; a++) out |= x[a] < slo[a] || x[a] > shi[a];
             /* the box is kept for the splat below (the grid does not change in between) */
             seed_box *sb = &sbox[e];
-            if (out || !seed_box_of(c, g, x, inv_dx, reach, sb) || !box_reads(c, g, sb)) continue;
+            if (out || !seed_box_of(c, g, x, inv_dx, reach, sb) || !(sb->live = box_live(c, g, sb))) continue;
             int bin = sb->b0[0] - bin0;
             sbin[e] = bin >= 0 && (size_t)bin < nbins ? bin : -1; /* outside: no block there either */
             if (sbin[e] >= 0) kept[k] = 1, nkept++;
@@ -1129,6 +1170,7 @@ static int st_build(const kf_model *m, kf_state *s) {
                 for (int q = 0; q < sb.nbk[1]; q++)
                     for (int w = 0; w < sb.nbk[2]; w++)
                         sb.blk[p][q][w] = st_find(S, sb.b0[0] + p, sb.b0[1] + q, sb.b0[2] + w);
+            sb.live = box_live(NULL, NULL, &sb);
             int tri = b->seed_tri[ord[k].e];
             splat_box(&L, &c->tri[r][tri], tri_base + (uint32_t)tri, &sb, r, inv_dx, dx);
         }
