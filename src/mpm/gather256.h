@@ -42,10 +42,14 @@ KF_INLINE __m256 kf_round256(__m256 v) {
 
 /* one particle's record [v, m | B:,0] (first) and [B:,1 | B:,2] (second),
  * component k of each in lane k of its 128-bit half: gather_rows512_sum's
- * 16 lanes in two registers */
-KF_INLINE void gather_rows256_sum(int KW, const chunk *ck, int j, const kf_v4 *cache, __m256 *first, __m256 *second) {
+ * 16 lanes in two registers; node0: its stencil's first node in the cache */
+KF_INLINE void gather_rows256_at(int KW, const chunk *ck, int j, const kf_v4 *node0, __m256 *first, __m256 *second) {
     const int CD = CD_MAX;
-    const float *origin = (const float *)&cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]];
+    const float *origin = (const float *)node0;
+    /* one register for the stencil's origin: each row's loads then address
+     * it by a constant offset (the compiler otherwise keeps cache and
+     * offset apart and forms every row's address with a lea of its own) */
+    __asm__("" : "+r"(origin));
     const __m256 zero = _mm256_setzero_ps();
     __m256 S_lo = zero, S_hi = zero, S0_lo = zero, S0_hi = zero, S1_lo = zero, S1_hi = zero;
     for (int a = 0; a < KW; a++) {
@@ -86,6 +90,12 @@ KF_INLINE void gather_rows256_sum(int KW, const chunk *ck, int j, const kf_v4 *c
     const __m256 b2 = _mm256_add_ps(kf_round256(_mm256_mul_ps(WD_lo, S_lo)), kf_round256(_mm256_mul_ps(WD_hi, S_hi)));
     *first = _mm256_add_ps(_mm256_permute2f128_ps(v, b0, 0x20), _mm256_permute2f128_ps(v, b0, 0x31));
     *second = _mm256_add_ps(_mm256_permute2f128_ps(b1, b2, 0x20), _mm256_permute2f128_ps(b1, b2, 0x31));
+}
+
+/* the same from the particle's base node in the owner's cache */
+KF_INLINE void gather_rows256_sum(int KW, const chunk *ck, int j, const kf_v4 *cache, __m256 *first, __m256 *second) {
+    const int CD = CD_MAX;
+    gather_rows256_at(KW, ck, j, &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]], first, second);
 }
 
 /* one particle's gather: its record into the chunk (gather_rows512's stores) */
@@ -132,10 +142,15 @@ KF_INLINE void transpose8(const __m256 in[8], __m256 out[8]) {
  * record instead of a dozen scalar stores). Particles past n get zero
  * records, as in gather_chunk512. The records are gather_rows256's. */
 KF_INLINE void gather_chunk256(int KW, int n, chunk *ck, const kf_v4 *cache) {
+    const int CD = CD_MAX;
+    /* the particles' base nodes in the cache, across the chunk at once */
+    int key[KF_CHUNK];
+    KF_SIMD
+    for (int j = 0; j < n; j++) key[j] = (ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j];
     for (int j0 = 0; j0 < KF_CHUNK; j0 += 8) {
         __m256 first[8], second[8], col[8];
         for (int j = 0; j < 8; j++) {
-            if (j0 + j < n) gather_rows256_sum(KW, ck, j0 + j, cache, &first[j], &second[j]);
+            if (j0 + j < n) gather_rows256_at(KW, ck, j0 + j, &cache[key[j0 + j]], &first[j], &second[j]);
             else first[j] = second[j] = _mm256_setzero_ps();
         }
         /* first: v0 v1 v2 m | B00 B10 B20 -, second: B01 B11 B21 - | B02 B12 B22 - */
