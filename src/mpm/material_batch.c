@@ -716,6 +716,9 @@ static int lanes_batch(const kf_mat *m, int c, kf_real *const Fp[9], kf_real *co
 
 int kf_mat_update_batch(const kf_mat *m, int n, kf_real *const F[9], kf_real *const ps[2], int project, size_t first,
                         kf_real *const tau6[6]) {
+    /* one full corotated batch to evaluate (P2G's chunk of 16, the stress
+     * not kept): straight to its lanes, without the loop's set-up */
+    if (n == BATCH && !project && m->model == KF_MAT_COROTATED) return corotated_batch(m, BATCH, F, ps, first, tau6);
     if (m->model == KF_MAT_COROTATED || m->model == KF_MAT_VON_MISES || m->model == KF_MAT_SAND ||
         m->model == KF_MAT_SNOW) {
         int limited = 0;
