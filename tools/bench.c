@@ -79,11 +79,7 @@ static double peak_rss_mb(void) {
 }
 
 /* process CPU seconds: honest at 1 thread on a busy machine when idle OpenMP threads sleep */
-static double cpu_s(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
-}
+static double cpu_s(void) { return kf_process_cpu_ms() * 1e-3; }
 
 typedef struct cube_result {
     int cells, threads;

@@ -8,7 +8,6 @@
  * separate processes (bench.c's cube rows) meet different minutes of a
  * shared machine and scatter the ratio by tens of percent. */
 #include <stdio.h>
-#include <time.h>
 
 #include <kerf/kerf.h>
 #include "../src/core/timer.h"
@@ -18,18 +17,12 @@
 
 #define PAIR_MAX_ROUNDS 256
 
-static double process_cpu_ms(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
-}
-
 /* one step of a cube, its wall and process CPU milliseconds */
 static void timed_step(kf_scene *sc, double *wall_ms, double *cpu_ms) {
-    double t0 = kf_now_ms(), c0 = process_cpu_ms();
+    double t0 = kf_now_ms(), c0 = kf_process_cpu_ms();
     kf_step(sc->model, sc->state, 1e-2, NULL, NULL);
     *wall_ms = kf_now_ms() - t0;
-    *cpu_ms = process_cpu_ms() - c0;
+    *cpu_ms = kf_process_cpu_ms() - c0;
 }
 
 /* median, least and largest of n values (v is sorted in place) */

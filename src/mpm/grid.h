@@ -64,16 +64,13 @@ typedef struct kf_grid {
     long fused_substep; /* ... for the substep with this number */
     long fused_rebins;  /* ... made while rebins had this value */
     kf_real fused_dt;   /* ... with this Δt */
-    /* the fused sweep found every particle within its owner's reach
-     * before the substep with this number, while rebins had this value:
-     * that substep's binning has nothing to do */
+    /* the fused sweep tested every owner's reach before the substep with
+     * this number, while rebins had this value; reach_all: every particle
+     * was within it (that substep's binning has nothing to do), else step.c
+     * sets known_out for that substep's kf_grid_bin, which clears it
+     * (binning's own test of every owner would only find that again) */
     long reach_substep, reach_rebins;
-    /* the same sweep found some particle out of its owner's reach before
-     * the substep with this number, while rebins had this value; step.c
-     * then sets known_out for that substep's kf_grid_bin, which clears it:
-     * binning's own test of every owner would only find that again */
-    long out_substep, out_rebins;
-    int known_out;
+    int reach_all, known_out;
     /* hash: block key -> block index */
     size_t hcap;    /* power of two */
     uint64_t *hkey; /* UINT64_MAX = empty */
@@ -125,7 +122,6 @@ static inline void kf_grid_invalidate(kf_grid *g) {
     g->valid = 0;
     g->fused_ready = 0;
     g->reach_substep = -1;
-    g->out_substep = -1;
     g->known_out = 0;
 }
 

@@ -95,12 +95,12 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
                     g->valid && s->tau_valid && g->fused_dt == rdt && (!m->nrigid || (early && early_dt == dt));
     g->fused_ready = 0;
     if (early && !scattered) kf_cpic_early_undo(s);
-    const int in_reach =
+    const int reach_tested =
         fusable && g->valid && s->tau_valid && g->reach_substep == s->substep && g->reach_rebins == g->rebins;
-    /* or found one out of reach: binning skips its own test (block4's hook) */
-    g->known_out = fusable && g->valid && s->tau_valid && g->out_substep == s->substep && g->out_rebins == g->rebins;
+    const int in_reach = reach_tested && g->reach_all;
+    /* some owner out of reach: binning skips its own test of every owner */
+    g->known_out = reach_tested && !g->reach_all;
     g->reach_substep = -1;
-    g->out_substep = -1;
     size_t bad = 0;
     int rc =
         in_reach ? 0 : kf_grid_bin(g, &s->p, kf_model_inv_dx(m), m->sim.kernel == KF_KERNEL_CUBIC, m->nthreads, &bad);
@@ -209,13 +209,11 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
          * when its Δt is announced; the whole sweep is timed as G2P */
         const kf_real next = (kf_real)s->fuse_next;
         const int got = kf_g2p2g(m, s, rdt, s->fuse_next, &res);
-        if (got & KF_FUSED_REACH) {
+        /* without trouble the sweep tested every owner's reach */
+        if (!res.trouble.found) {
             g->reach_substep = s->substep + 1;
             g->reach_rebins = g->rebins;
-        } else if (!res.trouble.found) {
-            /* no trouble and not in reach: some owner failed the reach test */
-            g->out_substep = s->substep + 1;
-            g->out_rebins = g->rebins;
+            g->reach_all = (got & KF_FUSED_REACH) != 0;
         }
         if (got & KF_FUSED_SCATTER) {
             g->fused_ready = 1;
