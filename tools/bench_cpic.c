@@ -34,8 +34,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "core/timer.h"
 #include "cpic/cpic.h"
 #include <kerf/kerf.h>
 #include "median.h"
@@ -152,17 +152,8 @@ static const char *repo_path(const char *rel) {
     return buf;
 }
 
-static double wall_s(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return t.tv_sec + 1e-9 * t.tv_nsec;
-}
-
-static double cpu_s(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return t.tv_sec + 1e-9 * t.tv_nsec;
-}
+static double wall_s(void) { return kf_now_ms() * 1e-3; }
+static double cpu_s(void) { return kf_process_cpu_ms() * 1e-3; }
 
 /* what = 0: crossings by rays, 1: by rasterising, 2: the whole seeding.
  * Median wall and process-CPU ms of runs; *count the crossings or seeds. */
@@ -267,11 +258,7 @@ typedef struct rounds_opts {
     double span_frames; /* a shot's batch, frames */
 } rounds_opts;
 
-static double thread_cpu_s(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return t.tv_sec + 1e-9 * t.tv_nsec;
-}
+static double thread_cpu_s(void) { return kf_thread_cpu_ms() * 1e-3; }
 
 /* a shot's scene, with its rigid bodies or without (rigids=[]) */
 static int lane_shot(lane *L, const rounds_opts *o, int bodies) {

@@ -36,7 +36,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 
 #include "../src/core/timer.h"
@@ -149,8 +148,7 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
     kf_step_stats st;
     memset(&st, 0, sizeof st);
     char msg[512];
-    struct timespec c0, c1;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c0);
+    double c0 = kf_process_cpu_ms();
     double t0 = kf_now_ms();
     /* f frames, or the fraction of one frame that about N substeps cover */
     double f = 0;
@@ -168,7 +166,7 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
         }
         dt = m->sim.dt_fixed > 0 ? m->sim.dt_fixed : kf_stable_dt(m, sc.state, m->sim.cfl);
         double span = fmin(o->substeps * dt, 1.0 / sc.fps);
-        clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c0);
+        c0 = kf_process_cpu_ms();
         t0 = kf_now_ms();
         if (kf_advance(sc.model, sc.state, span, &st, msg, sizeof msg)) snprintf(r->msg, sizeof r->msg, "%.150s", msg);
         else f = span * sc.fps;
@@ -179,8 +177,7 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
                 break;
             }
     double sec = (kf_now_ms() - t0) / 1e3;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c1);
-    double cpu = (double)(c1.tv_sec - c0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - c0.tv_nsec);
+    double cpu = (kf_process_cpu_ms() - c0) / 1e3;
     r->frames = (int)f;
     r->substeps_run = st.substeps;
     r->fused = st.fused;

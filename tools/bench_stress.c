@@ -15,19 +15,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <time.h>
 
+#include "../src/core/timer.h"
 #include "../src/mpm/material.h"
 #include "bench_stress.h"
 #include "median.h"
 
 enum { N = 1 << 18 };
 
-static double cpu_ms(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
-}
+static double cpu_ms(void) { return kf_thread_cpu_ms(); }
 
 /* a rotation from a random unit quaternion */
 static void rotation(double R[9], unsigned *seed) {
