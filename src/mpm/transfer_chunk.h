@@ -464,16 +464,80 @@ static inline __m512 group_sums4(__m512 a, __m512 b, __m512 c, __m512 d) {
     return _mm512_add_ps(_mm512_shuffle_f32x4(ab, cd, 0x88), _mm512_shuffle_f32x4(ab, cd, 0xDD));
 }
 
+/* The quadratic MLS gather without the masked rows' idle lanes. A row of
+ * three nodes fills 12 of a register's 16 lanes, and a 512-bit operation
+ * costs as much as two 256-bit ones on cores that split it (AMD Zen 4):
+ * here a row's nodes 0, 1 are broadcast to both halves of one register
+ * and its node 2 to both halves of a 256-bit one, the lower halves
+ * multiplied by w_b and the upper ones by w_b d_b, so that A and A' of
+ * gather_rows512_sum share every operation: 3 register halves a row
+ * instead of 4. Lane by lane the same multiply-adds in the same order,
+ * so the same bits: S and S1 share registers alike; S0 runs on the lower
+ * halves; the z-weights' products are those of group_sums4, and its
+ * fourth node group, +0 for KW 3 (zero rows: every product and sum of
+ * them is +0), is added as a +0 (it turns a -0 sum of groups 1 into +0).
+ * The record: [v, m | B:,1 | B:,0 | B:,2]. */
+KF_INLINE __m512 gather_rows512_sum3(const chunk *ck, int j, const kf_v4 *node0) {
+    const int CD = CD_MAX;
+    const float *origin = (const float *)node0;
+    const __m512 zero = _mm512_setzero_ps();
+    __m512 SL = zero;                        /* nodes 0, 1: [S | S1] */
+    __m256 SH = _mm512_castps512_ps256(SL);  /* node 2: [S | S1] */
+    __m256 S0L = SH;                         /* nodes 0, 1: S0 */
+    __m128 S0H = _mm512_castps512_ps128(SL); /* node 2: S0 */
+    for (int a = 0; a < 3; a++) {
+        __m512 AL = zero;                       /* nodes 0, 1: [A | A'] */
+        __m256 AH = _mm512_castps512_ps256(AL); /* node 2: [A | A'] */
+        for (int b = 0; b < 3; b++) {
+            const float *row = origin + 4 * (a * CD + b) * CD;
+            const __m512 rl = _mm512_broadcast_f32x8(_mm256_loadu_ps(row));
+            const __m256 rh = _mm256_broadcast_ps((const __m128 *)(row + 8));
+            /* [w_b | w_b d_b] over the halves: broadcast loads joined by one insert (a
+             * merge-masked broadcast from a register costs the compiler's form two
+             * lane shuffles more, and as much time as the lanes save) */
+            const float *wb = &ck->w[1][b][j], *wdb = &ck->wd[1][b][j];
+            const __m512 wl =
+                _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_broadcast_ss(wb)), _mm256_broadcast_ss(wdb), 1);
+            const __m256 wh = _mm256_setr_m128(_mm_broadcast_ss(wb), _mm_broadcast_ss(wdb));
+            AL = _mm512_fmadd_ps(wl, rl, AL);
+            AH = _mm256_fmadd_ps(wh, rh, AH);
+        }
+        const float wa = ck->w[0][a][j], wda = ck->wd[0][a][j];
+        SL = _mm512_fmadd_ps(_mm512_set1_ps(wa), AL, SL);
+        SH = _mm256_fmadd_ps(_mm256_set1_ps(wa), AH, SH);
+        S0L = _mm256_fmadd_ps(_mm256_set1_ps(wda), _mm512_castps512_ps256(AL), S0L);
+        S0H = _mm_fmadd_ps(_mm_set1_ps(wda), _mm256_castps256_ps128(AH), S0H);
+    }
+    /* the z-weights' products: [v | B:,1] of nodes 0, 1 and of node 2,
+     * B:,0 of nodes 0, 1 and of node 2, B:,2 of nodes 0, 1 and of node 2 */
+    const float w0 = ck->w[2][0][j], w1 = ck->w[2][1][j], w2 = ck->w[2][2][j];
+    const float wd0 = ck->wd[2][0][j], wd1 = ck->wd[2][1][j], wd2 = ck->wd[2][2][j];
+    const __m256 WK01 = _mm256_setr_m128(_mm_set1_ps(w0), _mm_set1_ps(w1));
+    const __m256 WD01 = _mm256_setr_m128(_mm_set1_ps(wd0), _mm_set1_ps(wd1));
+    const __m512 P1 = _mm512_mul_ps(_mm512_broadcast_f32x8(WK01), SL);
+    const __m256 P2 = _mm256_mul_ps(_mm256_set1_ps(w2), SH);
+    const __m256 P3 = _mm256_mul_ps(WK01, S0L);
+    const __m128 P4 = _mm_mul_ps(_mm_set1_ps(w2), S0H);
+    const __m256 P5 = _mm256_mul_ps(WD01, _mm512_castps512_ps256(SL));
+    const __m128 P6 = _mm_mul_ps(_mm_set1_ps(wd2), _mm256_castps256_ps128(SH));
+    /* node groups 0, 1 and 2 of the record, then (g0 + g2) + (g1 + g3) */
+    const __m512 Q = _mm512_insertf32x8(_mm512_castps256_ps512(P3), P5, 1);
+    const __m512 g0 = _mm512_shuffle_f32x4(P1, Q, 0x88), g1 = _mm512_shuffle_f32x4(P1, Q, 0xDD);
+    const __m512 g2 = _mm512_insertf32x8(_mm512_castps256_ps512(P2), _mm256_setr_m128(P4, P6), 1);
+    return _mm512_add_ps(_mm512_add_ps(g0, g2), _mm512_add_ps(g1, zero));
+}
+
 /* MLS gather, one stencil row per register: the rows of one x-offset a
  * are summed with their y-weights first (A_a = Σ_b w_b R_ab and
  * A'_a = Σ_b w_b d_b R_ab), then the x-weights (S = Σ_a w_a A_a,
  * S0 = Σ_a w_a d_a A_a, S1 = Σ_a w_a A'_a), and the z-weights last, per
  * lane: v = Σ_c w_c S_c, B:,0 = Σ_c w_c S0_c, B:,1 = Σ_c w_c S1_c,
  * B:,2 = Σ_c w_c d_c S_c. The same sums as the portable path in another
- * order: results differ from it in the last bits. */
+ * order: results differ from it in the last bits. The record is
+ * [v, m | B:,1 | B:,0 | B:,2] (the order gather_rows512_sum3 makes). */
 KF_INLINE __m512 gather_rows512_sum(int KW, const chunk *ck, int j, const kf_v4 *cache) {
     const int CD = CD_MAX;
-    const __mmask16 mk = KW == 4 ? 0xFFFF : 0x0FFF;
+    if (KW == 3) return gather_rows512_sum3(ck, j, &cache[(ck->l[0][j] * CD + ck->l[1][j]) * CD + ck->l[2][j]]);
     kf_real w2[4], wd2[4];
     for (int c = 0; c < 4; c++) {
         w2[c] = c < KW ? ck->w[2][c][j] : 0;
@@ -484,7 +548,7 @@ KF_INLINE __m512 gather_rows512_sum(int KW, const chunk *ck, int j, const kf_v4 
     for (int a = 0; a < KW; a++) {
         __m512 A = _mm512_setzero_ps(), A1 = A;
         for (int b = 0; b < KW; b++) {
-            const __m512 r = _mm512_maskz_loadu_ps(mk, origin + 4 * (a * CD + b) * CD);
+            const __m512 r = _mm512_loadu_ps(origin + 4 * (a * CD + b) * CD);
             const kf_real wb = ck->w[1][b][j];
             A = _mm512_fmadd_ps(_mm512_set1_ps(wb), r, A);
             A1 = _mm512_fmadd_ps(_mm512_set1_ps(ck->wd[1][b][j]), r, A1);
@@ -495,18 +559,18 @@ KF_INLINE __m512 gather_rows512_sum(int KW, const chunk *ck, int j, const kf_v4 
         S1 = _mm512_fmadd_ps(_mm512_set1_ps(wa), A1, S1);
     }
     const __m512 WK = row_lanes(w2, KW);
-    return group_sums4(_mm512_mul_ps(WK, S), _mm512_mul_ps(WK, S0), _mm512_mul_ps(WK, S1),
+    return group_sums4(_mm512_mul_ps(WK, S), _mm512_mul_ps(WK, S1), _mm512_mul_ps(WK, S0),
                        _mm512_mul_ps(row_lanes(wd2, KW), S));
 }
 
-/* one particle's gather: its record [v, m | B:,0 | B:,1 | B:,2] into the chunk */
+/* one particle's gather: its record [v, m | B:,1 | B:,0 | B:,2] into the chunk */
 KF_INLINE void gather_rows512(int KW, chunk *ck, int j, const kf_v4 *cache) {
     float o[16] __attribute__((aligned(64)));
     _mm512_store_ps(o, gather_rows512_sum(KW, ck, j, cache));
     for (int k = 0; k < 3; k++) {
         ck->v[k][j] = o[k];
-        ck->b[3 * k][j] = o[4 + k];
-        ck->b[3 * k + 1][j] = o[8 + k];
+        ck->b[3 * k + 1][j] = o[4 + k];
+        ck->b[3 * k][j] = o[8 + k];
         ck->b[3 * k + 2][j] = o[12 + k];
     }
 }
@@ -522,8 +586,8 @@ KF_INLINE void gather_chunk512(int KW, int n, chunk *ck, const kf_v4 *cache) {
     transpose16(rec, col);
     for (int i = 0; i < 3; i++) {
         _mm512_storeu_ps(ck->v[i], col[i]);
-        _mm512_storeu_ps(ck->b[3 * i], col[4 + i]);
-        _mm512_storeu_ps(ck->b[3 * i + 1], col[8 + i]);
+        _mm512_storeu_ps(ck->b[3 * i + 1], col[4 + i]);
+        _mm512_storeu_ps(ck->b[3 * i], col[8 + i]);
         _mm512_storeu_ps(ck->b[3 * i + 2], col[12 + i]);
     }
 }
