@@ -154,6 +154,7 @@ typedef struct kf_cpic {
     struct kf_cpic_sides {
         int tried;
         uint8_t *v; /* per cell: 0 not yet known, else a KF_SIDES_* value */
+        double (*plane)[4]; /* per guard primitive: tri_plane's unit normal and offset (in v's allocation) */
         double lo[3], h, reach, tol;
         int dim[3];
     } sides[KF_MAX_RIGIDS];

@@ -210,6 +210,19 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
  * plane test have a margin far above their rounding, so a point that rounds
  * into the neighbouring cell, or a distance that rounds across 0, is still
  * covered. */
+/* The lattice's n cells (all unknown) and the planes of the body's
+ * primitives that its cells test (sides_tri: each cell tests dozens, and
+ * tri_plane's square root and divisions were most of a test), made once:
+ * the mesh does not change in its frame. One allocation, freed as sd->v. */
+static void sides_alloc(const kf_rigid_body *b, size_t n, struct kf_cpic_sides *sd) {
+    const size_t cells = (n + 31) / 32 * 32; /* the planes 32-byte aligned after the cells */
+    uint8_t *mem = calloc(cells + sizeof(double[4]) * (size_t)b->nguard_tri, 1);
+    if (!mem) return;
+    sd->v = mem;
+    sd->plane = (double(*)[4])(void *)(mem + cells);
+    for (int k = 0; k < b->nguard_tri; k++) tri_plane(b, b->guard_tri[k], sd->plane[k], &sd->plane[k][3]);
+}
+
 void kf_cpic_sides_make(const kf_rigid_body *b, double dx, struct kf_cpic_sides *sd) {
     sd->tried = 1;
     if (!b->bvh || !b->def.thin || b->nvert <= 0) return;
@@ -247,19 +260,18 @@ void kf_cpic_sides_make(const kf_rigid_body *b, double dx, struct kf_cpic_sides 
     /* a body hundreds of cells across in every direction: always query
      * (below that, only the pages of cells particles reach are touched) */
     if (n > ((size_t)1 << 26)) return;
-    sd->v = calloc(n, 1);
+    sides_alloc(b, n, sd);
 }
 
 typedef struct sides_ctx {
-    const kf_rigid_body *b;
+    const double (*plane)[4];
     double c[3], half[3], tol;
     int front, behind;
 } sides_ctx;
 
 static int sides_tri(void *ctx, int k) {
     sides_ctx *x = ctx;
-    double n[3], off;
-    tri_plane(x->b, x->b->guard_tri[k], n, &off);
+    const double *n = x->plane[k], off = x->plane[k][3];
     /* the plane's distance over the cell: its centre's, give or take the corners' spread */
     const double u = kf_v3d_dot(n, x->c) - off,
                  spread = fabs(n[0]) * x->half[0] + fabs(n[1]) * x->half[1] + fabs(n[2]) * x->half[2];
@@ -292,7 +304,7 @@ static int sides_value(const struct kf_cpic_sides *sd, const kf_rigid_body *b, s
     ix[2] = (int)(rest % (size_t)sd->dim[2]), rest /= (size_t)sd->dim[2];
     ix[1] = (int)(rest % (size_t)sd->dim[1]), ix[0] = (int)(rest / (size_t)sd->dim[1]);
     /* the same value whichever thread makes it first */
-    sides_ctx x = {b, {0, 0, 0}, {0, 0, 0}, sd->tol, 0, 0};
+    sides_ctx x = {(const double(*)[4])sd->plane, {0, 0, 0}, {0, 0, 0}, sd->tol, 0, 0};
     double d2 = 0;
     for (int a = 0; a < 3; a++) {
         x.half[a] = 0.5 * sd->h * 1.01; /* widened: points that round into the next cell */
