@@ -790,9 +790,9 @@ __attribute__((noinline)) static void splat_row_hits(const cdf_layer *c, const k
  * whole box, whatever block each is in: a box of 3 or 4 nodes along z is
  * one AVX2 register of 4 lanes (a solid's 5 or 6, two). Only the nodes
  * whose projection lands inside the triangle (one in thirty on a knife of
- * fine triangles) go on one by one (splat_row_hits): to their block, if it is live and
- * particles read the node (the block's read box), as the block-by-block
- * loop (#else) clips them. Each lane does the scalar loop's arithmetic as
+ * fine triangles) go on one by one (splat_row_hits): to their block, if it
+ * is live and particles read the node (the block's read box), as the
+ * block-by-block loop (#else) clips them. Each lane does the scalar loop's arithmetic as
  * the compiler contracts it there: q = fma(i, Δx, −v0), d1 = fma(q_z,
  * e1_z, fma(q_y, e1_y, q_x e1_x)) (d2 and u alike), α = fma(d1, g11, g12
  * d2), β = fma(d1, g12, g22 d2), and the same three strict tests: bit for
