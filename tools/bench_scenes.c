@@ -75,6 +75,7 @@ typedef struct scene_result {
     double dx, particles, est_particles, substeps_per_frame, s_per_frame, mpsteps;
     double ms_per_frame[KF_STAGE_COUNT];
     double peak_mb, cpu_s_per_frame;
+    double band_share; /* the particle-steps in CPIC's band, a fraction of all */
     unsigned long long hash; /* kf_state_hash after the frames */
     int threads, frames;
     long substeps_run;
@@ -187,6 +188,7 @@ static void run_scene(const char *shot_dir, const paper_scene *ps, const bench_s
         r->cpu_s_per_frame = cpu / f;
         r->substeps_per_frame = (double)st.substeps / f;
         r->mpsteps = (double)st.particle_steps / sec / 1e6;
+        r->band_share = st.particle_steps ? (double)st.band_particle_steps / (double)st.particle_steps : 0;
         for (int k = 0; k < KF_STAGE_COUNT; k++) r->ms_per_frame[k] = st.ms[k] / f;
     }
 done:
@@ -238,7 +240,7 @@ int bench_scenes(const bench_scenes_opts *o) {
                o->paper_dx ? "Table 3's dx" : "dx matching Table 3's particle count", o->scale != 1 ? " (scaled)" : "");
     printf("%-12s %8s %9s %8s %9s %9s %8s", "scene", "dx", "particles", "substeps", "s/frame", "cpu s/f", "Mp-st/s");
     for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %8s", kf_stage_name((kf_stage)k));
-    printf(" %8s %6s %9s %9s %9s %6s\n", "peak MB", "B/p", "paper s", "kerf c-s", "paper c-s", "ratio");
+    printf(" %8s %6s %9s %9s %9s %6s %6s\n", "peak MB", "B/p", "paper s", "kerf c-s", "paper c-s", "ratio", "band%");
     int fails = 0;
     for (int i = 0; i < NPAPER; i++) {
         if (!wanted(o->only, paper[i].shot)) continue;
@@ -255,8 +257,8 @@ int bench_scenes(const bench_scenes_opts *o) {
         printf("%-12s %8.5f %9.0f %s%7.1f %9.2f %9.2f %8.2f", paper[i].shot, r.dx, r.particles,
                o->substeps > 0 ? "~" : " ", r.substeps_per_frame, r.s_per_frame, r.cpu_s_per_frame, r.mpsteps);
         for (int k = 0; k < KF_STAGE_COUNT; k++) printf(" %8.0f", r.ms_per_frame[k]);
-        printf(" %8.0f %6.0f %9.1f %9.2f %9.2f %6.2f\n", r.peak_mb, r.peak_mb * 1048576.0 / r.particles,
-               paper[i].s_per_frame, kcs, pcs, kcs / pcs);
+        printf(" %8.0f %6.0f %9.1f %9.2f %9.2f %6.2f %6.1f\n", r.peak_mb, r.peak_mb * 1048576.0 / r.particles,
+               paper[i].s_per_frame, kcs, pcs, kcs / pcs, 100 * r.band_share);
         if (o->hash && o->substeps > 0) printf("  state hash after %ld substeps: %016llx\n", r.substeps_run, r.hash);
         else if (o->hash) printf("  state hash after %d frame(s): %016llx\n", r.frames, r.hash);
         if (o->hash) printf("  early P2G (made by the substep before): %ld of %ld substeps\n", r.fused, r.substeps_run);
@@ -268,6 +270,7 @@ int bench_scenes(const bench_scenes_opts *o) {
            "columns: ms per frame (wall). kerf c-s / "
            "paper c-s: core-seconds per frame per million particles "
            "(kerf: wall x threads; Table 3: wall x 4 cores of an i7-7700K at 4.2 GHz); ratio < 1: kerf "
-           "spends less per core.\n");
+           "spends less per core. band%%: the particle-steps in CPIC's narrow band (owner blocks near a body, whose "
+           "transfers take CPIC's paths).\n");
     return fails ? 1 : 0;
 }

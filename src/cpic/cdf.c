@@ -37,6 +37,8 @@ int kf_cpic_band(const kf_state *s, size_t owner) {
     return s->cpic && owner < s->cpic->cap_owner && s->cpic->slot[owner] >= 0;
 }
 
+long kf_cpic_band_particles(const kf_state *s) { return s->cpic ? s->cpic->band_particles : 0; }
+
 void kf_cpic_free(kf_cpic *c) {
     if (!c) return;
     free(c->node_d);

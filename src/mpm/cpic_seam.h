@@ -47,6 +47,9 @@ int kf_cpic_splat(const kf_model *m, kf_state *s, double dt);
 
 /* Is this owner block in the narrow band (valid between splat and finish)? */
 int kf_cpic_band(const kf_state *s, size_t owner);
+/* The particles of the owner blocks in the band this substep (0 without
+ * CPIC): those whose transfers take CPIC's paths (the step's statistics) */
+long kf_cpic_band_particles(const kf_state *s);
 
 /* CPIC transfers of one owner block in the band (cpic_transfer.c). The
  * chunk's stencil, q, mv (and t for classic) are computed by the caller as

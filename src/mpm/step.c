@@ -264,6 +264,7 @@ int kf_step(const kf_model *m, kf_state *s, double dt, kf_step_stats *st, kf_tro
     if (st) {
         st->substeps++;
         st->particle_steps += (long)s->p.n;
+        if (m->nrigid) st->band_particle_steps += kf_cpic_band_particles(s);
         st->active_blocks = (long)s->g.nblocks;
         if (st->dt_min == 0 || dt < st->dt_min) st->dt_min = dt;
         if (dt > st->dt_max) st->dt_max = dt;
