@@ -335,6 +335,49 @@ static inline void impulse_lanes(double *imp, const kf_rigid_state *st, __m256d 
     _mm_storeu_pd(imp + 4, _mm_add_pd(_mm_loadu_pd(imp + 4), hi));
 }
 
+/* A particle's constants for its nodes across in lanes (scatter_across,
+ * ghost_reads): its base node in grid coordinates, Δx, C's columns */
+typedef struct across_lanes {
+    __m128i base;
+    __m256d dx, Ccol[3];
+} across_lanes;
+
+static inline across_lanes across_lanes_of(const chunk *ck, int j, const int32_t *bc, double dx, const double Cj[9]) {
+    across_lanes al;
+    al.base = _mm_setr_epi32(KF_BLOCK * bc[0] + ck->l[0][j], KF_BLOCK * bc[1] + ck->l[1][j],
+                             KF_BLOCK * bc[2] + ck->l[2][j], 0);
+    al.dx = _mm256_set1_pd(dx);
+    affine_columns(Cj, al.Ccol);
+    return al;
+}
+
+/* stencil node n's world position (stencil_node's xi: one integer add,
+ * one conversion, one multiply) */
+static inline __m256d node_position(const across_lanes *al, int n) {
+    const __m128i s3 = _mm_loadu_si128((const __m128i *)stencil_s3[n]);
+    return _mm256_mul_pd(_mm256_cvtepi32_pd(_mm_add_epi32(al->base, s3)), al->dx);
+}
+
+/* particle j's affine velocity C d at stencil node n */
+static inline __m256d node_affine(const across_lanes *al, const chunk *ck, int j, int n) {
+    const int32_t *s3 = stencil_s3[n];
+    return affine_lanes(al->Ccol, ck->d[0][s3[0]][j], ck->d[1][s3[1]][j], ck->d[2][s3[2]][j]);
+}
+
+/* Where the impulse at stencil node n (cache index q, body r) acts: the
+ * node itself on a thin body, else its contact_point */
+static inline __m256d impulse_point(const kf_state *s, size_t owner, const kf_cpic_owner *oc, const chunk *ck, int j,
+                                    int n, int q, int r, uint32_t cp, int thin, __m256d xi, double dx) {
+    if (thin) return xi;
+    double xs[4], as[3];
+    _mm256_storeu_pd(xs, xi);
+    const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]};
+    const int32_t *bc = &s->g.bcoord[3 * owner];
+    contact_point(oc->col, oc->dist, q, l3, stencil_s3[n], bc, s->cpic->obox[owner], r, cp, xs, s->rigid[r].com, dx,
+                  as);
+    return lanes3(as);
+}
+
 /* lanes 0-2 of v into out[0], out[stride], out[2 stride] */
 static inline void store3(double *out, int stride, __m256d v) {
     const __m128d lo = _mm256_castpd256_pd128(v);
@@ -1035,7 +1078,6 @@ static void node_adds_lanes(const chunk *ck, const int jl[4], scatter_adds *sa) 
 static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_owner *oc, const chunk *ck,
                            int j, size_t i, uint32_t xm, kf_v4 *cache, const scatter_adds *sa, int lane,
                            const uint8_t *thin_body) {
-    const kf_cpic *c = s->cpic;
     const uint32_t *col = oc->col;
     const int32_t *bc = &s->g.bcoord[3 * owner];
     const double dx = m->sim.dx, *gdt = oc->gdt;
@@ -1059,29 +1101,16 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
 #ifdef KF_CPIC_NODE_LANES
     /* the nodes across with a vector's components in lanes: J = fma(m_i,
      * gΔt − C d, the node's momentum) as the scalar loop below rounds it */
-    const __m128i base = _mm_setr_epi32(KF_BLOCK * bc[0] + ck->l[0][j], KF_BLOCK * bc[1] + ck->l[1][j],
-                                        KF_BLOCK * bc[2] + ck->l[2][j], 0);
-    const __m256d vdx = _mm256_set1_pd(dx), gdtv = lanes3(gdt);
-    __m256d Ccol[3];
-    affine_columns(Cj, Ccol);
+    const across_lanes al = across_lanes_of(ck, j, bc, dx, Cj);
+    const __m256d gdtv = lanes3(gdt);
     for (uint32_t left = xm; left; left &= left - 1) {
         const int n = __builtin_ctz(left), q = o + stencil_off[n];
-        const int *s3 = stencil_s3[n];
-        const __m256d xi =
-            _mm256_mul_pd(_mm256_cvtepi32_pd(_mm_add_epi32(base, _mm_loadu_si128((const __m128i *)s3))), vdx);
         const __m256d add = _mm256_loadu_pd(sa->add[lane][n]);
-        const __m256d cd = affine_lanes(Ccol, ck->d[0][s3[0]][j], ck->d[1][s3[1]][j], ck->d[2][s3[2]][j]);
+        const __m256d cd = node_affine(&al, ck, j, n);
         const __m256d J =
             _mm256_fmadd_pd(_mm256_permute4x64_pd(add, _MM_SHUFFLE(3, 3, 3, 3)), _mm256_sub_pd(gdtv, cd), add);
         const int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
-        __m256d at = xi;
-        if (!thin_body[r]) {
-            double xs[4], as[3];
-            _mm256_storeu_pd(xs, xi);
-            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]};
-            contact_point(col, oc->dist, q, l3, s3, bc, c->obox[owner], r, cp, xs, s->rigid[r].com, dx, as);
-            at = lanes3(as);
-        }
+        const __m256d at = impulse_point(s, owner, oc, ck, j, n, q, r, cp, thin_body[r], node_position(&al, n), dx);
         impulse_lanes(imp + 6 * r, &s->rigid[r], at, J);
     }
 #else
@@ -1099,7 +1128,7 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
         double at[3] = {xi[0], xi[1], xi[2]};
         if (!thin_body[r]) {
             const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]};
-            contact_point(col, oc->dist, q, l3, s3, bc, c->obox[owner], r, cp, xi, s->rigid[r].com, dx, at);
+            contact_point(col, oc->dist, q, l3, s3, bc, s->cpic->obox[owner], r, cp, xi, s->rigid[r].com, dx, at);
         }
         kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], at, J);
     }
@@ -1235,41 +1264,29 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t
     /* then the nodes across (bits of xm) in node order, their ghosts over those */
 #ifdef KF_CPIC_NODE_LANES
     /* (a vector's components in lanes: the same operations as the scalar loop below) */
-    const __m128i base = _mm_setr_epi32(KF_BLOCK * bc[0] + ck->l[0][j], KF_BLOCK * bc[1] + ck->l[1][j],
-                                        KF_BLOCK * bc[2] + ck->l[2][j], 0);
-    const __m256d vdx = _mm256_set1_pd(dx), npv = lanes3(np);
-    __m256d Ccol[3];
-    affine_columns(Cj, Ccol);
+    const across_lanes al = across_lanes_of(ck, j, bc, dx, Cj);
+    const __m256d npv = lanes3(np);
     __m256d urv[KF_MAX_RIGIDS]; /* ur in lanes */
     for (uint32_t left = xm; left; left &= left - 1) {
         const int n = __builtin_ctz(left), q = o + stencil_off[n];
-        const int *s3 = stencil_s3[n];
-        const __m256d xi =
-            _mm256_mul_pd(_mm256_cvtepi32_pd(_mm_add_epi32(base, _mm_loadu_si128((const __m128i *)s3))), vdx);
+        const int32_t *s3 = stencil_s3[n];
+        const __m256d xi = node_position(&al, n);
         const double w = (double)ck->w[0][s3[0]][j] * ck->w[1][s3[1]][j] * ck->w[2][s3[2]][j];
         const int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
-        double xs[4];
         __m256d vi;
         if (x->uniform[r] && (have >> r & 1)) {
             vi = urv[r];
         } else {
-            double u[3];
+            double xs[4], u[3];
             _mm256_storeu_pd(xs, xi);
             kept_velocity(m, s, r, xs, vp, np, (int)(held >> r & 1), u);
             vi = lanes3(u);
             if (x->uniform[r]) urv[r] = vi, have |= 1u << r;
         }
-        const __m256d cd = affine_lanes(Ccol, ck->d[0][s3[0]][j], ck->d[1][s3[1]][j], ck->d[2][s3[2]][j]);
+        const __m256d cd = node_affine(&al, ck, j, n);
         /* the body gave P2G's whole share: the kept velocity comes back from it, where P2G's went */
         const double kw = -w * mass;
-        __m256d at = xi;
-        if (!x->thin_body[r]) {
-            double as[3];
-            _mm256_storeu_pd(xs, xi);
-            const int l3[3] = {ck->l[0][j], ck->l[1][j], ck->l[2][j]};
-            contact_point(col, x->oc->dist, q, l3, s3, bc, c->obox[x->owner], r, cp, xs, s->rigid[r].com, dx, as);
-            at = lanes3(as);
-        }
+        const __m256d at = impulse_point(s, x->owner, x->oc, ck, j, n, q, r, cp, x->thin_body[r], xi, dx);
         impulse_lanes(x->imp + 6 * r, &s->rigid[r], at, _mm256_mul_pd(_mm256_set1_pd(kw), vi));
         double push = m->rigid[r].def.push;
         if (push == KF_RIGID_AUTO) push = 0;
