@@ -318,17 +318,27 @@ static inline void affine_columns(const double Cj[9], __m256d Ccol[3]) {
         Ccol[f] = _mm256_blend_pd(_mm256_setr_pd(Cj[f], Cj[3 + f], Cj[6 + f], Cj[6 + f]), _mm256_setzero_pd(), 8);
 }
 
-/* kf_cpic_add_impulse with J and the point at in lanes: the moment's lane e
+/* The arm r = at − com of an impulse at point at, in lanes rotated for the
+ * moment r × J: (r_y, r_z, r_x) and (r_z, r_x, r_y). One per node across,
+ * for every impulse there (G2P's kept velocity and push both act at it). */
+typedef struct impulse_arm {
+    __m256d yzx, zxy;
+} impulse_arm;
+
+static inline impulse_arm impulse_arm_of(const kf_rigid_state *st, __m256d at) {
+    const __m256d r = _mm256_sub_pd(at, lanes3(st->com));
+    return (impulse_arm){_mm256_permute4x64_pd(r, _MM_SHUFFLE(3, 0, 2, 1)),
+                         _mm256_permute4x64_pd(r, _MM_SHUFFLE(3, 1, 0, 2))};
+}
+
+/* kf_cpic_add_impulse with J and the arm in lanes: the moment's lane e
  * is r_{e+1} J_{e+2} fused with the rounded −r_{e+2} J_{e+1}, as the inline
  * function compiles; imp[0..3] += (J, m_0) and imp[4..5] += (m_1, m_2),
  * as it stores them */
-static inline void impulse_lanes(double *imp, const kf_rigid_state *st, __m256d at, __m256d J) {
-    const __m256d r = _mm256_sub_pd(at, lanes3(st->com));
-    const __m256d r_yzx = _mm256_permute4x64_pd(r, _MM_SHUFFLE(3, 0, 2, 1));
-    const __m256d r_zxy = _mm256_permute4x64_pd(r, _MM_SHUFFLE(3, 1, 0, 2));
+static inline void impulse_lanes(double *imp, const impulse_arm *arm, __m256d J) {
     const __m256d J_yzx = _mm256_permute4x64_pd(J, _MM_SHUFFLE(3, 0, 2, 1));
     const __m256d J_zxy = _mm256_permute4x64_pd(J, _MM_SHUFFLE(3, 1, 0, 2));
-    const __m256d mo = _mm256_fmsub_pd(r_yzx, J_zxy, _mm256_mul_pd(r_zxy, J_yzx));
+    const __m256d mo = _mm256_fmsub_pd(arm->yzx, J_zxy, _mm256_mul_pd(arm->zxy, J_yzx));
     const __m256d lo = _mm256_blend_pd(J, _mm256_permute4x64_pd(mo, _MM_SHUFFLE(0, 0, 0, 0)), 8);
     _mm256_storeu_pd(imp, _mm256_add_pd(_mm256_loadu_pd(imp), lo));
     const __m128d hi = _mm256_castpd256_pd128(_mm256_permute4x64_pd(mo, _MM_SHUFFLE(3, 3, 2, 1)));
@@ -1111,7 +1121,8 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
             _mm256_fmadd_pd(_mm256_permute4x64_pd(add, _MM_SHUFFLE(3, 3, 3, 3)), _mm256_sub_pd(gdtv, cd), add);
         const int r = (int)(col[q] >> KF_CPIC_RSTAR_SHIFT) - 1;
         const __m256d at = impulse_point(s, owner, oc, ck, j, n, q, r, cp, thin_body[r], node_position(&al, n), dx);
-        impulse_lanes(imp + 6 * r, &s->rigid[r], at, J);
+        const impulse_arm arm = impulse_arm_of(&s->rigid[r], at);
+        impulse_lanes(imp + 6 * r, &arm, J);
     }
 #else
     for (uint32_t left = xm; left; left &= left - 1) {
@@ -1287,12 +1298,13 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t
         /* the body gave P2G's whole share: the kept velocity comes back from it, where P2G's went */
         const double kw = -w * mass;
         const __m256d at = impulse_point(s, x->owner, x->oc, ck, j, n, q, r, cp, x->thin_body[r], xi, dx);
-        impulse_lanes(x->imp + 6 * r, &s->rigid[r], at, _mm256_mul_pd(_mm256_set1_pd(kw), vi));
+        const impulse_arm arm = impulse_arm_of(&s->rigid[r], at);
+        impulse_lanes(x->imp + 6 * r, &arm, _mm256_mul_pd(_mm256_set1_pd(kw), vi));
         double push = m->rigid[r].def.push;
         if (push == KF_RIGID_AUTO) push = 0;
         if (push != 0 && c->near[i]) {
             vi = _mm256_fmadd_pd(_mm256_set1_pd(dt * push), npv, vi);
-            impulse_lanes(x->imp + 6 * r, &s->rigid[r], at, _mm256_mul_pd(_mm256_set1_pd(kw * dt * push), npv));
+            impulse_lanes(x->imp + 6 * r, &arm, _mm256_mul_pd(_mm256_set1_pd(kw * dt * push), npv));
         }
         store3(&gr->vi[n][0][lane], 4, vi);
         store3(&gr->cd[n][0][lane], 4, cd);
