@@ -181,18 +181,6 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
     return 0;
 }
 
-/* gather one array through src into the thread's share of the scratch;
- * once every thread has read the array (the barrier), copy the share back.
- * A thread's share of the scratch (bytes lo W .. hi W, W the widest
- * element, whatever the array's type) is written and read by it alone, so
- * the next array's gather needs no second barrier: one an array. */
-#define GATHER_PLANE(T, arr)                                                                                           \
-    do {                                                                                                               \
-        T *tmp_ = (T *)(share - lo * sizeof(T)), *a_ = (T *)(arr);                                                     \
-        for (size_t i_ = lo; i_ < hi; i_++) tmp_[i_] = a_[src[i_]];                                                    \
-        _Pragma("omp barrier") for (size_t i_ = lo; i_ < hi; i_++) a_[i_] = tmp_[i_];                                  \
-    } while (0)
-
 /* ---- the permutation in place, through a ring --------------------------------
  * A re-sort moves nearly every particle, but not far (the falling block's
  * 953k move up to ~5k slots: its owners' columns shift as a whole). With
@@ -204,73 +192,124 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
  * scratch plane and the copy back passed the plane's size through the
  * scratch twice more. A thread's first `lag` slots (which the thread before
  * it reads) wait in a head buffer, and its last chunks (which the thread
- * after it reads) in the ring, until every thread has gathered the array:
- * the same one barrier an array. */
-#define RING_W 256 /* slots gathered at a time (a power of two) */
+ * after it reads) in the ring, until every thread has gathered the array.
+ * Arrays of one type go through the ring RING_GROUP at a time, each with
+ * its own head and ring: the order (as large as a plane, and read once an
+ * array it was a third of the permutation's traffic) is read once a group
+ * (a chunk of it stays in L1 while the group's arrays gather it), and the
+ * group takes one barrier. Where a move is far or a thread's range short, each array goes
+ * through the thread's share of the scratch plane and is copied back after
+ * its barrier (one an array). */
+#define RING_W 256     /* slots gathered at a time (a power of two) */
+#define RING_GROUP 2 /* arrays gathered in one pass through the order (3 and 4: slower, see perf_results.md 64) */
+
+/* how this thread permutes: its range, the ring's lag and length, and how
+ * many arrays a pass takes (0: the scratch plane's way). Every thread takes
+ * the same way and group, so the same number of barriers. */
+typedef struct permute_way {
+    const uint32_t *src; /* slot i takes the particle at src[i] */
+    size_t lo, hi;       /* this thread's slots */
+    size_t lag, rlen;    /* the ring's lag and length (slots) */
+    int group;           /* arrays a pass through the ring; 0: no ring */
+    char *share;         /* this thread's share of the scratch */
+} permute_way;
 
 #define RING_FUNCTIONS(T, SUFFIX)                                                                                      \
-    /* gather [lo, hi) of a through src; write back what no reader needs */                                          \
-    static void ring_gather_##SUFFIX(T *restrict a, const uint32_t *restrict src, size_t lo, size_t hi, size_t lag,  \
-                                     T *restrict head, T *restrict ring, size_t rmask) {                               \
-        const size_t len = hi - lo;                                                                                    \
+    /* w slots of one array from their sources into its ring */                                                     \
+    static inline void gather_chunk_##SUFFIX(T *restrict r, const T *restrict a, const uint32_t *restrict s,         \
+                                             size_t w) {                                                               \
+        for (size_t j = 0; j < w; j++) r[j] = a[s[j]];                                                                 \
+    }                                                                                                                  \
+    /* gather this thread's slots of K arrays through their rings; write                                             \
+     * back what no reader needs (head[k] and ring[k]: array k's buffers) */                                         \
+    static void ring_gather_##SUFFIX(int K, T *const *a, const permute_way *pw, T *const *head, T *const *ring) {    \
+        const size_t lo = pw->lo, len = pw->hi - lo, lag = pw->lag, rmask = pw->rlen - 1;                              \
         for (size_t c = 0; c < len; c += RING_W) {                                                                     \
             const size_t w = len - c < RING_W ? len - c : RING_W;                                                      \
-            T *r = ring + (c & rmask);                                                                                 \
-            const uint32_t *s = src + lo + c;                                                                          \
-            for (size_t j = 0; j < w; j++) r[j] = a[s[j]];                                                             \
+            const uint32_t *s = pw->src + lo + c;                                                                      \
+            /* the chunk of the order stays in L1 for the group's arrays */                                       \
+            for (int k = 0; k < K; k++) gather_chunk_##SUFFIX(ring[k] + (c & rmask), a[k], s, w);                      \
             if (c >= lag) {                                                                                            \
                 /* every source of the chunks still to gather lies past q */                                          \
                 const size_t q = c - lag;                                                                              \
-                memcpy(q < lag ? head + q : a + lo + q, ring + (q & rmask), RING_W * sizeof(T));                       \
+                for (int k = 0; k < K; k++)                                                                            \
+                    memcpy(q < lag ? head[k] + q : a[k] + lo + q, ring[k] + (q & rmask), RING_W * sizeof(T));          \
             }                                                                                                          \
         }                                                                                                              \
     }                                                                                                                  \
-    /* after the barrier: the head, and the chunks still in the ring */                                              \
-    static void ring_flush_##SUFFIX(T *restrict a, size_t lo, size_t hi, size_t lag, const T *restrict head,         \
-                                    const T *restrict ring, size_t rmask) {                                            \
-        const size_t len = hi - lo, last = (len - 1) / RING_W * RING_W;                                                \
+    /* after the barrier: array a's head, and its chunks still in the ring */                                        \
+    static void ring_flush_##SUFFIX(T *restrict a, const permute_way *pw, const T *restrict head,                    \
+                                    const T *restrict ring) {                                                          \
+        const size_t lo = pw->lo, len = pw->hi - lo, lag = pw->lag, rmask = pw->rlen - 1;                              \
+        const size_t last = (len - 1) / RING_W * RING_W;                                                               \
         memcpy(a + lo, head, lag * sizeof(T));                                                                         \
         for (size_t q = last - lag + RING_W; q < len; q += RING_W)                                                     \
             memcpy(a + lo + q, ring + (q & rmask), (len - q < RING_W ? len - q : RING_W) * sizeof(T));                 \
+    }                                                                                                                  \
+    /* one array through the thread's share of the scratch; once every                                               \
+     * thread has read it (the barrier), the share copied back. The share is                                         \
+     * written and read by this thread alone, so the next array's gather                                             \
+     * needs no second barrier */                                                                                    \
+    static void scratch_gather_##SUFFIX(T *restrict a, const permute_way *pw) {                                      \
+        T *restrict tmp = (T *)pw->share - pw->lo;                                                                     \
+        for (size_t i = pw->lo; i < pw->hi; i++) tmp[i] = a[pw->src[i]];                                               \
+        _Pragma("omp barrier") for (size_t i = pw->lo; i < pw->hi; i++) a[i] = tmp[i];                                 \
+    }                                                                                                                  \
+    /* the `count` arrays of a, a group (ring) or one (scratch) a barrier */                                         \
+    static void permute_arrays_##SUFFIX(T *const *a, int count, const permute_way *pw) {                             \
+        if (!pw->group) {                                                                                              \
+            for (int k = 0; k < count; k++) scratch_gather_##SUFFIX(a[k], pw);                                         \
+            return;                                                                                                    \
+        }                                                                                                              \
+        for (int g = 0; g < count; g += pw->group) {                                                                   \
+            const int K = count - g < pw->group ? count - g : pw->group;                                               \
+            /* array k's head and ring, side by side in the share */                                                 \
+            T *head[RING_GROUP], *ring[RING_GROUP];                                                                    \
+            for (int k = 0; k < K; k++) {                                                                              \
+                head[k] = (T *)pw->share + (size_t)k * (pw->lag + pw->rlen);                                           \
+                ring[k] = head[k] + pw->lag;                                                                           \
+            }                                                                                                          \
+            ring_gather_##SUFFIX(K, a + g, pw, head, ring);                                                            \
+            _Pragma("omp barrier") for (int k = 0; k < K; k++) ring_flush_##SUFFIX(a[g + k], pw, head[k], ring[k]);    \
+        }                                                                                                              \
     }
 
 RING_FUNCTIONS(kf_real, real)
 RING_FUNCTIONS(uint16_t, u16)
 RING_FUNCTIONS(uint32_t, u32)
 
-/* one array through the ring (ring: this thread's range is long enough)
- * or through the scratch plane */
-#define PERMUTE_ARRAY(T, SUFFIX, arr)                                                                                  \
-    do {                                                                                                               \
-        if (ring) {                                                                                                    \
-            T *head_ = (T *)share, *ring_ = (T *)(share + lag * elem);                                                 \
-            ring_gather_##SUFFIX((arr), src, lo, hi, lag, head_, ring_, rlen - 1);                                     \
-            _Pragma("omp barrier") ring_flush_##SUFFIX((arr), lo, hi, lag, head_, ring_, rlen - 1);                    \
-        } else                                                                                                         \
-            GATHER_PLANE(T, arr);                                                                                      \
-    } while (0)
+/* the ring's lag (a whole number of chunks past reach) and length (a power
+ * of two holding the lag and a chunk), and how many arrays' heads and rings
+ * fit a thread's share of the scratch side by side: the head's lag slots
+ * are delayed, the ring's last chunks too, so they must not overlap. The
+ * shortest range (n / nt slots) decides, for every thread alike. A thread's
+ * gather reads other threads' slots only within reach of its own, which no
+ * thread writes before the barrier. */
+static permute_way permute_way_of(const uint32_t *src, size_t n, size_t reach, void *scratch) {
+    const size_t t = (size_t)omp_get_thread_num(), nt = (size_t)omp_get_num_threads();
+    permute_way pw = {.src = src, .lo = n * t / nt, .hi = n * (t + 1) / nt};
+    pw.share = (char *)scratch + pw.lo * kf_particles_permute_bytes(1);
+    pw.lag = reach < n ? (reach / RING_W + 2) * RING_W : n;
+    pw.rlen = RING_W;
+    while (pw.rlen < pw.lag + RING_W) pw.rlen *= 2;
+    const size_t shortest = n / nt, fit = shortest / (pw.lag + pw.rlen);
+    if (reach < n && shortest >= 2 * pw.lag + RING_W) pw.group = fit < RING_GROUP ? (int)fit : RING_GROUP;
+    return pw;
+}
 
 void kf_particles_permute_team(kf_particles *p, const uint32_t *src, size_t reach, void *scratch) {
-    const size_t n = p->n;
-    const size_t t = (size_t)omp_get_thread_num(), nt = (size_t)omp_get_num_threads();
-    const size_t lo = n * t / nt, hi = n * (t + 1) / nt;
-    const size_t elem = kf_particles_permute_bytes(1);
-    char *const share = (char *)scratch + lo * elem;
-    /* the ring's lag (a whole number of chunks past reach) and length (a
-     * power of two holding the lag and a chunk); the head and the ring in
-     * this thread's share of the scratch, the head's lag slots delayed, the
-     * ring's last chunks too: they must not overlap. The threads may take
-     * different ways: a thread's gather reads other threads' slots only
-     * within reach of its own, which neither way writes before the barrier. */
-    const size_t lag = reach < n ? (reach / RING_W + 2) * RING_W : n;
-    size_t rlen = RING_W;
-    while (rlen < lag + RING_W) rlen *= 2;
-    const int ring = reach < n && hi - lo >= 2 * lag + RING_W && hi - lo >= lag + rlen;
+    const permute_way pw = permute_way_of(src, p->n, reach, scratch);
     /* zero arrays stay as they are: every slot holds +0 */
+    kf_real *reals[KF_PARTICLE_REAL_PLANES];
+    uint16_t *u16s[2];
+    uint32_t *u32s[2] = {p->id};
+    int nreal = 0, nu16 = 0, nu32 = 1;
     for (int k = 0; k < KF_PARTICLE_REAL_PLANES; k++)
-        if (!plane_zero(p, k)) PERMUTE_ARRAY(kf_real, real, p->plane[k]);
-    if (!(p->zero & KF_ZERO_MAT)) PERMUTE_ARRAY(uint16_t, u16, p->mat);
-    PERMUTE_ARRAY(uint32_t, u32, p->id);
-    if (!(p->zero & KF_ZERO_OBJ)) PERMUTE_ARRAY(uint16_t, u16, p->obj);
-    if (!(p->zero & KF_ZERO_COLOUR)) PERMUTE_ARRAY(uint32_t, u32, p->colour);
+        if (!plane_zero(p, k)) reals[nreal++] = p->plane[k];
+    if (!(p->zero & KF_ZERO_MAT)) u16s[nu16++] = p->mat;
+    if (!(p->zero & KF_ZERO_OBJ)) u16s[nu16++] = p->obj;
+    if (!(p->zero & KF_ZERO_COLOUR)) u32s[nu32++] = p->colour;
+    permute_arrays_real(reals, nreal, &pw);
+    permute_arrays_u16(u16s, nu16, &pw);
+    permute_arrays_u32(u32s, nu32, &pw);
 }
