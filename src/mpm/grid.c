@@ -163,6 +163,46 @@ static void release_pages(void *a, size_t bytes) {
     if (lo < hi) madvise((void *)lo, hi - lo, MADV_DONTNEED);
 }
 
+/* whether particle i's position is finite and in range on every axis (NaN
+ * and far-away particles fail): its owner's key and its base nodes fit */
+static inline int position_in_range(const kf_particles *p, size_t i, kf_real inv_dx) {
+    const kf_real far = (kf_real)(KF_BLOCK * (double)(KF_KEY_OFFSET - 2));
+    int ok = 1;
+    for (int a = 0; a < 3; a++) ok &= kf_fabs(p->x[a][i] * inv_dx) < far;
+    return ok;
+}
+
+/* the owner's coordinate along one axis for a position x in range: the
+ * block of its base node less the shift */
+static inline int owner_coord(kf_real x, kf_real inv_dx, int cubic) {
+    return kf_block_of(kf_base_node(x, inv_dx, cubic) - kf_owner_shift(cubic));
+}
+
+/* step 1 for owner r's particles (a valid grid): dest is r where the
+ * particle's owner is still r, DEST_MOVED where it is another block,
+ * DEST_BAD where its position is out of range; the moved and bad counted.
+ * By owner the owner's coordinate is at hand (no per-particle owner to
+ * store and look up), and the loop runs across the particles in vector
+ * lanes. An out-of-range position's base node is taken at 0 (its own would
+ * overflow the conversion to int) and not used. */
+static void flag_owner(const kf_grid *g, const kf_particles *p, size_t r, kf_real inv_dx, int cubic, long *moved,
+                       long *bad) {
+    const int32_t *bc = &g->bcoord[3 * r];
+    uint32_t *restrict dest = g->dest;
+    int nm = 0, nb = 0;
+#pragma omp simd reduction(+ : nm, nb)
+    for (size_t i = g->pstart[r]; i < g->pstart[r + 1]; i++) {
+        const int ok = position_in_range(p, i, inv_dx);
+        int same = 1;
+        for (int a = 0; a < 3; a++) same &= owner_coord(ok ? p->x[a][i] : 0, inv_dx, cubic) == bc[a];
+        dest[i] = !ok ? DEST_BAD : same ? (uint32_t)r : DEST_MOVED;
+        nm += ok & !same;
+        nb += !ok;
+    }
+    *moved += nm;
+    *bad += nb;
+}
+
 static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threads, int known_out,
                size_t *bad_particle);
 
@@ -187,50 +227,34 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
     /* 0. nothing to do while every stencil still fits its owner's
      * neighbourhood: the test depends on positions alone, so on no thread count */
     long nmoved = 0, nbad = 0, nout = 0;
-    const int limit = KF_KEY_OFFSET - 2, shift = kf_owner_shift(cubic);
+    const int shift = kf_owner_shift(cubic);
     uint32_t *dest = g->dest;
     int full = !g->valid;
     /* while the grid is valid, owner r (block id r) holds particles
      * pstart[r]..pstart[r+1]: no per-particle owner is stored */
-    const size_t nown = full ? 0 : g->nowner, *pstart = g->pstart;
-    const int32_t *bcoord = g->bcoord;
-    if (!full) {
-        /* (not where the fused sweep found an owner that does not fit) */
-        if (!known_out) {
+    const size_t nown = full ? 0 : g->nowner;
+    /* (not where the fused sweep found an owner that does not fit) */
+    if (!full && !known_out) {
 #pragma omp parallel for reduction(+ : nout) schedule(dynamic, 64) num_threads(threads)
-            for (size_t r = 0; r < nown; r++) nout += !kf_grid_owner_fits(g, p, r, inv_dx, cubic);
-            /* step 1 finds the bad particles again */
-            if (!nout) return 0;
-        }
-            /* each particle's owner until now, for step 1 */
-#pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
-        for (size_t r = 0; r < nown; r++)
-            for (size_t i = pstart[r]; i < pstart[r + 1]; i++) dest[i] = (uint32_t)r;
+        for (size_t r = 0; r < nown; r++) nout += !kf_grid_owner_fits(g, p, r, inv_dx, cubic);
+        /* step 1 finds the bad particles again */
+        if (!nout) return 0;
     }
 
     /* 1. each particle's owner block; flag those whose owner changed (dest
-     * holds the flags, then the block ids, then the sorted slots) */
+     * holds the flags, then the block ids, then the sorted slots): by owner
+     * while the grid is valid, every particle moved where it is not */
+    if (full) {
 #pragma omp parallel for reduction(+ : nmoved, nbad) schedule(static) num_threads(threads)
-    for (size_t i = 0; i < n; i++) {
-        int b[3];
-        int ok = 1;
-        for (int a = 0; a < 3; a++) {
-            kf_real xg = p->x[a][i] * inv_dx;
-            /* NaN and far-away particles fail this test */
-            if (!(kf_fabs(xg) < (kf_real)(KF_BLOCK * (double)limit))) ok = 0;
-            b[a] = ok ? kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic) - shift) : 0;
+        for (size_t i = 0; i < n; i++) {
+            const int ok = position_in_range(p, i, inv_dx);
+            dest[i] = ok ? DEST_MOVED : DEST_BAD;
+            nmoved += ok;
+            nbad += !ok;
         }
-        if (!ok) {
-            dest[i] = DEST_BAD;
-            nbad++;
-            continue;
-        }
-        /* the owner it had: its block's coordinate */
-        const int32_t *had = full ? NULL : &bcoord[3 * dest[i]];
-        if (full || b[0] != had[0] || b[1] != had[1] || b[2] != had[2]) {
-            dest[i] = DEST_MOVED;
-            nmoved++;
-        }
+    } else {
+#pragma omp parallel for reduction(+ : nmoved, nbad) schedule(dynamic, 64) num_threads(threads)
+        for (size_t r = 0; r < nown; r++) flag_owner(g, p, r, inv_dx, cubic, &nmoved, &nbad);
     }
     if (nbad) {
         for (size_t i = 0; i < n; i++)
@@ -254,7 +278,7 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
         for (size_t i = 0; i < n; i++) {
             if (dest[i] != DEST_MOVED) continue;
             int b[3];
-            for (int a = 0; a < 3; a++) b[a] = kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic) - shift);
+            for (int a = 0; a < 3; a++) b[a] = owner_coord(p->x[a][i], inv_dx, cubic);
             const int32_t id = kf_grid_find(g, b[0], b[1], b[2]);
             if (id >= 0) dest[i] = (uint32_t)id;
             else nmissing++;
@@ -265,7 +289,7 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
         /* the owner again from the position, as step 1 found it: no
          * per-particle key is kept between the two steps */
         int b[3];
-        for (int a = 0; a < 3; a++) b[a] = kf_block_of(kf_base_node(p->x[a][i], inv_dx, cubic) - shift);
+        for (int a = 0; a < 3; a++) b[a] = owner_coord(p->x[a][i], inv_dx, cubic);
         int32_t id = block_get_or_insert(g, b[0], b[1], b[2]);
         if (id < 0) return -1;
         dest[i] = (uint32_t)id;
@@ -377,34 +401,36 @@ static int bin(kf_grid *g, kf_particles *p, kf_real inv_dx, int cubic, int threa
          * parallel region (the loop's reduction is every thread's after its
          * barrier, and inv is read no more) */
         uint32_t *inv = g->scratch;
-        const int CELLS = KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE;
-        _Static_assert(KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE <= 65536, "cell keys fit 16 bits");
-        enum { KEEP_KEYS = 4096 };
+        /* the key: the base node's place in the owner's block of base nodes
+         * less the shift (step 1 put every particle where that block is its
+         * owner: 0..KF_BLOCK-1 per axis), KF_BLOCK³ cells to count and sum,
+         * in the order of the base node's offset in the owner */
+        enum { CELLS = KF_BLOCK * KF_BLOCK * KF_BLOCK, KEEP_KEYS = 4096 };
+        _Static_assert(CELLS <= 256, "cell keys fit 8 bits");
 #pragma omp parallel num_threads(nt)
         {
 #pragma omp for schedule(static)
             for (size_t i = 0; i < n; i++) inv[dest[i]] = (uint32_t)i;
 #pragma omp for schedule(dynamic, 16) reduction(& : identity) reduction(max : reach)
             for (size_t r = 0; r < nowner; r++) {
-                int32_t cnt[KF_CACHE_EDGE * KF_CACHE_EDGE * KF_CACHE_EDGE + 1];
+                int32_t cnt[CELLS + 1];
                 memset(cnt, 0, sizeof cnt);
                 const int32_t *bc = &g->bcoord[3 * r];
                 const size_t s0 = g->pstart[r], s1 = g->pstart[r + 1];
-                /* the key: the base node's offset in the owner (0..lmax per axis) */
 #define CELL_KEY(i)                                                                                                    \
-    (((kf_base_node(p->x[0][i], inv_dx, cubic) - KF_BLOCK * bc[0]) * KF_CACHE_EDGE +                                   \
-      (kf_base_node(p->x[1][i], inv_dx, cubic) - KF_BLOCK * bc[1])) *                                                  \
-         KF_CACHE_EDGE +                                                                                               \
-     (kf_base_node(p->x[2][i], inv_dx, cubic) - KF_BLOCK * bc[2]))
+    (((kf_base_node(p->x[0][i], inv_dx, cubic) - shift - KF_BLOCK * bc[0]) * KF_BLOCK +                                \
+      (kf_base_node(p->x[1][i], inv_dx, cubic) - shift - KF_BLOCK * bc[1])) *                                          \
+         KF_BLOCK +                                                                                                    \
+     (kf_base_node(p->x[2][i], inv_dx, cubic) - shift - KF_BLOCK * bc[2]))
                 /* the keys kept from the count to the placement (three base
                  * nodes a particle once, not twice), for owners up to
                  * KEEP_KEYS particles; larger ones compute them again */
-                uint16_t keys[KEEP_KEYS];
+                uint8_t keys[KEEP_KEYS];
                 const int keep = s1 - s0 <= KEEP_KEYS;
                 if (keep)
                     for (size_t q = s0; q < s1; q++) {
                         const int key = CELL_KEY(inv[q]);
-                        keys[q - s0] = (uint16_t)key;
+                        keys[q - s0] = (uint8_t)key;
                         cnt[1 + key]++;
                     }
                 else
