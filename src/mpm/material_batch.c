@@ -83,11 +83,12 @@ static int limited_at(const kf_mat *m, kf_real *const F[9], kf_real *const ps[2]
  * in registers, and the live flags and the test for any live lane run
  * across the lanes in the same loop (a separate pass of per-lane compares
  * and a reduction over int flags compiled to scalar code, about a third of
- * a sweep's instructions). The arithmetic is the earlier sweep's,
+ * a sweep's instructions). The first sweep (first: a constant) sets the
+ * flags without reading them. The arithmetic is the earlier sweep's,
  * expression for expression, so every lane's bits are what they were. */
 static inline __attribute__((always_inline)) mb_bits polar_sweep(int n, const kf_real *const X[9],
                                                                  kf_real (*restrict Y)[BATCH],
-                                                                 mb_bits *restrict live, kf_real stop2) {
+                                                                 mb_bits *restrict live, kf_real stop2, int first) {
     mb_bits any = 0;
     for (int j = 0; j < n; j++) {
         kf_real x[9], K[9];
@@ -109,7 +110,9 @@ static inline __attribute__((always_inline)) mb_bits polar_sweep(int n, const kf
         kf_real z = kf_sqrt(kf_sqrt(k2 * id * id / (x2 > 0 ? x2 : 1)));
         z = z > 0 ? z : 1;
         kf_real a = KF_R(0.5) * z, b = KF_R(0.5) * id / z, st = 0;
-        const mb_bits on = live[j];
+        /* every lane is live in the first sweep (a constant here: no
+         * select of the new iterate, no flags read) */
+        const mb_bits on = first ? 1 : live[j];
         for (int k = 0; k < 9; k++) {
             kf_real xn = ((k >= 4) & (k <= 7)) ? MB_FMA(b, K[k], a * x[k]) : MB_FMA(a, x[k], b * K[k]);
             st += (xn - x[k]) * (xn - x[k]);
@@ -144,12 +147,11 @@ static int corotated_batch(const kf_mat *m, int n, kf_real *const Fp[9], kf_real
      * one blend, where an int flag cost the double build lane permutations
      * in every select (and a kf_real flag the float build a compare) */
     mb_bits live[BATCH];
-    for (int j = 0; j < n; j++) live[j] = 1;
-    mb_bits any = polar_sweep(n, F, XA, live, stop2);
+    mb_bits any = polar_sweep(n, F, XA, live, stop2, 1);
     kf_real(*X)[BATCH] = XA, (*Y)[BATCH] = XB;
     for (int sweep = 1; any && sweep < SWEEPS; sweep++) {
         const kf_real *const rows[9] = {X[0], X[1], X[2], X[3], X[4], X[5], X[6], X[7], X[8]};
-        any = polar_sweep(n, rows, Y, live, stop2);
+        any = polar_sweep(n, rows, Y, live, stop2, 0);
         kf_real(*t)[BATCH] = X;
         X = Y, Y = t;
     }
