@@ -87,8 +87,8 @@ static int limited_at(const kf_mat *m, kf_real *const F[9], kf_real *const ps[2]
  * flags without reading them. The arithmetic is the earlier sweep's,
  * expression for expression, so every lane's bits are what they were. */
 static inline __attribute__((always_inline)) mb_bits polar_sweep(int n, const kf_real *const X[9],
-                                                                 kf_real (*restrict Y)[BATCH],
-                                                                 mb_bits *restrict live, kf_real stop2, int first) {
+                                                                 kf_real (*restrict Y)[BATCH], mb_bits *restrict live,
+                                                                 kf_real stop2, int first) {
     mb_bits any = 0;
     for (int j = 0; j < n; j++) {
         kf_real x[9], K[9];

@@ -197,10 +197,10 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
  * its own head and ring: the order (as large as a plane, and read once an
  * array it was a third of the permutation's traffic) is read once a group
  * (a chunk of it stays in L1 while the group's arrays gather it), and the
- * group takes one barrier. Where a move is far or a thread's range short, each array goes
- * through the thread's share of the scratch plane and is copied back after
- * its barrier (one an array). */
-#define RING_W 256     /* slots gathered at a time (a power of two) */
+ * group takes one barrier. Where a move is far or a thread's range short,
+ * each array goes through the thread's share of the scratch plane and is
+ * copied back after its barrier (one an array). */
+#define RING_W 256   /* slots gathered at a time (a power of two) */
 #define RING_GROUP 2 /* arrays gathered in one pass through the order (3 and 4: slower, see perf_results.md 64) */
 
 /* how this thread permutes: its range, the ring's lag and length, and how
@@ -215,30 +215,30 @@ typedef struct permute_way {
 } permute_way;
 
 #define RING_FUNCTIONS(T, SUFFIX)                                                                                      \
-    /* w slots of one array from their sources into its ring */                                                     \
-    static inline void gather_chunk_##SUFFIX(T *restrict r, const T *restrict a, const uint32_t *restrict s,         \
+    /* w slots of one array from their sources into its ring */                                                        \
+    static inline void gather_chunk_##SUFFIX(T *restrict r, const T *restrict a, const uint32_t *restrict s,           \
                                              size_t w) {                                                               \
         for (size_t j = 0; j < w; j++) r[j] = a[s[j]];                                                                 \
     }                                                                                                                  \
-    /* gather this thread's slots of K arrays through their rings; write                                             \
-     * back what no reader needs (head[k] and ring[k]: array k's buffers) */                                         \
-    static void ring_gather_##SUFFIX(int K, T *const *a, const permute_way *pw, T *const *head, T *const *ring) {    \
+    /* gather this thread's slots of K arrays through their rings; write                                               \
+     * back what no reader needs (head[k] and ring[k]: array k's buffers) */                                           \
+    static void ring_gather_##SUFFIX(int K, T *const *a, const permute_way *pw, T *const *head, T *const *ring) {      \
         const size_t lo = pw->lo, len = pw->hi - lo, lag = pw->lag, rmask = pw->rlen - 1;                              \
         for (size_t c = 0; c < len; c += RING_W) {                                                                     \
             const size_t w = len - c < RING_W ? len - c : RING_W;                                                      \
             const uint32_t *s = pw->src + lo + c;                                                                      \
-            /* the chunk of the order stays in L1 for the group's arrays */                                       \
+            /* the chunk of the order stays in L1 for the group's arrays */                                            \
             for (int k = 0; k < K; k++) gather_chunk_##SUFFIX(ring[k] + (c & rmask), a[k], s, w);                      \
             if (c >= lag) {                                                                                            \
-                /* every source of the chunks still to gather lies past q */                                          \
+                /* every source of the chunks still to gather lies past q */                                           \
                 const size_t q = c - lag;                                                                              \
                 for (int k = 0; k < K; k++)                                                                            \
                     memcpy(q < lag ? head[k] + q : a[k] + lo + q, ring[k] + (q & rmask), RING_W * sizeof(T));          \
             }                                                                                                          \
         }                                                                                                              \
     }                                                                                                                  \
-    /* after the barrier: array a's head, and its chunks still in the ring */                                        \
-    static void ring_flush_##SUFFIX(T *restrict a, const permute_way *pw, const T *restrict head,                    \
+    /* after the barrier: array a's head, and its chunks still in the ring */                                          \
+    static void ring_flush_##SUFFIX(T *restrict a, const permute_way *pw, const T *restrict head,                      \
                                     const T *restrict ring) {                                                          \
         const size_t lo = pw->lo, len = pw->hi - lo, lag = pw->lag, rmask = pw->rlen - 1;                              \
         const size_t last = (len - 1) / RING_W * RING_W;                                                               \
@@ -246,24 +246,24 @@ typedef struct permute_way {
         for (size_t q = last - lag + RING_W; q < len; q += RING_W)                                                     \
             memcpy(a + lo + q, ring + (q & rmask), (len - q < RING_W ? len - q : RING_W) * sizeof(T));                 \
     }                                                                                                                  \
-    /* one array through the thread's share of the scratch; once every                                               \
-     * thread has read it (the barrier), the share copied back. The share is                                         \
-     * written and read by this thread alone, so the next array's gather                                             \
-     * needs no second barrier */                                                                                    \
-    static void scratch_gather_##SUFFIX(T *restrict a, const permute_way *pw) {                                      \
+    /* one array through the thread's share of the scratch; once every                                                 \
+     * thread has read it (the barrier), the share copied back. The share is                                           \
+     * written and read by this thread alone, so the next array's gather                                               \
+     * needs no second barrier */                                                                                      \
+    static void scratch_gather_##SUFFIX(T *restrict a, const permute_way *pw) {                                        \
         T *restrict tmp = (T *)pw->share - pw->lo;                                                                     \
         for (size_t i = pw->lo; i < pw->hi; i++) tmp[i] = a[pw->src[i]];                                               \
         _Pragma("omp barrier") for (size_t i = pw->lo; i < pw->hi; i++) a[i] = tmp[i];                                 \
     }                                                                                                                  \
-    /* the `count` arrays of a, a group (ring) or one (scratch) a barrier */                                         \
-    static void permute_arrays_##SUFFIX(T *const *a, int count, const permute_way *pw) {                             \
+    /* the `count` arrays of a, a group (ring) or one (scratch) a barrier */                                           \
+    static void permute_arrays_##SUFFIX(T *const *a, int count, const permute_way *pw) {                               \
         if (!pw->group) {                                                                                              \
             for (int k = 0; k < count; k++) scratch_gather_##SUFFIX(a[k], pw);                                         \
             return;                                                                                                    \
         }                                                                                                              \
         for (int g = 0; g < count; g += pw->group) {                                                                   \
             const int K = count - g < pw->group ? count - g : pw->group;                                               \
-            /* array k's head and ring, side by side in the share */                                                 \
+            /* array k's head and ring, side by side in the share */                                                   \
             T *head[RING_GROUP], *ring[RING_GROUP];                                                                    \
             for (int k = 0; k < K; k++) {                                                                              \
                 head[k] = (T *)pw->share + (size_t)k * (pw->lag + pw->rlen);                                           \
