@@ -30,12 +30,14 @@
 #include "bench_scenes.h"
 #include "bench_child.h"
 
+#include <errno.h>
 #include <math.h>
 #include <omp.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "../src/core/timer.h"
@@ -87,8 +89,13 @@ typedef struct scene_result {
 static void dump_particles(const char *dir, const char *name, kf_state *s) {
     char path[512];
     snprintf(path, sizeof path, "%s/%s.f32", dir, name);
+    /* the folder made if missing; a file that cannot be written said, not skipped in silence */
+    if (mkdir(dir, 0777) && errno != EEXIST) fprintf(stderr, "kerf_bench: --dump %s: %s\n", dir, strerror(errno));
     FILE *f = fopen(path, "wb");
-    if (!f) return;
+    if (!f) {
+        fprintf(stderr, "kerf_bench: cannot write %s: %s\n", path, strerror(errno));
+        return;
+    }
     kf_particles_view p = kf_state_particles_read(s);
     float *rec = calloc(p.n ? p.n : 1, 15 * sizeof *rec);
     for (size_t i = 0; rec && i < p.n; i++) {
