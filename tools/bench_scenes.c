@@ -77,7 +77,7 @@ typedef struct scene_result {
     double dx, particles, est_particles, substeps_per_frame, s_per_frame, mpsteps;
     double ms_per_frame[KF_STAGE_COUNT];
     double peak_mb, cpu_s_per_frame;
-    double band_share; /* the particle-steps in CPIC's band, a fraction of all */
+    double band_share;       /* the particle-steps in CPIC's band, a fraction of all */
     unsigned long long hash; /* kf_state_hash after the frames */
     int threads, frames;
     long substeps_run;

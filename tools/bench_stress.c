@@ -15,7 +15,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-
 #include "../src/core/timer.h"
 #include "../src/mpm/material.h"
 #include "bench_stress.h"

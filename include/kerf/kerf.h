@@ -366,7 +366,8 @@ typedef struct kf_step_stats {
     double ms[KF_STAGE_COUNT]; /* wall milliseconds per stage */
     long substeps;
     long particle_steps;
-    long band_particle_steps; /* of them, in CPIC's narrow band: owner blocks near a body, whose transfers take CPIC's paths */
+    /* of them, in CPIC's narrow band: owner blocks near a body, whose transfers take CPIC's paths */
+    long band_particle_steps;
     long active_blocks; /* grid blocks (4³ nodes) at the last substep */
     double max_cfl;     /* largest (c + |v|) Δt / Δx seen */
     double dt_min, dt_max;
