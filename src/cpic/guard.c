@@ -210,12 +210,14 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
  * plane test have a margin far above their rounding, so a point that rounds
  * into the neighbouring cell, or a distance that rounds across 0, is still
  * covered. */
+
 /* The lattice's n cells (all unknown) and the planes of the body's
  * primitives that its cells test (sides_tri: each cell tests dozens, and
  * tri_plane's square root and divisions were most of a test), made once:
  * the mesh does not change in its frame. One allocation, freed as sd->v. */
 static void sides_alloc(const kf_rigid_body *b, size_t n, struct kf_cpic_sides *sd) {
-    const size_t cells = (n + 31) / 32 * 32; /* the planes 32-byte aligned after the cells */
+    /* the cells rounded up to 32 bytes: the planes start as aligned as calloc's block (enough for doubles) */
+    const size_t cells = (n + 31) / 32 * 32;
     uint8_t *mem = calloc(cells + sizeof(double[4]) * (size_t)b->nguard_tri, 1);
     if (!mem) return;
     sd->v = mem;
