@@ -419,10 +419,12 @@ int kf_advance(const kf_model *m, kf_state *s, double duration, kf_step_stats *s
 /* The substep the CFL rule would choose now. */
 double kf_stable_dt(const kf_model *m, const kf_state *s, double cfl);
 
-/* Particles on the wrong side of a thin rigid body now: those whose
- * colour records one side of a thin body while the exact triangle closest to them
- * (within 1.5 cells, the point inside it) puts them on the other; the
- * deepest such, in cells, in *deepest_cells (may be NULL). 0 is the promise. */
+/* Particles on the wrong side of a rigid body now: those whose colour
+ * records one side of a thin body while the exact triangle closest to them
+ * (within 1.5 cells, the point inside it) puts them on the other, and those
+ * deeper inside a solid than its contact allows (min(dx / 2, 0.4 of its
+ * thinnest part) behind its closest face); the deepest such, in cells, in
+ * *deepest_cells (may be NULL). 0 is the promise. */
 long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_cells);
 
 /* The pose of rigid body `body` at the state's time. */

@@ -60,7 +60,7 @@ void kf_cpic_free(kf_cpic *c) {
     free(c->slot);
     free(c->xm_epoch);
     free(c->imp);
-    for (int r = 0; r < KF_MAX_RIGIDS; r++) free(c->sides[r].v);
+    for (int r = 0; r < KF_MAX_RIGIDS; r++) free(c->sides[r].v), kf_cpic_solid_free(&c->solid[r]);
     free(c->guard_caught);
     free(c->guard_depth);
     free(c->pd);

@@ -158,6 +158,16 @@ typedef struct kf_cpic {
         double lo[3], h, reach, tol;
         int dim[3];
     } sides[KF_MAX_RIGIDS];
+    /* per solid body, how deep material may enter it and where it cannot
+     * reach the surface within a substep (solid_guard.c) */
+    struct kf_cpic_solid {
+        int tried;
+        double allow;       /* the deepest a particle's centre may lie behind the face it entered by, m */
+        double (*plane)[4]; /* per guard primitive: its unit normal and offset (mesh frame) */
+        uint8_t *clear;     /* per lattice cell: 0 not yet known, KF_SOLID_NEAR, else 1 + its clearance in steps */
+        double lo[3], h, step, reach, tol;
+        int dim[3];
+    } solid[KF_MAX_RIGIDS];
     long *guard_caught;
     double *guard_depth;
     /* the substep's guard totals (kf_cpic_finish) */
@@ -199,6 +209,27 @@ typedef struct kf_cpic {
 enum { KF_SIDES_NONE = 1, KF_SIDES_FRONT, KF_SIDES_BEHIND, KF_SIDES_MIXED };
 void kf_cpic_sides_make(const kf_rigid_body *b, double dx, struct kf_cpic_sides *sd);
 int kf_cpic_sides_at(const struct kf_cpic_sides *sd, const kf_rigid_body *b, const double pm[3]);
+
+/* The guard around solids (solid_guard.c). A particle's centre may enter a
+ * solid by at most min(dx / 2, 0.4 t) behind the face it entered by (t: the
+ * solid's thickness at its thinnest), never through it. kf_cpic_solid_make: the
+ * allowances and the lattice, once per body; kf_cpic_solid_guard: one
+ * particle after advection (xold: where it started, world), put back to
+ * that depth if it went deeper; returns how much deeper it went (m), 0 if
+ * it did not. */
+#define KF_SOLID_NEAR 255
+void kf_cpic_solid_make(const kf_rigid_body *b, double dx, struct kf_cpic_solid *sd);
+double kf_cpic_solid_guard(const kf_model *m, kf_state *s, int r, size_t i, const double xold[3], double *imp);
+void kf_cpic_solid_free(struct kf_cpic_solid *sd);
+/* the particles deeper in solid r than the guard allows now (the audit, guard.c) */
+long kf_cpic_solid_audit(const kf_model *m, const kf_state *s, int r, double *deepest_cells);
+
+/* A particle the guard placed at world point xw against body r's surface
+ * (world normal nw, out of the body) loses its velocity's approach relative
+ * to the body as the boundary type says (Eq. 25); the body takes that
+ * momentum (guard.c). */
+void kf_cpic_guard_stop(const kf_model *m, kf_state *s, int r, size_t i, const double xw[3], const double nw[3],
+                        double *imp);
 
 /* J (linear impulse at world point x) and its moment about the body's com, added to imp[6] */
 static inline void kf_cpic_add_impulse(double *imp, const kf_rigid_state *st, const double x[3], const double J[3]) {

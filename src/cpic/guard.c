@@ -42,6 +42,7 @@
 #include "../rigid/bvh.h"
 #include "../core/mat3.h"
 #include "cpic.h"
+#include "guard_geom.h"
 
 #define NB KF_CPIC_NB
 
@@ -52,6 +53,7 @@ void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt) {
         const kf_rigid_body *b = &m->rigid[r];
         kf_rigid_state *e = &c->end[r];
         if (!c->sides[r].tried) kf_cpic_sides_make(b, m->sim.dx, &c->sides[r]);
+        if (!c->solid[r].tried) kf_cpic_solid_make(b, m->sim.dx, &c->solid[r]);
         if (b->def.motion != KF_RIGID_DYNAMIC) {
             kf_rigid_state_at(b, s->time + dt, e);
             continue;
@@ -68,23 +70,6 @@ void kf_cpic_guard_poses(const kf_model *m, const kf_state *s, double dt) {
         kf_m3d_mv(cm, e->R, b->com);
         for (int a = 0; a < 3; a++) e->t[a] = e->com[a] - cm[a];
     }
-}
-
-/* world -> mesh frame of pose st */
-static inline void to_mesh(const kf_rigid_state *st, const double x[3], double p[3]) {
-    double q[3] = {x[0] - st->t[0], x[1] - st->t[1], x[2] - st->t[2]};
-    kf_m3d_mtv(p, st->R, q);
-}
-
-/* the unit normal and the offset of triangle k's plane, mesh frame */
-static inline void tri_plane(const kf_rigid_body *b, int k, double n[3], double *off) {
-    const double *a = &b->vert[3 * b->tri[3 * k]], *p = &b->vert[3 * b->tri[3 * k + 1]],
-                 *q = &b->vert[3 * b->tri[3 * k + 2]];
-    double e1[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]}, e2[3] = {q[0] - a[0], q[1] - a[1], q[2] - a[2]};
-    kf_v3d_cross(n, e1, e2);
-    double nn = sqrt(kf_v3d_dot(n, n));
-    for (int i = 0; i < 3; i++) n[i] = nn > 0 ? n[i] / nn : 0;
-    *off = kf_v3d_dot(n, a);
 }
 
 /* Where the segment p0 -> p1 (mesh frame) passes through body b's surface,
@@ -112,7 +97,7 @@ static int put_back(const kf_rigid_body *b, const double p0[3], double p1[3], do
     double n[3], off, side = 1;
     *depth = 0;
     for (int tries = 0; k >= 0; tries++) {
-        tri_plane(b, b->guard_tri[k], n, &off);
+        kf_guard_tri_plane(b, b->guard_tri[k], n, &off);
         double s0 = kf_v3d_dot(n, p0) - off, s1 = kf_v3d_dot(n, p1) - off;
         side = s0 >= 0 ? 1 : -1;
         if (tries == 0) *depth = fabs(s1);
@@ -144,13 +129,13 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
     const kf_cpic *c = s->cpic;
     kf_particles *p = &s->p;
     double x1[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, p0[3], p1[3];
-    /* thin bodies only: around a solid the colored distance field reaches
-     * 2.5 cells inside and the penalty keeps the material out; guarding a
-     * solid too removes the slight penetrations that carry a loaded face's
-     * support (docs/lab-notes.md, "The guard around solids") */
+    /* thin bodies only: a solid bounds how deep material enters it
+     * (solid_guard.c), since guarding it as a sheet removes the slight
+     * penetrations that carry a loaded face's support (docs/lab-notes.md,
+     * "The guard around solids") */
     if (!b->bvh || !b->def.thin) return 0;
-    to_mesh(&s->rigid[r], xold, p0);
-    to_mesh(&c->end[r], x1, p1);
+    kf_guard_to_mesh(&s->rigid[r], xold, p0);
+    kf_guard_to_mesh(&c->end[r], x1, p1);
     /* farther from the surface than its path is long (the MLS fit's distance
      * at the start, a quarter cell to spare for a curved surface): it cannot
      * have reached it, and the query is skipped (most of the narrow band) */
@@ -174,9 +159,17 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
         xw[a] += e->t[a];
         p->x[a][i] = (kf_real)xw[a];
     }
-    /* its velocity relative to the body: no approach through the surface (Eq. 25) */
+    kf_cpic_guard_stop(m, s, r, i, xw, nw, imp);
+    return depth;
+}
+
+void kf_cpic_guard_stop(const kf_model *m, kf_state *s, int r, size_t i, const double xw[3], const double nw[3],
+                        double *imp) {
+    const kf_rigid_body *b = &m->rigid[r];
+    kf_particles *p = &s->p;
+    /* its velocity relative to the body at its end pose: no approach through the surface (Eq. 25) */
     double V[3], w[3];
-    kf_rigid_point_velocity(e, xw, V);
+    kf_rigid_point_velocity(&s->cpic->end[r], xw, V);
     for (int a = 0; a < 3; a++) w[a] = p->v[a][i] - V[a];
     double wn = kf_v3d_dot(w, nw);
     if (wn < 0 || b->def.boundary == KF_BOUNDARY_STICKY) {
@@ -189,7 +182,6 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
         }
         kf_cpic_add_impulse(imp + 6 * r, &s->rigid[r], xw, J);
     }
-    return depth;
 }
 
 /* ---- the sides a thin body's surface can give ---------------------------------
@@ -213,7 +205,7 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
 
 /* The lattice's n cells (all unknown) and the planes of the body's
  * primitives that its cells test (sides_tri: each cell tests dozens, and
- * tri_plane's square root and divisions were most of a test), made once:
+ * kf_guard_tri_plane's square root and divisions were most of a test), made once:
  * the mesh does not change in its frame. One allocation, freed as sd->v. */
 static void sides_alloc(const kf_rigid_body *b, size_t n, struct kf_cpic_sides *sd) {
     /* the cells rounded up to 32 bytes: the planes start as aligned as calloc's block (enough for doubles) */
@@ -222,7 +214,7 @@ static void sides_alloc(const kf_rigid_body *b, size_t n, struct kf_cpic_sides *
     if (!mem) return;
     sd->v = mem;
     sd->plane = (double(*)[4])(void *)(mem + cells);
-    for (int k = 0; k < b->nguard_tri; k++) tri_plane(b, b->guard_tri[k], sd->plane[k], &sd->plane[k][3]);
+    for (int k = 0; k < b->nguard_tri; k++) kf_guard_tri_plane(b, b->guard_tri[k], sd->plane[k], &sd->plane[k][3]);
 }
 
 void kf_cpic_sides_make(const kf_rigid_body *b, double dx, struct kf_cpic_sides *sd) {
@@ -363,7 +355,7 @@ static void retag_at(const kf_model *m, kf_state *s, int r, size_t i, const doub
         return;
     int interior = 0, k = kf_rigid_bvh_closest(b->bvh, pm, 1.5 * m->sim.dx, q, &interior);
     if (k < 0 || !interior) return;
-    tri_plane(b, b->guard_tri[k], nrm, &off);
+    kf_guard_tri_plane(b, b->guard_tri[k], nrm, &off);
     const double u = kf_v3d_dot(nrm, pm) - off;
     if (u < 0) p->colour[i] |= tbit;
     else if (u > 0) p->colour[i] &= ~tbit;
@@ -375,7 +367,7 @@ static void retag(const kf_model *m, kf_state *s, int r, size_t i, const kf_rigi
     if (!b->bvh || !b->def.thin) return;
     const kf_particles *p = &s->p;
     double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, pm[3];
-    to_mesh(pose, x, pm);
+    kf_guard_to_mesh(pose, x, pm);
     retag_at(m, s, r, i, pm, kf_cpic_sides_at(&s->cpic->sides[r], b, pm));
 }
 
@@ -384,13 +376,19 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
     kf_cpic *c = s->cpic;
     const int slot = c->slot[owner];
     double *imp = &c->imp[slot][0][0];
+    /* the affinity bits of the solids: guarded after the thin bodies, whose
+     * put-backs move a particle along their own normal only, and may move it
+     * into a solid (sand a stirrer's blade presses into a bowl's wall) */
+    uint32_t solids = 0;
+    for (int r = 0; r < m->nrigid; r++)
+        if (!m->rigid[r].def.thin) solids |= 2u << (2 * r);
     for (int j = 0; j < ck->n; j++) {
         /* the bodies the particle's stencil (at its start) had affinity to */
         const int o = (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
-        uint32_t B = oc->aff[o];
-        if (!B) continue;
+        const uint32_t aff = oc->aff[o];
+        if (!aff) continue;
         const double x0[3] = {xold[j], xold[KF_CHUNK + j], xold[2 * KF_CHUNK + j]};
-        for (; B; B &= B - 1) {
+        for (uint32_t B = aff & ~solids; B; B &= B - 1) {
             int r = __builtin_ctz(B) / 2;
             double depth = guard_particle(m, s, r, i0 + (size_t)j, x0, imp);
             if (depth > 0) {
@@ -401,6 +399,14 @@ void kf_cpic_guard(const kf_model *m, kf_state *s, size_t owner, const kf_cpic_o
              * corner the closest triangle may be the other plate's */
             if (depth > 0 || c->near[i0 + (size_t)j] != r + 1 || c->pd[i0 + (size_t)j] < 1.5 * m->sim.dx)
                 retag(m, s, r, i0 + (size_t)j, &c->end[r]);
+        }
+        /* a solid: no deeper than its contact allows (solid_guard.c) */
+        for (uint32_t B = aff & solids; B; B &= B - 1) {
+            double excess = kf_cpic_solid_guard(m, s, __builtin_ctz(B) / 2, i0 + (size_t)j, x0, imp);
+            if (excess > 0) {
+                c->guard_caught[slot]++;
+                if (excess > c->guard_depth[slot]) c->guard_depth[slot] = excess;
+            }
         }
     }
 }
@@ -445,8 +451,8 @@ static int settle_particle(const kf_model *m, kf_state *s, int r, size_t i, doub
     const kf_rigid_state *own = &s->rigid[r];
     kf_particles *p = &s->p;
     double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, pg[3], po[3], d[3];
-    to_mesh(&c->end[r], x, pg);
-    to_mesh(own, x, po);
+    kf_guard_to_mesh(&c->end[r], x, pg);
+    kf_guard_to_mesh(own, x, po);
     for (int a = 0; a < 3; a++) d[a] = po[a] - pg[a];
     /* a leg no longer than half a lattice cell's side, between two cells
      * that each lie strictly on one side of every triangle that can be
@@ -512,12 +518,10 @@ void kf_cpic_guard_settle(const kf_model *m, kf_state *s) {
  * with the exact triangle closest to it (within 1.5 cells; where that point
  * lies on an edge or a corner, the particle is beside the surface, not
  * behind it). Its colour records a side; the triangle's plane says which
- * side it is on. The frame log reports the count after every frame. Thin
- * bodies only, as the guard: material touching a solid overlaps its surface
- * slightly by design (the colored distance field reaches 2.5 cells inside,
- * and the penalty around solids is off by default), which is contact, not a
- * crossing; measured in sand_stir, sand poured over the bowl's rim sat up to
- * a third of a cell inside it. */
+ * side it is on. The frame log reports the count after every frame. A
+ * solid is audited against its own promise (kf_cpic_solid_audit): material
+ * touching a solid overlaps its surface slightly by design, which is
+ * contact; a particle deeper inside than the guard allows is across. */
 long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_cells) {
     const kf_particles *p = &s->p;
     const double dx = m->sim.dx;
@@ -525,6 +529,11 @@ long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_c
     double deepest = 0;
     for (int r = 0; r < m->nrigid; r++) {
         const kf_rigid_body *b = &m->rigid[r];
+        if (b->bvh && !b->def.thin) {
+            double d = 0;
+            across += kf_cpic_solid_audit(m, s, r, &d);
+            deepest = d > deepest ? d : deepest;
+        }
         if (!b->bvh || !b->def.thin) continue;
         const uint32_t abit = 2u << (2 * r), tbit = 1u << (2 * r);
         const size_t n = p->n;
@@ -532,10 +541,10 @@ long kf_state_thin_audit(const kf_model *m, const kf_state *s, double *deepest_c
         for (size_t i = 0; i < n; i++) {
             if (!(p->colour[i] & abit)) continue;
             double x[3] = {p->x[0][i], p->x[1][i], p->x[2][i]}, pm[3], q[3], nrm[3], off;
-            to_mesh(&s->rigid[r], x, pm);
+            kf_guard_to_mesh(&s->rigid[r], x, pm);
             int interior = 0, k = kf_rigid_bvh_closest(b->bvh, pm, 1.5 * dx, q, &interior);
             if (k < 0 || !interior) continue;
-            tri_plane(b, b->guard_tri[k], nrm, &off);
+            kf_guard_tri_plane(b, b->guard_tri[k], nrm, &off);
             double u = kf_v3d_dot(nrm, pm) - off;
             int behind = (p->colour[i] & tbit) ? u > 0 : u < 0;
             if (!behind) continue;
