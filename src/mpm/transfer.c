@@ -76,6 +76,11 @@ _Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like
 
 /* ---- P2G ---------------------------------------------------------------------- */
 
+/* the stress section's: the materials a stress pass evaluates, and a
+ * chunk's stress evaluated with them */
+static const kf_mat *stress_mats(const kf_model *m, kf_mat buf[KF_MAX_MATERIALS]);
+static void stress_eval_mats(const kf_mat *mats, kf_particles *p, size_t first, int n, kf_real *const out[6]);
+
 /* fused (kf_g2p2g, the next substep's scatter made early): a stencil
  * outside the owner's neighbourhood or a non-finite stress makes the
  * scatter unusable (returns 1 at once; the next substep bins and scatters
@@ -83,6 +88,7 @@ _Static_assert(KF_CPIC_NB == KF_CACHE_EDGE, "CPIC's owner cache is laid out like
 /* what one owner's P2G chunks share (p2g_block_cache) */
 typedef struct p2g_owner {
     const kf_model *m;
+    const kf_mat *mats; /* eval: stress_mats's, resolved once an owner */
     kf_state *s;
     size_t r;
     kf_real dt, dx, inv_dx, minv;
@@ -194,7 +200,7 @@ KF_INLINE int p2g_chunk(int KW, int CLASSIC, int FLIP, int n, const p2g_owner *o
     kf_real tbuf[6][KF_CHUNK] __attribute__((aligned(64)));
     kf_real *const tout[6] = {tbuf[0], tbuf[1], tbuf[2], tbuf[3], tbuf[4], tbuf[5]};
     const kf_real *tc[6];
-    if (eval) kf_stress_eval(m, p, i0, n, tout);
+    if (eval) stress_eval_mats(o->mats, p, i0, n, tout);
     for (int k = 0; k < 6; k++) tc[k] = eval ? tbuf[k] : p->tau[k] + i0;
     /* Q, m v and m, and τ's finiteness: one pass across the chunk */
     int bad = apic ? p2g_terms(CLASSIC, FLIP, 1, n, ck, p, i0, tc, dt, inv_dx, minv)
@@ -252,8 +258,12 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
     if (fields) memset(fcache, 0, sizeof(kf_v4) * KF_CONTACT_CACHE_ROWS * CD * CD * CD);
     /* the base offsets the block's particles use: only their nodes are flushed */
     int lo[3] = {CD, CD, CD}, hi[3] = {0, 0, 0};
+    /* the stress not kept (KF_ZERO_TAU): the materials it is evaluated with */
+    const int eval = (p->zero & KF_ZERO_TAU) != 0;
+    kf_mat limited_mat[KF_MAX_MATERIALS];
     /* the binning's 1/Δx, bit for bit: each stencil base must lie in its owner block (model.h) */
     const p2g_owner o = {.m = m,
+                         .mats = eval ? stress_mats(m, limited_mat) : NULL,
                          .s = s,
                          .r = r,
                          .dt = dt,
@@ -265,7 +275,7 @@ KF_INLINE int p2g_block_cache(int KW, int CLASSIC, int FLIP, const kf_model *m, 
                          .poly = m->sim.transfer == KF_TRANSFER_POLYPIC,
                          .band = band,
                          .fields = fields,
-                         .eval = (p->zero & KF_ZERO_TAU) != 0,
+                         .eval = eval,
                          .fused = fused,
                          .oc = band ? &oc : NULL,
                          .cache = cache,
@@ -1042,9 +1052,10 @@ long kf_stress_span(const kf_model *m, kf_real *const F[9], kf_real *const ps[2]
     return limited;
 }
 
-void kf_stress_eval(const kf_model *m, kf_particles *p, size_t first, int n, kf_real *const out[6]) {
-    kf_mat limited_mat[KF_MAX_MATERIALS];
-    const kf_mat *mats = stress_mats(m, limited_mat);
+/* kf_stress_eval with the materials resolved (stress_mats): P2G resolves
+ * them once an owner, not once a chunk (kf_model_c_limit, and the limited
+ * materials' 6.8 KB frame, for every 16 particles) */
+static void stress_eval_mats(const kf_mat *mats, kf_particles *p, size_t first, int n, kf_real *const out[6]) {
     for (int j = 0; j < n;) {
         uint16_t mt = p->mat[first + (size_t)j];
         int e = j + 1;
@@ -1056,6 +1067,11 @@ void kf_stress_eval(const kf_model *m, kf_particles *p, size_t first, int n, kf_
         kf_mat_update_batch(&mats[mt], e - j, p->F, p->ps, 0, first + (size_t)j, o);
         j = e;
     }
+}
+
+void kf_stress_eval(const kf_model *m, kf_particles *p, size_t first, int n, kf_real *const out[6]) {
+    kf_mat limited_mat[KF_MAX_MATERIALS];
+    stress_eval_mats(stress_mats(m, limited_mat), p, first, n, out);
 }
 
 void kf_stress(const kf_model *m, kf_state *s, int project) {
