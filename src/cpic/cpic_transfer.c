@@ -714,13 +714,25 @@ static inline void stencil_sides(const uint32_t *col, int o, uint32_t old, uint3
 #endif
 }
 
+/* What the colour pass read of a particle's stencil that the nodes across
+ * it (nodes_across) can use: the colour it read the nodes' sides against,
+ * and the bodies (their A bits) some node of which is on the other side of
+ * that colour */
+typedef struct stencil_read {
+    uint32_t old, differ;
+} stencil_read;
+
 /* §5.3.1–5.3.3: the particle's colour (kept, dropped, acquired), and its
  * distance fit queued in f (the sums follow in fit_sums, the solve and the
  * rest in particle_cdf_finish). Writes the colour, and resets pd, pn and
- * near (r*+1 of the fit's closest node, 0 when the fit failed). */
+ * near (r*+1 of the fit's closest node, 0 when the fit failed); *sr says
+ * what it read of the stencil's sides. */
 static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck, int j, const uint32_t *col,
-                         const float *dist, const uint32_t *oc_aff, double dx, const uint8_t *thin_body, cdf_fit *f) {
+                         const float *dist, const uint32_t *oc_aff, double dx, const uint8_t *thin_body, cdf_fit *f,
+                         stencil_read *sr) {
     const int o = stencil_base(ck, j);
+    sr->old = p->colour[i];
+    sr->differ = 0;
     /* no node of the stencil near a body: only the scar stays */
     if (!oc_aff[o]) {
         p->colour[i] = kf_cpic_scar(0, p->colour[i], thin_body);
@@ -735,6 +747,7 @@ static void particle_cdf(kf_cpic *c, kf_particles *p, size_t i, const chunk *ck,
     const uint32_t old = p->colour[i];
     uint32_t B, agree, across;
     stencil_sides(col, o, old, &B, &agree, &across);
+    sr->differ = across & AFF;
     B &= AFF;
     /* drop bodies no kernel node is close to; keep the rest as they are */
     uint32_t cp = old & ((B | B >> 1));
@@ -861,6 +874,18 @@ static inline uint32_t across_nodes(const uint32_t *col, int o, uint32_t cp) {
     for (int n = 0; n < 27; n++) xm |= (uint32_t)!compatible(col[o + stencil_off[n]], cp) << n;
 #endif
     return xm;
+}
+
+/* The nodes across a surface from a particle of final colour cp (P2G,
+ * after its colour pass read the stencil's sides, sr). Where cp has old's
+ * side of every body it has affinity to, a node across is one on the other
+ * side of such a body than old: there is none unless sr->differ names one
+ * of cp's bodies, and then across_nodes finds them. Most of the band has
+ * none: the same 0, without a second pass over the stencil. */
+static inline uint32_t nodes_across(const uint32_t *col, int o, uint32_t cp, stencil_read sr) {
+    const uint32_t bodies = cp & AFF;
+    if (!((cp ^ sr.old) & bodies >> 1) && !(sr.differ & bodies)) return 0;
+    return across_nodes(col, o, cp);
 }
 
 #if defined(__AVX2__) && defined(__FMA__) && !defined(KF_DOUBLE)
@@ -1161,9 +1186,11 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
      * band, the same sums in the same order */
     int across[KF_CHUNK], nacross = 0;
     uint32_t xmask[KF_CHUNK];
+    stencil_read sides[KF_CHUNK];
     cdf_fit fit;
     fit.n = 0;
-    for (int j = 0; j < ck->n; j++) particle_cdf(c, p, i0 + (size_t)j, ck, j, col, dist, oc->aff, dx, thin_body, &fit);
+    for (int j = 0; j < ck->n; j++)
+        particle_cdf(c, p, i0 + (size_t)j, ck, j, col, dist, oc->aff, dx, thin_body, &fit, &sides[j]);
     fit_sums(ck, col, dist, 1 / dx, &fit);
     solve4_lanes(&fit);
     for (int q = 0; q < fit.n; q++) particle_cdf_finish(c, p, i0 + (size_t)fit.idx[q], &fit, q, dx, thin_body);
@@ -1173,7 +1200,7 @@ void kf_cpic_p2g_chunk(const kf_model *m, kf_state *s, size_t owner, const kf_cp
     for (int j = 0; j < ck->n; j++) {
         const uint32_t cp = colour[j];
         if (!(cp & AFF)) continue;
-        const uint32_t xm = across_nodes(col, stencil_base(ck, j), cp);
+        const uint32_t xm = nodes_across(col, stencil_base(ck, j), cp, sides[j]);
         kept[j] = xm;
         if (xm) xmask[nacross] = xm, across[nacross++] = j;
     }
