@@ -38,12 +38,20 @@ static inline int stencil_base(const chunk *ck, int j) {
     return (ck->l[0][j] * NB + ck->l[1][j]) * NB + ck->l[2][j];
 }
 
+/* stencil node n's offsets {a, b, k} from the base node (n = 9a + 3b + k) */
+static const int32_t stencil_s3[27][4] = {
+#define KF_S3(a, b) {a, b, 0, 0}, {a, b, 1, 0}, {a, b, 2, 0}
+    KF_S3(0, 0), KF_S3(0, 1), KF_S3(0, 2), KF_S3(1, 0), KF_S3(1, 1),
+    KF_S3(1, 2), KF_S3(2, 0), KF_S3(2, 1), KF_S3(2, 2)
+#undef KF_S3
+};
+
 /* Stencil node n = 9a + 3b + k of particle j in owner block bc: its
  * offsets s3 = {a, b, k} from the base node and its world position xi (one
  * place for the across paths of P2G and G2P, so they agree) */
 static inline void stencil_node(const chunk *ck, int j, const int32_t *bc, double dx, int n, int s3[3],
                                 double xi[3]) {
-    s3[0] = n / 9, s3[1] = n / 3 % 3, s3[2] = n % 3;
+    for (int e = 0; e < 3; e++) s3[e] = stencil_s3[n][e];
     for (int e = 0; e < 3; e++) xi[e] = (KF_BLOCK * bc[e] + ck->l[e][j] + s3[e]) * dx;
 }
 
@@ -160,7 +168,7 @@ static inline void kept_velocity_at(const kf_model *m, const kf_state *s, int r,
  * whole, so the particle's whole exchange with the body decides. */
 static uint32_t pressed_bodies(const kf_model *m, const kf_state *s, const chunk *ck, int j, const uint32_t *col, int o,
                                uint32_t xm, const int32_t *bc, const double vp[3], const double n[3], const double T[9],
-                               double mass, int classic) {
+                               double mass, int classic, const uint8_t *uniform) {
     const double dx = m->sim.dx, minv = 1.0 / kf_model_dfactor(m);
     double acc[KF_MAX_RIGIDS];
     uint32_t seen = 0, held = 0;
@@ -177,7 +185,10 @@ static uint32_t pressed_bodies(const kf_model *m, const kf_state *s, const chunk
         const double w = (double)ck->w[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j];
         const double d[3] = {ck->d[0][a][j], ck->d[1][b][j], ck->d[2][k][j]};
         double V[3], g[3];
-        kf_rigid_point_velocity(&s->rigid[r], xi, V);
+        /* a body that does not turn: its v at every point, bit for bit (uniform_velocity) */
+        if (uniform[r])
+            for (int e = 0; e < 3; e++) V[e] = s->rigid[r].v[e];
+        else kf_rigid_point_velocity(&s->rigid[r], xi, V);
         if (classic) {
             g[0] = (double)ck->dw[0][a][j] * ck->w[1][b][j] * ck->w[2][k][j] / dx;
             g[1] = (double)ck->w[0][a][j] * ck->dw[1][b][j] * ck->w[2][k][j] / dx;
@@ -287,14 +298,6 @@ static inline void affine_velocity_of(const double C[9], int apic, const double 
  * the lanes of one register (the fourth lane unused), each lane the scalar
  * code's operations as the compiler contracts them there: bit for bit. */
 #define KF_CPIC_NODE_LANES 1
-
-/* stencil node n's offsets {a, b, k} from the base node (n = 9a + 3b + k) */
-static const int32_t stencil_s3[27][4] = {
-#define KF_S3(a, b) {a, b, 0, 0}, {a, b, 1, 0}, {a, b, 2, 0}
-    KF_S3(0, 0), KF_S3(0, 1), KF_S3(0, 2), KF_S3(1, 0), KF_S3(1, 1),
-    KF_S3(1, 2), KF_S3(2, 0), KF_S3(2, 1), KF_S3(2, 2)
-#undef KF_S3
-};
 
 /* the first three of v in lanes 0-2, lane 3 zero */
 static inline __m256d lanes3(const double v[3]) {
@@ -1290,7 +1293,8 @@ static void ghost_reads(const ghost_ctx *x, chunk *ck, int j, size_t i, uint32_t
     double T[9] = {0};
     for (int e = 0; e < (x->need_tau ? 9 : 0); e++) T[e] = -dt * (double)p->vol0[i] * (double)ck->tau[SYM[e]][j];
     /* (a particle with no separate body's node across its surface presses on none) */
-    const uint32_t held = presses ? pressed_bodies(m, s, ck, j, col, o, xm, bc, vp, np, T, mass, x->classic) : 0;
+    const uint32_t held =
+        presses ? pressed_bodies(m, s, ck, j, col, o, xm, bc, vp, np, T, mass, x->classic, x->uniform) : 0;
     /* every node's grid velocity, with no affine term: what a compatible node gives */
     for (int n = 0; n < (fill_grid ? 27 : 0); n++) {
         const kf_v4 vg = x->cache[o + stencil_off[n]];
