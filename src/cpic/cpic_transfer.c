@@ -1106,6 +1106,64 @@ static void node_adds_lanes(const chunk *ck, const int jl[4], scatter_adds *sa) 
 #define KF_CPIC_SCATTER_LANES 1
 #endif
 
+#if defined(__AVX__) && !defined(KF_DOUBLE)
+/* For a stencil row's 3 nodes, the lanes of each node that keeps its add
+ * (bit k of the index: node k is compatible): nodes 0 and 1 (8 floats),
+ * node 2 (4 floats) */
+#define KF_KEEP4(k, bit) ((k) >> (bit) & 1 ? -1 : 0)
+#define KF_KEEP01(k) {KF_KEEP4(k, 0), KF_KEEP4(k, 0), KF_KEEP4(k, 0), KF_KEEP4(k, 0), \
+                      KF_KEEP4(k, 1), KF_KEEP4(k, 1), KF_KEEP4(k, 1), KF_KEEP4(k, 1)}
+#define KF_KEEP2(k) {KF_KEEP4(k, 2), KF_KEEP4(k, 2), KF_KEEP4(k, 2), KF_KEEP4(k, 2)}
+static const int32_t row_keep01[8][8] = {KF_KEEP01(0), KF_KEEP01(1), KF_KEEP01(2), KF_KEEP01(3),
+                                         KF_KEEP01(4), KF_KEEP01(5), KF_KEEP01(6), KF_KEEP01(7)};
+static const int32_t row_keep2[8][4] = {KF_KEEP2(0), KF_KEEP2(1), KF_KEEP2(2), KF_KEEP2(3),
+                                        KF_KEEP2(4), KF_KEEP2(5), KF_KEEP2(6), KF_KEEP2(7)};
+#undef KF_KEEP01
+#undef KF_KEEP2
+#undef KF_KEEP4
+#endif
+
+/* An across particle's adds (add[n]: node n's, in doubles) into the nodes
+ * of its stencil (base o) that are compatible (not bits of xm), each
+ * rounded to float and added as alone. Where AVX is, a stencil row of 3
+ * nodes (12 floats, contiguous in the cache) at a time: the row's nodes
+ * with their adds, written back where the node is compatible and as they
+ * were where it is across (a blend: the same bits as adding node by node,
+ * and a node across untouched). */
+static inline void compatible_adds(kf_v4 *cache, int o, uint32_t xm, const double (*add)[4]) {
+#if defined(__AVX__) && !defined(KF_DOUBLE)
+    for (int row = 0; row < 9; row++) {
+        const uint32_t keep = ~xm >> (3 * row) & 7;
+        if (!keep) continue;
+        const double *ad = add[3 * row];
+        float *at = (float *)&cache[o + stencil_off[3 * row]];
+        /* the four conversions to float of a node in one (each rounded as alone) */
+        const __m256 add01 =
+            _mm256_set_m128(_mm256_cvtpd_ps(_mm256_loadu_pd(ad + 4)), _mm256_cvtpd_ps(_mm256_loadu_pd(ad)));
+        const __m128 add2 = _mm256_cvtpd_ps(_mm256_loadu_pd(ad + 8));
+        const __m256 old01 = _mm256_loadu_ps(at);
+        const __m128 old2 = _mm_loadu_ps(at + 8);
+        __m256 new01 = _mm256_add_ps(old01, add01);
+        __m128 new2 = _mm_add_ps(old2, add2);
+        if (keep != 7) {
+            const __m256i keep01 = _mm256_loadu_si256((const __m256i *)row_keep01[keep]);
+            const __m128i keep2 = _mm_loadu_si128((const __m128i *)row_keep2[keep]);
+            new01 = _mm256_blendv_ps(old01, new01, _mm256_castsi256_ps(keep01));
+            new2 = _mm_blendv_ps(old2, new2, _mm_castsi128_ps(keep2));
+        }
+        _mm256_storeu_ps(at, new01);
+        _mm_storeu_ps(at + 8, new2);
+    }
+#else
+    for (uint32_t left = ~xm & ((1u << 27) - 1); left; left &= left - 1) {
+        const int n = __builtin_ctz(left);
+        const double *ad = add[n];
+        kf_v4 v4 = {(kf_real)ad[0], (kf_real)ad[1], (kf_real)ad[2], (kf_real)ad[3]};
+        cache[o + stencil_off[n]] += v4;
+    }
+#endif
+}
+
 /* One across particle's scatter from its adds (lane `lane` of sa):
  * compatible nodes get them; an incompatible node (bit of xm) gets nothing,
  * and its closest body takes all it would have received (§5.4); G2P takes
@@ -1123,17 +1181,7 @@ static void scatter_across(const kf_model *m, kf_state *s, size_t owner, const k
     const int apic = m->sim.transfer != KF_TRANSFER_PIC; /* APIC and FLIP carry C */
     const uint32_t cp = s->p.colour[i];
     const int o = stencil_base(ck, j);
-    for (uint32_t left = ~xm & ((1u << 27) - 1); left; left &= left - 1) {
-        const int n = __builtin_ctz(left);
-        const double *ad = sa->add[lane][n];
-#if defined(__AVX__) && !defined(KF_DOUBLE)
-        /* the four conversions to float in one (each rounded as alone) */
-        kf_v4 v4 = (kf_v4)_mm256_cvtpd_ps(_mm256_loadu_pd(ad));
-#else
-        kf_v4 v4 = {(kf_real)ad[0], (kf_real)ad[1], (kf_real)ad[2], (kf_real)ad[3]};
-#endif
-        cache[o + stencil_off[n]] += v4;
-    }
+    compatible_adds(cache, o, xm, sa->add[lane]);
     double Cj[9];
     for (int e = 0; e < 9; e++) Cj[e] = apic ? s->p.C[e][i] : 0;
 #ifdef KF_CPIC_NODE_LANES
