@@ -107,6 +107,42 @@ static void permute_exact(void) {
     free(src);
 }
 
+/* runs as a re-sort makes them (particles.c: find_runs): aligned fours of
+ * consecutive particles trading places with the fours `gap` fours on, and
+ * in every `every`-th four two particles swapped (a four that is no run,
+ * which the copy of its run misses and its own gather puts right) */
+static void runs_permutation(uint32_t *src, size_t n, size_t gap, size_t every) {
+    for (size_t i = 0; i < n; i++) src[i] = (uint32_t)i;
+    const size_t fours = n / 4;
+    for (size_t lo = 0; lo + 2 * gap <= fours; lo += 2 * gap)
+        for (size_t g = lo; g < lo + gap; g++)
+            for (size_t u = 0; u < 4; u++) {
+                const size_t i = 4 * g + u, j = 4 * (g + gap) + u;
+                src[i] = (uint32_t)j, src[j] = (uint32_t)i;
+            }
+    for (size_t g = 0; g < fours; g += every) {
+        const uint32_t t = src[4 * g + 1];
+        src[4 * g + 1] = src[4 * g + 2], src[4 * g + 2] = t;
+    }
+}
+
+/* the ring by runs: fours that are runs, some that are not (a chunk mostly
+ * runs and one mostly not), counts that leave a thread's range a partial
+ * four or start it off the fours, 1 to 3 threads */
+static void permute_runs(void) {
+    const size_t sizes[] = {40000, 40002, 39999};
+    const size_t gaps[] = {3, 200}, every[] = {1000000, 7, 2, 1};
+    uint32_t *src = malloc(sizes[0] * sizeof *src);
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 2; b++)
+            for (int c = 0; c < 4; c++) {
+                runs_permutation(src, sizes[a], gaps[b], every[c]);
+                const size_t r = reach_of(src, sizes[a]);
+                for (int t = 1; t <= 3; t++) check_permute(sizes[a], src, r, t, "runs");
+            }
+    free(src);
+}
+
 /* zero arrays are left out of the permutation, which leaves the ring's
  * groups of arrays with a remainder (an odd count of a type): every other
  * array still ends as old[src[i]], for 1 to 3 threads, and the zero ones
@@ -145,5 +181,6 @@ static void permute_some_zero(void) {
 int main(int argc, char **argv) {
     KT_RUN(permute_exact, argc, argv);
     KT_RUN(permute_some_zero, argc, argv);
+    KT_RUN(permute_runs, argc, argv);
     return KT_EXIT();
 }

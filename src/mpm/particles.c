@@ -202,6 +202,19 @@ int kf_particles_copy(kf_particles *dst, const kf_particles *src) {
  * copied back after its barrier (one an array). */
 #define RING_W 256   /* slots gathered at a time (a power of two) */
 #define RING_GROUP 2 /* arrays gathered in one pass through the order (3 and 4: slower, see perf_results.md 64) */
+#define RUN 4        /* slots a run covers (see find_runs) */
+_Static_assert(RING_W % RUN == 0, "a chunk holds whole runs");
+
+/* A thread's slots in groups of RUN, and where each group's particles come
+ * from (find_runs): from[g] is the first source of group g where its RUN
+ * slots take RUN consecutive particles (a run, one copy of RUN elements),
+ * and 0 where they do not (particles 0..RUN-1, in range: the ring's way
+ * needs far more particles; the group's own gather then overwrites the
+ * copy); odd lists those groups in order, the ring's chunk c's from
+ * odd[chunk[c]] to odd[chunk[c + 1]]. from NULL: no runs are used. */
+typedef struct permute_runs {
+    uint32_t *from, *odd, *chunk;
+} permute_runs;
 
 /* how this thread permutes: its range, the ring's lag and length, and how
  * many arrays a pass takes (0: the scratch plane's way). Every thread takes
@@ -212,13 +225,29 @@ typedef struct permute_way {
     size_t lag, rlen;    /* the ring's lag and length (slots) */
     int group;           /* arrays a pass through the ring; 0: no ring */
     char *share;         /* this thread's share of the scratch */
+    permute_runs runs;   /* this thread's groups (find_runs) */
 } permute_way;
 
 #define RING_FUNCTIONS(T, SUFFIX)                                                                                      \
-    /* w slots of one array from their sources into its ring */                                                        \
+    /* w slots of one array from their sources into its ring, every slot                                             \
+     * on its own (the compiler vectorises it) */                                                                      \
     static inline void gather_chunk_##SUFFIX(T *restrict r, const T *restrict a, const uint32_t *restrict s,           \
                                              size_t w) {                                                               \
         for (size_t j = 0; j < w; j++) r[j] = a[s[j]];                                                                 \
+    }                                                                                                                  \
+    /* the same by runs: the chunk's ng groups copied from[g] (no branch),                                             \
+     * then its odd groups (odd[0..nodd), chunk-relative) and its last w -                                             \
+     * RUN·ng slots gathered slot by slot */                                                                           \
+    static inline void gather_runs_##SUFFIX(T *restrict r, const T *restrict a, const uint32_t *restrict s,            \
+                                            size_t w, const uint32_t *restrict from, const uint32_t *restrict odd,     \
+                                            size_t nodd, size_t g0) {                                                  \
+        const size_t ng = w / RUN;                                                                                     \
+        for (size_t g = 0; g < ng; g++) memcpy(r + RUN * g, a + from[g], RUN * sizeof(T));                             \
+        for (size_t e = 0; e < nodd; e++) {                                                                            \
+            const size_t j = RUN * (odd[e] - g0);                                                                      \
+            for (int u = 0; u < RUN; u++) r[j + u] = a[s[j + u]];                                                      \
+        }                                                                                                              \
+        for (size_t j = RUN * ng; j < w; j++) r[j] = a[s[j]];                                                          \
     }                                                                                                                  \
     /* gather this thread's slots of K arrays through their rings; write                                               \
      * back what no reader needs (head[k] and ring[k]: array k's buffers) */                                           \
@@ -227,8 +256,16 @@ typedef struct permute_way {
         for (size_t c = 0; c < len; c += RING_W) {                                                                     \
             const size_t w = len - c < RING_W ? len - c : RING_W;                                                      \
             const uint32_t *s = pw->src + lo + c;                                                                      \
-            /* the chunk of the order stays in L1 for the group's arrays */                                            \
-            for (int k = 0; k < K; k++) gather_chunk_##SUFFIX(ring[k] + (c & rmask), a[k], s, w);                      \
+            /* the chunk of the order stays in L1 for the group's arrays;                                              \
+             * by runs where most of its groups are runs */                                                            \
+            const permute_runs *pr = &pw->runs;                                                                        \
+            const size_t g0 = c / RUN, e0 = pr->from ? pr->chunk[c / RING_W] : 0,                                      \
+                         nodd = pr->from ? pr->chunk[c / RING_W + 1] - e0 : 0;                                         \
+            const int by_runs = pr->from && 2 * nodd <= w / RUN;                                                       \
+            for (int k = 0; k < K; k++)                                                                                \
+                if (by_runs)                                                                                           \
+                    gather_runs_##SUFFIX(ring[k] + (c & rmask), a[k], s, w, pr->from + g0, pr->odd + e0, nodd, g0);    \
+                else gather_chunk_##SUFFIX(ring[k] + (c & rmask), a[k], s, w);                                         \
             if (c >= lag) {                                                                                            \
                 /* every source of the chunks still to gather lies past q */                                           \
                 const size_t q = c - lag;                                                                              \
@@ -297,8 +334,35 @@ static permute_way permute_way_of(const uint32_t *src, size_t n, size_t reach, v
     return pw;
 }
 
+/* This thread's groups of RUN slots and their runs (permute_runs). A
+ * re-sort moves a cell's particles in runs (the falling block's: 94-97% of
+ * the aligned fours, perf_results.md 69): one copy of RUN elements moves
+ * them, where the gather loads each element on its own. Found once a
+ * permutation, for every array; none where memory is short (every slot then
+ * goes by the plain gather). */
+static permute_runs find_runs(const permute_way *pw) {
+    const size_t len = pw->hi - pw->lo, ng = len / RUN, nchunk = (len + RING_W - 1) / RING_W;
+    const uint32_t *s = pw->src + pw->lo;
+    permute_runs pr = {malloc((2 * ng + nchunk + 1) * sizeof(uint32_t)), NULL, NULL};
+    if (!pr.from) return pr;
+    pr.odd = pr.from + ng;
+    pr.chunk = pr.odd + ng;
+    uint32_t nodd = 0;
+    for (size_t g = 0; g < ng; g++) {
+        if (g % (RING_W / RUN) == 0) pr.chunk[g / (RING_W / RUN)] = nodd;
+        const uint32_t *q = s + RUN * g;
+        int run = 1;
+        for (int u = 1; u < RUN; u++) run &= q[u] == q[0] + (uint32_t)u;
+        pr.from[g] = run ? q[0] : 0;
+        if (!run) pr.odd[nodd++] = (uint32_t)g;
+    }
+    for (size_t c = (ng + RING_W / RUN - 1) / (RING_W / RUN); c <= nchunk; c++) pr.chunk[c] = nodd;
+    return pr;
+}
+
 void kf_particles_permute_team(kf_particles *p, const uint32_t *src, size_t reach, void *scratch) {
-    const permute_way pw = permute_way_of(src, p->n, reach, scratch);
+    permute_way pw = permute_way_of(src, p->n, reach, scratch);
+    if (pw.group) pw.runs = find_runs(&pw);
     /* zero arrays stay as they are: every slot holds +0 */
     kf_real *reals[KF_PARTICLE_REAL_PLANES];
     uint16_t *u16s[2];
@@ -312,4 +376,5 @@ void kf_particles_permute_team(kf_particles *p, const uint32_t *src, size_t reac
     permute_arrays_real(reals, nreal, &pw);
     permute_arrays_u16(u16s, nu16, &pw);
     permute_arrays_u32(u32s, nu32, &pw);
+    free(pw.runs.from);
 }
