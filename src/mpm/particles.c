@@ -229,7 +229,7 @@ typedef struct permute_way {
 } permute_way;
 
 #define RING_FUNCTIONS(T, SUFFIX)                                                                                      \
-    /* w slots of one array from their sources into its ring, every slot                                             \
+    /* w slots of one array from their sources into its ring, every slot                                               \
      * on its own (the compiler vectorises it) */                                                                      \
     static inline void gather_chunk_##SUFFIX(T *restrict r, const T *restrict a, const uint32_t *restrict s,           \
                                              size_t w) {                                                               \
@@ -237,10 +237,10 @@ typedef struct permute_way {
     }                                                                                                                  \
     /* the same by runs: the chunk's ng groups copied from[g] (no branch),                                             \
      * then its odd groups (odd[0..nodd), chunk-relative) and its last w -                                             \
-     * RUN·ng slots gathered slot by slot */                                                                           \
-    static inline void gather_runs_##SUFFIX(T *restrict r, const T *restrict a, const uint32_t *restrict s,            \
-                                            size_t w, const uint32_t *restrict from, const uint32_t *restrict odd,     \
-                                            size_t nodd, size_t g0) {                                                  \
+     * RUN·ng slots gathered slot by slot */                                                                          \
+    static inline void gather_runs_##SUFFIX(T *restrict r, const T *restrict a, const uint32_t *restrict s, size_t w,  \
+                                            const uint32_t *restrict from, const uint32_t *restrict odd, size_t nodd,  \
+                                            size_t g0) {                                                               \
         const size_t ng = w / RUN;                                                                                     \
         for (size_t g = 0; g < ng; g++) memcpy(r + RUN * g, a + from[g], RUN * sizeof(T));                             \
         for (size_t e = 0; e < nodd; e++) {                                                                            \
