@@ -338,13 +338,18 @@ static permute_way permute_way_of(const uint32_t *src, size_t n, size_t reach, v
  * re-sort moves a cell's particles in runs (the falling block's: 94-97% of
  * the aligned fours, perf_results.md 69): one copy of RUN elements moves
  * them, where the gather loads each element on its own. Found once a
- * permutation, for every array; none where memory is short (every slot then
- * goes by the plain gather). */
+ * permutation, for every array; none where they do not fit the thread's
+ * share beside its rings (every slot then goes by the plain gather). */
 static permute_runs find_runs(const permute_way *pw) {
     const size_t len = pw->hi - pw->lo, ng = len / RUN, nchunk = (len + RING_W - 1) / RING_W;
     const uint32_t *s = pw->src + pw->lo;
-    permute_runs pr = {malloc((2 * ng + nchunk + 1) * sizeof(uint32_t)), NULL, NULL};
-    if (!pr.from) return pr;
+    /* in the thread's share of the scratch, past its heads and rings (the
+     * widest type's), where they fit: no memory beyond binning's own */
+    const size_t rings = (size_t)pw->group * (pw->lag + pw->rlen) * sizeof(kf_real),
+                 need = (2 * ng + nchunk + 1) * sizeof(uint32_t);
+    permute_runs pr = {NULL, NULL, NULL};
+    if (rings + need > len * kf_particles_permute_bytes(1)) return pr;
+    pr.from = (uint32_t *)(pw->share + rings);
     pr.odd = pr.from + ng;
     pr.chunk = pr.odd + ng;
     uint32_t nodd = 0;
@@ -376,5 +381,4 @@ void kf_particles_permute_team(kf_particles *p, const uint32_t *src, size_t reac
     permute_arrays_real(reals, nreal, &pw);
     permute_arrays_u16(u16s, nu16, &pw);
     permute_arrays_u32(u32s, nu32, &pw);
-    free(pw.runs.from);
 }
