@@ -44,6 +44,18 @@ static inline void tu_node_pos(const kf_grid *g, size_t b, int l, double dx, dou
     x[2] = (bc[2] * KF_BLOCK + (l & 3)) * dx;
 }
 
+/* Σ m v of the particles plus M v of every body */
+static inline void tu_total_momentum(const kf_model *m, const kf_state *s, double P[3]) {
+    kf_particles_view pv = kf_state_particles_read(s);
+    for (int a = 0; a < 3; a++) P[a] = 0;
+    for (size_t i = 0; i < pv.n; i++)
+        for (int a = 0; a < 3; a++) P[a] += (double)pv.mass[i] * pv.v[a][i];
+    for (int r = 0; r < kf_model_rigid_count(m); r++) {
+        kf_rigid_pose pose = kf_state_rigid(s, r);
+        for (int a = 0; a < 3; a++) P[a] += kf_model_rigid_mass(m, r) * pose.v[a];
+    }
+}
+
 static inline double tu_uniform(unsigned *s) {
     *s = *s * 1664525u + 1013904223u;
     return (*s >> 8) * (1.0 / 16777216.0);

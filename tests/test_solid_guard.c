@@ -130,18 +130,6 @@ static void slab_water(void) { slab_holds("water", 6); }
 static void slab_jelly(void) { slab_holds("jello", 6); }
 static void slab_goo(void) { slab_holds("goo", 6); }
 
-/* Σ m v of the particles plus M v of every body */
-static void total_momentum(const kf_model *m, const kf_state *s, double P[3]) {
-    kf_particles_view pv = kf_state_particles_read(s);
-    for (int a = 0; a < 3; a++) P[a] = 0;
-    for (size_t i = 0; i < pv.n; i++)
-        for (int a = 0; a < 3; a++) P[a] += (double)pv.mass[i] * pv.v[a][i];
-    for (int r = 0; r < kf_model_rigid_count(m); r++) {
-        kf_rigid_pose pose = kf_state_rigid(s, r);
-        for (int a = 0; a < 3; a++) P[a] += kf_model_rigid_mass(m, r) * pose.v[a];
-    }
-}
-
 /* A free solid plate 0.6 cells thick (normal x) in empty space, no gravity,
  * hit by a jelly block at 3 m/s: the plate is pushed, the total momentum
  * stays where it was to float round-off, and no particle gets past the
@@ -158,7 +146,7 @@ static void free_plate_momentum(void) {
     double lo[3] = {0.45, 0.42, 0.42}, hi[3] = {0.58, 0.58, 0.58}, v[3] = {3, 0.2, 0};
     kf_state_fill_box(s, m, lo, hi, mat, v, 2, 9);
     double P0[3], P[3], drift = 0;
-    total_momentum(m, s, P0);
+    tu_total_momentum(m, s, P0);
     const double scale = sqrt(P0[0] * P0[0] + P0[1] * P0[1] + P0[2] * P0[2]);
     kf_step_stats st;
     memset(&st, 0, sizeof st);
@@ -169,7 +157,7 @@ static void free_plate_momentum(void) {
             KT_CHECK(0, "substep %d: %s", k, tr.what);
             break;
         }
-        total_momentum(m, s, P);
+        tu_total_momentum(m, s, P);
         for (int a = 0; a < 3; a++) drift = fmax(drift, fabs(P[a] - P0[a]) / scale);
         /* each particle in the plate's mesh frame (x_world = R x_mesh + t) */
         kf_rigid_pose pose = kf_state_rigid(s, 0);

@@ -224,12 +224,12 @@ void kf_cpic_solid_free(struct kf_cpic_solid *sd);
 /* the particles deeper in solid r than the guard allows now (the audit, guard.c) */
 long kf_cpic_solid_audit(const kf_model *m, const kf_state *s, int r, double *deepest_cells);
 
-/* A particle the guard placed at world point xw against body r's surface
- * (world normal nw, out of the body) loses its velocity's approach relative
- * to the body as the boundary type says (Eq. 25); the body takes that
- * momentum (guard.c). */
-void kf_cpic_guard_stop(const kf_model *m, kf_state *s, int r, size_t i, const double xw[3], const double nw[3],
-                        double *imp);
+/* Particle i put back by a guard at point pm of body r's mesh frame (normal
+ * nm there, on the side it is put on), at the body's end pose: its position
+ * written, and its velocity's approach relative to the body removed as the
+ * boundary type says (Eq. 25), the body taking that momentum (guard.c). */
+void kf_cpic_guard_place(const kf_model *m, kf_state *s, int r, size_t i, const double pm[3], const double nm[3],
+                         double *imp);
 
 /* J (linear impulse at world point x) and its moment about the body's com, added to imp[6] */
 static inline void kf_cpic_add_impulse(double *imp, const kf_rigid_state *st, const double x[3], const double J[3]) {

@@ -150,26 +150,26 @@ static double guard_particle(const kf_model *m, kf_state *s, int r, size_t i, co
      * colour was voted from the grid when the particle came near */
     const uint32_t bits = 3u << (2 * r), want = (2u << (2 * r)) | (side < 0 ? 1u << (2 * r) : 0);
     p->colour[i] = (p->colour[i] & ~bits) | want;
+    kf_cpic_guard_place(m, s, r, i, p1, side_n, imp);
+    return depth;
+}
+
+void kf_cpic_guard_place(const kf_model *m, kf_state *s, int r, size_t i, const double pm[3], const double nm[3],
+                         double *imp) {
+    const kf_rigid_body *b = &m->rigid[r];
+    kf_particles *p = &s->p;
     /* back to the world, at the body's end pose */
-    const kf_rigid_state *e = &c->end[r];
+    const kf_rigid_state *e = &s->cpic->end[r];
     double xw[3], nw[3];
-    kf_m3d_mv(xw, e->R, p1);
-    kf_m3d_mv(nw, e->R, side_n);
+    kf_m3d_mv(xw, e->R, pm);
+    kf_m3d_mv(nw, e->R, nm);
     for (int a = 0; a < 3; a++) {
         xw[a] += e->t[a];
         p->x[a][i] = (kf_real)xw[a];
     }
-    kf_cpic_guard_stop(m, s, r, i, xw, nw, imp);
-    return depth;
-}
-
-void kf_cpic_guard_stop(const kf_model *m, kf_state *s, int r, size_t i, const double xw[3], const double nw[3],
-                        double *imp) {
-    const kf_rigid_body *b = &m->rigid[r];
-    kf_particles *p = &s->p;
-    /* its velocity relative to the body at its end pose: no approach through the surface (Eq. 25) */
+    /* its velocity relative to the body there: no approach through the surface (Eq. 25) */
     double V[3], w[3];
-    kf_rigid_point_velocity(&s->cpic->end[r], xw, V);
+    kf_rigid_point_velocity(e, xw, V);
     for (int a = 0; a < 3; a++) w[a] = p->v[a][i] - V[a];
     double wn = kf_v3d_dot(w, nw);
     if (wn < 0 || b->def.boundary == KF_BOUNDARY_STICKY) {
@@ -220,14 +220,8 @@ static void sides_alloc(const kf_rigid_body *b, size_t n, struct kf_cpic_sides *
 void kf_cpic_sides_make(const kf_rigid_body *b, double dx, struct kf_cpic_sides *sd) {
     sd->tried = 1;
     if (!b->bvh || !b->def.thin || b->nvert <= 0) return;
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300}, ext = 0;
-    for (int v = 0; v < b->nvert; v++)
-        for (int a = 0; a < 3; a++) {
-            const double x = b->vert[3 * v + a];
-            lo[a] = x < lo[a] ? x : lo[a];
-            hi[a] = x > hi[a] ? x : hi[a];
-            ext = fabs(x) > ext ? fabs(x) : ext;
-        }
+    double lo[3], hi[3];
+    const double ext = kf_guard_mesh_box(b, lo, hi);
     sd->reach = 1.5 * dx;
     sd->tol = 1e-9 * (1 + ext);
     /* cells of an eighth of dx where the lattice stays within its bound,

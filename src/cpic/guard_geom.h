@@ -27,4 +27,18 @@ static inline void kf_guard_tri_plane(const kf_rigid_body *b, int t, double n[3]
     *off = kf_v3d_dot(n, a);
 }
 
+/* the box of body b's vertices (mesh frame), and its largest |coordinate| */
+static inline double kf_guard_mesh_box(const kf_rigid_body *b, double lo[3], double hi[3]) {
+    double ext = 0;
+    for (int a = 0; a < 3; a++) lo[a] = 1e300, hi[a] = -1e300;
+    for (int v = 0; v < b->nvert; v++)
+        for (int a = 0; a < 3; a++) {
+            const double x = b->vert[3 * v + a];
+            lo[a] = x < lo[a] ? x : lo[a];
+            hi[a] = x > hi[a] ? x : hi[a];
+            ext = fabs(x) > ext ? fabs(x) : ext;
+        }
+    return ext;
+}
+
 #endif

@@ -30,7 +30,7 @@
  * thin one a per-face allowance let the layers join. A particle that would
  * end deeper is moved back along that face's normal to the allowed depth,
  * keeping its motion along the face, and loses its approach as the boundary
- * type says; the body takes the momentum it lost (kf_cpic_guard_stop:
+ * type says; the body takes the momentum it lost (kf_cpic_guard_place:
  * Newton's third law). One found a hair deeper than allowed at the start of
  * a substep is put back too: it was put back against one triangle's plane,
  * and the surface curves away from that plane (in sand_stir, a grain left
@@ -87,14 +87,8 @@ void kf_cpic_solid_make(const kf_rigid_body *b, double dx, struct kf_cpic_solid 
     sd->tried = 1;
     if (!b->bvh || b->def.thin || b->nvert <= 0) return;
     const int n = b->nguard_tri;
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300}, ext = 0;
-    for (int v = 0; v < b->nvert; v++)
-        for (int a = 0; a < 3; a++) {
-            const double x = b->vert[3 * v + a];
-            lo[a] = x < lo[a] ? x : lo[a];
-            hi[a] = x > hi[a] ? x : hi[a];
-            ext = fabs(x) > ext ? fabs(x) : ext;
-        }
+    double lo[3], hi[3];
+    const double ext = kf_guard_mesh_box(b, lo, hi);
     sd->tol = 1e-9 * (1 + ext);
     sd->plane = malloc(sizeof(double[4]) * (size_t)n);
     if (!sd->plane) return;
@@ -196,15 +190,7 @@ double kf_cpic_solid_guard(const kf_model *m, kf_state *s, int r, size_t i, cons
     if (u1 >= -limit) return 0;
     /* back to the allowed depth along the face's normal, its motion along the face kept */
     for (int a = 0; a < 3; a++) p1[a] -= (u1 + limit) * pl[a];
-    const kf_rigid_state *e = &c->end[r];
-    double xw[3], nw[3];
-    kf_m3d_mv(xw, e->R, p1);
-    kf_m3d_mv(nw, e->R, pl);
-    for (int a = 0; a < 3; a++) {
-        xw[a] += e->t[a];
-        p->x[a][i] = (kf_real)xw[a];
-    }
-    kf_cpic_guard_stop(m, s, r, i, xw, nw, imp);
+    kf_cpic_guard_place(m, s, r, i, p1, pl, imp);
     return -u1 - limit;
 }
 
