@@ -21,8 +21,8 @@
 #include "scene_util.h"
 
 #define DX 0.02
-#define SLAB_Y 0.3              /* the slab's bottom face */
-#define SLAB_T (0.6 * DX)       /* its thickness: 0.6 cells */
+#define SLAB_Y 0.3                /* the slab's bottom face */
+#define SLAB_T (0.6 * DX)         /* its thickness: 0.6 cells */
 #define SLAB_ALLOW (0.4 * SLAB_T) /* the deepest a particle's centre may be behind its top face */
 
 /* A closed box from lo to hi: 8 corners, 12 triangles wound so that every
@@ -112,7 +112,8 @@ static void slab_holds(const char *preset, double v0) {
            preset, v0, SLAB_T / DX, st.substeps, through, deepest / DX, SLAB_ALLOW / DX, st.thin_caught);
     double audit_deep = 0;
     const long audit = kf_state_thin_audit(m, s, &audit_deep);
-    KT_CHECK(through == 0, "%s at %g m/s: nothing gets below the slab (%ld particle-substeps did)", preset, v0, through);
+    KT_CHECK(through == 0, "%s at %g m/s: nothing gets below the slab (%ld particle-substeps did)", preset, v0,
+             through);
     KT_CHECK(audit == 0, "%s at %g m/s: kerf's audit finds nobody too deep at the end (%ld, %.3f cells)", preset, v0,
              audit, audit_deep);
     /* the allowance, to float rounding of a position near 0.3 m */

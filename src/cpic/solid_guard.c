@@ -77,8 +77,7 @@ static double thickness_behind(const kf_rigid_body *b, int k, const double n[3],
             from[a] = at - tol * n[a]; /* just behind the triangle: it is not hit itself */
             to[a] = at - most * n[a];
         }
-        if (kf_rigid_bvh_first_hit(b->bvh, from, to, &u) >= 0 && tol + u * (most - tol) < t)
-            t = tol + u * (most - tol);
+        if (kf_rigid_bvh_first_hit(b->bvh, from, to, &u) >= 0 && tol + u * (most - tol) < t) t = tol + u * (most - tol);
     }
     return t;
 }
@@ -145,8 +144,8 @@ static double clearance(const struct kf_cpic_solid *sd, const kf_rigid_body *b, 
         double room = sd->reach;
         if (k >= 0) {
             const double *pl = sd->plane[k];
-            const double D = sqrt((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) +
-                                  (q[2] - c[2]) * (q[2] - c[2]));
+            const double D =
+                sqrt((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) + (q[2] - c[2]) * (q[2] - c[2]));
             /* behind the closest face's plane (inside), or touching: no bound */
             room = pl[0] * c[0] + pl[1] * c[1] + pl[2] * c[2] - pl[3] > 0 ? D - hd : 0;
         }
