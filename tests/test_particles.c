@@ -132,7 +132,7 @@ static void runs_permutation(uint32_t *src, size_t n, size_t gap, size_t every) 
 static void permute_runs(void) {
     const size_t sizes[] = {40000, 40002, 39999};
     const size_t gaps[] = {3, 200}, every[] = {1000000, 7, 2, 1};
-    uint32_t *src = malloc(sizes[0] * sizeof *src);
+    uint32_t *src = malloc(sizes[1] * sizeof *src); /* the largest */
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 2; b++)
             for (int c = 0; c < 4; c++) {
